@@ -1,0 +1,44 @@
+"""armlab's exceptions: one base class, one subclass per kind of problem.
+
+The command line prints ``str(error)`` on one line and exits non-zero; no traceback.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "ArmlabError",
+    "RobotDescriptionError",
+    "UnreachableError",
+    "InfeasibleError",
+    "LimitViolation",
+    "SpecError",
+    "InputError",
+]
+
+
+class ArmlabError(Exception):
+    """Base class of every error armlab raises on purpose."""
+
+
+class RobotDescriptionError(ArmlabError):
+    """A robot description (URDF, MDH table, drives.toml) is missing, malformed or inconsistent."""
+
+
+class InputError(ArmlabError, ValueError):
+    """An argument has the wrong shape, a NaN, an unknown name or an out-of-range value."""
+
+
+class UnreachableError(ArmlabError):
+    """A pose cannot be reached (outside the workspace, outside the joint ranges, or singular)."""
+
+
+class InfeasibleError(ArmlabError):
+    """A planning or tuning request cannot meet its limits; the message names the binding limit."""
+
+
+class LimitViolation(ArmlabError):
+    """A result would break a limit (joint range, speed, torque, controller pulse rate)."""
+
+
+class SpecError(ArmlabError, ValueError):
+    """A specification (control spec, study file, sweep file) is invalid or impossible."""

@@ -1,0 +1,399 @@
+"""The :class:`Robot`: a Pinocchio model with its limits, drive train, base, tool and payload.
+
+Frames (thesis 3.5): ``T_tool_in_world = T_base_in_world @ T_tool_in_base`` where
+``T_tool_in_base`` is Pinocchio's ``oMf`` of the tool frame; the base transform is
+``transform_base_to_world`` (identity unless the arm is mounted elsewhere), the tool frame a URDF
+frame (``tool0`` for robot_desc arms) whose placement :meth:`Robot.set_tool` may change.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import os
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from armlab.errors import InputError, RobotDescriptionError
+from armlab.robot.dh import DHTable, read_dh_table
+from armlab.robot.drives import Drive, read_drives
+
+__all__ = ["Robot", "JointLimits", "Payload", "load_robot", "robot_desc_dir", "list_robots"]
+
+
+def robot_desc_dir() -> Path:
+    """The folder of built-in robot descriptions (``$ARMLAB_ROBOT_DESC`` or ``<repo>/robot_desc``)."""
+    env = os.environ.get("ARMLAB_ROBOT_DESC")
+    if env:
+        return Path(env)
+    return Path(__file__).resolve().parents[3] / "robot_desc"
+
+
+def list_robots() -> list[str]:
+    """Names of the built-in robots (folders of ``robot_desc/`` holding ``<name>.urdf``)."""
+    root = robot_desc_dir()
+    if not root.is_dir():
+        return []
+    return sorted(p.name for p in root.iterdir() if (p / f"{p.name}.urdf").is_file())
+
+
+@dataclass(frozen=True)
+class JointLimits:
+    """Joint limits, arrays of shape ``(n_joints,)`` in SI units.
+
+    ``acceleration_rad_s2`` and ``jerk_rad_s3`` are ``None`` when the description has no drives
+    file (a plain URDF); planners then ask the caller for them.
+    """
+
+    lower_rad: np.ndarray
+    upper_rad: np.ndarray
+    velocity_rad_s: np.ndarray
+    effort_Nm: np.ndarray
+    acceleration_rad_s2: np.ndarray | None = None
+    jerk_rad_s3: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class Payload:
+    """A payload rigidly attached to the tool frame.
+
+    ``com_m`` is its centre of mass in the tool frame in [m]; ``inertia_kg_m2`` its (3, 3)
+    rotational inertia about the centre of mass in [kg m^2].
+    """
+
+    mass_kg: float
+    com_m: np.ndarray
+    inertia_kg_m2: np.ndarray
+
+    def spatial_inertia(self) -> pin.Inertia:
+        return pin.Inertia(float(self.mass_kg), np.asarray(self.com_m, float),
+                           np.asarray(self.inertia_kg_m2, float))
+
+
+def _sub_inertia(a: pin.Inertia, b: pin.Inertia) -> pin.Inertia:
+    """a - b through the (linear) dynamic parameters (a massless remainder keeps its rotation)."""
+    p = a.toDynamicParameters() - b.toDynamicParameters()
+    if abs(p[0]) < 1e-12:  # [m, m c, Ixx, Ixy, Iyy, Ixz, Iyz, Izz] about the frame origin
+        ixx, ixy, iyy, ixz, iyz, izz = p[4:]
+        rot = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+        return pin.Inertia(0.0, np.zeros(3), rot)
+    return pin.Inertia.FromDynamicParameters(p)
+
+
+class Robot:
+    """A serial arm: Pinocchio model + limits + drive train + base/tool transforms + payload.
+
+    Use :func:`load_robot` to build one. Attributes
+    ----------------------------------------------
+    name : str
+    model : pinocchio.Model
+        Kinematic and inertial model, payload included (``model.inertias``).
+    joint_names : list of str
+    limits : JointLimits
+    drives : dict of str to Drive, or None
+    dh : DHTable or None
+        The DH table the URDF was generated from (built-in arms), used by the analytic IK.
+    tool_frame : str
+    transform_base_to_world : ndarray (4, 4)
+    payload : Payload
+    urdf_path : Path
+    """
+
+    def __init__(
+        self,
+        name: str,
+        model: pin.Model,
+        *,
+        urdf_path: Path,
+        tool_frame: str,
+        drives: dict[str, Drive] | None = None,
+        dh: DHTable | None = None,
+        payload_frame: str | None = None,
+        transform_base_to_world: np.ndarray | None = None,
+    ) -> None:
+        self.name = name
+        self.model = model
+        self.urdf_path = Path(urdf_path)
+        self.joint_names = list(model.names[1:])
+        self.dh = dh
+        self.drives = drives
+        if tool_frame not in [f.name for f in model.frames]:
+            raise RobotDescriptionError(f"{self.urdf_path}: no frame named {tool_frame!r}")
+        self.tool_frame = tool_frame
+        self.tool_frame_id = model.getFrameId(tool_frame)
+        self._tool_parent = model.frames[self.tool_frame_id].parentJoint
+        self._tool_placement0 = model.frames[self.tool_frame_id].placement.copy()
+        T = np.eye(4) if transform_base_to_world is None else np.asarray(transform_base_to_world)
+        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+            raise InputError("transform_base_to_world must be a finite (4, 4) array")
+        self.transform_base_to_world = T
+        # Separate the description's payload from the bare arm so it can be replaced.
+        self._bare_inertia = model.inertias[self._tool_parent].copy()
+        payload = Payload(0.0, np.zeros(3), np.zeros((3, 3)))
+        if payload_frame is not None:
+            f = model.frames[model.getFrameId(payload_frame)]
+            if f.parentJoint != self._tool_parent:
+                raise RobotDescriptionError(f"{self.urdf_path}: payload not on the tool's link")
+            inertia_in_joint = f.inertia.se3Action(f.placement)
+            self._bare_inertia = _sub_inertia(self._bare_inertia, inertia_in_joint)
+            # the payload expressed in the tool frame
+            tool_in_joint = self._tool_placement0
+            y = f.inertia.se3Action(tool_in_joint.actInv(f.placement))
+            payload = Payload(float(y.mass), y.lever.copy(), y.inertia.copy())
+        self.payload = payload
+        self.attach_payload(payload.mass_kg, payload.com_m, payload.inertia_kg_m2)
+        lower, upper = model.lowerPositionLimit.copy(), model.upperPositionLimit.copy()
+        acc = jerk = None
+        if drives is not None:
+            acc = np.array([drives[n].acceleration_rad_s2 for n in self.joint_names])
+            jerk = np.array([drives[n].jerk_rad_s3 for n in self.joint_names])
+        self.limits = JointLimits(
+            lower_rad=lower, upper_rad=upper,
+            velocity_rad_s=model.velocityLimit.copy(), effort_Nm=model.effortLimit.copy(),
+            acceleration_rad_s2=acc, jerk_rad_s3=jerk,
+        )
+        self.data = model.createData()
+
+    # ------------------------------------------------------------------ basic facts
+    @property
+    def n_joints(self) -> int:
+        return self.model.nq
+
+    def __repr__(self) -> str:
+        return (f"Robot({self.name!r}, n_joints={self.n_joints}, tool={self.tool_frame!r}, "
+                f"payload={self.payload.mass_kg:g} kg)")
+
+    @property
+    def total_mass_kg(self) -> float:
+        """Mass of all moving links, payload included, in [kg]."""
+        return float(sum(inertia.mass for inertia in self.model.inertias[1:]))
+
+    def joint_index(self, name: str) -> int:
+        """Index of a joint by name or 1-based number; :class:`InputError` if unknown."""
+        if isinstance(name, (int, np.integer)):
+            if 1 <= int(name) <= self.n_joints:
+                return int(name) - 1
+        elif name in self.joint_names:
+            return self.joint_names.index(name)
+        elif self.dh is not None and name in self.dh.labels:
+            return self.dh.labels.index(name)
+        raise InputError(
+            f"{self.name}: unknown joint {name!r} (joints: {', '.join(self.joint_names)})"
+        )
+
+    def frame_id(self, frame: str | None) -> int:
+        """Pinocchio frame index of ``frame`` (the tool frame if None)."""
+        if frame is None:
+            return self.tool_frame_id
+        if not self.model.existFrame(frame):
+            raise InputError(f"{self.name}: unknown frame {frame!r}")
+        return self.model.getFrameId(frame)
+
+    def check_q(self, q, *, name: str = "q", batch: bool = False) -> np.ndarray:
+        """Validate joint positions: shape ``(n_joints,)`` (or ``(n, n_joints)``), finite."""
+        q = np.asarray(q, dtype=float)
+        ok = q.shape[-1:] == (self.n_joints,) and (q.ndim == 1 or (batch and q.ndim == 2))
+        if not ok:
+            want = f"(n, {self.n_joints})" if batch else f"({self.n_joints},)"
+            raise InputError(f"{name} has shape {q.shape}, expected {want} for {self.name}")
+        if not np.all(np.isfinite(q)):
+            raise InputError(f"{name} contains NaN or infinite values")
+        return q
+
+    def within_limits(self, q, tol: float = 1e-9) -> np.ndarray:
+        """True where every joint of ``q`` (..., n_joints) lies in its range (+- tol)."""
+        q = np.asarray(q)
+        return np.all((q >= self.limits.lower_rad - tol) & (q <= self.limits.upper_rad + tol),
+                      axis=-1)
+
+    def random_q(self, rng: np.random.Generator, n: int | None = None) -> np.ndarray:
+        """Uniform random configurations inside the joint ranges: (n_joints,) or (n, n_joints)."""
+        size = (self.n_joints,) if n is None else (n, self.n_joints)
+        lo, hi = self.limits.lower_rad, self.limits.upper_rad
+        return lo + (hi - lo) * rng.random(size)
+
+    # ------------------------------------------------------------------ tool and payload
+    def set_tool(self, transform_tool_to_flange_default: np.ndarray) -> None:
+        """Move the tool frame: its new placement is the original tool placement times this
+        (4, 4) transform (thesis 3.5, ``T_tool``). The payload stays where it was in the tool."""
+        T = np.asarray(transform_tool_to_flange_default, float)
+        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+            raise InputError("tool transform must be a finite (4, 4) array")
+        f = self.model.frames[self.tool_frame_id]
+        f.placement = self._tool_placement0 * pin.SE3(T[:3, :3], T[:3, 3])
+        self.model.frames[self.tool_frame_id] = f
+        self.attach_payload(self.payload.mass_kg, self.payload.com_m, self.payload.inertia_kg_m2)
+
+    def attach_payload(self, mass_kg: float, com_m=(0.0, 0.0, 0.0), inertia_kg_m2=None) -> None:
+        """Replace the payload carried at the tool frame.
+
+        Parameters
+        ----------
+        mass_kg : float
+            Payload mass in [kg] (0 removes it).
+        com_m : array (3,)
+            Centre of mass in the tool frame, in [m].
+        inertia_kg_m2 : array (3, 3), optional
+            Rotational inertia about the centre of mass in [kg m^2]; default: a solid sphere of
+            30 mm radius.
+        """
+        mass = float(mass_kg)
+        if not math.isfinite(mass) or mass < 0:
+            raise InputError(f"payload mass must be a finite number >= 0, not {mass_kg!r}")
+        com = np.asarray(com_m, dtype=float).reshape(-1)
+        if com.shape != (3,) or not np.all(np.isfinite(com)):
+            raise InputError("payload centre of mass must be a finite (3,) array in [m]")
+        if inertia_kg_m2 is None:
+            inertia = np.eye(3) * 0.4 * mass * 0.03**2
+        else:
+            inertia = np.asarray(inertia_kg_m2, dtype=float)
+            if inertia.shape != (3, 3) or not np.all(np.isfinite(inertia)):
+                raise InputError("payload inertia must be a finite (3, 3) array in [kg m^2]")
+        self.payload = Payload(mass, com, inertia)
+        tool_in_joint = self.model.frames[self.tool_frame_id].placement
+        y = self.payload.spatial_inertia().se3Action(tool_in_joint)
+        self.model.inertias[self._tool_parent] = self._bare_inertia + y
+        if hasattr(self, "data"):
+            self.data = self.model.createData()
+
+    def with_payload(self, mass_kg: float, com_m=None, inertia_kg_m2=None) -> Robot:
+        """A copy of this robot carrying another payload (same centre of mass by default)."""
+        other = self.copy()
+        com = self.payload.com_m if com_m is None else com_m
+        other.attach_payload(mass_kg, com, inertia_kg_m2)
+        return other
+
+    def copy(self) -> Robot:
+        """An independent copy (model and data duplicated)."""
+        other = copy.copy(self)
+        other.model = self.model.copy()
+        other._bare_inertia = self._bare_inertia.copy()
+        other.data = other.model.createData()
+        return other
+
+    def with_limits(self, **changes) -> Robot:
+        """A copy with some limits replaced (keywords of :class:`JointLimits`)."""
+        other = self.copy()
+        other.limits = replace(self.limits, **changes)
+        return other
+
+    def drive(self, joint) -> Drive:
+        """The drive train of a joint (name or 1-based number)."""
+        if self.drives is None:
+            raise RobotDescriptionError(f"{self.name}: no drives file (drives.toml) for this robot")
+        return self.drives[self.joint_names[self.joint_index(joint)]]
+
+
+def _find_urdf(name_or_path: str | os.PathLike) -> tuple[str, Path, Path | None]:
+    """(name, urdf path, description folder or None)."""
+    s = str(name_or_path)
+    path = Path(s)
+    if path.suffix.lower() == ".urdf" or os.sep in s or path.exists():
+        if path.is_dir():
+            urdf = path / f"{path.name}.urdf"
+            if not urdf.is_file():
+                raise RobotDescriptionError(f"{path}: folder holds no {path.name}.urdf")
+            return path.name, urdf, path
+        if not path.is_file():
+            raise RobotDescriptionError(f"{path}: URDF file not found")
+        folder = path.parent if (path.parent / "drives.toml").is_file() else None
+        return path.stem, path, folder
+    folder = robot_desc_dir() / s
+    urdf = folder / f"{s}.urdf"
+    if not urdf.is_file():
+        known = ", ".join(list_robots()) or "none"
+        raise RobotDescriptionError(
+            f"unknown robot {s!r}: not a URDF path and not in {robot_desc_dir()} (known: {known})"
+        )
+    return s, urdf, folder
+
+
+def load_robot(
+    name_or_path: str | os.PathLike,
+    payload_kg: float | None = None,
+    *,
+    tool_frame: str | None = None,
+    lock_joints: list[str] | tuple[str, ...] = (),
+    transform_base_to_world: np.ndarray | None = None,
+) -> Robot:
+    """Load a robot by built-in name (``"teachbot6"``) or URDF path.
+
+    Parameters
+    ----------
+    name_or_path : str or path
+        A folder name under ``robot_desc/`` or the path of any URDF. A ``drives.toml`` (and an
+        ``mdh.toml``) beside the URDF are read too.
+    payload_kg : float, optional
+        Replace the description's payload mass (its centre of mass is kept; for a plain URDF it
+        is put at the tool frame). None keeps the description's payload.
+    tool_frame : str, optional
+        The tool frame; default ``tool0`` if the URDF has it, else the last frame.
+    lock_joints : sequence of str
+        Joints to lock at 0 (gripper fingers, for example).
+    transform_base_to_world : (4, 4) array, optional
+        Mounting of the base in the world (thesis 3.5 ``T_base``).
+
+    Raises
+    ------
+    RobotDescriptionError
+        Unknown name, missing or malformed URDF/drives file, unsupported joints.
+    """
+    name, urdf, folder = _find_urdf(name_or_path)
+    try:
+        text = urdf.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RobotDescriptionError(f"{urdf}: cannot read ({exc})") from None
+    if "<robot" not in text:
+        raise RobotDescriptionError(f"{urdf}: not a URDF (no <robot> element)")
+    try:
+        model = pin.buildModelFromUrdf(str(urdf))
+    except Exception as exc:  # pinocchio raises ValueError/RuntimeError with XML details
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise RobotDescriptionError(f"{urdf}: malformed URDF ({first})") from None
+    if lock_joints:
+        unknown = [j for j in lock_joints if not model.existJointName(j)]
+        if unknown:
+            raise InputError(f"{urdf}: cannot lock unknown joint(s) {unknown}")
+        ids = [model.getJointId(j) for j in lock_joints]
+        model = pin.buildReducedModel(model, ids, pin.neutral(model))
+    if model.nq == 0:
+        raise RobotDescriptionError(f"{urdf}: the model has no moving joints")
+    if model.nq != model.nv:
+        bad = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nq != 1]
+        raise RobotDescriptionError(
+            f"{urdf}: only 1-DOF revolute/prismatic joints are supported (not: {bad}); "
+            "give continuous joints limits or lock them"
+        )
+    limits_bad = ~np.isfinite(model.lowerPositionLimit) | ~np.isfinite(model.upperPositionLimit)
+    if np.any(limits_bad):
+        names = [model.names[i + 1] for i in np.flatnonzero(limits_bad)]
+        raise RobotDescriptionError(f"{urdf}: joint(s) without finite range: {names}")
+    frame_names = [f.name for f in model.frames]
+    if tool_frame is None:
+        tool_frame = "tool0" if "tool0" in frame_names else model.frames[len(model.frames) - 1].name
+    # pinocchio keeps a fixed link's inertia on the frame of the fixed joint that carries it
+    payload_frame = next((f.name for f in model.frames
+                          if f.name in ("payload_joint", "payload") and f.inertia.mass > 0), None)
+    drives = dh = None
+    if folder is not None:
+        joint_names = list(model.names[1:])
+        if (folder / "drives.toml").is_file():
+            drives = read_drives(folder / "drives.toml", joint_names)
+        if (folder / "mdh.toml").is_file():
+            dh = read_dh_table(folder / "mdh.toml")
+            if list(dh.joint_names) != joint_names:
+                raise RobotDescriptionError(
+                    f"{folder / 'mdh.toml'}: joints {list(dh.joint_names)} differ from the URDF's "
+                    f"{joint_names}"
+                )
+    robot = Robot(name, model, urdf_path=urdf, tool_frame=tool_frame, drives=drives, dh=dh,
+                  payload_frame=payload_frame, transform_base_to_world=transform_base_to_world)
+    if payload_kg is not None:
+        p = robot.payload
+        scale = float(payload_kg) / p.mass_kg if p.mass_kg > 0 else 0.0
+        inertia = p.inertia_kg_m2 * scale if p.mass_kg > 0 else None
+        robot.attach_payload(payload_kg, p.com_m, inertia)
+    return robot
