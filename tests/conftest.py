@@ -1,0 +1,52 @@
+"""Shared fixtures. Plots go to a non-interactive backend; robots are loaded once per session."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+import pytest  # noqa: E402
+
+import armlab  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def example_robot_data_dir() -> Path:
+    """Folder of the URDFs shipped by the ``example-robot-data`` wheel (data only)."""
+    return Path(sys.prefix) / "lib" / f"python{sys.version_info.major}.{sys.version_info.minor}" \
+        / "site-packages" / "cmeel.prefix" / "share" / "example-robot-data" / "robots"
+
+
+def _erd(rel: str) -> Path:
+    path = example_robot_data_dir() / rel
+    if not path.is_file():  # fall back to any site-packages on the path
+        for p in sys.path:
+            cand = Path(p) / "cmeel.prefix" / "share" / "example-robot-data" / "robots" / rel
+            if cand.is_file():
+                return cand
+    return path
+
+
+UR5_URDF = _erd("ur_description/urdf/ur5_robot.urdf")
+PANDA_URDF = _erd("panda_description/urdf/panda.urdf")
+PANDA_FINGERS = ("panda_finger_joint1", "panda_finger_joint2")
+
+
+@pytest.fixture(scope="session")
+def teachbot6():
+    """The thesis arm with its 0.5 kg payload. Do not mutate: use .copy() first."""
+    return armlab.load_robot("teachbot6")
+
+
+@pytest.fixture(scope="session")
+def ur5():
+    return armlab.load_robot(UR5_URDF)
+
+
+@pytest.fixture(scope="session")
+def panda():
+    return armlab.load_robot(PANDA_URDF, lock_joints=PANDA_FINGERS, tool_frame="panda_hand")
