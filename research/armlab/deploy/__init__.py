@@ -1,0 +1,44 @@
+"""Deployment: set-point tables and servo gains for the real controller, with safety checks.
+
+Sources: seed 002 (DDA controller: 1 ms .. 2 s interpolation period, 0..4095 pulses per axis per
+period, x2/x4 encoder decoding, 12-bit +-10 V D/A), seed 000 (fault handling: over-speed,
+over-limit -> made into pre-flight checks), digest §3, DESIGN.md "Set-point table".
+
+* :func:`load_profile` — the controller (``data/profiles/*.toml``; default ``reference_dda``).
+* :func:`setpoint_table` — a trajectory sampled per controller cycle, in encoder counts,
+  checked on every cycle; :meth:`SetpointTable.write` to CSV/JSON/NPZ/C, :func:`read_setpoints`.
+* :func:`write_gains`, :func:`load_gains` — servo gains as JSON, ros2_control YAML, C header.
+* :func:`save_trajectory`, :func:`load_trajectory` — a study's ``trajectory.npz``.
+* :func:`export_study` — ``armlab export STUDY_DIR --format ... --profile ... --out DIR``.
+"""
+
+from armlab.deploy.checks import CHECKS, PreflightFailure, PreflightReport, preflight
+from armlab.deploy.export import EXPORT_FORMATS, export_study
+from armlab.deploy.gains_export import (
+    gains_to_c_header,
+    gains_to_json,
+    gains_to_ros2_yaml,
+    load_gains,
+    render_gains,
+    write_gains,
+)
+from armlab.deploy.profiles import (
+    DEFAULT_PROFILE,
+    ControllerProfile,
+    list_profiles,
+    load_profile,
+)
+from armlab.deploy.provenance import file_sha256, gains_sha256, trajectory_sha256
+from armlab.deploy.table import SetpointTable, counts_per_rad, read_setpoints, setpoint_table
+from armlab.deploy.trajfile import load_trajectory, save_trajectory, trajectory_robot
+
+__all__ = [
+    "CHECKS", "PreflightFailure", "PreflightReport", "preflight",
+    "EXPORT_FORMATS", "export_study",
+    "gains_to_c_header", "gains_to_json", "gains_to_ros2_yaml", "load_gains", "render_gains",
+    "write_gains",
+    "DEFAULT_PROFILE", "ControllerProfile", "list_profiles", "load_profile",
+    "file_sha256", "gains_sha256", "trajectory_sha256",
+    "SetpointTable", "counts_per_rad", "read_setpoints", "setpoint_table",
+    "load_trajectory", "save_trajectory", "trajectory_robot",
+]

@@ -1,0 +1,264 @@
+"""Pre-flight checks of a set-point table: seed 000's run-time faults made preventive.
+
+The 1987 welding controller (seed 000, "fault handling"; digest §3) clears the D/A output buffer
+and brakes when it sees over-speed, over-limit or a controller error. A table that would trigger
+one of those is refused here, before any file is written. Every check runs on every cycle ``k``
+of the table (positions ``q_k`` at ``t_k = t_0 + k T``, ``T`` the controller period):
+
+* ``finite``        q_k and qd_k are finite numbers.
+* ``start pose``    ``|q_0 - q_current| x counts_per_rad <= start_tolerance_counts`` (cycle 0).
+* ``joint range``   ``lower <= q_k <= upper`` (1e-9 rad slack).
+* ``counter range`` ``|counts_k| <= 2^31 - 1`` (the int32 registers and C arrays).
+* ``speed``         ``max(|qd_k|, |q_k - q_{k-1}| / T) <= v_max (1 + speed_tolerance)``: the
+                    planned speed and the mean speed over the cycle.
+* ``pulse rate``    ``|dcounts_k| = |counts_k - counts_{k-1}| <= max_pulses_per_cycle``
+                    (seed 002: 0..4095 pulses per axis per DDA period).
+* ``continuity``    no jump: the velocity change entering cycle k,
+                    ``|q_k - 2 q_{k-1} + q_{k-2}| / T``, is at most what the acceleration limit
+                    allows in one cycle, ``a_max T (1 + continuity_tolerance)``. The arm is at rest
+                    before cycle 0 and after the last cycle (``q_{-1} = q_0``, ``q_{n} = q_{n-1}``):
+                    a table must start and end at rest. Skipped for robots without an
+                    acceleration limit (the speed check on ``|q_k - q_{k-1}|`` then bounds jumps).
+
+The report keeps the first failing (cycle, joint) of each check; the error names the earliest.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from armlab.errors import LimitViolation
+
+__all__ = ["CHECKS", "PreflightFailure", "PreflightReport", "preflight"]
+
+#: Check names in the order they are reported when two fail on the same cycle and joint.
+CHECKS = ("finite", "start pose", "joint range", "counter range", "speed", "pulse rate",
+          "continuity")
+
+INT32_MAX = 2**31 - 1
+RANGE_TOL_RAD = 1e-9
+
+
+@dataclass(frozen=True)
+class PreflightFailure:
+    """The first cycle and joint at which one check fails.
+
+    Attributes
+    ----------
+    check : str
+        One of :data:`CHECKS`.
+    cycle : int
+        Controller cycle (row of the table, 0-based).
+    t_s : float
+        Time of that cycle in [s].
+    joint : str
+    value, limit : float
+        The offending value and the limit it breaks, in ``unit``.
+    unit : str
+    detail : str
+        One human sentence (what, by how much).
+    """
+
+    check: str
+    cycle: int
+    t_s: float
+    joint: str
+    value: float
+    limit: float
+    unit: str
+    detail: str
+
+    def message(self) -> str:
+        """One line naming cycle, joint and limit."""
+        return (f"pre-flight check failed at cycle {self.cycle} (t = {self.t_s:.6g} s), "
+                f"joint {self.joint}, {self.check} limit: {self.detail}; nothing written")
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass
+class PreflightReport:
+    """Outcome of :func:`preflight`.
+
+    Attributes
+    ----------
+    checks : list of str
+        The checks that ran.
+    failures : list of PreflightFailure
+        First failure of each failing check, earliest cycle first.
+    n_cycles : int
+    peak_ratio : dict of str to dict of str to float
+        ``{check: {joint: peak value / limit}}`` for speed, pulse rate and continuity.
+    """
+
+    checks: list[str]
+    failures: list[PreflightFailure] = field(default_factory=list)
+    n_cycles: int = 0
+    peak_ratio: dict[str, dict[str, float]] = field(default_factory=dict)
+
+    def ok(self) -> bool:
+        return not self.failures
+
+    def first(self) -> PreflightFailure | None:
+        """The earliest failure (cycle, then joint order, then :data:`CHECKS` order)."""
+        return self.failures[0] if self.failures else None
+
+    def raise_if_failed(self) -> None:
+        """Raise :class:`~armlab.LimitViolation` naming the first failing cycle, joint and limit.
+
+        The exception carries the failure as its ``failure`` attribute.
+        """
+        first = self.first()
+        if first is not None:
+            exc = LimitViolation(first.message())
+            exc.failure = first
+            raise exc
+
+    def to_dict(self) -> dict:
+        return {"ok": self.ok(), "checks": list(self.checks), "n_cycles": self.n_cycles,
+                "failures": [f.to_dict() for f in self.failures],
+                "peak_ratio": self.peak_ratio}
+
+
+def _first(bad: np.ndarray) -> tuple[int, int] | None:
+    """(row, column) of the first True in row-major order, or None."""
+    rows = bad.any(axis=1)
+    if not rows.any():
+        return None
+    k = int(np.argmax(rows))
+    return k, int(np.argmax(bad[k]))
+
+
+def _peak(ratio: np.ndarray, names: list[str]) -> dict[str, float | None]:
+    """Largest ratio per joint (None where not finite, e.g. a zero limit)."""
+    if ratio.size == 0:
+        return {n: 0.0 for n in names}
+    return {n: (float(r) if np.isfinite(r) else None)
+            for n, r in zip(names, ratio.max(axis=0), strict=True)}
+
+
+def preflight(*, t_s: np.ndarray, q: np.ndarray, qd: np.ndarray, counts_exact: np.ndarray,
+              dcounts: np.ndarray | None, joint_names: list[str], lower_rad: np.ndarray,
+              upper_rad: np.ndarray, velocity_rad_s: np.ndarray,
+              acceleration_rad_s2: np.ndarray | None, counts_per_rad: np.ndarray, cycle_s: float,
+              max_pulses_per_cycle: int | None, q_current: np.ndarray | None = None,
+              start_tolerance_counts: float = 1.0, speed_tolerance: float = 1e-6,
+              continuity_tolerance: float = 0.05) -> PreflightReport:
+    """Run every check on every cycle (see the module docstring for the rules).
+
+    Parameters
+    ----------
+    t_s : array (n_cycles,)
+        Cycle times in [s].
+    q, qd : arrays (n_cycles, n_axes)
+        Exact (unrounded) positions [rad] and velocities [rad/s] per axis.
+    counts_exact : array (n_cycles, n_axes)
+        ``q x counts_per_rad x sign`` before rounding.
+    dcounts : int array (n_cycles, n_axes) or None
+        Counts per cycle (None when counts could not be formed: non-finite input).
+    joint_names : list of str
+        Joint of each axis.
+    lower_rad, upper_rad, velocity_rad_s : arrays (n_axes,)
+    acceleration_rad_s2 : array (n_axes,) or None
+    counts_per_rad : array (n_axes,)
+    cycle_s : float
+        Controller period T in [s].
+    max_pulses_per_cycle : int or None
+    q_current : array (n_axes,), optional
+        The robot's current pose per axis [rad].
+    start_tolerance_counts, speed_tolerance, continuity_tolerance : float
+        From the controller profile.
+
+    Returns
+    -------
+    PreflightReport
+    """
+    n = q.shape[0]
+    T = float(cycle_s)
+    found: list[tuple[int, int, int, PreflightFailure]] = []
+    report = PreflightReport(checks=[], n_cycles=n)
+
+    def add(check: str, bad: np.ndarray, make) -> None:
+        hit = _first(bad)
+        if hit is not None:
+            k, j = hit
+            value, limit, unit, detail = make(k, j)
+            found.append((k, j, CHECKS.index(check), PreflightFailure(
+                check, k, float(t_s[k]), joint_names[j], float(value), float(limit), unit,
+                detail)))
+
+    report.checks.append("finite")
+    finite = np.isfinite(q) & np.isfinite(qd)
+    add("finite", ~finite, lambda k, j: (q[k, j] if not np.isfinite(q[k, j]) else qd[k, j],
+                                         math.inf, "", f"q = {q[k, j]!r} rad, "
+                                         f"qd = {qd[k, j]!r} rad/s are not finite numbers"))
+    qs = np.where(finite, q, 0.0)
+    qds = np.where(finite, qd, 0.0)
+
+    if q_current is not None:
+        report.checks.append("start pose")
+        off = np.abs(qs[0] - q_current) * counts_per_rad
+        bad = np.zeros_like(qs, dtype=bool)
+        bad[0] = ~(off <= start_tolerance_counts)
+        add("start pose", bad, lambda k, j: (
+            off[j], start_tolerance_counts, "counts",
+            f"the table starts at {qs[0, j]:.6g} rad, {off[j]:.4g} counts from the current pose "
+            f"{q_current[j]:.6g} rad (tolerance {start_tolerance_counts:g} counts)"))
+
+    report.checks.append("joint range")
+    below, above = qs < lower_rad - RANGE_TOL_RAD, qs > upper_rad + RANGE_TOL_RAD
+    add("joint range", below | above, lambda k, j: (
+        qs[k, j], lower_rad[j] if below[k, j] else upper_rad[j], "rad",
+        f"position {qs[k, j]:.6g} rad is outside the range "
+        f"[{lower_rad[j]:.6g}, {upper_rad[j]:.6g}] rad"))
+
+    report.checks.append("counter range")
+    cs = np.where(finite, counts_exact, 0.0)
+    add("counter range", np.abs(cs) > INT32_MAX, lambda k, j: (
+        cs[k, j], INT32_MAX, "counts",
+        f"{cs[k, j]:.0f} counts do not fit a 32-bit counter (limit {INT32_MAX})"))
+
+    report.checks.append("speed")
+    mean_speed = np.zeros_like(qs)
+    mean_speed[1:] = np.abs(np.diff(qs, axis=0)) / T
+    speed = np.maximum(np.abs(qds), mean_speed)
+    vlim = np.asarray(velocity_rad_s, dtype=float)
+    report.peak_ratio["speed"] = _peak(speed / vlim, joint_names)
+    add("speed", speed > vlim * (1.0 + speed_tolerance), lambda k, j: (
+        speed[k, j], vlim[j], "rad/s",
+        f"speed {speed[k, j]:.6g} rad/s exceeds {vlim[j]:.6g} rad/s "
+        f"({100 * speed[k, j] / vlim[j]:.2f} % of the limit)"))
+
+    if max_pulses_per_cycle is not None and dcounts is not None:
+        report.checks.append("pulse rate")
+        pulses = np.abs(dcounts)
+        report.peak_ratio["pulse rate"] = _peak(pulses / max_pulses_per_cycle, joint_names)
+        add("pulse rate", pulses > max_pulses_per_cycle, lambda k, j: (
+            pulses[k, j], max_pulses_per_cycle, "pulses",
+            f"{pulses[k, j]} pulses in one {T:g} s cycle exceed the controller's "
+            f"{max_pulses_per_cycle} pulses per cycle"))
+
+    if acceleration_rad_s2 is not None and n > 0:
+        report.checks.append("continuity")
+        inc = np.zeros_like(qs)  # position increment of cycle k (the arm rests before 0)
+        inc[1:] = np.diff(qs, axis=0)
+        dv = np.zeros_like(qs)  # velocity change entering cycle k
+        dv[1:] = np.abs(np.diff(inc, axis=0)) / T
+        stop = np.abs(inc[-1]) / T  # the arm rests after the last cycle
+        stops = stop > dv[-1]
+        dv[-1] = np.maximum(dv[-1], stop)
+        allowed = np.asarray(acceleration_rad_s2, dtype=float) * T
+        report.peak_ratio["continuity"] = _peak(dv / allowed, joint_names)
+        add("continuity", dv > allowed * (1.0 + continuity_tolerance) + 1e-12, lambda k, j: (
+            dv[k, j], allowed[j], "rad/s",
+            f"{'abrupt stop after the last cycle' if k == n - 1 and stops[j] else 'velocity jump'}"
+            f" of {dv[k, j]:.6g} rad/s in one cycle, more than the acceleration limit allows "
+            f"({allowed[j]:.6g} rad/s = a_max x {T:g} s)"))
+
+    found.sort(key=lambda x: (x[0], x[1], x[2]))
+    report.failures = [f for *_, f in found]
+    return report

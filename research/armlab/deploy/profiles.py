@@ -1,0 +1,223 @@
+"""Controller profiles: what the real controller accepts (a small TOML file each).
+
+The default profile, ``reference_dda``, is the controller of seed 002 (digest §3): an industrial
+PC with two 3-axis position cards, DDA interpolation period settable from 1 ms to 2 s, at most
+4095 pulses per axis per DDA period, quadrature counting with x2 or x4 decoding, 1 ms servo
+update, 12-bit +-10 V D/A. Profiles live in ``armlab/data/profiles/<name>.toml``; any other TOML
+file with the same keys can be given by path.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
+
+import numpy as np
+
+from armlab.errors import InputError
+
+__all__ = ["ControllerProfile", "DEFAULT_PROFILE", "load_profile", "list_profiles",
+           "profiles_dir"]
+
+DEFAULT_PROFILE = "reference_dda"
+
+
+def profiles_dir() -> Path:
+    """Folder of the built-in profiles (``armlab/data/profiles``)."""
+    return Path(__file__).resolve().parents[1] / "data" / "profiles"
+
+
+def list_profiles() -> list[str]:
+    """Names of the built-in profiles."""
+    return sorted(p.stem for p in profiles_dir().glob("*.toml"))
+
+
+@dataclass(frozen=True)
+class ControllerProfile:
+    """What one real controller accepts.
+
+    Attributes
+    ----------
+    name, description, source : str
+    cycle_s : float
+        Controller (DDA interpolation) period in [s]: one set-point row per cycle.
+    cycle_range_s : (float, float)
+        Periods the controller accepts in [s] (seed 002: 1 ms .. 2 s).
+    max_pulses_per_cycle : int or None
+        Most position-command pulses (= encoder counts) per axis per cycle (seed 002: 4095);
+        None for no limit.
+    decoding : int or None
+        Counter decoding of the quadrature encoder (x2 or x4 on the seed-002 card); None keeps the
+        robot's ``drives.toml`` value.
+    counts_per_joint_rev : tuple of float or None
+        Counts per joint revolution per axis (axis order); overrides the drives (needed for a
+        robot without ``drives.toml``).
+    servo_period_s : float
+        Servo update period in [s] (sample time of the card's position/speed loops).
+    max_axes : int or None
+        Axes the controller drives (seed 002: 2 cards x 3).
+    axis_order : tuple of (str or int) or None
+        Joint driven by controller axis 1, 2, ... (joint names or 1-based joint numbers);
+        None: the robot's joint order.
+    axis_sign : tuple of int or None
+        +1 or -1 per axis: counts = round(q x counts_per_rad x sign); None: all +1.
+    dac_bits, dac_range_V : int, float
+        D/A resolution and range (+-dac_range_V).
+    start_tolerance_counts : float
+        Largest allowed difference in [counts] between the first set-point and the current pose.
+    speed_tolerance : float
+        Relative slack on the joint speed limits (planner round-off), e.g. 1e-6.
+    continuity_tolerance : float
+        Relative slack on the continuity check (velocity change per cycle <= a_max x cycle).
+    """
+
+    name: str
+    description: str = ""
+    source: str = ""
+    cycle_s: float = 1e-3
+    cycle_range_s: tuple[float, float] = (1e-3, 2.0)
+    max_pulses_per_cycle: int | None = None
+    decoding: int | None = None
+    counts_per_joint_rev: tuple[float, ...] | None = None
+    servo_period_s: float = 1e-3
+    max_axes: int | None = None
+    axis_order: tuple[str | int, ...] | None = None
+    axis_sign: tuple[int, ...] | None = None
+    dac_bits: int = 12
+    dac_range_V: float = 10.0
+    start_tolerance_counts: float = 1.0
+    speed_tolerance: float = 1e-6
+    continuity_tolerance: float = 0.05
+
+    def __post_init__(self):
+        where = f"controller profile {self.name!r}"
+        lo, hi = (float(x) for x in self.cycle_range_s)
+        object.__setattr__(self, "cycle_range_s", (lo, hi))
+        if not (0 < lo <= hi and math.isfinite(hi)):
+            raise InputError(f"{where}: cycle_range_s must be 0 < min <= max, got {(lo, hi)}")
+        c = float(self.cycle_s)
+        if not (math.isfinite(c) and lo * (1 - 1e-12) <= c <= hi * (1 + 1e-12)):
+            raise InputError(f"{where}: cycle_s {self.cycle_s!r} s is outside the controller's "
+                             f"range {lo:g} .. {hi:g} s")
+        object.__setattr__(self, "cycle_s", c)
+        if self.max_pulses_per_cycle is not None and int(self.max_pulses_per_cycle) < 1:
+            raise InputError(f"{where}: max_pulses_per_cycle must be >= 1")
+        if self.decoding is not None and int(self.decoding) not in (1, 2, 4):
+            raise InputError(f"{where}: decoding must be 1, 2 or 4, got {self.decoding!r}")
+        for key in ("axis_order", "axis_sign", "counts_per_joint_rev"):
+            v = getattr(self, key)
+            if v is not None:
+                object.__setattr__(self, key, tuple(v))
+        if self.axis_sign is not None and any(s not in (1, -1) for s in self.axis_sign):
+            raise InputError(f"{where}: axis_sign entries must be +1 or -1, got {self.axis_sign}")
+        if self.counts_per_joint_rev is not None and not all(
+                math.isfinite(x) and x > 0 for x in self.counts_per_joint_rev):
+            raise InputError(f"{where}: counts_per_joint_rev must be positive numbers")
+        if self.axis_order is not None and len(set(self.axis_order)) != len(self.axis_order):
+            raise InputError(f"{where}: axis_order repeats a joint: {self.axis_order}")
+        for key in ("servo_period_s", "dac_range_V"):
+            if not float(getattr(self, key)) > 0:
+                raise InputError(f"{where}: {key} must be > 0")
+        for key in ("start_tolerance_counts", "speed_tolerance", "continuity_tolerance"):
+            v = float(getattr(self, key))
+            if not (math.isfinite(v) and v >= 0):
+                raise InputError(f"{where}: {key} must be >= 0, got {v!r}")
+        if not 1 <= int(self.dac_bits) <= 32:
+            raise InputError(f"{where}: dac_bits must be in 1..32")
+
+    # ------------------------------------------------------------------ derived
+    @property
+    def dac_volts_per_lsb(self) -> float:
+        """One D/A step in [V]: 2 x range / 2^bits."""
+        return 2.0 * self.dac_range_V / 2**self.dac_bits
+
+    def with_cycle(self, cycle_s: float) -> ControllerProfile:
+        """A copy with another controller period [s] (checked against ``cycle_range_s``)."""
+        return replace(self, cycle_s=cycle_s)
+
+    def replace(self, **changes) -> ControllerProfile:
+        """A copy with some fields replaced (validated again)."""
+        return replace(self, **changes)
+
+    def axes(self, robot) -> tuple[np.ndarray, np.ndarray]:
+        """(joint index per axis, sign per axis) for ``robot``, both ``(n_axes,)``.
+
+        Raises
+        ------
+        InputError
+            Unknown joint in ``axis_order``, a sign list of the wrong length, or more joints
+            than the controller has axes.
+        """
+        where = f"controller profile {self.name!r}"
+        if self.axis_order is None:
+            index = np.arange(robot.n_joints)
+        else:
+            index = np.array([robot.joint_index(j) for j in self.axis_order], dtype=int)
+            if len(index) != robot.n_joints:
+                raise InputError(f"{where}: axis_order names {len(index)} joints, robot "
+                                 f"{robot.name} has {robot.n_joints}")
+        if self.max_axes is not None and len(index) > self.max_axes:
+            raise InputError(f"{where}: the controller drives {self.max_axes} axes, robot "
+                             f"{robot.name} has {len(index)} joints")
+        if self.axis_sign is None:
+            sign = np.ones(len(index), dtype=np.int64)
+        else:
+            if len(self.axis_sign) != len(index):
+                raise InputError(f"{where}: axis_sign has {len(self.axis_sign)} entries for "
+                                 f"{len(index)} axes")
+            sign = np.asarray(self.axis_sign, dtype=np.int64)
+        return index, sign
+
+    def to_dict(self) -> dict:
+        """JSON-able dict of every field (tuples as lists)."""
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
+
+
+def _profile_path(name_or_path: str | Path) -> Path:
+    s = str(name_or_path)
+    path = Path(s)
+    if path.suffix.lower() == ".toml" or "/" in s or "\\" in s:
+        if not path.is_file():
+            raise InputError(f"controller profile file {path} not found")
+        return path
+    path = profiles_dir() / f"{s}.toml"
+    if not path.is_file():
+        raise InputError(f"unknown controller profile {s!r} (built-in: "
+                         f"{', '.join(list_profiles())}; or give a .toml path)")
+    return path
+
+
+def load_profile(name_or_path: str | Path | ControllerProfile | None = None) -> ControllerProfile:
+    """Load a controller profile by built-in name or TOML path.
+
+    Parameters
+    ----------
+    name_or_path : str, path, ControllerProfile or None
+        None: the reference controller of seed 002 (``reference_dda``). A profile object is
+        returned as is.
+
+    Raises
+    ------
+    InputError
+        Unknown name, missing file, invalid TOML, unknown or invalid keys.
+    """
+    if isinstance(name_or_path, ControllerProfile):
+        return name_or_path
+    path = _profile_path(DEFAULT_PROFILE if name_or_path is None else name_or_path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"controller profile {path}: not valid TOML ({exc})") from None
+    known = {f.name for f in fields(ControllerProfile)}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise InputError(f"controller profile {path}: unknown key(s) {unknown}")
+    data.setdefault("name", path.stem)
+    try:
+        return ControllerProfile(**data)
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, InputError):
+            raise InputError(f"{exc} ({path})") from None
+        raise InputError(f"controller profile {path}: {exc}") from None

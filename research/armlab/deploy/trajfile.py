@@ -1,0 +1,158 @@
+"""``trajectory.npz``: the planned trajectory of a study, with the robot it was planned for.
+
+The study runner saves the trajectory with :func:`save_trajectory`; ``armlab export`` reads it
+back with :func:`load_trajectory` and rebuilds the robot with :func:`trajectory_robot`. The file
+holds ``t, q, qd, qdd`` (and ``qddd``), the joint names, the planner (``method``), the content
+checksum (:func:`armlab.deploy.trajectory_sha256`, verified on loading), armlab's version and the
+robot: name, URDF path, tool frame, payload and the joint limits the study planned with.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from armlab.deploy.provenance import armlab_version, atomic_write, file_sha256, trajectory_sha256
+from armlab.errors import InputError
+
+__all__ = ["TRAJECTORY_FORMAT", "save_trajectory", "load_trajectory", "trajectory_robot"]
+
+TRAJECTORY_FORMAT = "armlab.trajectory/1"
+
+
+def _robot_info(robot) -> dict:
+    lim = robot.limits
+    arr = lambda a: None if a is None else [float(x) for x in a]  # noqa: E731
+    return {
+        "name": robot.name,
+        "urdf_path": str(getattr(robot, "urdf_path", "")),
+        "joint_names": list(robot.joint_names),
+        "tool_frame": getattr(robot, "tool_frame", None),
+        "payload_kg": float(robot.payload.mass_kg) if getattr(robot, "payload", None) else None,
+        "limits": {"lower_rad": arr(lim.lower_rad), "upper_rad": arr(lim.upper_rad),
+                   "velocity_rad_s": arr(lim.velocity_rad_s),
+                   "acceleration_rad_s2": arr(lim.acceleration_rad_s2),
+                   "jerk_rad_s3": arr(lim.jerk_rad_s3)},
+    }
+
+
+def save_trajectory(path: str | os.PathLike, trajectory, robot=None) -> Path:
+    """Write ``trajectory`` (and the robot it was planned for) to ``path`` (.npz), atomically.
+
+    Parameters
+    ----------
+    path : path
+    trajectory : Trajectory
+    robot : Robot, optional
+        Recorded so that :func:`trajectory_robot` can rebuild it (name, URDF path, tool frame,
+        payload, limits). Without it, ``armlab export`` cannot check the table.
+
+    Returns
+    -------
+    Path
+    """
+    arrays = {
+        "format": np.array(TRAJECTORY_FORMAT),
+        "t": trajectory.t, "q": trajectory.q, "qd": trajectory.qd, "qdd": trajectory.qdd,
+        "joint_names": np.array(list(trajectory.joint_names)),
+        "method": np.array(trajectory.method or ""),
+        "sha256": np.array(trajectory_sha256(trajectory)),
+        "armlab_version": np.array(armlab_version()),
+        "robot_json": np.array(json.dumps(None if robot is None else _robot_info(robot))),
+    }
+    if trajectory.qddd is not None:
+        arrays["qddd"] = trajectory.qddd
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    return atomic_write(path, buf.getvalue())
+
+
+def load_trajectory(path: str | os.PathLike):
+    """Read a trajectory written by :func:`save_trajectory`.
+
+    Returns
+    -------
+    Trajectory
+        With ``meta["robot"]`` (dict or None), ``meta["sha256"]`` (content checksum, verified),
+        ``meta["file"]`` and ``meta["file_sha256"]``.
+
+    Raises
+    ------
+    InputError
+        Missing or unreadable file, not an armlab trajectory, checksum mismatch.
+    """
+    from armlab.trajectory import Trajectory
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"trajectory file {path} not found")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            a = {k: z[k] for k in z.files}
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{path}: not a readable .npz ({exc})") from None
+    if str(a.get("format", "")) != TRAJECTORY_FORMAT:
+        raise InputError(f"{path}: not an armlab trajectory file (format "
+                         f"{str(a.get('format', None))!r}, expected {TRAJECTORY_FORMAT!r})")
+    traj = Trajectory(a["t"], a["q"], a["qd"], a["qdd"], a.get("qddd"),
+                      joint_names=[str(n) for n in a["joint_names"]], method=str(a["method"]))
+    sha = trajectory_sha256(traj)
+    if sha != str(a["sha256"]):
+        raise InputError(f"{path}: checksum mismatch (file says {str(a['sha256'])[:12]}..., "
+                         f"content is {sha[:12]}...): the file is corrupt or was edited")
+    traj.meta.update({"robot": json.loads(str(a["robot_json"])), "sha256": sha,
+                      "file": str(path), "file_sha256": file_sha256(path),
+                      "armlab_version": str(a["armlab_version"])})
+    return traj
+
+
+def trajectory_robot(trajectory):
+    """Rebuild the robot a loaded trajectory was planned for.
+
+    The description is loaded again (URDF path if it exists, else the built-in name), joints not
+    in the trajectory are locked, the payload and tool frame are restored, and each limit is the
+    tighter of the description's and the study's (a pre-flight check never loosens a limit).
+
+    Raises
+    ------
+    InputError
+        The trajectory carries no robot, or its joints are not the robot's.
+    """
+    from armlab.robot import load_robot
+
+    info = trajectory.meta.get("robot")
+    if not info:
+        raise InputError("the trajectory file records no robot (save_trajectory(..., robot))")
+    path = info.get("urdf_path") or ""
+    source = path if path and Path(path).is_file() else info["name"]
+    names = list(info["joint_names"])
+    full = load_robot(source)
+    extra = [j for j in full.joint_names if j not in names]
+    if any(j not in full.joint_names for j in names):
+        raise InputError(f"robot {full.name} has no joint(s) "
+                         f"{[j for j in names if j not in full.joint_names]}")
+    tool = info.get("tool_frame")
+    if tool not in [f.name for f in full.model.frames]:
+        tool = None
+    robot = load_robot(source, info.get("payload_kg"), tool_frame=tool, lock_joints=tuple(extra))
+    if list(robot.joint_names) != names:
+        raise InputError(f"robot {robot.name} joints {robot.joint_names} differ from the "
+                         f"trajectory's {names}")
+    lim, stored = robot.limits, info.get("limits") or {}
+
+    def tighter(key, fn):
+        mine, theirs = getattr(lim, key), stored.get(key)
+        if theirs is None:
+            return mine
+        theirs = np.asarray(theirs, dtype=float)
+        return theirs if mine is None else fn(np.asarray(mine, dtype=float), theirs)
+
+    return robot.with_limits(
+        lower_rad=tighter("lower_rad", np.maximum), upper_rad=tighter("upper_rad", np.minimum),
+        velocity_rad_s=tighter("velocity_rad_s", np.minimum),
+        acceleration_rad_s2=tighter("acceleration_rad_s2", np.minimum),
+        jerk_rad_s3=tighter("jerk_rad_s3", np.minimum))
