@@ -43,7 +43,8 @@ class Motor:
     power_W : float
         Table power in [W].
     peak_torque_Nm : float
-        Peak (momentary) torque in [N m]; defaults to the stall torque x 3 if not given.
+        Peak (momentary) torque in [N m]; NaN when the data sheet gives none (sizing then
+        limits the peak to the stall torque, conservatively).
     """
 
     model: str

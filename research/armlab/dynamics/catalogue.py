@@ -1,0 +1,113 @@
+"""The drive catalogue: motors and reducers that :func:`select_drives` combines.
+
+A TOML file (default: ``armlab/data/catalogue.toml``) with ``[[motor]]`` and ``[[reducer]]``
+entries whose fields are those of :class:`armlab.robot.Motor` / :class:`armlab.robot.Reducer`
+(``mass_kg`` and ``price`` required), plus ``derating`` on a motor (extra factor on its torque
+limits, default 1) and ``thesis_joints`` (joints of teachbot6 that use the part in thesis
+table 4.3). The file's header records where every number comes from.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from armlab.errors import RobotDescriptionError
+from armlab.robot.drives import Motor, Reducer, motor_from_dict, reducer_from_dict
+
+__all__ = ["Catalogue", "load_catalogue", "default_catalogue_path"]
+
+
+def default_catalogue_path() -> Path:
+    """``armlab/data/catalogue.toml`` (shipped with the package)."""
+    return Path(__file__).resolve().parents[1] / "data" / "catalogue.toml"
+
+
+@dataclass(frozen=True)
+class Catalogue:
+    """Motors and reducers with mass [kg] and price (``currency``).
+
+    Attributes
+    ----------
+    motors, reducers : tuple
+    derating : dict of motor model to float
+    thesis_parts : dict of joint name to (motor model, reducer model)
+        The parts of thesis table 4.3, when the catalogue tags them.
+    """
+
+    motors: tuple[Motor, ...]
+    reducers: tuple[Reducer, ...]
+    derating: dict[str, float] = field(default_factory=dict)
+    thesis_parts: dict[str, tuple[str | None, str | None]] = field(default_factory=dict)
+    currency: str = ""
+    path: str = ""
+
+    def motor(self, model: str) -> Motor:
+        for m in self.motors:
+            if m.model == model:
+                return m
+        raise RobotDescriptionError(f"{self.path}: no motor {model!r} in the catalogue")
+
+    def reducer(self, model: str) -> Reducer:
+        for r in self.reducers:
+            if r.model == model:
+                return r
+        raise RobotDescriptionError(f"{self.path}: no reducer {model!r} in the catalogue")
+
+
+def load_catalogue(path: str | Path | None = None) -> Catalogue:
+    """Read a drive catalogue (default: the one shipped with armlab).
+
+    Raises
+    ------
+    RobotDescriptionError
+        Missing or malformed file, unknown fields, duplicate models, no mass or price,
+        non-positive ratio, efficiency outside (0, 1].
+    """
+    path = default_catalogue_path() if path is None else Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise RobotDescriptionError(f"{path}: catalogue file not found") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise RobotDescriptionError(f"{path}: not valid TOML ({exc})") from None
+    derating: dict[str, float] = {}
+    thesis: dict[str, list[str | None]] = {}
+
+    def parts(kind: str, build):
+        out = []
+        for k, row in enumerate(data.get(kind, [])):
+            row = dict(row)
+            where = f"{path} {kind} {k + 1} ({row.get('model', '?')})"
+            extra_derating = row.pop("derating", 1.0)
+            joints = row.pop("thesis_joints", [])
+            part = build(row, where)
+            for key in ("mass_kg", "price"):
+                v = getattr(part, key)
+                if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                    raise RobotDescriptionError(f"{where}: {key} must be a number >= 0")
+            if any(p.model == part.model for p in out):
+                raise RobotDescriptionError(f"{where}: duplicate model {part.model!r}")
+            if kind == "motor":
+                if not 0 < float(extra_derating) <= 1:
+                    raise RobotDescriptionError(f"{where}: derating must be in (0, 1]")
+                derating[part.model] = float(extra_derating)
+            else:
+                if part.ratio <= 0 or not 0 < part.efficiency <= 1:
+                    raise RobotDescriptionError(
+                        f"{where}: ratio must be > 0 and efficiency in (0, 1]")
+            for j in joints:
+                slot = thesis.setdefault(str(j), [None, None])
+                slot[0 if kind == "motor" else 1] = part.model
+            out.append(part)
+        if not out:
+            raise RobotDescriptionError(f"{path}: no [[{kind}]] entries")
+        return tuple(out)
+
+    motors = parts("motor", motor_from_dict)
+    reducers = parts("reducer", reducer_from_dict)
+    return Catalogue(motors=motors, reducers=reducers, derating=derating,
+                     thesis_parts={j: (m, r) for j, (m, r) in thesis.items()},
+                     currency=str(data.get("currency", "")), path=str(path))

@@ -1,0 +1,121 @@
+"""The thesis' requirements as a duty cycle: each joint at its maximum speed and acceleration.
+
+Thesis chapter 2 gives, per joint, a maximum speed and acceleration (digest §1 table); its
+table 4.3 verdict compares the drives against the static worst case of 4.2.1. To size the
+drives along a motion with the same content, :func:`requirement_moves` builds one move per
+joint:
+
+* every joint starts at rest at **that joint's worst static pose** (:func:`static_load`);
+* the joint accelerates at its maximum acceleration in the direction that adds to gravity
+  (so the first sample carries exactly the static-load torque of eq. 4-2), cruises at its
+  maximum speed for ``cruise_s`` and decelerates to rest (a trapezoidal profile); the other
+  joints hold still;
+* if the joint range does not leave room for the whole move, the cruise is shortened (and if
+  even the ramps do not fit, the move goes the other way; ``meta["note"]`` says so).
+
+The six moves form one duty cycle (``size(robot, moves)`` stacks them).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from armlab.errors import InputError
+from armlab.trajectory import Trajectory
+
+__all__ = ["requirement_moves", "trapezoid_move"]
+
+
+def trapezoid_move(q_start, joint: int, direction: float, speed: float, acceleration: float,
+                   cruise_s: float, dt: float, joint_names=None) -> Trajectory:
+    """One joint's trapezoidal move from rest to rest, sampled every ``dt`` [s].
+
+    Phases: ``+a`` for ``v/a`` s, ``0`` for ``cruise_s`` s, ``-a`` for ``v/a`` s (signs times
+    ``direction``). At a phase boundary the sample takes the acceleration of the phase that
+    starts there, so the first sample has ``qdd = direction x a`` at rest.
+    """
+    if speed <= 0 or acceleration <= 0 or dt <= 0 or cruise_s < 0:
+        raise InputError("speed, acceleration and dt must be > 0 and cruise_s >= 0")
+    q_start = np.asarray(q_start, float)
+    ta = speed / acceleration
+    t1, t2 = ta, ta + cruise_s
+    T = t2 + ta
+    n = int(np.floor(T / dt + 1e-9))
+    t = dt * np.arange(n + 1)
+    if T - t[-1] > 1e-9 * max(1.0, dt):
+        t = np.append(t, T)
+    s, a, v = float(direction), acceleration, speed
+    acc = np.where(t < t1 - 1e-12, a, np.where(t < t2 - 1e-12, 0.0, -a))
+    acc[-1] = 0.0  # the last sample is the end of the move: at rest
+    tb = np.clip(t, 0, t1)
+    tc = np.clip(t - t1, 0, cruise_s)
+    td = np.clip(t - t2, 0, ta)
+    pos = 0.5 * a * tb**2 + v * tc + v * td - 0.5 * a * td**2
+    vel = a * tb - a * td
+    nj = q_start.size
+    q = np.repeat(q_start[None, :], t.size, axis=0)
+    qd = np.zeros((t.size, nj))
+    qdd = np.zeros((t.size, nj))
+    q[:, joint] += s * pos
+    qd[:, joint] = s * vel
+    qdd[:, joint] = s * acc
+    return Trajectory(t, q, qd, qdd, joint_names=joint_names, method="requirement move")
+
+
+def requirement_moves(robot, static=None, *, velocity_rad_s=None, acceleration_rad_s2=None,
+                      cruise_s: float = 0.5, dt: float = 1e-3) -> list[Trajectory]:
+    """One trapezoidal move per joint at its maximum speed and acceleration (module docstring).
+
+    Parameters
+    ----------
+    robot : Robot
+    static : StaticLoadReport, optional
+        Worst poses; computed with :func:`static_load` if not given.
+    velocity_rad_s, acceleration_rad_s2 : array (n_joints,), optional
+        Override the robot's limits (e.g. twice them for a move that is too fast).
+    cruise_s : float
+        Time at full speed in [s].
+    dt : float
+        Sample step in [s].
+
+    Returns
+    -------
+    list of Trajectory
+        One per joint, in joint order; ``meta`` holds ``joint``, ``direction`` and ``note``.
+    """
+    if static is None:
+        from armlab.dynamics.static_load import static_load
+
+        static = static_load(robot)
+    v = robot.limits.velocity_rad_s if velocity_rad_s is None else velocity_rad_s
+    a = robot.limits.acceleration_rad_s2 if acceleration_rad_s2 is None else acceleration_rad_s2
+    if a is None:
+        raise InputError(f"{robot.name} has no acceleration limits: pass acceleration_rad_s2")
+    v = np.asarray(v, float).reshape(-1)
+    a = np.asarray(a, float).reshape(-1)
+    for name, x in (("velocity_rad_s", v), ("acceleration_rad_s2", a)):
+        if x.shape != (robot.n_joints,) or not np.all(np.isfinite(x)) or np.any(x <= 0):
+            raise InputError(f"{name} must be {robot.n_joints} positive finite numbers")
+    lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
+    moves = []
+    for j, load in enumerate(static.joints):
+        q0 = np.clip(load.pose_rad, lo, hi)
+        s = load.direction if load.direction != 0 else 1.0
+        ramp = v[j] ** 2 / a[j]  # accelerate + decelerate
+        room = {1.0: hi[j] - q0[j], -1.0: q0[j] - lo[j]}
+        note = ""
+        if room[s] < ramp and room[-s] > room[s]:
+            s, note = -s, "no room to accelerate with gravity: moved the other way"
+        cruise = min(cruise_s, max(0.0, (room[s] - ramp) / v[j]))
+        speed = v[j]
+        if room[s] < ramp:
+            speed = float(np.sqrt(max(room[s], 0.0) * a[j])) * (1 - 1e-9)
+            note = (note + "; " if note else "") + f"range too short: peak speed {speed:.3g} rad/s"
+        elif cruise < cruise_s:
+            note = (note + "; " if note else "") + f"cruise shortened to {cruise:.3g} s"
+        if speed <= 0:
+            raise InputError(f"{robot.joint_names[j]}: no room to move from its worst pose")
+        tr = trapezoid_move(q0, j, s, speed, a[j], cruise, dt, joint_names=robot.joint_names)
+        tr.meta.update({"joint": robot.joint_names[j], "direction": s, "note": note})
+        moves.append(tr)
+    return moves

@@ -1,0 +1,263 @@
+"""Drive selection: for each joint, the lightest (or cheapest) motor + reducer of a catalogue
+that passes every sizing check along the given trajectories.
+
+Every motor x reducer combination of the catalogue is sized for every joint with the checks of
+:func:`armlab.dynamics.checks.evaluate_checks` (vectorised: one column per combination), using
+the joint's encoder, acceleration and jerk limits from the robot. The joint loads come from the
+robot's model as it is: the link masses (which include the described drives, thesis table 4.1)
+are **not** updated for the chosen parts — a lighter drive would also unload the joints inboard
+of it, which this one-pass selection does not iterate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+
+from armlab.dynamics.catalogue import Catalogue, load_catalogue
+from armlab.dynamics.checks import (
+    Check,
+    DriveArrays,
+    SizingOptions,
+    binding,
+    checks_for_column,
+    evaluate_checks,
+)
+from armlab.dynamics.inverse import as_trajectories, inverse_dynamics
+from armlab.dynamics.sizing import lever_arms_m
+from armlab.errors import InputError
+from armlab.robot.drives import Drive, Encoder, Motor, Reducer
+
+__all__ = ["Candidate", "JointSelection", "Selection", "select_drives"]
+
+OBJECTIVES = ("mass", "price")
+
+
+@dataclass
+class Candidate:
+    """One motor + reducer for one joint, with its checks."""
+
+    motor: Motor
+    reducer: Reducer
+    derating: float
+    checks: list[Check]
+
+    @property
+    def mass_kg(self) -> float:
+        return float(self.motor.mass_kg + self.reducer.mass_kg)
+
+    @property
+    def price(self) -> float:
+        return float(self.motor.price + self.reducer.price)
+
+    @property
+    def ok(self) -> bool:
+        return all(c.ok for c in self.checks)
+
+    @property
+    def binding(self) -> Check:
+        """The check with the smallest margin (binds if all pass, fails worst otherwise)."""
+        return binding(self.checks)
+
+    @property
+    def available_torque_Nm(self) -> float:
+        return (self.motor.stall_torque_Nm * self.reducer.ratio * self.reducer.efficiency
+                * self.derating)
+
+    def to_dict(self) -> dict:
+        return {
+            "motor": self.motor.model, "reducer": self.reducer.model,
+            "ratio": float(self.reducer.ratio),
+            "mass_kg": self.mass_kg if math.isfinite(self.mass_kg) else None,
+            "price": self.price if math.isfinite(self.price) else None,
+            "available_torque_Nm": self.available_torque_Nm, "ok": self.ok,
+            "binding_check": self.binding.name, "binding_margin": float(self.binding.margin),
+            "failing_checks": [c.name for c in self.checks if not c.ok],
+            "checks": [c.to_dict() for c in self.checks],
+        }
+
+
+@dataclass
+class JointSelection:
+    """The choice for one joint.
+
+    ``chosen`` is the best passing candidate (None if none passes); ``closest`` the candidate
+    whose worst check fails least when none passes; ``current`` the robot's own drive under
+    the same loads (with catalogue mass/price when the catalogue tags it as this joint's
+    thesis part); ``n_candidates`` / ``n_passing`` count the combinations.
+    """
+
+    joint: str
+    chosen: Candidate | None
+    closest: Candidate | None
+    current: Candidate | None
+    n_candidates: int
+    n_passing: int
+
+    @property
+    def ok(self) -> bool:
+        return self.chosen is not None
+
+    def to_dict(self) -> dict:
+        return {
+            "ok": self.ok,
+            "chosen": None if self.chosen is None else self.chosen.to_dict(),
+            "closest": None if self.closest is None else self.closest.to_dict(),
+            "current": None if self.current is None else self.current.to_dict(),
+            "n_candidates": self.n_candidates, "n_passing": self.n_passing,
+        }
+
+
+@dataclass
+class Selection:
+    """Result of :func:`select_drives`."""
+
+    robot_name: str
+    payload_kg: float
+    objective: str
+    joints: list[JointSelection]
+    currency: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return all(j.ok for j in self.joints)
+
+    def joint(self, name) -> JointSelection:
+        for j in self.joints:
+            if j.joint == name:
+                return j
+        raise InputError(f"no joint {name!r} in the selection")
+
+    def drives(self, robot) -> dict[str, Drive]:
+        """The chosen drives as ``{joint: Drive}`` (for :func:`size`); the robot's own drive
+        where nothing passed."""
+        out = {}
+        for j, js in enumerate(self.joints):
+            if js.chosen is None:
+                out[js.joint] = robot.drive(js.joint)
+            else:
+                out[js.joint] = _drive(robot, j, js.chosen.motor, js.chosen.reducer,
+                                       js.chosen.derating)
+        return out
+
+    def to_dict(self) -> dict:
+        return {"objective": self.objective, "payload_kg": self.payload_kg,
+                "currency": self.currency, "ok": self.ok,
+                "joints": {j.joint: j.to_dict() for j in self.joints}}
+
+    def to_markdown(self) -> str:
+        cur = f" [{self.currency}]" if self.currency else ""
+        lines = [f"### Drive selection ({self.robot_name}, payload {self.payload_kg:g} kg, "
+                 f"lightest by {self.objective})", "",
+                 "One pass: link masses are those of the description (not updated for the "
+                 "chosen parts).", "",
+                 f"| joint | chosen motor + reducer | mass [kg] | price{cur} | available [N m] |"
+                 f" binding check (margin) | passing | current parts: ok? mass [kg] |",
+                 "|---|---|---|---|---|---|---|---|"]
+        for js in self.joints:
+            c = js.chosen
+            if c is None:
+                near = js.closest
+                text = ("none passes" if near is None else
+                        f"none passes; closest {near.motor.model} + {near.reducer.model} "
+                        f"fails {', '.join(x.name for x in near.checks if not x.ok)}")
+                row = f"| {js.joint} | {text} | - | - | - | - |"
+            else:
+                row = (f"| {js.joint} | {c.motor.model} + {c.reducer.model} | {c.mass_kg:.3g} |"
+                       f" {c.price:.0f} | {c.available_torque_Nm:.3g} | {c.binding.name} "
+                       f"({100 * c.binding.margin:+.0f} %) |")
+            now = js.current
+            if now is None:
+                tail = "-"
+            else:
+                failing = [x.name for x in now.checks if not x.ok]
+                mass = f"{now.mass_kg:.3g}" if math.isfinite(now.mass_kg) else "?"
+                tail = ("pass" if not failing else "fails " + ", ".join(failing)) + f"; {mass}"
+            lines.append(f"{row} {js.n_passing}/{js.n_candidates} | {tail} |")
+        return "\n".join(lines) + "\n"
+
+
+def _drive(robot, j: int, motor: Motor, reducer: Reducer, derating: float) -> Drive:
+    name = robot.joint_names[j]
+    lim = robot.limits
+    encoder = (robot.drives[name].encoder if robot.drives is not None
+               else Encoder(pulses_per_rev=1000, decoding=4))
+    acc = math.inf if lim.acceleration_rad_s2 is None else float(lim.acceleration_rad_s2[j])
+    jerk = math.inf if lim.jerk_rad_s3 is None else float(lim.jerk_rad_s3[j])
+    return Drive(joint=name, motor=motor, reducer=reducer, encoder=encoder,
+                 acceleration_rad_s2=acc, jerk_rad_s3=jerk, derating=derating)
+
+
+def select_drives(robot, trajectories, catalogue: Catalogue | str | None = None, *,
+                  objective: str = "mass", options: SizingOptions | None = None,
+                  dt: float | None = None, threads: int = 1) -> Selection:
+    """Choose each joint's lightest (or cheapest) catalogue motor + reducer passing every check.
+
+    Parameters
+    ----------
+    robot : Robot
+        Payload included; its drives (if any) are evaluated too, as the "current" parts.
+    trajectories : Trajectory or sequence of Trajectory
+        The duty cycle the drives must carry (e.g. :func:`requirement_moves`).
+    catalogue : Catalogue or path, optional
+        Default: :func:`load_catalogue` ().
+    objective : {"mass", "price"}
+        Sort key (the other one breaks ties).
+    options : SizingOptions, optional
+    dt : float, optional
+        Resample the trajectories on this grid [s] first.
+
+    Returns
+    -------
+    Selection
+        Per joint: the chosen parts and the check that binds them (smallest margin), or, when
+        nothing passes, the closest candidate and its failing checks.
+    """
+    if objective not in OBJECTIVES:
+        raise InputError(f"objective must be one of {OBJECTIVES}, not {objective!r}")
+    if catalogue is None or isinstance(catalogue, (str, bytes)) or hasattr(catalogue, "__fspath__"):
+        catalogue = load_catalogue(catalogue)
+    options = SizingOptions() if options is None else options
+    trajs = as_trajectories(trajectories, robot)
+    if dt is not None:
+        trajs = [tr.sample(dt) for tr in trajs]
+    loads = inverse_dynamics(robot, trajs, threads=threads)
+    levers = lever_arms_m(robot)
+    combos = [(m, r) for m in catalogue.motors for r in catalogue.reducers]
+
+    def key(c: Candidate):
+        a, b = (c.mass_kg, c.price) if objective == "mass" else (c.price, c.mass_kg)
+        return (a, b, c.motor.model, c.reducer.model)
+
+    joints = []
+    for j, name in enumerate(robot.joint_names):
+        drives = [_drive(robot, j, m, r, catalogue.derating.get(m.model, 1.0)) for m, r in combos]
+        columns = slice(j, j + 1)
+        results = evaluate_checks(loads.torque_Nm[:, columns], loads.qd[:, columns],
+                                  loads.qdd[:, columns], loads.weights,
+                                  DriveArrays.from_drives(drives), levers[j], options)
+        cands = [Candidate(m, r, drives[c].derating, checks_for_column(results, c))
+                 for c, (m, r) in enumerate(combos)]
+        passing = sorted((c for c in cands if c.ok), key=key)
+        closest = None if passing else max(cands, key=lambda c: c.binding.margin)
+        current = None
+        if robot.drives is not None:
+            d = robot.drives[name]
+            res = evaluate_checks(loads.torque_Nm[:, columns], loads.qd[:, columns],
+                                  loads.qdd[:, columns], loads.weights,
+                                  DriveArrays.from_drives([d]), levers[j], options)
+            motor, reducer = d.motor, d.reducer
+            tagged = catalogue.thesis_parts.get(name)
+            if tagged and tagged[0] and tagged[1]:  # catalogue mass and price of the same parts
+                cm, cr = catalogue.motor(tagged[0]), catalogue.reducer(tagged[1])
+                if math.isclose(cr.ratio, reducer.ratio) and math.isclose(
+                        cm.stall_torque_Nm, motor.stall_torque_Nm):
+                    motor = replace(motor, mass_kg=cm.mass_kg, price=cm.price)
+                    reducer = replace(reducer, mass_kg=cr.mass_kg, price=cr.price)
+            current = Candidate(motor, reducer, d.derating, checks_for_column(res, 0))
+        joints.append(JointSelection(joint=name, chosen=passing[0] if passing else None,
+                                     closest=closest, current=current,
+                                     n_candidates=len(cands), n_passing=len(passing)))
+    return Selection(robot_name=robot.name, payload_kg=float(robot.payload.mass_kg),
+                     objective=objective, joints=joints, currency=catalogue.currency)

@@ -1,0 +1,200 @@
+"""Drive sizing: every joint's motor, reducer and encoder checked along a duty cycle.
+
+``size(robot, trajectories)`` runs inverse dynamics along the trajectories (a duty cycle) and
+checks each joint's drive train (``robot.drives``, from drives.toml, or the ``drives`` given)
+with the checks of :func:`armlab.dynamics.checks.evaluate_checks`: the thesis rule (table 4.3),
+the harmonic-reducer makers' peak / average (cubic-mean) torque and input-speed limits, the
+motor's RMS and peak torque, speed and speed-torque envelope, and the encoder resolution.
+Each check is ``{name, value, limit, margin, ok}``; a failing check is a result, not an error.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from armlab.dynamics.checks import (
+    Check,
+    DriveArrays,
+    SizingOptions,
+    binding,
+    checks_for_column,
+    evaluate_checks,
+)
+from armlab.dynamics.inverse import (
+    RAD_S_TO_RPM,
+    JointLoads,
+    as_trajectories,
+    inverse_dynamics,
+    require_drives,
+)
+from armlab.errors import InputError
+from armlab.robot.drives import Drive
+
+__all__ = ["JointSizing", "SizingReport", "size", "lever_arms_m"]
+
+
+def lever_arms_m(robot) -> np.ndarray:
+    """Upper bound of each joint's distance to the tool point, (n_joints,) in [m].
+
+    The sum of the lengths of the joint placements outboard of the joint plus the tool
+    frame's offset from the last joint (exact for the stretched arm).
+    """
+    model = robot.model
+    lengths = np.array([np.linalg.norm(model.jointPlacements[k].translation)
+                        for k in range(1, model.njoints)])
+    tool = np.linalg.norm(model.frames[robot.tool_frame_id].placement.translation)
+    # joint k's lever: links k+1.. plus the tool
+    tail = np.concatenate([np.cumsum(lengths[::-1])[::-1][1:], [0.0]])
+    return tail + tool
+
+
+@dataclass
+class JointSizing:
+    """The sizing of one joint: its signals' key figures and its checks."""
+
+    joint: str
+    drive: Drive
+    checks: list[Check]
+    peak_torque_Nm: float
+    rms_torque_Nm: float
+    peak_speed_rad_s: float
+    motor_peak_speed_rpm: float
+    motor_peak_torque_Nm: float
+    motor_rms_torque_Nm: float
+    available_torque_Nm: float
+    counts_per_joint_rev: float
+
+    @property
+    def ok(self) -> bool:
+        return all(c.ok for c in self.checks)
+
+    @property
+    def binding(self) -> Check:
+        """The check with the smallest margin."""
+        return binding(self.checks)
+
+    def check(self, name: str) -> Check:
+        for c in self.checks:
+            if c.name == name:
+                return c
+        raise InputError(f"{self.joint}: no check named {name!r}")
+
+    def to_dict(self) -> dict:
+        return {
+            "peak_torque_Nm": self.peak_torque_Nm,
+            "rms_torque_Nm": self.rms_torque_Nm,
+            "peak_speed_rad_s": self.peak_speed_rad_s,
+            "motor_peak_speed_rpm": self.motor_peak_speed_rpm,
+            "motor_peak_torque_Nm": self.motor_peak_torque_Nm,
+            "motor_rms_torque_Nm": self.motor_rms_torque_Nm,
+            "available_torque_Nm": self.available_torque_Nm,
+            "encoder_counts_per_joint_rev": self.counts_per_joint_rev,
+            "motor": self.drive.motor.model,
+            "reducer": self.drive.reducer.model,
+            "ok": self.ok,
+            "binding_check": self.binding.name,
+            "checks": [c.to_dict() for c in self.checks],
+        }
+
+
+@dataclass
+class SizingReport:
+    """Result of :func:`size`: one :class:`JointSizing` per joint and the loads behind them.
+
+    ``ok`` is True when every check of every joint passes; ``failures()`` lists
+    ``(joint, check name)``; ``to_dict()`` gives the summary.json block (per joint:
+    ``peak_torque_Nm, rms_torque_Nm, peak_speed_rad_s, motor_peak_speed_rpm, checks`` ...);
+    ``to_markdown()`` a table, with the thesis' table 4.3 beside it for teachbot6.
+    """
+
+    robot_name: str
+    joint_names: list[str]
+    payload_kg: float
+    duration_s: float
+    n_samples: int
+    joints: list[JointSizing]
+    options: SizingOptions
+    loads: JointLoads | None = field(default=None, repr=False)
+
+    @property
+    def ok(self) -> bool:
+        return all(j.ok for j in self.joints)
+
+    def failures(self) -> list[tuple[str, str]]:
+        """``(joint, check name)`` of every failing check."""
+        return [(j.joint, c.name) for j in self.joints for c in j.checks if not c.ok]
+
+    def joint(self, name) -> JointSizing:
+        for j in self.joints:
+            if j.joint == name:
+                return j
+        raise InputError(f"no joint {name!r} in the sizing report "
+                         f"(joints: {', '.join(self.joint_names)})")
+
+    def to_dict(self) -> dict:
+        return {j.joint: j.to_dict() for j in self.joints}
+
+    def to_markdown(self) -> str:
+        from armlab.dynamics.reference import sizing_markdown
+
+        return sizing_markdown(self)
+
+
+def size(robot, trajectory, *, drives=None, options: SizingOptions | None = None,
+         dt: float | None = None, threads: int = 1) -> SizingReport:
+    """Check every joint's drive train along a trajectory or a duty cycle of trajectories.
+
+    Parameters
+    ----------
+    robot : Robot
+        With drives (drives.toml) unless ``drives`` is given; payload included.
+    trajectory : Trajectory or sequence of Trajectory
+        The duty cycle (trajectories are stacked; peaks, RMS and averages run over all).
+    drives : dict of joint name to Drive, or list of Drive, optional
+        Drive trains to check instead of ``robot.drives``.
+    options : SizingOptions, optional
+        Encoder-resolution and controller limits.
+    dt : float, optional
+        Resample every trajectory on this grid [s] first (catches peaks between knots).
+    threads : int
+        Threads of the batched RNEA.
+
+    Returns
+    -------
+    SizingReport
+
+    Raises
+    ------
+    InputError
+        Not a trajectory, wrong joint count, NaN samples.
+    RobotDescriptionError
+        The robot has no drives and none are given.
+    """
+    options = SizingOptions() if options is None else options
+    drive_list = require_drives(robot, drives)
+    trajs = as_trajectories(trajectory, robot)
+    if dt is not None:
+        trajs = [tr.sample(dt) for tr in trajs]
+    loads = inverse_dynamics(robot, trajs, drives=drive_list, threads=threads)
+    arrays = DriveArrays.from_drives(drive_list)
+    results = evaluate_checks(loads.torque_Nm, loads.qd, loads.qdd, loads.weights, arrays,
+                              lever_arms_m(robot), options)
+    peak_t, rms_t, peak_v = loads.peak_torque_Nm, loads.rms_torque_Nm, loads.peak_speed_rad_s
+    m_peak, m_rms = loads.motor_peak_torque_Nm, loads.motor_rms_torque_Nm
+    m_speed = np.abs(loads.motor_speed_rad_s).max(axis=0) * RAD_S_TO_RPM
+    joints = []
+    for j, name in enumerate(robot.joint_names):
+        d = drive_list[j]
+        joints.append(JointSizing(
+            joint=name, drive=d, checks=checks_for_column(results, j),
+            peak_torque_Nm=float(peak_t[j]), rms_torque_Nm=float(rms_t[j]),
+            peak_speed_rad_s=float(peak_v[j]), motor_peak_speed_rpm=float(m_speed[j]),
+            motor_peak_torque_Nm=float(m_peak[j]), motor_rms_torque_Nm=float(m_rms[j]),
+            available_torque_Nm=float(d.available_torque_Nm),
+            counts_per_joint_rev=float(d.encoder.counts_per_joint_rev(d.reducer.ratio)),
+        ))
+    return SizingReport(robot_name=robot.name, joint_names=list(robot.joint_names),
+                        payload_kg=float(robot.payload.mass_kg), duration_s=loads.duration,
+                        n_samples=loads.n_samples, joints=joints, options=options, loads=loads)
