@@ -1,0 +1,141 @@
+"""Benchmark of armlab.control: tuning time per joint, 6-joint closed-loop simulation speed.
+
+Run headless: ``MPLBACKEND=Agg .venv/bin/python benchmarks/bench_control.py``.
+Prints three tables: robust tuning per teachbot6 joint (time, crossovers, worst margins),
+simulation speed (simulated seconds per wall second, 6 joints at the 1 kHz servo rate; "loop" is
+the servo loop alone, "call" the whole call with set-point evaluation, feed-forward and the TCP
+forward kinematics of every sample), and our
+margin evaluation beside python-control's ``stability_margins`` (the peer) on the same loops.
+"""
+
+from __future__ import annotations
+
+import os
+
+# -------------------------------------------------------------------------- parameters (data)
+PARAMS = {
+    "robot": "teachbot6",
+    "blas_threads": "1",          # small matrices: one BLAS thread (contention costs 10-50 x)
+    "n_inertia_samples": 400,
+    "spec": {},                   # TuningSpec keywords; {} = defaults (PM 50, GM 6, 1 kHz)
+    "q_start": [0.0, -0.3, 0.4, 0.0, 0.5, 0.0],
+    "q_goal": [0.8, 0.2, -0.2, 0.9, -0.4, 1.2],
+    "feedforwards": ["none", "velocity", "velocity+acceleration+gravity", "computed_torque"],
+    "repeats": 3,                 # simulation runs per row (best wall time kept)
+    "margin_grid": 1500,
+}
+os.environ.setdefault("OPENBLAS_NUM_THREADS", PARAMS["blas_threads"])
+os.environ.setdefault("OMP_NUM_THREADS", PARAMS["blas_threads"])
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+import time  # noqa: E402
+import warnings  # noqa: E402
+
+import control as ct  # noqa: E402
+import numpy as np  # noqa: E402
+
+import armlab  # noqa: E402
+from armlab.control import (  # noqa: E402
+    ArmGains,
+    CascadeModel,
+    inertia_range,
+    joint_plant,
+    simulate_tracking,
+    tune_cascade,
+)
+from armlab.control.loops import freq_grid  # noqa: E402
+from armlab.trajectory import Trajectory  # noqa: E402
+
+
+def sync_trapezoid(robot, q0, q1, dt=1e-3) -> Trajectory:
+    """Phase-synchronised trapezoid (thirds) within the robot's speed/acceleration limits."""
+    dq = q1 - q0
+    v, a = robot.limits.velocity_rad_s, robot.limits.acceleration_rad_s2
+    T = max(np.max(1.5 * np.abs(dq) / v), np.max(np.sqrt(4.5 * np.abs(dq) / a)))
+    ta = T / 3
+    vs, As = 1 / (T - ta), 1 / (T - ta) / ta
+    t = np.append(np.arange(0.0, T, dt), T)
+    s = np.where(t < ta, 0.5 * As * t**2,
+                 np.where(t < T - ta, 0.5 * As * ta**2 + vs * (t - ta), 1 - 0.5 * As * (T - t)**2))
+    sd = np.where(t < ta, As * t, np.where(t < T - ta, vs, As * (T - t)))
+    sdd = np.where(t < ta, As, np.where(t < T - ta, 0.0, -As))
+    return Trajectory(t, q0 + np.outer(s, dq), np.outer(sd, dq), np.outer(sdd, dq),
+                      joint_names=robot.joint_names, method="sync_trapezoid")
+
+
+def main() -> None:
+    warnings.simplefilter("ignore")
+    robot = armlab.load_robot(PARAMS["robot"])
+    print(f"armlab {armlab.__version__}, python-control {ct.__version__}, "
+          f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}")
+    t0 = time.perf_counter()
+    inertias = inertia_range(robot, n_samples=PARAMS["n_inertia_samples"])
+    t_inertia = time.perf_counter() - t0
+
+    # ------------------------------------------------------------------ tuning
+    print(f"\n## Robust cascade tuning ({robot.name}; inertia range {t_inertia * 1e3:.0f} ms, "
+          f"{PARAMS['n_inertia_samples']} samples)\n")
+    print("| joint | tune [s] | J max/min | wc current | wc speed (min..max J) | wc position "
+          "| worst PM cont/disc [deg] | worst GM cont/disc [dB] |")
+    print("|---|---|---|---|---|---|---|---|")
+    joints = {}
+    for name in robot.joint_names:
+        t0 = time.perf_counter()
+        g = tune_cascade(robot, name, inertias=inertias, **PARAMS["spec"])
+        dt = time.perf_counter() - t0
+        joints[name] = g
+        Jc = g.plant.inertia_motor_kg_m2
+        ws = [r["crossover_rad_s"] for r in g.speed.robustness]
+        pm_c = min(lg.phase_margin_deg for lg in g.loops().values())
+        pm_d = min(lg.phase_margin_discrete_deg for lg in g.loops().values())
+        gm_c = min(lg.gain_margin_dB for lg in g.loops().values())
+        gm_d = min(lg.gain_margin_discrete_dB for lg in g.loops().values())
+        print(f"| {name} | {dt:.2f} | {Jc['max'] / Jc['min']:.2f} | "
+              f"{g.current.crossover_rad_s:.0f} | {min(ws):.0f}..{max(ws):.0f} | "
+              f"{g.position.crossover_rad_s:.1f} | {pm_c:.1f} / {pm_d:.1f} | "
+              f"{gm_c:.1f} / {gm_d:.1f} |")
+    gains = ArmGains(joints=joints, robot=robot.name)
+
+    # ------------------------------------------------------------------ simulation
+    traj = sync_trapezoid(robot, np.array(PARAMS["q_start"]), np.array(PARAMS["q_goal"]))
+    print(f"\n## Closed-loop simulation, 6 joints, 1 kHz, Pinocchio ABA "
+          f"(trajectory {traj.duration:.2f} s + 0.2 s settling)\n")
+    print("| feed-forward | quantise | sim s / wall s (loop) | sim s / wall s (call) | "
+          "TCP max error [mm] | worst joint max error [rad] |")
+    print("|---|---|---|---|---|---|")
+    for ff in PARAMS["feedforwards"]:
+        ffs = "none" if ff == "none" else tuple(ff.split("+"))
+        for quant in (True, False):
+            best, call = None, float("inf")
+            for _ in range(PARAMS["repeats"]):
+                t0 = time.perf_counter()
+                res = simulate_tracking(robot, traj, gains, feedforward=ffs, quantise=quant)
+                call = min(call, time.perf_counter() - t0)
+                best = res if best is None or res.wall_time_s < best.wall_time_s else best
+            sim_s = best.t[-1] - best.t[0]
+            print(f"| {ff} | {quant} | {best.realtime_factor:.1f} | {sim_s / call:.1f} | "
+                  f"{best.tcp_max_error_m * 1e3:.4f} | {best.max_error_rad.max():.2e} |")
+
+    # ------------------------------------------------------------------ margins vs peer
+    print("\n## Margin evaluation: ours (batched solve on a log grid) vs python-control "
+          "stability_margins (peer), joint 2, nominal inertia\n")
+    print("| loop | ours PM [deg] | peer PM [deg] | ours [ms] | peer [ms] |")
+    print("|---|---|---|---|---|")
+    plant = joint_plant(robot, "joint2", inertias=inertias)
+    m = CascadeModel(plant.at("nominal"), gains["joint2"])
+    for loop in ("current", "speed", "position"):
+        for disc in (False, True):
+            L = m.open_loop(loop, disc)
+            t0 = time.perf_counter()
+            ours = m.margins(loop, disc, n=PARAMS["margin_grid"])
+            t_ours = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            frd = ct.frd(L, freq_grid(L.dt or None, n=PARAMS["margin_grid"]))
+            _, pm, *_ = ct.stability_margins(frd)
+            t_peer = time.perf_counter() - t0
+            print(f"| {loop} {'disc' if disc else 'cont'} | {ours.phase_margin_deg:.2f} | "
+                  f"{pm:.2f} | {t_ours * 1e3:.1f} | {t_peer * 1e3:.1f} |")
+
+
+if __name__ == "__main__":
+    main()

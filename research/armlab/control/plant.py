@@ -1,0 +1,332 @@
+"""Joint plant: DC motor + reducer + the arm inertia reflected to the motor (thesis 5.4).
+
+Motor equations (thesis eq. 5-1 .. 5-5), motor side, SI::
+
+    L di/dt + R i + Ke w = U          armature circuit
+    J dw/dt + B w = Kt i - tau_L      shaft (tau_L: load torque at the motor)
+    theta_motor = N theta_joint       reducer of ratio N
+
+Neglecting B, the voltage-to-speed transfer function is the thesis' eq. 5-8::
+
+    W(s) = w(s) / U(s) = (1/Ke) / (Tm Te s^2 + Tm s + 1),   Te = L / R,   Tm = R J / (Kt Ke)
+
+(joint 6: Te = 4.85e-5 s, Tm = 0.0248 s, 1/Ce = 1613 rpm/V). The thesis prints Tm = 0.2364 s:
+that figure uses Ce in V/rpm as if it were V s/rad (a factor 60 / 2 pi = 9.55); in SI it is
+0.0248 s, as the digest says.
+
+Inertia at the motor::
+
+    J = J_rotor + J_reducer_input + M_jj(q) / N^2
+
+with ``M_jj(q)`` the diagonal of Pinocchio's joint-space mass matrix (armature excluded) over the
+workspace: ``min`` and ``max`` over uniform random configurations in the joint ranges (with and
+without the payload), ``nominal`` at the centre of the joint ranges with the payload (the thesis
+tunes at the workspace centre, 5.3). The reflected inertia is divided by N^2 only (ideal gear;
+the reducer efficiency is a torque loss, not an inertia change).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import control as ct
+import numpy as np
+import pinocchio as pin
+
+from armlab.errors import SpecError
+from armlab.robot.drives import RPM_TO_RAD_S
+
+__all__ = ["JointPlant", "InertiaRange", "inertia_range", "joint_plant", "motor_speed_tf",
+           "INERTIA_CASES"]
+
+INERTIA_CASES = ("min", "nominal", "max")
+
+
+@dataclass(frozen=True)
+class InertiaRange:
+    """Arm inertia seen by each joint (mass-matrix diagonal, joint side, armature excluded).
+
+    Attributes
+    ----------
+    joint_names : list of str
+    min_kg_m2, nominal_kg_m2, max_kg_m2 : ndarray (n_joints,)
+        In [kg m^2] at the joint.
+    payload_kg : float
+        Payload included in ``nominal`` and ``max``.
+    n_samples, seed : int
+        Random configurations used.
+    """
+
+    joint_names: list
+    min_kg_m2: np.ndarray
+    nominal_kg_m2: np.ndarray
+    max_kg_m2: np.ndarray
+    payload_kg: float
+    n_samples: int
+    seed: int
+
+    def of(self, joint_index: int) -> dict[str, float]:
+        return {"min": float(self.min_kg_m2[joint_index]),
+                "nominal": float(self.nominal_kg_m2[joint_index]),
+                "max": float(self.max_kg_m2[joint_index])}
+
+
+def _mass_diag(model: pin.Model, Q: np.ndarray) -> np.ndarray:
+    m = model.copy()
+    m.armature = np.zeros(m.nv)
+    d = m.createData()
+    return np.array([np.diag(pin.crba(m, d, q)).copy() for q in Q])
+
+
+def inertia_range(robot, *, n_samples: int = 400, seed: int = 0) -> InertiaRange:
+    """Min / nominal / max of the mass-matrix diagonal over the workspace, in [kg m^2].
+
+    Parameters
+    ----------
+    robot : Robot
+    n_samples : int
+        Uniform random configurations in the joint ranges (seeded); ``M_jj`` depends only on the
+        outboard joints, so a few hundred samples bound it well. The extremes found are widened
+        by nothing: the robust tuning adds its own margin.
+    seed : int
+
+    Returns
+    -------
+    InertiaRange
+        ``min`` over the samples without payload and with it, ``max`` with the payload,
+        ``nominal`` at the centre of the joint ranges with the payload.
+    """
+    rng = np.random.default_rng(seed)
+    Q = robot.random_q(rng, n_samples)
+    centre = 0.5 * (robot.limits.lower_rad + robot.limits.upper_rad)
+    Q = np.vstack([centre, Q])
+    with_payload = _mass_diag(robot.model, Q)
+    empty = _mass_diag(robot.with_payload(0.0).model, Q) if robot.payload.mass_kg > 0 else \
+        with_payload
+    return InertiaRange(
+        joint_names=list(robot.joint_names),
+        min_kg_m2=np.minimum(with_payload.min(0), empty.min(0)),
+        nominal_kg_m2=with_payload[0],
+        max_kg_m2=np.maximum(with_payload.max(0), empty.max(0)),
+        payload_kg=float(robot.payload.mass_kg),
+        n_samples=int(n_samples),
+        seed=int(seed),
+    )
+
+
+def motor_speed_tf(motor, inertia_kg_m2: float | None = None, *, friction: bool = False):
+    """Thesis eq. 5-8: armature voltage [V] -> motor speed [rad/s], as a python-control TF.
+
+    ``W(s) = Kt / ((L s + R)(J s + B) + Kt Ke)``; with B = 0 this is
+    ``(1/Ke) / (Tm Te s^2 + Tm s + 1)``. ``inertia_kg_m2`` defaults to the rotor inertia.
+    """
+    J = motor.rotor_inertia_kg_m2 if inertia_kg_m2 is None else float(inertia_kg_m2)
+    B = motor.viscous_friction_Nm_s_rad if friction else 0.0
+    L, R, Kt, Ke = (motor.inductance_H, motor.resistance_ohm, motor.torque_constant_Nm_A,
+                    motor.back_emf_V_s_rad)
+    return ct.tf([Kt], [L * J, L * B + R * J, R * B + Kt * Ke], inputs="U_V", outputs="w_rad_s")
+
+
+_REQUIRED = ("torque_constant_Nm_A", "back_emf_V_s_rad", "resistance_ohm", "inductance_H",
+             "rotor_inertia_kg_m2", "supply_voltage_V")
+
+
+@dataclass
+class JointPlant:
+    """One joint's drive at the motor shaft, with its inertia range.
+
+    Attributes
+    ----------
+    joint : str
+    ratio : float
+        Reducer ratio N (motor / joint speed).
+    efficiency : float
+    Kt, Ke : float
+        Torque constant [N m/A] and back-EMF constant [V s/rad].
+    R, L : float
+        Armature resistance [ohm] and inductance [H].
+    B : float
+        Viscous friction at the motor [N m s/rad].
+    J_rotor, J_reducer : float
+        Rotor and reducer-input inertias [kg m^2].
+    J_arm : dict
+        Arm inertia at the joint [kg m^2] for ``min``/``nominal``/``max``.
+    inertia : str or float
+        The case this plant object stands for (its :attr:`J`).
+    supply_voltage_V, current_limit_A, speed_limit_rad_s : float
+        Amplifier voltage; peak current (motor peak torque / Kt, at most supply / R); max motor
+        speed (no-load speed and reducer input limit).
+    counts_per_rad : float
+        Encoder counts per motor radian (pulses x decoding / 2 pi).
+    payload_kg : float
+    estimated : bool
+        Motor constants ESTIMATED in drives.toml (not from the maker).
+    """
+
+    joint: str
+    ratio: float
+    efficiency: float
+    Kt: float
+    Ke: float
+    R: float
+    L: float
+    B: float
+    J_rotor: float
+    J_reducer: float
+    J_arm: dict
+    inertia: str | float = "nominal"
+    supply_voltage_V: float = 24.0
+    current_limit_A: float = math.inf
+    speed_limit_rad_s: float = math.inf
+    counts_per_rad: float = 4000 / (2 * math.pi)
+    payload_kg: float = 0.0
+    estimated: bool = False
+    extra: dict = field(default_factory=dict)
+
+    # ------------------------------------------------------------------ inertia
+    def J_motor(self, case: str | float | None = None) -> float:
+        """Total inertia at the motor [kg m^2] for a case (``min``/``nominal``/``max``) or an
+        arm inertia at the joint in [kg m^2] (float)."""
+        case = self.inertia if case is None else case
+        arm = float(case) if not isinstance(case, str) else self.J_arm[case]
+        return self.J_rotor + self.J_reducer + arm / self.ratio**2
+
+    @property
+    def J(self) -> float:
+        """Total inertia at the motor for this plant's case, in [kg m^2]."""
+        return self.J_motor()
+
+    def cases(self) -> dict[str, float]:
+        """Total motor inertia for min, nominal and max, in [kg m^2]."""
+        return {c: self.J_motor(c) for c in INERTIA_CASES}
+
+    def at(self, inertia: str | float) -> JointPlant:
+        """The same drive at another inertia case."""
+        from dataclasses import replace
+        return replace(self, inertia=inertia)
+
+    # ------------------------------------------------------------------ time constants
+    @property
+    def Te(self) -> float:
+        """Electrical time constant L / R in [s]."""
+        return self.L / self.R
+
+    @property
+    def Tm(self) -> float:
+        """Mechanical time constant R J / (Kt Ke) in [s] (thesis 5.4.1)."""
+        return self.R * self.J / (self.Kt * self.Ke)
+
+    @property
+    def speed_per_volt_rpm(self) -> float:
+        """Static gain 1/Ce in [rpm/V]."""
+        return 1.0 / (self.Ke * RPM_TO_RAD_S)
+
+    # ------------------------------------------------------------------ LTI models
+    def voltage_to_current(self):
+        """U [V] -> i [A] with the back-EMF loop: ``(J s + B) / ((L s + R)(J s + B) + Kt Ke)``."""
+        J, B = self.J, self.B
+        return ct.tf([J, B], [self.L * J, self.L * B + self.R * J, self.R * B + self.Kt * self.Ke],
+                     inputs="U_V", outputs="i_A")
+
+    def current_to_speed(self):
+        """i [A] -> motor speed w [rad/s]: ``Kt / (J s + B)``."""
+        return ct.tf([self.Kt], [self.J, self.B], inputs="i_A", outputs="w_rad_s")
+
+    def speed_to_position(self):
+        """w [rad/s] -> motor angle [rad]: ``1 / s``."""
+        return ct.tf([1.0], [1.0, 0.0], inputs="w_rad_s", outputs="theta_rad")
+
+    def voltage_to_speed(self):
+        """Thesis eq. 5-8 with friction, U [V] -> w [rad/s]:
+        ``Kt / ((L s + R)(J s + B) + Kt Ke)``."""
+        return ct.tf([self.Kt], [self.L * self.J, self.L * self.B + self.R * self.J,
+                                 self.R * self.B + self.Kt * self.Ke],
+                     inputs="U_V", outputs="w_rad_s")
+
+    def state_space(self):
+        """States (i, w, theta) at the motor; inputs (U [V], tau_L [N m]); outputs (i, w, theta)."""
+        J, L = self.J, self.L
+        A = [[-self.R / L, -self.Ke / L, 0.0], [self.Kt / J, -self.B / J, 0.0], [0.0, 1.0, 0.0]]
+        Bm = [[1.0 / L, 0.0], [0.0, -1.0 / J], [0.0, 0.0]]
+        return ct.ss(A, Bm, np.eye(3), np.zeros((3, 2)), inputs=["U_V", "tau_load_Nm"],
+                     outputs=["i_A", "w_rad_s", "theta_rad"], states=["i", "w", "theta"])
+
+    def summary(self) -> dict:
+        """JSON-able summary for :class:`armlab.control.PlantSummary`."""
+        return {
+            "ratio": self.ratio,
+            "inertia_motor_kg_m2": self.cases(),
+            "inertia_joint_kg_m2": dict(self.J_arm),
+            "payload_kg": self.payload_kg,
+            "torque_constant_Nm_A": self.Kt, "back_emf_V_s_rad": self.Ke,
+            "resistance_ohm": self.R, "inductance_H": self.L,
+            "estimated": self.estimated,
+        }
+
+
+def joint_plant(robot, joint, *, inertia: str | float = "nominal",
+                inertias: InertiaRange | None = None, n_samples: int = 400,
+                seed: int = 0) -> JointPlant:
+    """The drive of one joint as a :class:`JointPlant` (python-control LTI models on demand).
+
+    Parameters
+    ----------
+    robot : Robot
+        With drives (drives.toml); payload taken from the robot.
+    joint : str or int
+        Joint name or 1-based number.
+    inertia : {"nominal", "min", "max"} or float
+        The case the plant's :attr:`JointPlant.J` stands for; a float is an arm inertia at the
+        joint in [kg m^2].
+    inertias : InertiaRange, optional
+        Precomputed :func:`inertia_range` (shared by all joints of a robot).
+    n_samples, seed : int
+        For :func:`inertia_range` when ``inertias`` is None.
+
+    Raises
+    ------
+    SpecError
+        No drives, or a motor constant missing, zero or not finite (names joint and field).
+    """
+    j = robot.joint_index(joint)
+    name = robot.joint_names[j]
+    if robot.drives is None or name not in robot.drives:
+        raise SpecError(f"{name}: no drive data (drives.toml) for robot {robot.name!r}: "
+                        f"cannot build the servo plant")
+    drive = robot.drives[name]
+    motor, reducer = drive.motor, drive.reducer
+    for f in _REQUIRED:
+        v = getattr(motor, f, None)
+        if v is None or not math.isfinite(float(v)) or float(v) <= 0.0:
+            raise SpecError(f"{name}: motor data {f} = {v!r} is missing or not > 0 "
+                            f"(drives.toml)")
+    if not (math.isfinite(reducer.ratio) and reducer.ratio > 0):
+        raise SpecError(f"{name}: reducer ratio = {reducer.ratio!r} is missing or not > 0")
+    if isinstance(inertia, str) and inertia not in INERTIA_CASES:
+        raise SpecError(f"{name}: inertia must be one of {INERTIA_CASES} or a float, "
+                        f"got {inertia!r}")
+    if not isinstance(inertia, str) and not (math.isfinite(float(inertia))
+                                             and float(inertia) >= 0):
+        raise SpecError(f"{name}: inertia = {inertia!r} must be >= 0 [kg m^2]")
+    rng = inertias if inertias is not None else inertia_range(robot, n_samples=n_samples,
+                                                              seed=seed)
+    Kt, R = motor.torque_constant_Nm_A, motor.resistance_ohm
+    peak_torque = motor.peak_torque_Nm if math.isfinite(motor.peak_torque_Nm) \
+        else 3.0 * motor.stall_torque_Nm
+    current_limit = min(peak_torque / Kt, motor.supply_voltage_V / R)
+    speed_limit = motor.no_load_speed_rad_s
+    if math.isfinite(reducer.max_input_speed_rpm) and reducer.max_input_speed_rpm > 0:
+        speed_limit = min(speed_limit, reducer.max_input_speed_rpm * RPM_TO_RAD_S)
+    return JointPlant(
+        joint=name, ratio=float(reducer.ratio), efficiency=float(reducer.efficiency),
+        Kt=Kt, Ke=motor.back_emf_V_s_rad, R=R, L=motor.inductance_H,
+        B=float(motor.viscous_friction_Nm_s_rad or 0.0),
+        J_rotor=motor.rotor_inertia_kg_m2, J_reducer=float(reducer.inertia_kg_m2 or 0.0),
+        J_arm=rng.of(j), inertia=inertia,
+        supply_voltage_V=motor.supply_voltage_V, current_limit_A=current_limit,
+        speed_limit_rad_s=speed_limit,
+        counts_per_rad=drive.encoder.pulses_per_rev * drive.encoder.decoding / (2 * math.pi),
+        payload_kg=rng.payload_kg,
+        estimated="ESTIMATED" in (motor.source or "").upper(),
+    )

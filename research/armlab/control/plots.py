@@ -1,0 +1,161 @@
+"""Figures of the servo design: Bode with margins, step responses, root loci, tracking error.
+
+Every function returns a :class:`matplotlib.figure.Figure` (never shows it); headless-safe.
+"""
+
+from __future__ import annotations
+
+import math
+
+import control as ct
+import numpy as np
+from matplotlib.figure import Figure
+
+from armlab.control.gains import LOOPS, CascadeGains
+from armlab.control.loops import CascadeModel, _response, freq_grid, margins
+from armlab.control.plant import INERTIA_CASES, JointPlant
+
+__all__ = ["bode_figure", "step_figure", "root_locus_figure", "tracking_figure",
+           "force_figure"]
+
+_COLORS = {"min": "tab:blue", "nominal": "tab:green", "max": "tab:red"}
+
+
+def bode_figure(plant: JointPlant, gains: CascadeGains, loop: str = "speed", *,
+                discrete: bool = True) -> Figure:
+    """Open-loop Bode plot of one loop at min/nominal/max inertia, continuous (dashed) and
+    discrete (solid), gain crossover and -180 deg marked, margins in the legend."""
+    fig = Figure(figsize=(8, 6))
+    ax_m, ax_p = fig.subplots(2, 1, sharex=True)
+    dt = getattr(gains, loop).sample_time_s
+    for case in INERTIA_CASES:
+        m = CascadeModel(plant.at(case), gains)
+        for disc, ls in ((False, "--"), (True, "-")):
+            if disc and not discrete:
+                continue
+            w = freq_grid(dt if disc else None, n=800)
+            L = _response(m.open_loop(loop, disc), w, dt if disc else None)
+            mg = margins(w, L)
+            label = (f"{case} {'disc' if disc else 'cont'}: PM {mg.phase_margin_deg:.0f} deg, "
+                     f"GM {mg.gain_margin_dB:.1f} dB, wc {mg.crossover_rad_s:.3g} rad/s")
+            ax_m.semilogx(w, 20 * np.log10(np.abs(L)), ls, color=_COLORS[case], label=label)
+            ax_p.semilogx(w, np.degrees(np.unwrap(np.angle(L))), ls, color=_COLORS[case])
+            if math.isfinite(mg.crossover_rad_s):
+                ax_m.axvline(mg.crossover_rad_s, color=_COLORS[case], lw=0.5, ls=ls)
+    ax_m.axhline(0.0, color="k", lw=0.8)
+    ax_p.axhline(-180.0, color="k", lw=0.8)
+    ax_m.set_ylabel("|L| [dB]")
+    ax_p.set_ylabel("phase [deg]")
+    ax_p.set_xlabel("frequency [rad/s]")
+    ax_m.set_title(f"{gains.joint}: {loop} loop, open loop")
+    ax_m.legend(fontsize=6)
+    ax_m.grid(True, which="both", alpha=0.3)
+    ax_p.grid(True, which="both", alpha=0.3)
+    return fig
+
+
+def step_figure(plant: JointPlant, gains: CascadeGains) -> Figure:
+    """Closed-loop unit-step responses of the current, speed and position loops at min/nominal/
+    max inertia (discrete solid, continuous dashed)."""
+    fig = Figure(figsize=(11, 3.5))
+    axes = fig.subplots(1, 3)
+    for ax, loop in zip(axes, LOOPS, strict=True):
+        lg = getattr(gains, loop)
+        wc = lg.crossover_rad_s if math.isfinite(lg.crossover_rad_s) else 1.0 / lg.sample_time_s
+        t_end = (12.0 if loop == "position" else 25.0) / wc
+        for case in INERTIA_CASES:
+            m = CascadeModel(plant.at(case), gains)
+            for disc, ls in ((False, "--"), (True, "-")):
+                sys = m.closed_loop(loop, disc)
+                T = (np.arange(0.0, t_end, lg.sample_time_s) if disc
+                     else np.linspace(0.0, t_end, 1000))
+                r = ct.step_response(sys, T=T)
+                y = np.squeeze(r.outputs)
+                if disc:
+                    ax.step(r.time, y, ls, where="post", color=_COLORS[case], lw=1,
+                            label=f"{case}" if disc else None)
+                else:
+                    ax.plot(r.time, y, ls, color=_COLORS[case], lw=0.8)
+        ax.set_title(f"{loop} loop (OS {lg.overshoot_discrete_pct:.0f} %)", fontsize=9)
+        ax.set_xlabel("t [s]")
+        ax.grid(True, alpha=0.3)
+    axes[0].set_ylabel("output / set-point")
+    axes[0].legend(fontsize=7)
+    fig.suptitle(f"{gains.joint}: closed-loop steps")
+    fig.tight_layout()
+    return fig
+
+
+def root_locus_figure(plant: JointPlant, gains: CascadeGains, loop: str = "speed", *,
+                      discrete: bool = False) -> Figure:
+    """Root locus of ``1 + k L`` for one loop at the nominal inertia; the tuned gain (k = 1)
+    marked. Discrete loops are drawn with the unit circle."""
+    fig = Figure(figsize=(6, 5))
+    ax = fig.subplots()
+    m = CascadeModel(plant.at("nominal"), gains)
+    L = m.open_loop(loop, discrete)
+    ks = np.concatenate([np.logspace(-3, 0, 120), np.logspace(0, 1.5, 60)[1:]])
+    data = ct.root_locus_map(L, gains=ks)
+    loci = np.asarray(data.loci)
+    for j in range(loci.shape[1]):
+        ax.plot(loci[:, j].real, loci[:, j].imag, "-", lw=0.8, color="tab:blue")
+    cl = ct.poles(ct.feedback(L, 1))
+    ax.plot(cl.real, cl.imag, "o", color="tab:red", label="tuned gain (k = 1)")
+    ax.plot(np.real(data.poles), np.imag(data.poles), "x", color="k", label="open-loop poles")
+    z = np.asarray(data.zeros)
+    if z.size:
+        ax.plot(z.real, z.imag, "o", mfc="none", color="k", label="zeros")
+    if discrete:
+        th = np.linspace(0, 2 * np.pi, 200)
+        ax.plot(np.cos(th), np.sin(th), "k", lw=0.5)
+        ax.set_xlim(-1.5, 1.5)
+        ax.set_ylim(-1.5, 1.5)
+    else:
+        wc = getattr(gains, loop).crossover_rad_s
+        r = 6.0 * (wc if math.isfinite(wc) else max(1.0, np.max(np.abs(cl))))
+        ax.set_xlim(-r, 0.3 * r)
+        ax.set_ylim(-r, r)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_title(f"{gains.joint}: root locus of the {loop} loop "
+                 f"({'discrete' if discrete else 'continuous'}, nominal inertia)", fontsize=9)
+    ax.legend(fontsize=7)
+    ax.grid(True, alpha=0.3)
+    return fig
+
+
+def tracking_figure(result) -> Figure:
+    """Joint tracking errors and the TCP error over time, with the accuracy tolerance."""
+    fig = Figure(figsize=(9, 6))
+    ax_j, ax_t = fig.subplots(2, 1, sharex=True)
+    err = result.error_rad
+    for j, name in enumerate(result.joint_names):
+        ax_j.plot(result.t, err[:, j], lw=0.8, label=name)
+    ax_j.set_ylabel("joint error [rad]")
+    ax_j.legend(fontsize=7, ncol=3)
+    ax_j.grid(True, alpha=0.3)
+    ax_t.plot(result.t, result.tcp_error_m * 1e3, color="k", lw=0.8, label="TCP error")
+    ax_t.axhline(result.accuracy_m * 1e3, color="tab:red", ls="--",
+                 label=f"tolerance {result.accuracy_m * 1e3:.2g} mm")
+    ax_t.set_ylabel("TCP error [mm]")
+    ax_t.set_xlabel("t [s]")
+    ax_t.legend(fontsize=7)
+    ax_t.grid(True, alpha=0.3)
+    ax_j.set_title(f"tracking, feed-forward: {', '.join(result.feedforward) or 'none'}")
+    return fig
+
+
+def force_figure(results) -> Figure:
+    """Force step responses (list of :class:`ForceLoopResult`) on one axis."""
+    fig = Figure(figsize=(7, 4))
+    ax = fig.subplots()
+    for r in results:
+        ax.plot(r.t, r.force_N, lw=0.8,
+                label=f"K_E={r.environment_stiffness_N_m:g} N/m, "
+                      f"w_n={r.natural_frequency_rad_s:.0f}, zeta={r.damping:.2f}")
+    if results:
+        ax.axhline(results[0].setpoint_N, color="k", lw=0.5)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("force [N]")
+    ax.legend(fontsize=6)
+    ax.grid(True, alpha=0.3)
+    return fig
