@@ -172,7 +172,8 @@ class Trajectory:
 
     def sample(self, dt: float) -> Trajectory:
         """The trajectory on a uniform grid of step ``dt`` [s] from ``t[0]``; the last sample is
-        the end point (the last step may be shorter)."""
+        the end point (the last step may be shorter). Jerk is kept only if this trajectory has
+        one."""
         if not np.isfinite(dt) or dt <= 0:
             raise InputError(f"sample step dt must be a positive number of seconds, not {dt!r}")
         n = int(np.floor(self.duration / dt + 1e-9))
@@ -180,6 +181,8 @@ class Trajectory:
         if self.t[-1] - times[-1] > 1e-9 * max(1.0, dt):
             times = np.append(times, self.t[-1])
         q, qd, qdd, qddd = self.at(times)
+        if self.qddd is None:  # the Hermite jerk of a profile without jerk (trapezoid) means nothing
+            qddd = None
         out = Trajectory(times, q, qd, qdd, qddd, joint_names=self.joint_names, method=self.method)
         out.report, out.stats, out.meta = self.report, dict(self.stats), dict(self.meta)
         return out

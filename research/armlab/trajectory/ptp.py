@@ -1,0 +1,231 @@
+"""Time-synchronised point-to-point motion in joint space (seed 000 eq. 1-5).
+
+Seed 000 (1987 welding robot): joint ``i`` alone would need ``t_i = |Qd_i - Qc_i| / w_i``
+(eq. 3); the common time is ``T = max t_i`` and every joint moves at
+``w_i = (Qd_i - Qc_i) / T`` (eq. 4), so that all arrive together; the set-point of the next
+step is ``Qn = Qc + (Qd - Qc) dt / T`` (eq. 5), ``dt = 100 ms``.
+
+Profiles here:
+
+* ``"velocity"`` — the paper's constant speeds. A controller starts such a motion within one
+  interpolation period, so each joint ramps from rest to ``w_i`` in ``dt`` (acceleration
+  ``w_i / dt``) and back: a trapezoid with ramps of one period, duration ``T + dt``. If that
+  acceleration breaks a joint's limit, ``T`` is lengthened to ``max |Q_i| / (a_i dt)``.
+* ``"trapezoid"`` — per joint the shortest trapezoid within its speed and acceleration
+  limits; the slowest joint sets ``T`` and the others are stretched to end at ``T``
+  (``sync="time"``: same accelerations, lower cruise speeds), or all joints follow one
+  normalised profile (``sync="phase"``: straight line in joint space, as eq. 5).
+* ``"scurve"`` — the same with a jerk-limited double S per joint.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from armlab.errors import InputError
+from armlab.trajectory.core import Trajectory
+from armlab.trajectory.profiles import (
+    MotionProfile,
+    double_s_min_time,
+    double_s_profile,
+    double_s_profile_for_duration,
+    rest_profile,
+    time_grid,
+    trapezoid_min_time,
+    trapezoid_profile,
+    trapezoid_profile_for_duration,
+)
+from armlab.trajectory.timescale import check_in_range, finish, planner_limits, stretch_needed
+
+__all__ = ["ptp_sync", "PTP_PROFILES"]
+
+PTP_PROFILES = ("trapezoid", "scurve", "velocity")
+_DEFAULT_DT = {"trapezoid": 0.01, "scurve": 0.01, "velocity": 0.1}
+
+
+def _velocity_profiles(D, v, a, dt):
+    """Seed 000 eq. 3-4 with one-period ramps; returns (profiles, T, binding)."""
+    t_i = D / v  # eq. 3
+    T = float(t_i.max())
+    binding = ("velocity", int(t_i.argmax()))
+    if a is not None:
+        t_acc = D / (a * dt)  # ramp w_i / dt <= a_i  <=>  T >= D_i / (a_i dt)
+        if t_acc.max() > T:
+            T = float(t_acc.max())
+            binding = ("acceleration", int(t_acc.argmax()))
+    T = max(T, dt)
+    profs = []
+    for d in D:
+        if d <= 0:
+            profs.append(rest_profile(T + dt))
+            continue
+        w = d / T  # eq. 4
+        profs.append(MotionProfile(np.array([dt, T - dt, dt]), np.array([w / dt, 0.0, -w / dt]),
+                                   np.zeros(3), kind="velocity",
+                                   params={"v": w, "a_acc": w / dt, "a_dec": w / dt}))
+    return profs, T + dt, binding
+
+
+def _binding_kind(profile, d, v, a, j) -> str:
+    """Which limit the fastest single-joint profile reaches: its speed limit or not."""
+    if profile == "trapezoid":
+        return "velocity" if d >= v * v / a else "acceleration"
+    ta = a / j + v / a if v * j >= a * a else 2 * math.sqrt(v / j)
+    if d >= v * ta:
+        return "velocity"
+    return "acceleration" if d * j * j >= 2 * a**3 else "jerk"
+
+
+def _min_time(profile, d, v, a, j):
+    if profile == "trapezoid":
+        return trapezoid_min_time(d, v, a)
+    return double_s_min_time(d, v, a, j)
+
+
+def _for_duration(profile, d, T, v, a, j):
+    if profile == "trapezoid":
+        return trapezoid_profile_for_duration(d, T, a, v_max=v)
+    return double_s_profile_for_duration(d, T, a, j, v_max=v)
+
+
+def ptp_sync(robot, q_start, q_goal, profile: str = "trapezoid", *, v_max=None, a_max=None,
+             j_max=None, dt: float | None = None, sync: str = "time",
+             torque: bool = True) -> Trajectory:
+    """Joint-space point-to-point motion in which every joint arrives at the same instant.
+
+    Parameters
+    ----------
+    robot : Robot
+    q_start, q_goal : array (n_joints,)
+        Start and goal in [rad], inside the joint ranges.
+    profile : {"trapezoid", "scurve", "velocity"}
+        See the module docstring (seed 000 eq. 1-5 for ``"velocity"``).
+    v_max, a_max, j_max : float or array (n_joints,), optional
+        Override the robot's limits in [rad/s], [rad/s^2], [rad/s^3].
+    dt : float, optional
+        Sample period of the result in [s]; for ``"velocity"`` also the interpolation period
+        of the paper (default 0.1 s there, 0.01 s otherwise).
+    sync : {"time", "phase"}
+        ``"time"``: each joint keeps its own acceleration and is slowed to end at ``T``;
+        ``"phase"``: one normalised profile for all joints (a straight line in joint space).
+        ``"velocity"`` is always phase-synchronous.
+    torque : bool
+        Also keep the inverse-dynamics torques within ``effort`` (slowing down if needed).
+
+    Returns
+    -------
+    Trajectory
+        ``method = "ptp_<profile>"``; ``meta``: profile, sync, T, the joint and limit that set
+        the duration (``binding``), per-joint profile parameters, ``slowdown`` if torque
+        forced a longer motion. ``qddd`` is given for ``"scurve"`` only (elsewhere the
+        acceleration steps). A zero-length move gives one sample at rest.
+
+    Raises
+    ------
+    InputError
+        Bad shape, unknown profile, missing limit.
+    LimitViolation
+        Start or goal outside a joint's range; gravity alone above a torque limit.
+    """
+    if profile not in PTP_PROFILES:
+        raise InputError(f"unknown PTP profile {profile!r}; use one of {PTP_PROFILES}")
+    if sync not in ("time", "phase"):
+        raise InputError(f"sync must be 'time' or 'phase', not {sync!r}")
+    q0 = robot.check_q(q_start, name="q_start").astype(float)
+    q1 = robot.check_q(q_goal, name="q_goal").astype(float)
+    check_in_range(robot, q0, "ptp_sync q_start")
+    check_in_range(robot, q1, "ptp_sync q_goal")
+    dt = _DEFAULT_DT[profile] if dt is None else float(dt)
+    if not math.isfinite(dt) or dt <= 0:
+        raise InputError(f"dt must be a positive number of seconds, not {dt!r}")
+    need = {"trapezoid": ("velocity", "acceleration"), "scurve": ("velocity", "acceleration",
+                                                                  "jerk"),
+            "velocity": ("velocity",)}[profile]
+    lim = planner_limits(robot, v_max, a_max, j_max, need=need)
+    v, a, j = lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3
+    delta = q1 - q0
+    D = np.abs(delta)
+    D[D < 1e-12] = 0.0
+    method = f"ptp_{profile}"
+    if not np.any(D > 0):
+        traj = Trajectory([0.0], q0[None], np.zeros((1, robot.n_joints)),
+                          np.zeros((1, robot.n_joints)),
+                          np.zeros((1, robot.n_joints)) if profile == "scurve" else None,
+                          joint_names=robot.joint_names, method=method)
+        traj.meta.update(profile=profile, sync=sync, duration_s=0.0, zero_length=True,
+                         q_start=q0.tolist(), q_goal=q1.tolist())
+        return finish(traj, robot, lim, torque=torque, what=method)
+
+    if profile == "velocity":
+        profs, T, (bkind, bj) = _velocity_profiles(D, v, a, dt)
+        sync_used = "phase"
+    else:
+        jj = j if j is not None else np.full(robot.n_joints, np.inf)
+        t_i = np.array([_min_time(profile, d, vv, aa, jv)
+                        for d, vv, aa, jv in zip(D, v, a, jj, strict=True)])
+        bj = int(np.argmax(t_i))
+        bkind = _binding_kind(profile, D[bj], v[bj], a[bj], jj[bj])
+        if sync == "phase":
+            moving = D > 0
+            vs = float(np.min(v[moving] / D[moving]))
+            as_ = float(np.min(a[moving] / D[moving]))
+            if profile == "trapezoid":
+                base = trapezoid_profile(1.0, vs, as_)
+            else:
+                base = double_s_profile(1.0, vs, as_, float(np.min(jj[moving] / D[moving])))
+            T = base.duration
+            profs = [base] * robot.n_joints
+        else:
+            T = float(t_i.max())
+            profs = [_for_duration(profile, d, T, vv, aa, jv) if d > 0 else rest_profile(T)
+                     for d, vv, aa, jv in zip(D, v, a, jj, strict=True)]
+        sync_used = sync
+
+    normalised = profile != "velocity" and sync_used == "phase"
+
+    def build(profiles, duration) -> Trajectory:
+        # knot pairs where the acceleration steps, plain knots where only the jerk does
+        corners = np.concatenate([p.corners for p in profiles])
+        steps = profile != "scurve"
+        t = time_grid(duration, dt, corners if steps else (), ends=steps,
+                      knots=() if steps else corners)
+        n = t.size
+        q = np.empty((n, robot.n_joints))
+        qd = np.empty_like(q)
+        qdd = np.empty_like(q)
+        qddd = np.empty_like(q)
+        for i, p in enumerate(profiles):
+            s, sd, sdd, sddd = p.evaluate(t)
+            # phase sync: one profile over [0, 1]; otherwise each joint's own distance
+            scale = delta[i] if normalised else np.sign(delta[i])
+            q[:, i] = q0[i] + scale * s
+            qd[:, i], qdd[:, i], qddd[:, i] = scale * sd, scale * sdd, scale * sddd
+        q[-1] = q1  # exact arrival of every joint at the last sample
+        return Trajectory(t, q, qd, qdd, qddd if profile == "scurve" else None,
+                          joint_names=robot.joint_names, method=method)
+
+    traj = build(profs, T)
+    slowdown = None
+    T0 = T
+    for _ in range(10):  # torque peaks move between samples when the grid changes: iterate
+        k, kind, joint = stretch_needed(traj, robot, lim, torque=torque)
+        if k <= 1 + 1e-12:
+            break
+        k *= 1 + 1e-9
+        profs = [p.stretched(k) for p in profs]
+        T = T * k
+        traj = build(profs, T)
+        if slowdown is None:
+            slowdown = {"kind": kind, "joint": joint}
+        slowdown["factor"] = T / T0
+    traj.meta.update(
+        profile=profile, sync=sync_used, duration_s=float(T), dt_s=dt,
+        binding={"joint": robot.joint_names[bj], "limit": bkind},
+        q_start=q0.tolist(), q_goal=q1.tolist(),
+        joint_profiles=None if normalised else [p.to_dict() for p in profs],
+        normalised_profile=profs[0].to_dict() if normalised else None,
+        slowdown=slowdown,
+    )
+    return finish(traj, robot, lim, torque=torque, what=method)
