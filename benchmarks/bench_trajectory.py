@@ -1,0 +1,318 @@
+"""Optimal trajectories against their peers (issue 5), one process, seeded random cases.
+
+1. Rest-to-rest PTP with velocity/acceleration/jerk limits: ``armlab.trajectory.optimal``
+   (torque off, so both use exactly Ruckig's limit set) vs Ruckig. Goal: duration ratio median
+   <= 1.005, never above 1.02.
+2. A 5-waypoint joint path with velocity/acceleration/torque limits vs TOPP-RA on the same
+   cubic spline (chord-length parameter, not-a-knot): ``time_optimal_path`` (same path) and
+   ``optimal`` (free path through the same via points). Goal: ratio <= 1.00, both checked on
+   the same fine grid (dt = T/4000, our ``Trajectory.check_limits``).
+3. The full problem with all four limits (no peer does it): success rate and solve time over
+   random 3-waypoint requests. Goal: 100 % success, median solve < 1 s on one core.
+
+Run:  ``MPLBACKEND=Agg .venv/bin/python benchmarks/bench_trajectory.py [--quick]``
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")  # one core
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+import pinocchio as pin  # noqa: E402
+
+import armlab  # noqa: E402
+from armlab.errors import ArmlabError, InfeasibleError  # noqa: E402
+from armlab.trajectory import Trajectory, optimal, time_optimal_path  # noqa: E402
+from armlab.trajectory.topp import GeometricPath, build_topp  # noqa: E402
+
+# ----------------------------------------------------------------------------- parameters
+SEED = 20240605
+ROBOTS = {
+    # name: (load argument, payload_kg, extra limits for plain URDFs)
+    "teachbot6": ("teachbot6", None, {}),
+    "ur5": ("ur5", 5.0, {"a_max": 8.0, "j_max": 80.0}),
+}
+#: the full problem: faster drives than the thesis' so that torque limits bind in some cases
+FULL_LIMITS = {"teachbot6": {"v_max": 2.0, "a_max": 15.0, "j_max": 150.0},
+               "ur5": {"a_max": 15.0, "j_max": 150.0}}
+CASES = {"ptp": 20, "topp": 10, "full": 50}  # per robot
+QUICK = {"ptp": 4, "topp": 2, "full": 5}
+RANGE_FRACTION = 0.8  # waypoints drawn in this central fraction of each joint range ...
+RANGE_CAP_RAD = np.pi  # ... and within +-pi
+STATIC_MARGIN = 0.9  # reject waypoints whose gravity torque exceeds this fraction of effort
+FULL_WAYPOINTS = 3
+TOPP_WAYPOINTS = 5
+TOPP_STEP_RAD = 0.6  # max joint step between consecutive path waypoints
+CHECK_SAMPLES = 4000
+
+
+def ur5_urdf() -> Path:
+    base = Path(sys.prefix) / "lib"
+    for p in base.glob("python3*/site-packages/cmeel.prefix/share/example-robot-data/robots/"
+                       "ur_description/urdf/ur5_robot.urdf"):
+        return p
+    raise SystemExit("example-robot-data UR5 URDF not found")
+
+
+def load(name: str):
+    arg, payload, extra = ROBOTS[name]
+    robot = armlab.load_robot(ur5_urdf() if arg == "ur5" else arg)
+    if payload is not None:
+        robot = robot.with_payload(payload)
+    return robot, extra
+
+
+def limits_of(robot, extra):
+    L = robot.limits
+    v = np.full(robot.n_joints, extra["v_max"]) if "v_max" in extra else L.velocity_rad_s
+    a = np.full(robot.n_joints, extra["a_max"]) if "a_max" in extra else L.acceleration_rad_s2
+    j = np.full(robot.n_joints, extra["j_max"]) if "j_max" in extra else L.jerk_rad_s3
+    return v, a, j, L.effort_Nm
+
+
+def statically_ok(robot, q) -> bool:
+    g = pin.computeGeneralizedGravity(robot.model, robot.model.createData(), q)
+    return bool(np.all(np.abs(g) <= STATIC_MARGIN * robot.limits.effort_Nm))
+
+
+def draw_q(robot, rng):
+    lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
+    mid, half = (lo + hi) / 2, np.minimum((hi - lo) / 2 * RANGE_FRACTION, RANGE_CAP_RAD)
+    return mid + half * (2 * rng.random(robot.n_joints) - 1)
+
+
+def draw_waypoints(robot, rng, n, step=None):
+    while True:
+        w = [draw_q(robot, rng)]
+        for _ in range(n - 1):
+            q = draw_q(robot, rng) if step is None else \
+                w[-1] + rng.uniform(-step, step, robot.n_joints)
+            w.append(np.clip(q, robot.limits.lower_rad + 1e-3, robot.limits.upper_rad - 1e-3))
+        w = np.array(w)
+        if all(statically_ok(robot, q) for q in w):
+            return w
+
+
+# ----------------------------------------------------------------------------- 1. Ruckig
+def bench_ruckig(robot, extra, rng, n):
+    from ruckig import InputParameter, Ruckig
+    from ruckig import Trajectory as RTrajectory
+    v, a, j, _ = limits_of(robot, extra)
+    nj = robot.n_joints
+    ratios, ours_t, peer_t, ok = [], [], [], 0
+    for _ in range(n):
+        w = draw_waypoints(robot, rng, 2)
+        t0 = time.perf_counter()
+        tr = optimal(robot, w, v_max=v, a_max=a, j_max=j, tau_max=False)
+        ours_t.append(time.perf_counter() - t0)
+        ok += tr.report.ok(1e-6)
+        otg, inp, rt = Ruckig(nj), InputParameter(nj), RTrajectory(nj)
+        inp.current_position, inp.target_position = w[0].tolist(), w[1].tolist()
+        inp.current_velocity = inp.current_acceleration = [0.0] * nj
+        inp.target_velocity = inp.target_acceleration = [0.0] * nj
+        inp.max_velocity, inp.max_acceleration, inp.max_jerk = v.tolist(), a.tolist(), j.tolist()
+        t0 = time.perf_counter()
+        otg.calculate(inp, rt)
+        peer_t.append(time.perf_counter() - t0)
+        ratios.append(tr.duration / rt.duration)
+    return dict(ratios=np.array(ratios), ours_t=np.array(ours_t), peer_t=np.array(peer_t),
+                ok=ok, peer_ok=n, n=n)
+
+
+# ----------------------------------------------------------------------------- 2. TOPP-RA
+def toppra_solve(robot, w, v, a, tau):
+    import toppra as ta
+    import toppra.algorithm as algo
+    import toppra.constraint as constraint
+    ta.setup_logging("WARNING")
+    gp = GeometricPath(w, robot.n_joints)  # the same spline and parameter as ours
+    path = ta.SplineInterpolator(gp.s_points, w, bc_type="not-a-knot")
+    data = robot.model.createData()
+
+    def inv_dyn(q, qd, qdd):
+        return pin.rnea(robot.model, data, q, qd, qdd)
+
+    cons = [constraint.JointVelocityConstraint(v),
+            constraint.JointAccelerationConstraint(a),
+            constraint.JointTorqueConstraint(inv_dyn, np.vstack([-tau, tau]).T,
+                                             np.zeros(robot.n_joints))]
+    t0 = time.perf_counter()
+    inst = algo.TOPPRA(cons, path, parametrizer="ParametrizeConstAccel")
+    jt = inst.compute_trajectory(0, 0)
+    elapsed = time.perf_counter() - t0
+    if jt is None:
+        return None, elapsed
+    T = jt.duration
+    t = np.linspace(0, T, CHECK_SAMPLES + 1)
+    traj = Trajectory(t, jt(t), jt(t, 1), jt(t, 2), joint_names=robot.joint_names,
+                      method="toppra")
+    return traj, elapsed
+
+
+def stretch_to_feasible(robot, traj, v, a, tau, iters: int = 30) -> float:
+    """Smallest time-scaling factor alpha >= 1 making ``traj`` feasible on its samples
+    (``qd / alpha``, ``qdd / alpha^2``, torques recomputed), by bisection."""
+    data = robot.model.createData()
+
+    def ok(alpha):
+        if np.any(np.abs(traj.qd) / alpha > v * (1 + 1e-9)):
+            return False
+        if np.any(np.abs(traj.qdd) / alpha**2 > a * (1 + 1e-9)):
+            return False
+        for q, qd, qdd in zip(traj.q, traj.qd / alpha, traj.qdd / alpha**2, strict=True):
+            if np.any(np.abs(pin.rnea(robot.model, data, q, qd, qdd)) > tau * (1 + 1e-9)):
+                return False
+        return True
+
+    if ok(1.0):
+        return 1.0
+    lo, hi = 1.0, 1.05
+    while not ok(hi):
+        lo, hi = hi, hi * 1.05
+    for _ in range(iters):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if ok(mid) else (mid, hi)
+    return hi
+
+
+def bench_toppra(robot, extra, rng, n):
+    v, a, _, tau = limits_of(robot, extra)
+    lim = robot.with_limits(acceleration_rad_s2=a, jerk_rad_s3=None).limits
+    out = {k: [] for k in ("ratio_path", "ratio_free", "ours_t", "free_t", "peer_t",
+                           "ours_worst", "free_worst", "peer_worst", "ratio_stretched")}
+    for _ in range(n):
+        while True:  # a path whose spline stays inside the joint ranges
+            w = draw_waypoints(robot, rng, TOPP_WAYPOINTS, step=TOPP_STEP_RAD)
+            try:
+                build_topp(robot, w, v_max=v, a_max=a, j_max=False, tau_max=tau)
+                break
+            except InfeasibleError:
+                continue
+        peer, peer_t = toppra_solve(robot, w, v, a, tau)
+        if peer is None:
+            continue
+        rep = peer.check_limits(robot, dt=peer.duration / CHECK_SAMPLES, limits=lim)
+        t0 = time.perf_counter()
+        ours = time_optimal_path(robot, w, v_max=v, a_max=a, j_max=False, tau_max=tau)
+        out["ours_t"].append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        free = optimal(robot, w, v_max=v, a_max=a, j_max=False, tau_max=tau)
+        out["free_t"].append(time.perf_counter() - t0)
+        out["peer_t"].append(peer_t)
+        out["ratio_path"].append(ours.duration / peer.duration)
+        out["ratio_free"].append(free.duration / peer.duration)
+        alpha = stretch_to_feasible(robot, peer, v, a, tau)
+        out["ratio_stretched"].append(ours.duration / (alpha * peer.duration))
+        out["peer_worst"].append(max(float(np.max(r)) for r in rep.ratios.values()))
+        for key, tr in (("ours_worst", ours), ("free_worst", free)):
+            out[key].append(max(float(np.max(r)) for r in tr.report.ratios.values()))
+    return {k: np.array(x) for k, x in out.items()}
+
+
+# ----------------------------------------------------------------------------- 3. full
+def bench_full(robot, extra, rng, n):
+    v, a, j, tau = limits_of(robot, extra)
+    solve, wall, ok, torque_bound, errors = [], [], 0, 0, []
+    for _ in range(n):
+        w = draw_waypoints(robot, rng, FULL_WAYPOINTS)
+        t0 = time.perf_counter()
+        try:
+            tr = optimal(robot, w, v_max=v, a_max=a, j_max=j, tau_max=tau)
+        except ArmlabError as exc:
+            errors.append(str(exc))
+            continue
+        wall.append(time.perf_counter() - t0)
+        solve.append(tr.stats["solve_time_s"])
+        ok += tr.report.ok(1e-6)
+        torque_bound += any(k == "torque" for k, _, _ in tr.stats["binding"])
+    return dict(solve=np.array(solve), wall=np.array(wall), ok=ok, n=n, errors=errors,
+                torque_bound=torque_bound)
+
+
+# ----------------------------------------------------------------------------- main
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="a few cases per benchmark")
+    args = ap.parse_args()
+    cases = QUICK if args.quick else CASES
+    rng = np.random.default_rng(SEED)
+    rows = []
+    for name in ROBOTS:
+        robot, extra = load(name)
+        # warm the compiled problems once per robot (builds are cached, not timed below)
+        w = draw_waypoints(robot, np.random.default_rng(0), 2)
+        v, a, j, tau = limits_of(robot, extra)
+        t0 = time.perf_counter()
+        optimal(robot, w, v_max=v, a_max=a, j_max=j, tau_max=False)
+        vf, af, jf, _ = limits_of(robot, {**extra, **FULL_LIMITS[name]})
+        optimal(robot, draw_waypoints(robot, np.random.default_rng(1), FULL_WAYPOINTS),
+                v_max=vf, a_max=af, j_max=jf, tau_max=tau)
+        optimal(robot, draw_waypoints(robot, np.random.default_rng(2), TOPP_WAYPOINTS,
+                                      step=TOPP_STEP_RAD), v_max=v, a_max=a, j_max=False,
+                tau_max=tau)
+        build = time.perf_counter() - t0
+        r1 = bench_ruckig(robot, extra, rng, cases["ptp"])
+        r2 = bench_toppra(robot, extra, rng, cases["topp"])
+        r3 = bench_full(robot, {**extra, **FULL_LIMITS[name]}, rng, cases["full"])
+        rows.append((name, build, r1, r2, r3))
+
+    print()
+    print("armlab.trajectory optimisers vs peers (seed %d%s)" % (SEED, ", quick" if args.quick
+                                                                  else ""))
+    hdr = (f"{'benchmark':<47}{'robot':<11}{'n':>4}  {'ratio med':>9}  {'ratio max':>9}  "
+           f"{'ours [s] med':>12}  {'peer [s] med':>12}  {'feasible ours/peer':>18}")
+    print(hdr)
+    print("-" * len(hdr))
+    for name, build, r1, r2, r3 in rows:
+        print(f"{'PTP v/a/j: optimal / Ruckig':<47}{name:<11}{r1['n']:>4}  "
+              f"{np.median(r1['ratios']):>9.4f}  {np.max(r1['ratios']):>9.4f}  "
+              f"{np.median(r1['ours_t']):>12.3f}  {np.median(r1['peer_t']):>12.6f}  "
+              f"{r1['ok']:>8}/{r1['peer_ok']:<9}")
+        n2 = len(r2["ratio_path"])
+        peer_ok = int(np.sum(r2["peer_worst"] <= 1 + 1e-6))
+        ok_path = int(np.sum(r2["ours_worst"] <= 1 + 1e-6))
+        ok_free = int(np.sum(r2["free_worst"] <= 1 + 1e-6))
+        print(f"{'5-wp v/a/tau: time_optimal_path / TOPP-RA':<47}{name:<11}{n2:>4}  "
+              f"{np.median(r2['ratio_path']):>9.4f}  {np.max(r2['ratio_path']):>9.4f}  "
+              f"{np.median(r2['ours_t']):>12.3f}  {np.median(r2['peer_t']):>12.4f}  "
+              f"{ok_path:>8}/{peer_ok:<9}")
+        print(f"{'5-wp v/a/tau: optimal (free path) / TOPP-RA':<47}{name:<11}{n2:>4}  "
+              f"{np.median(r2['ratio_free']):>9.4f}  {np.max(r2['ratio_free']):>9.4f}  "
+              f"{np.median(r2['free_t']):>12.3f}  {np.median(r2['peer_t']):>12.4f}  "
+              f"{ok_free:>8}/{peer_ok:<9}")
+        print(f"{'  TOPP-RA worst limit ratio on the fine grid':<47}{name:<11}{n2:>4}  "
+              f"{np.median(r2['peer_worst']):>9.4f}  {np.max(r2['peer_worst']):>9.4f}")
+        print(f"{'  time_optimal_path / TOPP-RA made feasible':<47}{name:<11}{n2:>4}  "
+              f"{np.median(r2['ratio_stretched']):>9.4f}  {np.max(r2['ratio_stretched']):>9.4f}")
+        solved = len(r3["solve"])
+        print(f"{'full v/a/j/tau, 3 wp, faster drives: success':<47}{name:<11}{r3['n']:>4}  "
+              f"{'':>9}  {'':>9}  {np.median(r3['solve']):>12.3f}  {'(no peer)':>12}  "
+              f"{r3['ok']:>8}/{r3['n']:<9}")
+        print(f"{'  ... wall per call incl. checks [s] med/max':<47}{name:<11}{solved:>4}  "
+              f"{'':>9}  {'':>9}  {np.median(r3['wall']):>12.3f}  {np.max(r3['wall']):>12.3f}")
+        print(f"{'  ... torque binding in':<47}{name:<11}{solved:>4}  "
+              f"{r3['torque_bound']:>9d} cases; first build of the compiled problems {build:.1f} s")
+        for e in r3["errors"][:3]:
+            print(f"      error: {e}")
+    all_solve = np.concatenate([r[4]["solve"] for r in rows])
+    all_ok = sum(r[4]["ok"] for r in rows)
+    all_n = sum(r[4]["n"] for r in rows)
+    ptp = np.concatenate([r[2]["ratios"] for r in rows])
+    topp = np.concatenate([r[3]["ratio_path"] for r in rows])
+    print()
+    print(f"goals: PTP/Ruckig median {np.median(ptp):.4f} (<= 1.005), max {np.max(ptp):.4f} "
+          f"(<= 1.02); path/TOPP-RA median {np.median(topp):.4f} (<= 1.00); full problem "
+          f"{all_ok}/{all_n} feasible successes (100 %), median solve {np.median(all_solve):.3f} s"
+          f" (< 1 s)")
+
+
+if __name__ == "__main__":
+    main()

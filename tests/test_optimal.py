@@ -1,0 +1,292 @@
+"""Time-synchronised optimal trajectories (armlab.trajectory.optimal) and TOPP (topp)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from matplotlib.figure import Figure
+
+import armlab
+from armlab.errors import InfeasibleError, InputError
+from armlab.trajectory import (
+    optimal,
+    plot_limit_profiles,
+    plot_phase_plane,
+    plot_torque_ratio,
+    time_optimal_path,
+)
+from armlab.trajectory.optimal import JUMP_RAMP_S
+from armlab.trajectory.topp import LIMIT_MARGIN
+
+ONE_JOINT_URDF = """<?xml version="1.0"?>
+<robot name="one">
+  <link name="base"/>
+  <link name="arm">
+    <inertial><origin xyz="0.2 0 0"/><mass value="1.0"/>
+      <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>
+  </link>
+  <joint name="j1" type="revolute">
+    <parent link="base"/><child link="arm"/><axis xyz="0 1 0"/>
+    <limit lower="-3" upper="3" velocity="1.0" effort="10"/>
+  </joint>
+  <link name="tool0"/>
+  <joint name="tool_joint" type="fixed"><parent link="arm"/><child link="tool0"/>
+    <origin xyz="0.4 0 0"/></joint>
+</robot>
+"""
+
+TOL_S = 1e-4  # closed-form durations, in [s]
+
+
+@pytest.fixture(scope="module")
+def one_joint(tmp_path_factory):
+    """A 1 kg arm of 0.2 m on a horizontal axis (gravity matters), 1 rad/s, 10 N m."""
+    path = tmp_path_factory.mktemp("one") / "one.urdf"
+    path.write_text(ONE_JOINT_URDF)
+    return armlab.load_robot(path)
+
+
+def s_curve_time(D, v, a, j):
+    """Independent closed form of the rest-to-rest minimum time (Biagiotti & Melchiorri 2008,
+    3.4): 7 segments when v and a are both reached."""
+    assert v * j >= a * a and D >= v * (v / a + a / j)
+    return D / v + v / a + a / j
+
+
+# ---------------------------------------------------------------------------- closed forms
+@pytest.mark.parametrize(
+    "limits, expected",
+    [
+        (dict(v_max=False, a_max=2.0, j_max=False), 2 * math.sqrt(2.0 / 2.0)),  # bang-bang
+        (dict(v_max=0.5, a_max=2.0, j_max=False), 2.0 / 0.5 + 0.5 / 2.0),  # trapezoid
+        (dict(v_max=0.5, a_max=2.0, j_max=10.0), s_curve_time(2.0, 0.5, 2.0, 10.0)),  # 7-seg
+        (dict(v_max=False, a_max=False, j_max=10.0), 4 * (2.0 / (2 * 10.0)) ** (1 / 3)),
+    ],
+    ids=["bang-bang", "trapezoid", "s-curve", "jerk-only"],
+)
+def test_one_joint_closed_form_minimum_time(one_joint, limits, expected):
+    traj = optimal(one_joint, [[0.0], [2.0]], tau_max=False, **limits)
+    ramp = JUMP_RAMP_S if limits["j_max"] is False else 0.0
+    assert traj.stats["duration_s"] == pytest.approx(expected, abs=TOL_S)
+    assert traj.duration == pytest.approx(expected + ramp, abs=TOL_S)
+    assert traj.report.ok(1e-6)
+    # time-optimal: some limit binds
+    assert traj.stats["binding"]
+    assert traj.q[-1, 0] == pytest.approx(2.0, abs=1e-9)
+
+
+def test_torque_limit_slows_the_one_joint_arm(one_joint):
+    """Swinging through the horizontal with tau_max 10 % above the holding torque: slower than the
+    kinematic optimum, torque reported as binding."""
+    g_hold = 1.0 * 9.81 * 0.2
+    kw = dict(v_max=False, a_max=20.0, j_max=False)
+    free = optimal(one_joint, [[-1.5], [1.5]], tau_max=False, **kw)
+    tight = optimal(one_joint, [[-1.5], [1.5]], tau_max=1.1 * g_hold, **kw)
+    assert tight.duration > free.duration * 1.02
+    assert tight.report.ok(1e-6)
+    assert any(b[0] == "torque" for b in tight.stats["binding"])
+
+
+# ---------------------------------------------------------------------------- synchronisation
+def test_joints_start_and_end_together_at_rest(teachbot6):
+    w = np.array([[0.0, -0.3, 0.8, 0.0, 0.6, 0.0], [1.0, 0.4, -0.2, 1.2, -0.4, 0.9]])
+    traj = optimal(teachbot6, w, n_intervals=16)
+    np.testing.assert_allclose(traj.q[0], w[0], atol=1e-12)
+    np.testing.assert_allclose(traj.q[-1], w[1], atol=1e-8)
+    for x in (traj.qd, traj.qdd):
+        np.testing.assert_allclose(x[[0, -1]], 0.0, atol=1e-8)
+    # every joint is still on its way until the very end (none arrives early and waits)
+    fine = traj.sample(traj.duration / 2000)
+    T = traj.duration
+    for i in range(6):
+        moving = np.abs(fine.q[:, i] - w[1, i]) > 1e-9
+        left = np.abs(fine.q[:, i] - w[0, i]) > 1e-9
+        assert fine.t[moving].max() > T * 0.97
+        assert fine.t[left].min() < T * 0.03
+    # the kinematic optimum: the slowest joint's 7-segment time (joint 2, v/a/j all reached)
+    lim = teachbot6.limits
+    Ts = []
+    for i in range(6):
+        D, v, a, j = abs(w[1, i] - w[0, i]), lim.velocity_rad_s[i], \
+            lim.acceleration_rad_s2[i], lim.jerk_rad_s3[i]
+        if v * j >= a * a and D >= v * (v / a + a / j):
+            Ts.append(s_curve_time(D, v, a, j))
+    assert T >= max(Ts) - 1e-6
+    assert traj.report.ok(1e-6)
+
+
+def test_via_points_are_passed_exactly_or_within_tolerance(teachbot6):
+    w = np.array([[0.0, 0.0, 0.5, 0.0, 0.3, 0.0], [0.5, 0.3, 0.2, 0.4, 0.0, 0.4],
+                  [1.0, 0.1, -0.2, 0.8, -0.3, 0.8]])
+    exact = optimal(teachbot6, w, n_intervals=12)
+    q_at, qd_at, _, _ = exact.at(exact.meta["waypoint_times_s"])
+    np.testing.assert_allclose(q_at, w, atol=1e-8)
+    assert np.linalg.norm(qd_at[1]) > 1e-3  # it does not stop at the via point
+    loose = optimal(teachbot6, w, n_intervals=12, via_tolerance=0.05)
+    q_via = loose.at(loose.meta["waypoint_times_s"][1:2])[0][0]
+    assert np.all(np.abs(q_via - w[1]) <= 0.05 + 1e-8)
+    assert loose.duration <= exact.duration + 1e-6
+
+
+# ---------------------------------------------------------------------------- feasibility
+def _independent_ratios(traj, robot, limits, dt):
+    """Ratios recomputed here on another grid, with pinocchio directly."""
+    fine = traj.sample(dt)
+    data = robot.model.createData()
+    tau = np.array([pin.rnea(robot.model, data, q, v, a)
+                    for q, v, a in zip(fine.q, fine.qd, fine.qdd, strict=True)])
+    out = {"velocity": np.abs(fine.qd).max(0) / limits["v"],
+           "acceleration": np.abs(fine.qdd).max(0) / limits["a"],
+           "torque": np.abs(tau).max(0) / limits["tau"]}
+    if "j" in limits:
+        out["jerk"] = np.abs(fine.qddd).max(0) / limits["j"]
+    return out
+
+
+def test_all_four_limits_hold_on_an_independent_fine_grid(teachbot6):
+    w = np.array([[-1.0, 0.5, -0.3, 0.0, 0.3, 0.0], [0.2, 0.1, 0.4, 0.6, -0.2, 0.5],
+                  [1.0, 0.5, -0.3, 0.0, 0.3, 0.0]])
+    lim = dict(v=np.full(6, 2.0), a=np.full(6, 15.0), j=np.full(6, 150.0),
+               tau=teachbot6.limits.effort_Nm)
+    traj = optimal(teachbot6, w, v_max=2.0, a_max=15.0, j_max=150.0, n_intervals=12)
+    r = _independent_ratios(traj, teachbot6, lim, traj.duration / 7001)
+    for kind, x in r.items():
+        assert np.all(x <= 1 + 1e-6), (kind, x)
+    assert traj.report.ok(1e-6)
+    assert max(traj.report.ratios["torque"]) > 0.9  # torque matters in this case
+    st = traj.stats
+    for key in ("solver", "iterations", "solve_time_s", "n_intervals", "success"):
+        assert key in st
+    assert st["success"] and st["n_intervals"] == 24
+
+
+def test_heavier_payload_is_slower_and_torque_binds(teachbot6):
+    w = np.array([[-1.0, 0.5, -0.3, 0.0, 0.3, 0.0], [1.0, 0.5, -0.3, 0.0, 0.3, 0.0]])
+    kw = dict(v_max=3.0, a_max=20.0, j_max=200.0, n_intervals=16)
+    durations = []
+    for m in (0.0, 1.0, 2.0):
+        traj = optimal(teachbot6, w, payload_kg=m, **kw)
+        assert traj.report.ok(1e-6)
+        durations.append(traj.duration)
+        bound = [(k, j) for k, j, _ in traj.stats["binding"] if k == "torque"]
+        assert bound, traj.stats["binding"]
+    assert durations[0] < durations[1] < durations[2]
+    assert traj.stats["binding"]
+    worst_torque_joint = traj.joint_names[int(np.argmax(traj.report.ratios["torque"]))]
+    assert ("torque", worst_torque_joint) in [(k, j) for k, j, _ in traj.stats["binding"]]
+    # without the torque limit the plan does not depend on the payload
+    free = optimal(teachbot6, w, payload_kg=2.0, tau_max=False, **kw)
+    assert free.duration < durations[0]
+
+
+# ---------------------------------------------------------------------------- objectives
+def test_fixed_duration_objectives(teachbot6):
+    w = np.array([[0.0, -0.3, 0.8, 0.0, 0.6, 0.0], [0.6, 0.2, 0.3, 0.4, -0.2, 0.5]])
+    fast = optimal(teachbot6, w, n_intervals=12)
+    T = 1.4 * fast.duration
+    smooth = optimal(teachbot6, w, objective="jerk", duration=T, n_intervals=12)
+    assert smooth.duration == pytest.approx(T, abs=1e-8)
+    assert smooth.report.ok(1e-6)
+
+    def jerk_integral(tr):
+        f = tr.sample(tr.duration / 4000)
+        return float(np.trapezoid(np.sum((f.qddd / teachbot6.limits.jerk_rad_s3) ** 2, 1), f.t))
+
+    # the time-optimal plan stretched to T is a feasible candidate with more jerk
+    stretched = armlab.trajectory.Trajectory(fast.t * (T / fast.duration), fast.q,
+                                             fast.qd / 1.4, fast.qdd / 1.4**2,
+                                             fast.qddd / 1.4**3)
+    assert jerk_integral(smooth) < jerk_integral(stretched)
+    # minimum time + smoothness: a heavy weight trades duration for less jerk
+    soft = optimal(teachbot6, w, objective="time+smooth", smooth_weight=5.0, n_intervals=12)
+    assert soft.duration > fast.duration
+    assert jerk_integral(soft) < jerk_integral(fast)
+    lean = optimal(teachbot6, w, objective="energy", duration=T, n_intervals=12)
+    assert lean.duration == pytest.approx(T, abs=1e-8)
+    assert lean.stats["energy_unit"] == "J"
+    assert lean.stats["energy"] <= smooth.stats["energy"] * (1 + 1e-3)
+    with pytest.raises(InfeasibleError, match="duration"):
+        optimal(teachbot6, w, objective="jerk", duration=0.7 * fast.duration, n_intervals=12)
+
+
+# ---------------------------------------------------------------------------- errors
+def test_infeasible_requests_name_the_limit_and_joint(teachbot6):
+    w = np.zeros((3, 6))
+    w[1, 2] = 3.0  # joint3 range is [-1.57, 2.79]
+    w[2, 0] = 0.5
+    with pytest.raises(InfeasibleError, match="position limit.*joint3"):
+        optimal(teachbot6, w)
+    pose = np.array([[0.0, 1.2, 0.0, 0.0, 0.0, 0.0], [0.5, 1.2, 0.0, 0.0, 0.0, 0.0]])
+    g = pin.computeGeneralizedGravity(teachbot6.model, teachbot6.model.createData(), pose[0])
+    tau = teachbot6.limits.effort_Nm.copy()
+    tau[1] = 0.5 * abs(g[1])
+    with pytest.raises(InfeasibleError, match="torque limit.*joint2"):
+        optimal(teachbot6, pose, tau_max=tau)
+
+
+def test_bad_inputs_raise_input_errors(teachbot6, ur5):
+    with pytest.raises(InputError, match="a_max"):
+        optimal(ur5, np.zeros((2, 6)) + [[0] * 6, [0.1] * 6])
+    with pytest.raises(InputError, match="shape"):
+        optimal(teachbot6, np.zeros((2, 5)))
+    with pytest.raises(InputError, match="coincide"):
+        optimal(teachbot6, np.zeros((2, 6)))
+    with pytest.raises(InputError, match="duration"):
+        optimal(teachbot6, [[0] * 6, [0.1] * 6], objective="jerk")
+    with pytest.raises(InputError, match="v_max"):
+        optimal(teachbot6, [[0] * 6, [0.1] * 6], v_max=-1.0)
+
+
+# ---------------------------------------------------------------------------- TOPP
+def test_topp_one_joint_trapezoid(one_joint):
+    traj = time_optimal_path(one_joint, [[0.0], [1.0], [2.0]], v_max=0.5, a_max=2.0,
+                             j_max=False, tau_max=False, n_grid=100)
+    # the convex pass tightens every limit by LIMIT_MARGIN (documented): v' = v (1 - m); the
+    # switch to cruising falls inside a path interval (b linear there): ~1e-3 s on this grid
+    v, a = 0.5 * (1 - LIMIT_MARGIN), 2.0 * (1 - LIMIT_MARGIN)
+    expected = 2.0 / v + v / a + JUMP_RAMP_S
+    assert 2.0 / 0.5 + 0.5 / 2.0 < traj.duration <= expected + 1.5e-3
+    assert traj.report.ok(1e-6)
+    # the path is kept: q stays on the line, monotone
+    assert np.all(np.diff(traj.q[:, 0]) >= -1e-12)
+
+
+def test_topp_keeps_the_path_and_the_limits(teachbot6):
+    w = np.array([[0.0, 0.0, 0.5, 0.0, 0.3, 0.0], [0.5, 0.3, 0.2, 0.4, 0.0, 0.4],
+                  [1.0, 0.1, -0.2, 0.8, -0.3, 0.8]])
+    traj = time_optimal_path(teachbot6, w, a_max=20.0, v_max=2.0, j_max=False, n_grid=80)
+    assert traj.report.ok(1e-6)
+    assert any(k == "torque" for k, _, _ in traj.stats["binding"])
+    path = traj.meta["topp"].path
+    s = traj.meta["s"]
+    np.testing.assert_allclose(path(s)[0], traj.q, atol=1e-9)
+    # the path goes through the via points, and the motion runs along it from 0 to 1
+    np.testing.assert_allclose(path(path.s_points)[0], w, atol=1e-12)
+    assert s[0] == 0 and s[-1] == pytest.approx(1.0) and np.all(np.diff(s) > 0)
+    fig = plot_phase_plane(traj)
+    assert isinstance(fig, Figure)
+    curves = traj.meta["topp"].limit_curves()
+    assert np.all(traj.meta["sd"][1:-1] <= np.interp(traj.meta["s"][1:-1], curves["s"],
+                                                      curves["velocity"]) * 1.001 + 1e-9)
+
+
+def test_topp_of_a_trajectory_geometry_and_jerk_pass(teachbot6):
+    w = np.array([[0.0, 0.0, 0.5, 0.0, 0.3, 0.0], [0.6, 0.3, 0.1, 0.5, -0.2, 0.5]])
+    ptp = armlab.trajectory.ptp_sync(teachbot6, w[0], w[1], profile="scurve")
+    traj = time_optimal_path(teachbot6, ptp, j_max=None, n_grid=40)
+    assert traj.stats["passes"] == ["convex", "jerk"]
+    assert traj.report.ok(1e-6)
+    assert "jerk" in traj.report.ratios
+    np.testing.assert_allclose(traj.q[-1], w[1], atol=1e-8)
+
+
+def test_plots_return_figures(teachbot6):
+    w = np.array([[0.0, -0.3, 0.8, 0.0, 0.6, 0.0], [0.6, 0.2, 0.3, 0.4, -0.2, 0.5]])
+    traj = optimal(teachbot6, w, n_intervals=12)
+    assert isinstance(plot_limit_profiles(traj), Figure)
+    assert isinstance(plot_torque_ratio(traj, teachbot6), Figure)
+    with pytest.raises(InputError):
+        plot_phase_plane(traj)
