@@ -1,0 +1,433 @@
+"""A study's report: ``report.md`` with its PNG plots, and the one-screen text summary.
+
+Plots are functions returning matplotlib Figures (headless); the report saves them beside
+``report.md``. The package's own plot functions are used where they exist.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["write_report", "summary_text", "plot_joint_profiles", "plot_tool_path",
+           "plot_torque_ratio", "plot_tracking_error"]
+
+
+# ---------------------------------------------------------------------------- plots
+def plot_joint_profiles(trajectory, robot):
+    """q, qd, qdd of every joint over time, with the velocity/acceleration limits dashed."""
+    import matplotlib.pyplot as plt
+
+    t = trajectory.t
+    fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
+    lim = robot.limits
+    series = [("q [rad]", trajectory.q, None), ("qd [rad/s]", trajectory.qd, lim.velocity_rad_s),
+              ("qdd [rad/s^2]", trajectory.qdd, lim.acceleration_rad_s2)]
+    for ax, (label, y, limit) in zip(axes, series, strict=True):
+        for j, name in enumerate(trajectory.joint_names):
+            line, = ax.plot(t, y[:, j], lw=1.2, label=name)
+            if limit is not None:
+                ax.axhline(limit[j], color=line.get_color(), ls="--", lw=0.6)
+                ax.axhline(-limit[j], color=line.get_color(), ls="--", lw=0.6)
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].legend(ncol=min(6, trajectory.n_joints), fontsize=7, loc="upper right")
+    axes[-1].set_xlabel("t [s]")
+    axes[0].set_title(f"{trajectory.method or 'plan'}: {trajectory.duration:.3f} s")
+    fig.tight_layout()
+    return fig
+
+
+def plot_tool_path(trajectory, robot, waypoints_q=None, n_max: int = 400):
+    """Tool-point path in 3-D with the waypoints marked."""
+    import matplotlib.pyplot as plt
+
+    from armlab.kinematics import tool_positions
+
+    step = max(1, trajectory.n_samples // n_max)
+    p = tool_positions(robot, trajectory.q[::step])
+    fig = plt.figure(figsize=(6, 5))
+    ax = fig.add_subplot(projection="3d")
+    ax.plot(p[:, 0], p[:, 1], p[:, 2], lw=1.5)
+    if waypoints_q is not None:
+        w = tool_positions(robot, np.asarray(waypoints_q))
+        ax.scatter(w[:, 0], w[:, 1], w[:, 2], color="C3", s=25, label="waypoints")
+        ax.legend(fontsize=8)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    ax.set_title("tool path")
+    fig.tight_layout()
+    return fig
+
+
+def plot_torque_ratio(trajectory, robot, dt: float | None = None):
+    """|joint torque| / effort limit over time for every joint (RNEA, payload included)."""
+    import matplotlib.pyplot as plt
+
+    traj = trajectory if dt is None else trajectory.sample(dt)
+    tau = traj.torques(robot)
+    ratio = np.abs(tau) / robot.limits.effort_Nm
+    fig, ax = plt.subplots(figsize=(8, 3.5))
+    for j, name in enumerate(traj.joint_names):
+        ax.plot(traj.t, ratio[:, j], lw=1.2, label=name)
+    ax.axhline(1.0, color="k", ls="--", lw=0.8)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("|tau| / effort limit")
+    ax.grid(alpha=0.3)
+    ax.legend(ncol=min(6, traj.n_joints), fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def plot_tracking_error(result):
+    """Joint tracking errors and the TCP error over time, with the servo's accuracy budget."""
+    import matplotlib.pyplot as plt
+
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    err = result.q_ref - result.q
+    for j, name in enumerate(result.joint_names):
+        a1.plot(result.t, 1e3 * err[:, j], lw=1, label=name)
+    a1.set_ylabel("joint error [mrad]")
+    a1.legend(ncol=min(6, len(result.joint_names)), fontsize=7)
+    a1.grid(alpha=0.3)
+    a2.plot(result.t, 1e3 * result.tcp_error_m, color="k", lw=1.2)
+    a2.axhline(1e3 * result.accuracy_m, color="C3", ls="--", lw=0.8, label="budget")
+    a2.set_ylabel("TCP error [mm]")
+    a2.set_xlabel("t [s]")
+    a2.legend(fontsize=8)
+    a2.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def _weakest_joint(gains) -> str | None:
+    """The joint whose loops have the smallest phase margin (continuous or discrete)."""
+    worst, joint = math.inf, None
+    for name, loops in gains.summary().items():
+        for fig in loops.values():
+            for key in ("phase_margin_deg", "phase_margin_discrete_deg"):
+                v = fig.get(key)
+                if isinstance(v, (int, float)) and v < worst:
+                    worst, joint = v, name
+    return joint
+
+
+def _plant(ctx, joint):
+    """A factory of the joint's plant with the inertia range the tuning used."""
+    def make():
+        from armlab.control import joint_plant
+
+        n = ctx.spec.control.n_inertia_samples
+        kw = {} if n is None else {"n_samples": n}
+        return joint_plant(ctx.robot, joint, seed=ctx.spec.study.seed, **kw)
+    return make
+
+
+def _figures(ctx) -> list[tuple[str, str, Any]]:
+    """(file name, caption, figure factory) of every plot the study can draw."""
+    out = []
+    traj, robot = ctx.trajectory, ctx.robot
+    for kind, fn, caption in (("workspace", "plot_workspace", "Monte-Carlo workspace"),
+                              ("accuracy", "plot_accuracy", "Monte-Carlo positioning error")):
+        res = ctx.figures.get(kind)
+        if res is not None:
+            plot = _package_plot("armlab.kinematics", fn)
+            if plot is not None:
+                out.append((f"kinematics_{kind}.png", caption, lambda p=plot, r=res: p(r)))
+    if traj is not None:
+        optimised = ctx.spec.plan.planner in ("optimal", "path")
+        joints = _package_plot("armlab.trajectory",
+                               "plot_limit_profiles" if optimised else "plot_joints")
+        path = _package_plot("armlab.trajectory", "plot_tcp_path")
+        out.append(("plan_profiles.png", "Joint profiles with the limits (dashed)",
+                    (lambda: joints(traj, robot)) if joints is not None
+                    else (lambda: plot_joint_profiles(traj, robot))))
+        phase = _package_plot("armlab.trajectory", "plot_phase_plane")
+        if ctx.spec.plan.planner == "path" and phase is not None:
+            out.append(("plan_phase_plane.png", "Path parameterisation: phase plane with its "
+                        "limit curves", lambda: phase(traj)))
+        if path is not None:
+            from armlab.kinematics import tool_positions
+
+            points = tool_positions(robot, ctx.waypoints_q)
+            out.append(("plan_tool_path.png", "Tool path and waypoints",
+                        lambda: path(robot, traj, points)))
+        else:
+            out.append(("plan_tool_path.png", "Tool path and waypoints",
+                        lambda: plot_tool_path(traj, robot, ctx.waypoints_q)))
+        if np.all(robot.limits.effort_Nm > 0):
+            dt = max(traj.duration / 2000, 1e-3)
+            ratio = _package_plot("armlab.trajectory", "plot_torque_ratio")
+            out.append(("plan_torque_ratio.png", "Torque / effort limit along the plan",
+                        (lambda: ratio(traj, robot, dt=dt)) if ratio is not None
+                        else (lambda: plot_torque_ratio(traj, robot, dt))))
+    if ctx.gains is not None:
+        bode = _package_plot("armlab.control.plots", "bode_figure")
+        step = _package_plot("armlab.control.plots", "step_figure")
+        joint = _weakest_joint(ctx.gains)
+        if bode is not None and step is not None and joint is not None:
+            plant = _plant(ctx, joint)
+            g = ctx.gains[joint]
+            out.append((f"control_bode_{joint}.png",
+                        f"Speed-loop Bode plot of {joint} (smallest phase margin) over its "
+                        "inertia range", lambda: bode(plant(), g, "speed")))
+            out.append((f"control_steps_{joint}.png",
+                        f"Step responses of the {joint} loops", lambda: step(plant(), g)))
+    if ctx.tracking is not None and hasattr(ctx.tracking, "tcp_error_m"):
+        track = _package_plot("armlab.control.plots", "tracking_figure")
+        out.append(("tracking_error.png", "Closed-loop tracking error (joints and TCP)",
+                    (lambda: track(ctx.tracking)) if track is not None
+                    else (lambda: plot_tracking_error(ctx.tracking))))
+    loads = getattr(ctx.sizing, "loads", None)
+    if loads is not None:
+        for fn, name, caption in (
+                ("plot_joint_loads", "sizing_loads.png",
+                 "Joint torque, speed and power along the plan, with the limits"),
+                ("plot_operating_points", "sizing_operating_points.png",
+                 "Motor operating points on the speed-torque plane")):
+            plot = _package_plot("armlab.dynamics", fn)
+            if plot is not None:
+                out.append((name, caption, lambda p=plot: p(loads, robot)))
+    return out
+
+
+def _package_plot(module: str, name: str):
+    from armlab.study.stages import NotAvailable, api
+
+    try:
+        return api(module, name)
+    except NotAvailable:
+        return None
+
+
+# ---------------------------------------------------------------------------- report.md
+def _fmt(x, nd: int = 4) -> str:
+    if x is None:
+        return "-"
+    if isinstance(x, bool):
+        return "yes" if x else "no"
+    if isinstance(x, (int, float)):
+        if isinstance(x, float) and math.isnan(x):
+            return "-"
+        return f"{x:.{nd}g}"
+    return str(x)
+
+
+def _table(header: list[str], rows: list[list[Any]]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(_fmt(c) for c in r) + " |" for r in rows]
+    return lines + [""]
+
+
+def write_report(ctx, summary: dict, out_dir: Path) -> list[Path]:
+    """Write ``report.md`` and its PNG plots into ``out_dir``; returns the files written."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    out_dir = Path(out_dir)
+    files: list[Path] = []
+    spec = ctx.spec
+    lines = [f"# Study: {spec.study.name}", "",
+             f"Source `{spec.source}` (sha256 `{spec.hash[:12]}`), seed {spec.study.seed}, "
+             f"armlab {summary['study']['armlab_version']}.", "", "## Stages", ""]
+    lines += _table(["stage", "status", "time [s]", "note"],
+                    [[s, info["status"], info["time_s"],
+                      _note(summary.get(_key(s), {}))]
+                     for s, info in summary["study"]["stages"].items()])
+    r = summary["robot"]
+    lines += ["## Robot", "", f"{r.get('name')}: {r.get('n_joints')} joints, payload "
+              f"{_fmt(r.get('payload_kg'))} kg, moving mass {_fmt(r.get('total_mass_kg'))} kg.",
+              ""]
+    if "drives" in r:
+        lines += _table(["joint", "motor", "reducer", "ratio", "available torque [N m]"],
+                        [[j, d["motor"], d["reducer"], d["ratio"], d["available_torque_Nm"]]
+                         for j, d in r["drives"].items()])
+    kin = summary.get("kinematics", {})
+    if kin.get("status") == "ok":
+        lines += ["## Kinematics", "", f"{kin['n_waypoints']} waypoints ({kin['waypoints_from']}),"
+                  f" all inside the joint ranges; max reach {kin['max_reach_m'] * 1000:.1f} mm.",
+                  ""]
+        lines += _table(["waypoint", "x [mm]", "y [mm]", "z [mm]"],
+                        [[k, *(f"{x:.1f}" for x in 1000 * np.asarray(p) + 0.0)] for k, p in
+                         enumerate(kin["tcp_positions_m"])])
+    tr = summary.get("trajectory", {})
+    if tr.get("status") == "ok":
+        lines += ["## Trajectory", "", f"Planner `{tr['planner']}` ({tr['method']}): "
+                  f"{tr['duration_s']:.4f} s through {tr['n_waypoints']} waypoints, speed scale "
+                  f"{tr['speed_scale']:g}; checked every {tr['check_dt_s'] * 1000:g} ms.", "",
+                  "Peak ratio to each limit (<= 1 is feasible):", ""]
+        kinds = list(tr["ratios"])
+        joints = list(next(iter(tr["ratios"].values()), {}))
+        lines += _table(["joint", *kinds], [[j, *(tr["ratios"][k][j] for k in kinds)]
+                                            for j in joints])
+    for key, title in (("static_load", "Static load"), ("sizing", "Drive sizing"),
+                       ("control", "Servo tuning"), ("tracking", "Closed-loop tracking"),
+                       ("export", "Export")):
+        block = summary.get(key, {})
+        lines += [f"## {title}", ""]
+        if block.get("status") != "ok":
+            why = block.get("reason", block.get("error", ""))
+            lines += [f"Status: {block.get('status')} ({why}).", ""]
+            continue
+        obj = {"static_load": ctx.static_load, "sizing": ctx.sizing}.get(key)
+        if obj is not None and hasattr(obj, "to_markdown"):
+            lines += [obj.to_markdown(), ""]  # with the thesis' table beside ours (teachbot6)
+        else:
+            lines += _section_lines(key, block)
+        if key == "sizing" and ctx.selection is not None and hasattr(ctx.selection,
+                                                                      "to_markdown"):
+            lines += [ctx.selection.to_markdown(), ""]
+    kf = summary.get("key_figures", {})
+    lines += ["## Key figures", ""]
+    lines += _table(["figure", "value"], [[k, v] for k, v in kf.items()
+                                          if not k.startswith("stage_")])
+    if _figures(ctx):
+        lines += ["## Plots", ""]
+    for name, caption, make in _figures(ctx):
+        fig = make()
+        path = out_dir / name
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        files.append(path)
+        lines += [f"![{caption}]({name})", "", f"*{caption}*", ""]
+    report = out_dir / "report.md"
+    report.write_text("\n".join(lines))
+    return [report, *files]
+
+
+def _key(stage: str) -> str:
+    from armlab.study.stages import SUMMARY_KEY
+
+    return SUMMARY_KEY.get(stage, stage)
+
+
+def _note(block: dict) -> str:
+    if block.get("status") in ("not available", "skipped"):
+        return block.get("reason", "")
+    if block.get("status") == "error":
+        return block.get("error", "")
+    return ""
+
+
+def _section_lines(key: str, block: dict) -> list[str]:
+    """A table for the per-joint blocks; a key/value table otherwise."""
+    from armlab.study.runner import _joint_items
+
+    items = _joint_items(block)
+    if key == "tracking":
+        tcp = block.get("tcp", {})
+        lines = [f"Feed-forward {', '.join(block.get('feedforward', [])) or 'none'}; "
+                 f"{_fmt(block.get('duration_s'))} s simulated at "
+                 f"{_fmt(1e3 * block.get('sample_time_s', math.nan))} ms"
+                 f"{' with D/A and encoder quantisation' if block.get('quantise') else ''}.", ""]
+        if tcp:
+            ok = tcp.get("within_accuracy")
+            lines += [f"TCP error: max {_fmt(1e3 * tcp.get('max_error_m', math.nan))} mm, final "
+                      f"{_fmt(1e3 * tcp.get('final_error_m', math.nan))} mm; servo budget "
+                      f"{_fmt(1e3 * tcp.get('accuracy_m', math.nan))} mm -> "
+                      f"{'within' if ok else 'OUTSIDE'} the budget.", ""]
+        return lines + _table(["joint", "max error [rad]", "final error [rad]"],
+                              [[j, b.get("max_error_rad"), b.get("final_error_rad")]
+                               for j, b in items])
+    if key == "export":
+        lines = [f"{_fmt(block.get('n_cycles'))} cycles of {_fmt(1e3 * block.get('cycle_s'))} ms "
+                 f"for controller profile `{block.get('profile')}`; every cycle passed the "
+                 "pre-flight checks (range, speed, pulses per cycle, continuity).", ""]
+        files = block.get("files", {})
+        if files:
+            lines += _table(["file", "sha256"], [[n, f"`{f['sha256']}`"]
+                                                 for n, f in files.items()])
+        return lines
+    if key == "control":
+        rows = []
+        for joint, loops in block.items():
+            if not isinstance(loops, dict):
+                continue
+            for loop, f in loops.items():
+                if isinstance(f, dict) and "phase_margin_deg" in f:
+                    g = f.get("gains", {})
+                    rows.append([joint, loop, g.get("kp"), g.get("ki"), f.get("crossover_rad_s"),
+                                 f.get("phase_margin_deg"), f.get("gain_margin_dB"),
+                                 f.get("phase_margin_discrete_deg"), f.get("overshoot_pct"),
+                                 f.get("sample_time_s")])
+        return _table(["joint", "loop", "kp", "ki", "crossover [rad/s]", "PM [deg]", "GM [dB]",
+                       "PM discrete [deg]", "overshoot [%]", "T [s]"], rows)
+    if items:
+        scalars = sorted({k for _, b in items for k, v in b.items()
+                          if isinstance(v, (int, float, str, bool)) or v is None})
+        scalars = [s for s in scalars if s != "joint"][:8]
+        rows = [[j, *(b.get(s) for s in scalars)] for j, b in items]
+        lines = _table(["joint", *scalars], rows)
+        failed = [f"{j}: {c.get('name')}" for j, b in items for c in b.get("checks", [])
+                  if isinstance(c, dict) and not c.get("ok", True)]
+        if failed:
+            lines += ["Failing checks: " + "; ".join(failed), ""]
+        return lines
+    return _table(["item", "value"], [[k, v] for k, v in block.items()
+                                      if isinstance(v, (int, float, str, bool))])
+
+
+# ---------------------------------------------------------------------------- text
+def _stage_line(stage: str, summary: dict) -> str:
+    key = _key(stage)
+    block = summary.get(key, {})
+    status = block.get("status", "?")
+    kf = summary.get("key_figures", {})
+    if status == "ok":
+        note = {
+            "kinematics": lambda: f"{block['n_waypoints']} waypoints in range; reach "
+                                  f"{block['max_reach_m'] * 1000:.0f} mm",
+            "plan": lambda: f"{block['method'] or block['planner']} {block['duration_s']:.3f} s;"
+                            f" worst {block['worst']['kind']} {block['worst']['ratio']:.3f}"
+                            f" ({block['worst']['joint']})",
+            "static_load": lambda: "max {1:.4g} N m ({0})".format(*max(
+                ((j, b["torque_Nm"]) for j, b in block.items() if isinstance(b, dict)
+                 and "torque_Nm" in b), key=lambda x: x[1])),
+            "sizing": lambda: ("all checks pass" if kf.get("sizing_ok") else "CHECKS FAIL")
+                              + f"; min margin {_fmt(kf.get('sizing_min_margin'), 3)}"
+                              + f" ({kf.get('sizing_binding')})",
+            "tuning": lambda: f"min PM {_fmt(kf.get('min_phase_margin_deg'), 3)} deg, min GM "
+                              f"{_fmt(kf.get('min_gain_margin_dB'), 3)} dB",
+            "tracking": lambda: f"max joint error {_fmt(1e3 * kf['tracking_max_error_rad'], 3)} "
+                                f"mrad; TCP {_fmt(1e3 * kf['tcp_max_error_m'], 3)} mm (budget "
+                                f"{_fmt(1e3 * block['tcp']['accuracy_m'], 3)} mm)",
+            "export": lambda: f"{_fmt(block.get('n_cycles'))} cycles of "
+                              f"{block.get('cycle_s', 0) * 1000:g} ms ({block.get('profile')})",
+        }[stage]
+        try:
+            text = note()
+        except (KeyError, TypeError, ValueError):
+            text = ""
+    else:
+        text = block.get("reason", block.get("error", ""))
+    if len(text) > 62:
+        text = text[:59] + "..."
+    return f"  {stage:<12}{status:<15}{text}"
+
+
+def summary_text(summary: dict, files: list[Path] | None = None,
+                 out_dir: Path | None = None) -> str:
+    """The one-screen summary ``armlab run`` prints: each stage, its key figures, the files."""
+    r = summary.get("robot", {})
+    st = summary.get("study", {})
+    lines = [f"armlab study {st.get('name')!r}: robot {r.get('name')} ({r.get('n_joints')} "
+             f"joints), payload {_fmt(r.get('payload_kg'))} kg",
+             f"  {'stage':<12}{'status':<15}key figures"]
+    from armlab.study.spec import STAGES
+
+    lines += [_stage_line(s, summary) for s in STAGES]
+    if files:
+        names = list(dict.fromkeys(Path(f).name for f in files))
+        pngs = [n for n in names if n.endswith(".png")]
+        names = [n for n in names if not n.endswith(".png")]
+        if pngs:
+            names.append(f"{len(pngs)} PNG plots")
+        where = f"{out_dir}/" if out_dir is not None else ""
+        lines.append(f"files in {where}: " + ", ".join(names))
+    return "\n".join(lines)

@@ -1,0 +1,205 @@
+"""Run a sweep on Dask: a local process cluster by default, or any cluster by its scheduler.
+
+One code path: :func:`run_sweep` always talks to a ``dask.distributed`` scheduler -- a
+``LocalCluster(processes=True, n_workers=N, threads_per_worker=1)`` started for the sweep, or
+the scheduler at ``--scheduler tcp://host:port``. Every missing parameter set is submitted as
+one task (:func:`armlab.sweep.task.run_parameter_set`); rows are written as they complete
+(:class:`armlab.sweep.store.ResultStore`).
+
+Failures
+--------
+* A study that fails (an :class:`armlab.ArmlabError`, or any exception in a stage) is a row with
+  ``status = "error"`` and its one-line message; the sweep goes on.
+* A worker that dies: the scheduler reschedules its tasks on the other workers (Dask's own
+  recovery, ``distributed.scheduler.allowed-failures``); if a task still ends with
+  ``KilledWorker`` it is resubmitted up to ``sweep.retries`` times, then recorded as an error.
+* Ctrl-C or a crash of the client: every finished row is already on disk; running the same
+  command again runs only the parameter sets that have no row (and, with
+  ``sweep.rerun_errors``, those that ended in an error).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import sys
+import time
+import uuid
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from armlab.errors import InputError
+from armlab.sweep.spec import SweepSpec, load_sweep, parameter_key, parameter_sets
+from armlab.sweep.store import ResultStore
+from armlab.sweep.task import nan_row, run_parameter_set
+
+__all__ = ["run_sweep", "run_sweep_spec", "open_client"]
+
+
+def _cpu_count() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+def open_client(workers: int | None = None, scheduler: str | None = None):
+    """(client, cluster or None): a client of ``scheduler``, or of a new local process cluster
+    with ``workers`` single-threaded worker processes (default: one per CPU).
+
+    Raises
+    ------
+    InputError
+        The scheduler cannot be reached, or ``workers`` < 1.
+    """
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        try:
+            return Client(scheduler, timeout="10s"), None
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise InputError(f"cannot reach the Dask scheduler at {scheduler!r} "
+                             f"({type(exc).__name__}: {exc})") from None
+    n = _cpu_count() if workers is None else int(workers)
+    if n < 1:
+        raise InputError(f"--workers must be >= 1, not {workers}")
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                           dashboard_address=":0", silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
+def _progress(total: int, initial: int, enabled: bool | None, desc: str):
+    from tqdm import tqdm
+
+    # rate and ETA are in tqdm's default format; disable=None: silent without a terminal
+    return tqdm(total=total, initial=initial, desc=desc, unit="study", smoothing=0.05,
+                disable=None if enabled is None else not enabled, file=sys.stderr)
+
+
+def run_sweep_spec(spec: SweepSpec, out_dir: str | Path, *, workers: int | None = None,
+                   scheduler: str | None = None, progress: bool | None = None,
+                   quiet: bool = False, client=None) -> pd.DataFrame:
+    """Run a validated sweep into ``out_dir``; see :func:`run_sweep`.
+
+    ``client`` (a ``distributed.Client``) reuses an open cluster instead of starting one.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    sets = parameter_sets(spec)
+    keys = [parameter_key(s) for s in sets]
+    store = ResultStore(out, {"study_hash": spec.study_hash, "study": spec.study_source,
+                              "parameters": spec.parameter_keys, "name": spec.name})
+    todo = [(k, s) for k, s in zip(keys, sets, strict=True)
+            if k not in store or (spec.rerun_errors and store.status(k) == "error")]
+    n_before = len(sets) - len(todo)
+    t_start = time.perf_counter()
+    ran = 0
+    if todo:
+        own = client is None
+        cluster = None
+        if own:
+            client, cluster = open_client(workers, scheduler)
+        bar = _progress(len(sets), n_before, progress, spec.name)
+        try:
+            ran = _execute(client, spec, todo, store, bar)
+        finally:
+            bar.close()
+            store.flush()
+            if own:
+                client.close()
+                if cluster is not None:
+                    cluster.close()
+    store.flush()
+    frame = store.frame()
+    order = {k: i for i, k in enumerate(keys)}
+    frame = frame[frame["key"].isin(order)].copy()
+    frame = frame.sort_values("key", key=lambda s: s.map(order)).reset_index(drop=True)
+    from armlab.sweep.report import sweep_summary_text, write_sweep_plots
+
+    plots = write_sweep_plots(frame, spec, out)
+    text = sweep_summary_text(frame, spec, ran=ran, before=n_before,
+                              elapsed_s=time.perf_counter() - t_start, plots=plots, out_dir=out)
+    (out / "summary.txt").write_text(text + "\n")
+    if not quiet:
+        print(text)
+    return frame
+
+
+def _execute(client, spec: SweepSpec, todo, store: ResultStore, bar) -> int:
+    """Submit every task, record rows as they complete; returns the number of rows written."""
+    from distributed import as_completed
+    from distributed.client import FutureCancelledError
+    from distributed.scheduler import KilledWorker
+
+    doc, study_dir, source = spec.study_document, str(spec.study_dir), spec.study_source
+    token = uuid.uuid4().hex[:8]
+    attempts: dict[str, int] = {}
+    params_of: dict[str, dict[str, Any]] = {}
+
+    def submit(key: str, params: dict[str, Any]):
+        n = attempts.get(key, 0)
+        return client.submit(run_parameter_set, doc, study_dir, source, params, key,
+                             key=f"armlab-study-{key}-{token}-{n}", pure=False)
+
+    futures = {}
+    for key, params in todo:
+        params_of[key] = params
+        futures[submit(key, params)] = key
+    done = 0
+    queue = as_completed(list(futures))
+    for fut in queue:
+        key = futures.pop(fut)
+        try:
+            row = fut.result()
+        except KilledWorker as exc:
+            attempts[key] = attempts.get(key, 0) + 1
+            if attempts[key] <= spec.retries:
+                new = submit(key, params_of[key])
+                futures[new] = key
+                queue.add(new)
+                continue
+            row = nan_row(key, params_of[key], f"KilledWorker: the workers running this set "
+                          f"died {attempts[key]} times ({exc})")
+        except (FutureCancelledError, Exception) as exc:  # noqa: BLE001 - any task failure is a row
+            row = nan_row(key, params_of[key], f"{type(exc).__name__}: {exc}")
+        finally:
+            fut.release()
+        store.add(row)
+        done += 1
+        bar.update()
+    return done
+
+
+def run_sweep(sweep: str | Path, out_dir: str | Path, workers: int | None = None,
+              scheduler: str | None = None, *, progress: bool | None = None,
+              quiet: bool = False) -> pd.DataFrame:
+    """Run a SWEEP.toml into ``out_dir`` (``armlab sweep``); returns one row per parameter set.
+
+    Parameters
+    ----------
+    sweep : str or Path
+        The sweep file (:mod:`armlab.sweep.spec`).
+    out_dir : str or Path
+        ``results.parquet`` (+ ``results.parts/``, ``sweep.json``), ``summary.txt`` and
+        ``plots/<figure>_vs_<parameter>.png``. An existing folder of the same sweep is resumed:
+        only the missing parameter sets run.
+    workers : int, optional
+        Worker processes of the local cluster (default: one per CPU). Ignored with ``scheduler``.
+    scheduler : str, optional
+        Address of a running Dask scheduler (``tcp://host:port``); its workers need armlab
+        installed (and the robot descriptions the study names).
+    progress : bool or None
+        Progress bar with rate and ETA; None: only on a terminal.
+    quiet : bool
+        Do not print the summary table.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``key``, the parameter keys, ``status``, ``error``, ``elapsed_s``, ``worker``,
+        ``finished_at`` and the key figures of :func:`armlab.study.key_figures`.
+    """
+    return run_sweep_spec(load_sweep(sweep), out_dir, workers=workers, scheduler=scheduler,
+                          progress=progress, quiet=quiet)

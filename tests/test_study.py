@@ -1,0 +1,413 @@
+"""Study files and the study runner (armlab.study)."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import tomllib
+
+import numpy as np
+import pytest
+
+import armlab
+import armlab.kinematics
+import armlab.trajectory
+from armlab.errors import SpecError, UnreachableError
+from armlab.study import (
+    KEY_FIGURES,
+    STAGES,
+    apply_overrides,
+    check_key,
+    demo_study_path,
+    key_figures,
+    load_study,
+    parse_study,
+    run_spec,
+    run_study,
+)
+from armlab.study.stages import build_robot
+
+DESIGN_KEYS = ("robot", "static_load", "trajectory", "sizing", "control", "tracking", "export")
+
+QUICK = """
+[study]
+name = "quick"
+stages = ["kinematics"]
+report = true
+[robot]
+name = "teachbot6"
+[payload]
+mass_kg = 0.5
+[waypoints]
+unit = "deg"
+joint = [[0, 0, 0, 0, 0, 0], [30, 10, 20, 0, 30, 0], [60, 20, 10, 45, -20, 90]]
+[plan]
+planner = "ptp"
+"""
+
+
+def quick_doc(**sections) -> dict:
+    doc = tomllib.loads(QUICK)
+    for k, v in sections.items():
+        doc[k] = v
+    return doc
+
+
+# ---------------------------------------------------------------------------- parsing
+def test_demo_study_parses_and_names_every_stage():
+    spec = load_study(None)
+    assert spec.robot.name == "teachbot6"
+    assert spec.study.stages == STAGES
+    assert spec.source == "<built-in demo>"
+    assert demo_study_path().is_file()
+    # reproducible: the same file gives the same hash
+    assert load_study(None).hash == spec.hash
+
+
+@pytest.mark.parametrize("mutate, key", [
+    (lambda d: d["plan"].update(speed_scal=0.5), "plan.speed_scal"),
+    (lambda d: d.update(planner={"x": 1}), "planner"),
+    (lambda d: d["payload"].update(mass_kg="heavy"), "payload.mass_kg"),
+    (lambda d: d["payload"].update(mass_kg=-1.0), "payload.mass_kg"),
+    (lambda d: d["plan"].update(speed_scale=0.0), "plan.speed_scale"),
+    (lambda d: d["plan"].update(speed_scale=1.5), "plan.speed_scale"),
+    (lambda d: d["plan"].update(planner="teleport"), "plan.planner"),
+    (lambda d: d["waypoints"].update(unit="grad"), "waypoints.unit"),
+    (lambda d: d["waypoints"].update(joint=[[0, 0], [1]]), "waypoints.joint"),
+    (lambda d: d["waypoints"].update(cartesian=[[0.5, 0, 0.3, 0, 0, 0]] * 2),
+     "waypoints.joint"),
+    (lambda d: d["study"].update(stages=["plan", "kinematics"]), "study.stages"),
+    (lambda d: d["study"].update(stages=["kinematics", "fly"]), "study.stages[1]"),
+    (lambda d: d["study"].update(seed=1.5), "study.seed"),
+    (lambda d: d.update(drives={"joint2": {"ratio": 0}}), "drives.joint2.ratio"),
+    (lambda d: d.update(drives={"joint2": {"gear": 100}}), "drives.joint2.gear"),
+    (lambda d: d.update(controller={"cycle_s": 5.0}), "controller.cycle_s"),
+    (lambda d: d.update(limits={"velocity_rad_s": [1.0, -1.0]}), "limits.velocity_rad_s[1]"),
+    (lambda d: d.pop("robot"), "robot.name"),
+    (lambda d: d["plan"].update(planner="line"), "plan.planner"),
+])
+def test_bad_study_names_the_key(mutate, key):
+    doc = quick_doc()
+    mutate(doc)
+    with pytest.raises(SpecError) as err:
+        parse_study(doc)
+    assert str(err.value).startswith(key), str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_check_key_and_overrides():
+    for good in ("payload.mass_kg", "drives.joint2.ratio", "drives.joint3.motor",
+                 "controller.cycle_s", "control.position_bandwidth_rad_s", "plan.speed_scale"):
+        check_key(good)
+    for bad in ("payload", "payload.mass", "drives.joint2", "drives.joint2.gear", "robots.name"):
+        with pytest.raises(SpecError, match=bad.replace(".", r"\.")):
+            check_key(bad)
+    doc = quick_doc()
+    new = apply_overrides(doc, {"payload.mass_kg": np.float64(1.25),
+                                "drives.joint2.ratio": 300})
+    assert new["payload"]["mass_kg"] == 1.25 and type(new["payload"]["mass_kg"]) is float
+    assert new["drives"]["joint2"]["ratio"] == 300
+    assert "drives" not in doc  # the original is untouched
+    assert parse_study(new).hash != parse_study(doc).hash
+
+
+def test_study_file_errors(tmp_path):
+    with pytest.raises(SpecError, match="not found"):
+        load_study(tmp_path / "missing.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[robot\nname=")
+    with pytest.raises(SpecError, match="not valid TOML"):
+        load_study(bad)
+
+
+# ---------------------------------------------------------------------------- robot
+def test_drive_override_updates_the_derived_effort_limit(teachbot6):
+    spec = parse_study(quick_doc(drives={"joint2": {"ratio": 300}, "joint5": {"motor": "55LYX04"}}))
+    robot = build_robot(spec)
+    d2 = robot.drives["joint2"]
+    assert d2.reducer.ratio == 300
+    # thesis table 4.3 rule, computed here independently: stall x ratio x efficiency x derating
+    assert robot.limits.effort_Nm[1] == pytest.approx(0.28 * 300 * 0.6 * 0.8)
+    assert robot.drives["joint5"].motor.model == "55LYX04"
+    # the motor brings its maker derating (0.8, thesis table 4.3) along
+    assert robot.drives["joint5"].derating == 0.8
+    assert robot.limits.effort_Nm[4] == pytest.approx(0.28 * 298 * 0.6 * 0.8)
+    # the description robot is untouched
+    assert teachbot6.drives["joint2"].reducer.ratio == 410
+    assert teachbot6.limits.effort_Nm[1] == pytest.approx(0.28 * 410 * 0.6 * 0.8)
+    assert robot.limits.effort_Nm[0] == teachbot6.limits.effort_Nm[0]
+
+
+def test_a_catalogue_motor_can_replace_a_joint_motor():
+    from armlab.study.stages import api
+
+    path = api("armlab.dynamics", "load_catalogue")().path  # read the file independently
+    entry = next(m for m in tomllib.loads(open(path).read())["motor"]
+                 if m["model"] == "maxon RE 30 60 W 24 V")
+    spec = parse_study(quick_doc(drives={"joint3": {"motor": "maxon RE 30 60 W 24 V"}}))
+    robot = build_robot(spec)
+    assert robot.drives["joint3"].motor.torque_constant_Nm_A == entry["torque_constant_Nm_A"]
+    assert robot.limits.effort_Nm[2] == pytest.approx(
+        entry["stall_torque_Nm"] * 385 * 0.6 * entry.get("derating", 1.0))
+
+
+@pytest.mark.parametrize("drives, limits, key", [
+    ({"joint9": {"ratio": 100}}, {}, "drives.joint9"),
+    ({"joint3": {"motor": "warp-drive"}}, {}, "drives.joint3.motor"),
+    ({}, {"velocity_rad_s": [1.0, 1.0]}, "limits.velocity_rad_s"),
+])
+def test_bad_robot_changes_name_the_key(drives, limits, key):
+    spec = parse_study(quick_doc(drives=drives, limits=limits))
+    with pytest.raises(SpecError) as err:
+        build_robot(spec)
+    assert str(err.value).startswith(key)
+
+
+def test_payload_and_limit_overrides():
+    spec = parse_study(quick_doc(payload={"mass_kg": 1.5}, limits={"velocity_rad_s": 0.1}))
+    robot = build_robot(spec)
+    assert robot.payload.mass_kg == 1.5
+    assert np.all(robot.limits.velocity_rad_s == 0.1)
+
+
+# ---------------------------------------------------------------------------- running
+def test_quick_study_writes_the_design_outputs(tmp_path, capsys):
+    spec = parse_study(quick_doc())
+    summary = run_study_doc(spec, tmp_path)
+    on_disk = json.loads((tmp_path / "summary.json").read_text())
+    for key in DESIGN_KEYS:
+        assert key in on_disk and "status" in on_disk[key], key
+    assert on_disk["robot"]["name"] == "teachbot6" and on_disk["robot"]["n_joints"] == 6
+    assert on_disk["kinematics"]["status"] == "ok"
+    assert on_disk["trajectory"]["status"] == "skipped"  # not in study.stages
+    assert summary["study"]["stages"]["kinematics"]["status"] == "ok"
+    report = (tmp_path / "report.md").read_text()
+    assert "## Kinematics" in report and "3 waypoints" in report
+    # the progress bar is silent without a terminal (pytest's stderr is not a TTY)
+    assert capsys.readouterr().err == ""
+
+
+def run_study_doc(spec, out):
+    return run_spec(spec, out, progress=None).summary
+
+
+def test_tcp_positions_are_the_forward_kinematics():
+    spec = parse_study(quick_doc())
+    res = run_spec(spec)
+    q = np.radians(np.array(spec.waypoints.joint))
+    tcp = np.array(res.summary["kinematics"]["tcp_positions_m"])
+    expect = np.array([armlab.kinematics.fk(res.robot, row)[:3, 3] for row in q])
+    np.testing.assert_allclose(tcp, expect, atol=1e-12)
+
+
+def test_cartesian_waypoints_go_through_ik(teachbot6):
+    q = np.radians([[0, 10, 20, 0, 30, 0], [40, 20, 30, 10, -40, 20]])
+    rows = []
+    for T in (armlab.kinematics.fk(teachbot6, r) for r in q):
+        R = T[:3, :3]  # URDF roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll)
+        pitch = -math.asin(R[2, 0])
+        roll, yaw = math.atan2(R[2, 1], R[2, 2]), math.atan2(R[1, 0], R[0, 0])
+        rows.append([*T[:3, 3], roll, pitch, yaw])
+    doc = quick_doc(waypoints={"unit": "rad", "cartesian": rows})
+    res = run_spec(parse_study(doc))
+    kin = res.summary["kinematics"]
+    assert kin["waypoints_from"] == "cartesian (IK)"
+    q_ik = np.array(kin["waypoints_rad"])
+    for row, qi in zip(q, q_ik, strict=True):  # same pose (maybe another branch)
+        np.testing.assert_allclose(armlab.kinematics.fk(teachbot6, qi),
+                                   armlab.kinematics.fk(teachbot6, row), atol=1e-9)
+
+
+def test_waypoint_out_of_range_is_an_error_recorded_in_the_summary(tmp_path):
+    doc = quick_doc()
+    doc["waypoints"]["joint"][1][2] = 170.0  # joint3 range is -90 .. 160 deg
+    with pytest.raises(UnreachableError) as err:
+        run_spec(parse_study(doc), tmp_path)
+    msg = str(err.value)
+    assert msg.startswith("kinematics: waypoints.joint[1]: joint3 = 170 deg")
+    on_disk = json.loads((tmp_path / "summary.json").read_text())
+    assert on_disk["kinematics"]["status"] == "error"
+    assert "joint3" in on_disk["kinematics"]["error"]
+
+
+def test_run_study_prints_a_one_screen_summary(tmp_path, capsys):
+    path = tmp_path / "quick.toml"
+    path.write_text(QUICK)
+    summary = run_study(path, tmp_path / "out")
+    out = capsys.readouterr().out
+    lines = out.strip().splitlines()
+    assert len(lines) <= 24
+    assert lines[0].startswith("armlab study 'quick': robot teachbot6")
+    for stage in STAGES:
+        assert any(line.strip().startswith(stage) for line in lines), stage
+    assert "summary.json" in lines[-1]
+    assert summary["study"]["source"] == str(path)
+
+
+def test_cli_reports_a_bad_study_on_one_line(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(QUICK.replace('planner = "ptp"', 'planner = "ptp"\nspeed = 3'))
+    proc = subprocess.run([sys.executable, "-m", "armlab.cli", "run", str(bad), "--out",
+                           str(tmp_path / "o")], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert proc.stderr.strip().count("\n") == 0
+    assert "plan.speed: unknown key" in proc.stderr
+
+
+# ---------------------------------------------------------------------------- key figures
+def test_key_figures_from_a_summary():
+    summary = {
+        "kinematics": {"max_reach_m": 0.75},
+        "trajectory": {"duration_s": 2.5, "peak_ratio": {"velocity": 1.0, "torque": 0.4}},
+        "static_load": {"joints": {"joint1": {"torque_Nm": 3.0}, "joint2": {"torque_Nm": 9.0}}},
+        "sizing": {"joints": {
+            "joint1": {"checks": [{"name": "rms", "margin": 0.5, "ok": True}]},
+            "joint2": {"checks": [{"name": "peak", "margin": 0.2, "ok": True},
+                                  {"name": "speed", "margin": -0.1, "ok": False}]}}},
+        "control": {"joint1": {
+            "position": {"phase_margin_deg": 60.0, "phase_margin_discrete_deg": 55.0,
+                         "gain_margin_dB": "inf", "gain_margin_discrete_dB": 12.0,
+                         "crossover_rad_s": 30.0},
+            "speed": {"phase_margin_deg": 50.0, "gain_margin_dB": 8.0,
+                      "crossover_rad_s": 300.0}}},
+        "tracking": {"joints": {"joint1": {"max_error_rad": 1e-3},
+                                "joint2": {"max_error_rad": 2e-3}},
+                     "tcp": {"max_error_m": 4e-4}},
+        "export": {"n_cycles": 2501},
+        "study": {"stages": {"plan": {"status": "ok"}}},
+    }
+    kf = key_figures(summary)
+    assert kf["duration_s"] == 2.5 and kf["peak_torque_ratio"] == 0.4
+    assert math.isnan(kf["peak_jerk_ratio"])
+    assert kf["max_static_torque_Nm"] == 9.0
+    assert kf["sizing_ok"] is False and kf["sizing_min_margin"] == -0.1
+    assert kf["sizing_binding"] == "joint2:speed"
+    assert kf["min_phase_margin_deg"] == 50.0 and kf["min_gain_margin_dB"] == 8.0
+    assert kf["position_crossover_min_rad_s"] == 30.0
+    assert kf["tracking_max_error_rad"] == 2e-3 and kf["tcp_max_error_m"] == 4e-4
+    assert kf["n_cycles"] == 2501 and kf["stage_plan"] == "ok"
+    empty = key_figures({})
+    assert math.isnan(empty["duration_s"]) and empty["sizing_ok"] is None
+    assert set(KEY_FIGURES) | {"sizing_binding"} == set(empty)  # what a sweep may plot
+
+
+# ---------------------------------------------------------------------------- the whole chain
+FULL = """
+[study]
+name = "full chain"
+[robot]
+name = "teachbot6"
+[payload]
+mass_kg = 0.5
+[waypoints]
+unit = "deg"
+joint = [[0, 0, 0, 0, 0, 0], [20, 10, 15, 10, 20, 30], [0, 0, 0, 0, 0, 0]]
+[plan]
+planner = "ptp"
+profile = "scurve"
+[control]
+n_inertia_samples = 30
+[tracking]
+feedforward = ["velocity", "acceleration", "gravity"]
+"""
+
+
+def test_full_chain_outputs_agree_with_each_other(tmp_path, capsys):
+    """`armlab run` through every stage: the files agree with summary.json and with the
+    package's own readers, and `armlab export` takes the folder."""
+    import hashlib
+
+    from armlab.cli import main
+    from armlab.deploy import load_gains, load_trajectory, read_setpoints
+
+    path = tmp_path / "full.toml"
+    path.write_text(FULL)
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    assert {s: i["status"] for s, i in summary["study"]["stages"].items()} == \
+        dict.fromkeys(("robot", *STAGES), "ok")
+    assert printed.splitlines()[-1].startswith(f"files in {out}/")
+    # report.md and every plot it shows
+    report = (out / "report.md").read_text()
+    import re
+
+    shown = re.findall(r"^!\[.*\]\(([^)]+)\)$", report, flags=re.M)
+    assert "plan_profiles.png" in shown and "tracking_error.png" in shown
+    for png in shown:
+        assert (out / png).is_file(), png
+    # each file's sha256 in the summary is the file's (computed here independently)
+    files = summary["export"]["files"]
+    assert set(files) == {"setpoints.csv", "gains.json", "trajectory.npz"}
+    for name, info in files.items():
+        assert hashlib.sha256((out / name).read_bytes()).hexdigest() == info["sha256"]
+    # the plan: feasible, and what the set-point table and trajectory file hold
+    traj = summary["trajectory"]
+    for kind in ("position", "velocity", "acceleration", "jerk"):
+        assert traj["peak_ratio"][kind] <= 1 + 1e-6
+    saved = load_trajectory(out / "trajectory.npz")
+    assert saved.duration == pytest.approx(traj["duration_s"], abs=1e-12)
+    table = read_setpoints(out / "setpoints.csv")
+    assert table.n_cycles == summary["export"]["n_cycles"]
+    assert table.cycle_s == summary["export"]["cycle_s"] == 1e-3
+    assert (table.n_cycles - 1) * table.cycle_s == pytest.approx(traj["duration_s"], abs=1e-3)
+    wp = np.radians(tomllib.loads(FULL)["waypoints"]["joint"])
+    np.testing.assert_allclose(table.q_rad[0], wp[0], atol=1e-9)
+    np.testing.assert_allclose(table.q_rad[-1], wp[-1], atol=1e-6)
+    # gains.json loads back into the control objects with the figures of summary.json
+    gains = load_gains(out / "gains.json")
+    for joint, loops in summary["control"].items():
+        if joint == "status":
+            continue
+        for loop, fig in loops.items():
+            assert getattr(gains[joint], loop).phase_margin_deg == \
+                pytest.approx(fig["phase_margin_deg"], rel=1e-12)
+            assert fig["phase_margin_deg"] >= 45 and fig["phase_margin_discrete_deg"] >= 45
+    # sizing and tracking blocks carry the DESIGN.md fields
+    for joint in summary["robot"]["joint_names"]:
+        block = summary["sizing"][joint]
+        for key in ("peak_torque_Nm", "rms_torque_Nm", "peak_speed_rad_s",
+                    "motor_peak_speed_rpm"):
+            assert math.isfinite(block[key])
+        assert {"name", "value", "limit", "margin", "ok"} <= set(block["checks"][0])
+        assert summary["tracking"]["joints"][joint]["max_error_rad"] >= 0
+    assert summary["key_figures"]["duration_s"] == traj["duration_s"]
+    # the folder is what `armlab export` reads
+    assert main(["export", str(out), "--format", "json", "--out", str(tmp_path / "x")]) == 0
+    assert (tmp_path / "x").is_dir() and any((tmp_path / "x").iterdir())
+
+
+def test_cartesian_line_study_starts_and_ends_at_the_waypoints():
+    rows = [[0.42, 0.0, -0.10, 180, 0, 0], [0.42, 0.15, -0.10, 180, 0, 0]]
+    doc = quick_doc(waypoints={"unit": "deg", "cartesian": rows},
+                    plan={"planner": "line", "speed_m_s": 0.05, "check_dt_s": 0.01})
+    doc["study"]["stages"] = ["kinematics", "plan"]
+    res = run_spec(parse_study(doc))
+    assert res.summary["trajectory"]["method"] == "line"
+    tcp = armlab.kinematics.tool_positions(res.robot, res.trajectory.q[[0, -1]])
+    np.testing.assert_allclose(tcp, np.array(rows)[:, :3], atol=1e-9)
+    # the straight line at 0.05 m/s takes at least its length / speed
+    assert res.trajectory.duration >= 0.15 / 0.05
+
+
+def test_a_plain_urdf_study_skips_the_drive_stages():
+    from conftest import UR5_URDF
+
+    doc = quick_doc(robot={"name": str(UR5_URDF)},
+                    waypoints={"unit": "deg", "joint": [[0, -90, 90, 0, 90, 0],
+                                                        [30, -70, 70, 20, 70, 10]]},
+                    limits={"acceleration_rad_s2": 5.0, "jerk_rad_s3": 50.0},
+                    payload={"mass_kg": 1.0})
+    doc["study"]["stages"] = ["kinematics", "plan", "sizing", "tuning", "export"]
+    doc["plan"]["check_dt_s"] = 0.01
+    res = run_spec(parse_study(doc))
+    s = res.summary
+    assert s["robot"]["name"] == "ur5_robot" and s["trajectory"]["status"] == "ok"
+    for key in ("sizing", "control", "export"):
+        assert s[key]["status"] == "skipped" and "no drives.toml" in s[key]["reason"]
+    # the study's acceleration limit is the one the plan honoured
+    assert s["trajectory"]["peak_ratio"]["acceleration"] <= 1 + 1e-6
+    assert np.all(res.robot.limits.acceleration_rad_s2 == 5.0)
