@@ -290,3 +290,17 @@ def test_plots_return_figures(teachbot6):
     assert isinstance(plot_torque_ratio(traj, teachbot6), Figure)
     with pytest.raises(InputError):
         plot_phase_plane(traj)
+
+
+def test_a_plan_left_violating_after_backoff_is_refused(teachbot6):
+    """A solved plan whose fine-grid report still breaks a limit is never handed out."""
+    from armlab.trajectory import ptp_sync
+    from armlab.trajectory.optimal import refuse_violation
+
+    traj = ptp_sync(teachbot6, np.zeros(6), np.array([0.5, 0.2, 0.3, 0.0, 0.0, 0.0]))
+    traj.report = traj.check_limits(teachbot6)
+    refuse_violation(traj, "optimal", 0)  # feasible: nothing happens
+    slow = teachbot6.with_limits(velocity_rad_s=teachbot6.limits.velocity_rad_s * 0.5)
+    traj.report = traj.check_limits(slow)
+    with pytest.raises(InfeasibleError, match=r"velocity limit of joint\d \(peak ratio 2\.0"):
+        refuse_violation(traj, "optimal", 3)

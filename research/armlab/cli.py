@@ -93,7 +93,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", required=True, help="output folder")
     s.set_defaults(func=_cmd_run)
     s = sub.add_parser("sweep", help="run a parameter sweep of studies")
-    s.add_argument("sweep", help="SWEEP.toml")
+    s.add_argument("sweep", help="SWEEP.toml (or 'demo': the shipped example)")
     s.add_argument("--out", required=True, help="output folder (results.parquet)")
     s.add_argument("--workers", type=int, default=None, help="local worker processes")
     s.add_argument("--scheduler", default=None, help="Dask scheduler address tcp://host:port")

@@ -129,6 +129,20 @@ TORQUE_INTERIOR_POINTS: tuple[float, ...] = ()
 CHECK_SAMPLES = 4000
 BACKOFF_MARGIN = 1e-3
 
+
+def refuse_violation(traj: Trajectory, planner: str, rounds: int) -> None:
+    """Raise :class:`InfeasibleError` if the fine-grid report of a solved plan still breaks a
+    limit after the back-off re-solves: a plan is never handed out with a silent violation."""
+    if traj.report is None or traj.report.ok(CHECK_TOL):
+        return
+    kind, joint, ratio, t_s = max(traj.report.violations(CHECK_TOL), key=lambda v: v[2])
+    raise InfeasibleError(
+        f"{planner}: after {rounds} back-off re-solve(s) the plan still exceeds the {kind} limit "
+        f"of {joint} (peak ratio {ratio:.6f} at t = {t_s:.4f} s on the fine check grid); loosen "
+        "that limit or use more intervals"
+    )
+
+
 _STRUCTURES: dict[tuple, _Structure] = {}
 _STRUCTURES_MAX = 32
 
@@ -750,6 +764,7 @@ class OptimalProblem:
             stats["energy_unit"] = unit
         self.stats = stats
         traj.stats = stats
+        refuse_violation(traj, "optimal", rounds)
         traj.meta.update({
             "waypoints": self.waypoints.copy(),
             "waypoint_times_s": traj.meta["knot_times_s"][self.waypoint_nodes]

@@ -60,7 +60,13 @@ from scipy.interpolate import CubicSpline
 from armlab.errors import ArmlabError, InfeasibleError, InputError
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.limitset import LimitSet, resolve_limits
-from armlab.trajectory.optimal import BACKOFF_MARGIN, CHECK_SAMPLES, CHECK_TOL, JUMP_RAMP_S
+from armlab.trajectory.optimal import (
+    BACKOFF_MARGIN,
+    CHECK_SAMPLES,
+    CHECK_TOL,
+    JUMP_RAMP_S,
+    refuse_violation,
+)
 
 __all__ = ["time_optimal_path", "build_topp", "ToppProblem", "GeometricPath", "path_dynamics",
            "path_grid"]
@@ -563,6 +569,7 @@ class ToppProblem:
                  "binding": binding, "report_dt_s": dt, "ok": traj.report.ok(CHECK_TOL)}
         self.stats = stats
         traj.stats = stats
+        refuse_violation(traj, "time_optimal_path", rounds)
         traj.meta.update({"path_s_grid": self.s.copy(), "b": b_convex,
                           "limits": ls0.to_dict(), "path_points": self.path.points.copy()})
         traj.meta["topp"] = self
