@@ -23,12 +23,11 @@ from armlab.trajectory.polynomial import via_velocities
 from armlab.trajectory.profiles import (
     double_s_min_time,
     double_s_profile_for_duration,
-    trapezoid_min_time,
     time_grid,
+    trapezoid_min_time,
     trapezoid_profile_for_duration,
 )
 from armlab.trajectory.timescale import planner_limits
-
 
 # ---------------------------------------------------------------------- seed 002 table 1
 

@@ -34,7 +34,6 @@ from armlab.kinematics import (
     plot_workspace,
     workspace_cloud,
 )
-
 from conftest import PANDA_FINGERS, PANDA_URDF
 
 

@@ -10,13 +10,13 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import PANDA_URDF, REPO, UR5_URDF
 
 import armlab
 from armlab.errors import InputError, RobotDescriptionError
 from armlab.robot import load_robot, read_dh_table, urdf_from_dh
 from armlab.robot.dh import mdh_transforms
 from armlab.robot.generate import description_urdf
+from conftest import PANDA_URDF, REPO, UR5_URDF
 
 DESC = REPO / "robot_desc" / "teachbot6"
 

@@ -281,7 +281,7 @@ class LoopGains:
         ``(q0 z^2 + q1 z + q2) / (z^2 - z)``."""
         return [self.q0, self.q1, self.q2], [1.0, -1.0, 0.0]
 
-    def with_gains(self, kp: float, ki: float = 0.0, kd: float = 0.0) -> "LoopGains":
+    def with_gains(self, kp: float, ki: float = 0.0, kd: float = 0.0) -> LoopGains:
         """Copy with new continuous gains; q0..q2 recomputed, checked figures cleared."""
         keep = {f.name: getattr(self, f.name) for f in fields(self)
                 if f.name in ("loop", "kind", "sample_time_s", "method", "output_min",
@@ -309,7 +309,7 @@ class LoopGains:
         return out
 
     @classmethod
-    def from_dict(cls, d: dict) -> "LoopGains":
+    def from_dict(cls, d: dict) -> LoopGains:
         """Inverse of :meth:`to_dict` (unknown keys ignored; null -> nan, "inf" -> inf)."""
         names = {f.name for f in fields(cls)}
         kw = {k: v for k, v in d.items() if k in names}
@@ -385,7 +385,7 @@ class PlantSummary:
                          else getattr(self, f.name)) for f in fields(self)}
 
     @classmethod
-    def from_dict(cls, d: dict) -> "PlantSummary":
+    def from_dict(cls, d: dict) -> PlantSummary:
         names = {f.name for f in fields(cls)}
         kw = {k: v for k, v in d.items() if k in names}
         for f in fields(cls):
@@ -423,7 +423,7 @@ class CascadeGains:
     def loops(self) -> dict[str, LoopGains]:
         return {name: getattr(self, name) for name in LOOPS}
 
-    def replace_loop(self, loop: LoopGains) -> "CascadeGains":
+    def replace_loop(self, loop: LoopGains) -> CascadeGains:
         return replace(self, **{loop.loop: loop})
 
     def to_dict(self) -> dict:
@@ -440,7 +440,7 @@ class CascadeGains:
         return {name: getattr(self, name).summary() for name in LOOPS}
 
     @classmethod
-    def from_dict(cls, d: dict) -> "CascadeGains":
+    def from_dict(cls, d: dict) -> CascadeGains:
         try:
             return cls(
                 joint=d["joint"],
@@ -457,7 +457,7 @@ class CascadeGains:
         return json.dumps(self.to_dict(), indent=indent)
 
     @classmethod
-    def from_json(cls, text: str) -> "CascadeGains":
+    def from_json(cls, text: str) -> CascadeGains:
         try:
             return cls.from_dict(json.loads(text))
         except json.JSONDecodeError as e:
@@ -505,7 +505,7 @@ class ArmGains:
         return {name: g.summary() for name, g in self.joints.items()}
 
     @classmethod
-    def from_dict(cls, d: dict) -> "ArmGains":
+    def from_dict(cls, d: dict) -> ArmGains:
         fmt = d.get("format", GAINS_FORMAT)
         if fmt != GAINS_FORMAT:
             raise InputError(f"gains: format {fmt!r} is not {GAINS_FORMAT!r}")
@@ -518,7 +518,7 @@ class ArmGains:
         return json.dumps(self.to_dict(), indent=indent)
 
     @classmethod
-    def from_json(cls, text: str) -> "ArmGains":
+    def from_json(cls, text: str) -> ArmGains:
         try:
             return cls.from_dict(json.loads(text))
         except json.JSONDecodeError as e:

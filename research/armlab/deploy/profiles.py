@@ -10,13 +10,13 @@ file with the same keys can be given by path.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
 
 from armlab.errors import InputError
+from armlab.tomlfile import read_toml
 
 __all__ = ["ControllerProfile", "DEFAULT_PROFILE", "load_profile", "list_profiles",
            "profiles_dir"]
@@ -206,10 +206,7 @@ def load_profile(name_or_path: str | Path | ControllerProfile | None = None) -> 
     if isinstance(name_or_path, ControllerProfile):
         return name_or_path
     path = _profile_path(DEFAULT_PROFILE if name_or_path is None else name_or_path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"controller profile {path}: not valid TOML ({exc})") from None
+    data = read_toml(path, "controller profile", InputError, prefix="controller profile ")
     known = {f.name for f in fields(ControllerProfile)}
     unknown = sorted(set(data) - known)
     if unknown:

@@ -10,12 +10,12 @@ table 4.3). The file's header records where every number comes from.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from armlab.errors import RobotDescriptionError
 from armlab.robot.drives import Motor, Reducer, motor_from_dict, reducer_from_dict
+from armlab.tomlfile import read_toml
 
 __all__ = ["Catalogue", "load_catalogue", "default_catalogue_path"]
 
@@ -67,12 +67,7 @@ def load_catalogue(path: str | Path | None = None) -> Catalogue:
         non-positive ratio, efficiency outside (0, 1].
     """
     path = default_catalogue_path() if path is None else Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise RobotDescriptionError(f"{path}: catalogue file not found") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise RobotDescriptionError(f"{path}: not valid TOML ({exc})") from None
+    data = read_toml(path, "catalogue file")
     derating: dict[str, float] = {}
     thesis: dict[str, list[str | None]] = {}
 

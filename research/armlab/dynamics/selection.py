@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-
 from armlab.dynamics.catalogue import Catalogue, load_catalogue
 from armlab.dynamics.checks import (
     Check,

@@ -12,6 +12,12 @@
 Poses are tool poses in the world: ``T_base_in_world @ T_tool_in_base`` (thesis 3.5).
 """
 
+from armlab.kinematics.accuracy import (
+    LINK_TOLERANCES_M,
+    REDUCER_ANGLE_ERROR_RAD,
+    AccuracyResult,
+    accuracy_study,
+)
 from armlab.kinematics.analytic_ik import (
     IK_REASONS,
     check_poses,
@@ -23,12 +29,6 @@ from armlab.kinematics.analytic_ik import (
 )
 from armlab.kinematics.forward import analytic_jacobian, fk, fk_batch, jacobian, tool_positions
 from armlab.kinematics.numerical_ik import IKResult, IKSettings, ik, ik_batch, ik_solve
-from armlab.kinematics.accuracy import (
-    LINK_TOLERANCES_M,
-    REDUCER_ANGLE_ERROR_RAD,
-    AccuracyResult,
-    accuracy_study,
-)
 from armlab.kinematics.plots import plot_accuracy, plot_accuracy_scatter, plot_workspace
 from armlab.kinematics.workspace import (
     WorkspaceResult,

@@ -19,7 +19,6 @@ The table file is TOML with lengths in mm and angles in deg (the units of a draw
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from xml.sax.saxutils import escape
@@ -27,6 +26,7 @@ from xml.sax.saxutils import escape
 import numpy as np
 
 from armlab.errors import RobotDescriptionError
+from armlab.tomlfile import read_toml
 
 __all__ = ["DHTable", "LumpedMass", "read_dh_table", "urdf_from_dh", "mdh_transforms"]
 
@@ -204,12 +204,7 @@ def read_dh_table(path: str | Path) -> DHTable:
     DH frame, ``shape``, ``size_mm``, ``axis``) and ``[payload]`` the payload body on the tool.
     """
     path = Path(path)
-    if not path.is_file():
-        raise RobotDescriptionError(f"{path}: DH table file not found")
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise RobotDescriptionError(f"{path}: not valid TOML ({exc})") from None
+    data = read_toml(path, "DH table file")
     convention = data.get("convention", "modified")
     if convention not in ("modified", "classic"):
         raise RobotDescriptionError(

@@ -6,11 +6,11 @@ SI inside; the only non-SI fields are named with their unit (``rated_speed_rpm``
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import MISSING, asdict, dataclass, fields
 from pathlib import Path
 
 from armlab.errors import RobotDescriptionError
+from armlab.tomlfile import read_toml
 
 __all__ = ["Motor", "Reducer", "Encoder", "Drive", "read_drives", "RPM_TO_RAD_S"]
 
@@ -183,12 +183,7 @@ def read_drives(path: str | Path, joint_names: list[str] | tuple[str, ...]) -> d
         If the file is malformed, a joint is missing, or a joint is unknown.
     """
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise RobotDescriptionError(f"{path}: drives file not found") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise RobotDescriptionError(f"{path}: not valid TOML ({exc})") from None
+    data = read_toml(path, "drives file")
     drives: dict[str, Drive] = {}
     for row in data.get("joint", []):
         name = row.get("name")

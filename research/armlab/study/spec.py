@@ -34,13 +34,13 @@ import copy
 import hashlib
 import json
 import math
-import tomllib
 from dataclasses import MISSING, asdict, dataclass, field, fields
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from armlab.errors import SpecError
+from armlab.tomlfile import read_toml
 
 __all__ = [
     "STAGES", "PLANNERS", "StudySpec", "StudyOptions", "RobotSpec", "PayloadSpec",
@@ -442,14 +442,7 @@ def read_study_document(path: str | Path | None) -> tuple[dict[str, Any], Path, 
     else:
         source = str(path)
     path = Path(path)
-    try:
-        document = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise SpecError(f"{path}: study file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError(f"{path}: cannot read ({exc})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{path}: not valid TOML ({exc})") from None
+    document = read_toml(path, "study file", SpecError)
     return document, path.resolve().parent, source
 
 

@@ -38,7 +38,6 @@ import hashlib
 import itertools
 import json
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -47,6 +46,7 @@ import numpy as np
 
 from armlab.errors import SpecError
 from armlab.study.spec import apply_overrides, check_key, document_hash, read_study_document
+from armlab.tomlfile import read_toml
 
 __all__ = ["Parameter", "SweepSpec", "demo_sweep_path", "load_sweep", "parse_sweep",
            "parameter_sets",
@@ -286,14 +286,7 @@ def load_sweep(path: str | Path) -> SweepSpec:
     """Read and validate a SWEEP.toml (relative paths inside it are relative to its folder);
     ``"demo"`` is the example sweep shipped with armlab."""
     path = demo_sweep_path() if str(path) == "demo" else Path(path)
-    try:
-        document = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise SpecError(f"{path}: sweep file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError(f"{path}: cannot read ({exc})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{path}: not valid TOML ({exc})") from None
+    document = read_toml(path, "sweep file", SpecError)
     return parse_sweep(document, base_dir=path.resolve().parent, source=str(path))
 
 

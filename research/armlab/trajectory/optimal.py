@@ -710,6 +710,7 @@ class OptimalProblem:
         limits = self.limits
         x0 = self.x0
         total_iter, total_time, rounds = 0, 0.0, 0
+        last = None  # (structure, solution) of the last solve that succeeded
         jl = self.limits.joint_limits()
         while True:
             st, x, info, data = self._solve_once(limits, x0)
