@@ -134,7 +134,8 @@ def test_task_rows_never_raise():
     bad = run_parameter_set(doc, str(spec.study_dir), "demo", {"drives.joint2.ratio": -1.0}, "k")
     assert bad["status"] == "error" and bad["error"].startswith("SpecError: drives.joint2.ratio")
     assert bad["key"] == "k" and bad["drives.joint2.ratio"] == -1.0
-    assert bad["elapsed_s"] >= 0 and bad["worker"].endswith(f":{os.getpid()}")
+    duration_recorded = bad["elapsed_s"] >= 0  # a column of the row, not a speed goal
+    assert duration_recorded and bad["worker"].endswith(f":{os.getpid()}")
 
 
 # ---------------------------------------------------------------------------- store
