@@ -1,7 +1,7 @@
 """A study's report: ``report.md`` with its PNG plots, and the one-screen text summary.
 
 Plots are functions returning matplotlib Figures (headless); the report saves them beside
-``report.md``. The package's own plot functions are used where they exist.
+``report.md``; they are the package's own plot functions.
 """
 
 from __future__ import annotations
@@ -12,98 +12,10 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["write_report", "summary_text", "plot_joint_profiles", "plot_tool_path",
-           "plot_torque_ratio", "plot_tracking_error"]
+__all__ = ["write_report", "summary_text"]
 
 
 # ---------------------------------------------------------------------------- plots
-def plot_joint_profiles(trajectory, robot):
-    """q, qd, qdd of every joint over time, with the velocity/acceleration limits dashed."""
-    import matplotlib.pyplot as plt
-
-    t = trajectory.t
-    fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
-    lim = robot.limits
-    series = [("q [rad]", trajectory.q, None), ("qd [rad/s]", trajectory.qd, lim.velocity_rad_s),
-              ("qdd [rad/s^2]", trajectory.qdd, lim.acceleration_rad_s2)]
-    for ax, (label, y, limit) in zip(axes, series, strict=True):
-        for j, name in enumerate(trajectory.joint_names):
-            line, = ax.plot(t, y[:, j], lw=1.2, label=name)
-            if limit is not None:
-                ax.axhline(limit[j], color=line.get_color(), ls="--", lw=0.6)
-                ax.axhline(-limit[j], color=line.get_color(), ls="--", lw=0.6)
-        ax.set_ylabel(label)
-        ax.grid(alpha=0.3)
-    axes[0].legend(ncol=min(6, trajectory.n_joints), fontsize=7, loc="upper right")
-    axes[-1].set_xlabel("t [s]")
-    axes[0].set_title(f"{trajectory.method or 'plan'}: {trajectory.duration:.3f} s")
-    fig.tight_layout()
-    return fig
-
-
-def plot_tool_path(trajectory, robot, waypoints_q=None, n_max: int = 400):
-    """Tool-point path in 3-D with the waypoints marked."""
-    import matplotlib.pyplot as plt
-
-    from armlab.kinematics import tool_positions
-
-    step = max(1, trajectory.n_samples // n_max)
-    p = tool_positions(robot, trajectory.q[::step])
-    fig = plt.figure(figsize=(6, 5))
-    ax = fig.add_subplot(projection="3d")
-    ax.plot(p[:, 0], p[:, 1], p[:, 2], lw=1.5)
-    if waypoints_q is not None:
-        w = tool_positions(robot, np.asarray(waypoints_q))
-        ax.scatter(w[:, 0], w[:, 1], w[:, 2], color="C3", s=25, label="waypoints")
-        ax.legend(fontsize=8)
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.set_zlabel("z [m]")
-    ax.set_title("tool path")
-    fig.tight_layout()
-    return fig
-
-
-def plot_torque_ratio(trajectory, robot, dt: float | None = None):
-    """|joint torque| / effort limit over time for every joint (RNEA, payload included)."""
-    import matplotlib.pyplot as plt
-
-    traj = trajectory if dt is None else trajectory.sample(dt)
-    tau = traj.torques(robot)
-    ratio = np.abs(tau) / robot.limits.effort_Nm
-    fig, ax = plt.subplots(figsize=(8, 3.5))
-    for j, name in enumerate(traj.joint_names):
-        ax.plot(traj.t, ratio[:, j], lw=1.2, label=name)
-    ax.axhline(1.0, color="k", ls="--", lw=0.8)
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("|tau| / effort limit")
-    ax.grid(alpha=0.3)
-    ax.legend(ncol=min(6, traj.n_joints), fontsize=7)
-    fig.tight_layout()
-    return fig
-
-
-def plot_tracking_error(result):
-    """Joint tracking errors and the TCP error over time, with the servo's accuracy budget."""
-    import matplotlib.pyplot as plt
-
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
-    err = result.q_ref - result.q
-    for j, name in enumerate(result.joint_names):
-        a1.plot(result.t, 1e3 * err[:, j], lw=1, label=name)
-    a1.set_ylabel("joint error [mrad]")
-    a1.legend(ncol=min(6, len(result.joint_names)), fontsize=7)
-    a1.grid(alpha=0.3)
-    a2.plot(result.t, 1e3 * result.tcp_error_m, color="k", lw=1.2)
-    a2.axhline(1e3 * result.accuracy_m, color="C3", ls="--", lw=0.8, label="budget")
-    a2.set_ylabel("TCP error [mm]")
-    a2.set_xlabel("t [s]")
-    a2.legend(fontsize=8)
-    a2.grid(alpha=0.3)
-    fig.tight_layout()
-    return fig
-
-
 def _weakest_joint(gains) -> str | None:
     """The joint whose loops have the smallest phase margin (continuous or discrete)."""
     worst, joint = math.inf, None
@@ -129,79 +41,61 @@ def _plant(ctx, joint):
 
 def _figures(ctx) -> list[tuple[str, str, Any]]:
     """(file name, caption, figure factory) of every plot the study can draw."""
+    from armlab.control.plots import bode_figure, step_figure, tracking_figure
+    from armlab.dynamics import plot_joint_loads, plot_operating_points
+    from armlab.kinematics import plot_accuracy, plot_workspace, tool_positions
+    from armlab.trajectory import (
+        plot_joints,
+        plot_limit_profiles,
+        plot_phase_plane,
+        plot_tcp_path,
+        plot_torque_ratio,
+    )
+
     out = []
     traj, robot = ctx.trajectory, ctx.robot
-    for kind, fn, caption in (("workspace", "plot_workspace", "Monte-Carlo workspace"),
-                              ("accuracy", "plot_accuracy", "Monte-Carlo positioning error")):
+    for kind, plot, caption in (("workspace", plot_workspace, "Monte-Carlo workspace"),
+                                ("accuracy", plot_accuracy, "Monte-Carlo positioning error")):
         res = ctx.figures.get(kind)
         if res is not None:
-            plot = _package_plot("armlab.kinematics", fn)
-            if plot is not None:
-                out.append((f"kinematics_{kind}.png", caption, lambda p=plot, r=res: p(r)))
+            out.append((f"kinematics_{kind}.png", caption, lambda p=plot, r=res: p(r)))
     if traj is not None:
         optimised = ctx.spec.plan.planner in ("optimal", "path")
-        joints = _package_plot("armlab.trajectory",
-                               "plot_limit_profiles" if optimised else "plot_joints")
-        path = _package_plot("armlab.trajectory", "plot_tcp_path")
+        joints = plot_limit_profiles if optimised else plot_joints
         out.append(("plan_profiles.png", "Joint profiles with the limits (dashed)",
-                    (lambda: joints(traj, robot)) if joints is not None
-                    else (lambda: plot_joint_profiles(traj, robot))))
-        phase = _package_plot("armlab.trajectory", "plot_phase_plane")
-        if ctx.spec.plan.planner == "path" and phase is not None:
+                    lambda: joints(traj, robot)))
+        if ctx.spec.plan.planner == "path":
             out.append(("plan_phase_plane.png", "Path parameterisation: phase plane with its "
-                        "limit curves", lambda: phase(traj)))
-        if path is not None:
-            from armlab.kinematics import tool_positions
-
-            points = tool_positions(robot, ctx.waypoints_q)
-            out.append(("plan_tool_path.png", "Tool path and waypoints",
-                        lambda: path(robot, traj, points)))
-        else:
-            out.append(("plan_tool_path.png", "Tool path and waypoints",
-                        lambda: plot_tool_path(traj, robot, ctx.waypoints_q)))
+                        "limit curves", lambda: plot_phase_plane(traj)))
+        points = tool_positions(robot, ctx.waypoints_q)
+        out.append(("plan_tool_path.png", "Tool path and waypoints",
+                    lambda: plot_tcp_path(robot, traj, points)))
         if np.all(robot.limits.effort_Nm > 0):
             dt = max(traj.duration / 2000, 1e-3)
-            ratio = _package_plot("armlab.trajectory", "plot_torque_ratio")
             out.append(("plan_torque_ratio.png", "Torque / effort limit along the plan",
-                        (lambda: ratio(traj, robot, dt=dt)) if ratio is not None
-                        else (lambda: plot_torque_ratio(traj, robot, dt))))
+                        lambda: plot_torque_ratio(traj, robot, dt=dt)))
     if ctx.gains is not None:
-        bode = _package_plot("armlab.control.plots", "bode_figure")
-        step = _package_plot("armlab.control.plots", "step_figure")
         joint = _weakest_joint(ctx.gains)
-        if bode is not None and step is not None and joint is not None:
+        if joint is not None:
             plant = _plant(ctx, joint)
             g = ctx.gains[joint]
             out.append((f"control_bode_{joint}.png",
                         f"Speed-loop Bode plot of {joint} (smallest phase margin) over its "
-                        "inertia range", lambda: bode(plant(), g, "speed")))
+                        "inertia range", lambda: bode_figure(plant(), g, "speed")))
             out.append((f"control_steps_{joint}.png",
-                        f"Step responses of the {joint} loops", lambda: step(plant(), g)))
+                        f"Step responses of the {joint} loops", lambda: step_figure(plant(), g)))
     if ctx.tracking is not None and hasattr(ctx.tracking, "tcp_error_m"):
-        track = _package_plot("armlab.control.plots", "tracking_figure")
         out.append(("tracking_error.png", "Closed-loop tracking error (joints and TCP)",
-                    (lambda: track(ctx.tracking)) if track is not None
-                    else (lambda: plot_tracking_error(ctx.tracking))))
+                    lambda: tracking_figure(ctx.tracking)))
     loads = getattr(ctx.sizing, "loads", None)
     if loads is not None:
-        for fn, name, caption in (
-                ("plot_joint_loads", "sizing_loads.png",
+        for plot, name, caption in (
+                (plot_joint_loads, "sizing_loads.png",
                  "Joint torque, speed and power along the plan, with the limits"),
-                ("plot_operating_points", "sizing_operating_points.png",
+                (plot_operating_points, "sizing_operating_points.png",
                  "Motor operating points on the speed-torque plane")):
-            plot = _package_plot("armlab.dynamics", fn)
-            if plot is not None:
-                out.append((name, caption, lambda p=plot: p(loads, robot)))
+            out.append((name, caption, lambda p=plot: p(loads, robot)))
     return out
-
-
-def _package_plot(module: str, name: str):
-    from armlab.study.stages import NotAvailable, api
-
-    try:
-        return api(module, name)
-    except NotAvailable:
-        return None
 
 
 # ---------------------------------------------------------------------------- report.md

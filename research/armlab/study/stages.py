@@ -1,9 +1,9 @@
 """The stages of a study: each takes the :class:`StudyContext` and returns its summary.json block.
 
 Chain (DESIGN.md): robot -> kinematics checks -> plan -> static load -> sizing -> tuning ->
-closed-loop tracking -> export. Each stage calls the package's public functions; a stage whose
-function does not exist (yet) in this installation reports ``status: "not available"`` and the
-stages that need its result report ``status: "skipped"`` -- a study never fakes a result.
+closed-loop tracking -> export. Each stage calls the package's public functions; a stage that
+cannot apply (no drive data, no trajectory) reports ``status: "skipped"`` or ``"not available"``
+with the reason, and the stages that need its result are skipped -- a study never fakes a result.
 
 A stage raises an :class:`armlab.ArmlabError` when its input is impossible (a waypoint out of
 range, an infeasible plan, an impossible control spec); the runner records it and stops.
@@ -24,8 +24,8 @@ import numpy as np
 from armlab.errors import LimitViolation, SpecError, UnreachableError
 from armlab.study.spec import StudySpec
 
-__all__ = ["StudyContext", "NotAvailable", "NotApplicable", "STAGE_FUNCTIONS", "SUMMARY_KEY", "build_robot",
-           "api"]
+__all__ = ["StudyContext", "NotAvailable", "NotApplicable", "STAGE_FUNCTIONS", "SUMMARY_KEY",
+           "build_robot", "api"]
 
 #: summary.json block written by each stage.
 SUMMARY_KEY = {"kinematics": "kinematics", "plan": "trajectory", "static_load": "static_load",
@@ -41,15 +41,8 @@ class NotAvailable(Exception):
 
 
 def api(module: str, name: str):
-    """``module.name`` if this installation has it, else raise :class:`NotAvailable`."""
-    try:
-        mod = importlib.import_module(module)
-    except ImportError as exc:
-        raise NotAvailable(f"{module} cannot be imported ({exc})") from None
-    fn = getattr(mod, name, None)
-    if fn is None or inspect.ismodule(fn):  # a submodule of that name is not the function
-        raise NotAvailable(f"{module}.{name} does not exist yet")
-    return fn
+    """``module.name``, imported when a stage runs (a study imports only the stages it uses)."""
+    return getattr(importlib.import_module(module), name)
 
 
 def _call(fn, where: str, *args, **options):
@@ -110,12 +103,8 @@ def _per_joint(value, n: int, where: str) -> np.ndarray:
 
 
 def _catalogue(spec: StudySpec):
-    """The drive catalogue (``sizing.catalogue`` or the package's), or None if this
-    installation has no catalogue support."""
-    try:
-        load = api("armlab.dynamics", "load_catalogue")
-    except NotAvailable:
-        return None
+    """The drive catalogue (``sizing.catalogue`` or the package's)."""
+    load = api("armlab.dynamics", "load_catalogue")
     name = spec.sizing.catalogue
     return load(None if name is None else spec.resolve(name))
 
@@ -315,10 +304,7 @@ def stage_kinematics(ctx: StudyContext) -> dict:
 def _optional_study(ctx: StudyContext, kind: str, n: int) -> dict:
     """The Monte-Carlo workspace cloud or accuracy study (thesis 3.6, 3.7) at the study seed."""
     name = {"workspace": "workspace_cloud", "accuracy": "accuracy_study"}[kind]
-    try:
-        fn = api("armlab.kinematics", name)
-    except NotAvailable as exc:
-        return {"status": "not available", "reason": str(exc)}
+    fn = api("armlab.kinematics", name)
     if kind == "accuracy" and ctx.robot.dh is None:
         return {"status": "skipped", "reason": f"{ctx.robot.name} has no DH table"}
     res = fn(ctx.robot, n_samples=n, seed=ctx.spec.study.seed)
@@ -499,16 +485,12 @@ def stage_sizing(ctx: StudyContext) -> dict:
     ctx.sizing = res
     block = {"status": "ok", **_to_dict(res)}
     if ctx.spec.sizing.select:
-        try:
-            select = api("armlab.dynamics", "select_drives")
-        except NotAvailable as exc:
-            block["selection"] = {"status": "not available", "reason": str(exc)}
-        else:
-            sel = _call(select, "sizing", ctx.robot, [ctx.trajectory],
-                        catalogue=("catalogue", _catalogue(ctx.spec)),
-                        check_dt_s=("dt", ctx.spec.plan.check_dt_s))
-            ctx.selection = sel
-            block["selection"] = {"status": "ok", **_to_dict(sel)}
+        select = api("armlab.dynamics", "select_drives")
+        sel = _call(select, "sizing", ctx.robot, [ctx.trajectory],
+                    catalogue=("catalogue", _catalogue(ctx.spec)),
+                    check_dt_s=("dt", ctx.spec.plan.check_dt_s))
+        ctx.selection = sel
+        block["selection"] = {"status": "ok", **_to_dict(sel)}
     return block
 
 
@@ -597,20 +579,10 @@ def stage_export(ctx: StudyContext) -> dict:
     table.write(out / "setpoints.csv", format="csv")
     paths["setpoints.csv"] = out / "setpoints.csv"
     if ctx.gains is not None:
-        try:
-            write_gains = api("armlab.deploy", "write_gains")
-        except NotAvailable:
-            (out / "gains.json").write_text(ctx.gains.to_json())
-        else:
-            write_gains(out / "gains.json", ctx.gains, format="json")
+        api("armlab.deploy", "write_gains")(out / "gains.json", ctx.gains, format="json")
         paths["gains.json"] = out / "gains.json"
-    try:
-        save = api("armlab.deploy", "save_trajectory")
-    except NotAvailable:
-        pass
-    else:
-        save(out / "trajectory.npz", ctx.trajectory, ctx.robot)
-        paths["trajectory.npz"] = out / "trajectory.npz"
+    api("armlab.deploy", "save_trajectory")(out / "trajectory.npz", ctx.trajectory, ctx.robot)
+    paths["trajectory.npz"] = out / "trajectory.npz"
     for name, path in paths.items():
         if path is not None:
             block["files"][name] = {"path": name, "sha256": file_sha256(path)}
