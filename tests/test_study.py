@@ -375,6 +375,14 @@ def test_full_chain_outputs_agree_with_each_other(tmp_path, capsys):
         assert {"name", "value", "limit", "margin", "ok"} <= set(block["checks"][0])
         assert summary["tracking"]["joints"][joint]["max_error_rad"] >= 0
     assert summary["key_figures"]["duration_s"] == traj["duration_s"]
+    # thesis tables 4.2/4.3: the drives are also sized against each joint's worst case
+    req = summary["sizing"]["requirement_moves"]
+    assert req["ok"] == (req["failures"] == [])
+    check_names = {c["name"] for c in summary["sizing"]["joint1"]["checks"]}
+    for failure in req["failures"]:
+        joint, check = failure.split(":")
+        assert joint in summary["robot"]["joint_names"] and check in check_names
+    assert "worst case (the thesis' requirements)" in report
     # the folder is what `armlab export` reads
     assert main(["export", str(out), "--format", "json", "--out", str(tmp_path / "x")]) == 0
     assert (tmp_path / "x").is_dir() and any((tmp_path / "x").iterdir())

@@ -174,6 +174,12 @@ def write_report(ctx, summary: dict, out_dir: Path) -> list[Path]:
             lines += [obj.to_markdown(), ""]  # with the thesis' table beside ours (teachbot6)
         else:
             lines += _section_lines(key, block)
+        if key == "sizing" and ctx.requirement_sizing is not None:
+            lines += ["**Against each joint's worst case (the thesis' requirements).**", "",
+                      "Each joint alone from its worst static pose, accelerating at its maximum "
+                      "acceleration to its maximum speed and back (`armlab.dynamics."
+                      "requirement_moves`): the load case of thesis tables 4.2 and 4.3.", "",
+                      ctx.requirement_sizing.to_markdown(), ""]
         if key == "sizing" and ctx.selection is not None and hasattr(ctx.selection,
                                                                       "to_markdown"):
             lines += [ctx.selection.to_markdown(), ""]

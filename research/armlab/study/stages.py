@@ -74,6 +74,7 @@ class StudyContext:
     trajectory: Any = None
     static_load: Any = None
     sizing: Any = None
+    requirement_sizing: Any = None
     selection: Any = None
     gains: Any = None
     tracking: Any = None
@@ -484,6 +485,15 @@ def stage_sizing(ctx: StudyContext) -> dict:
                 check_dt_s=("dt", ctx.spec.plan.check_dt_s))
     ctx.sizing = res
     block = {"status": "ok", **_to_dict(res)}
+    if ctx.static_load is not None:
+        # thesis tables 4.2/4.3: the drives against each joint's worst case (full speed and
+        # acceleration from its worst static pose), beside the planned cycle
+        moves = api("armlab.dynamics", "requirement_moves")(ctx.robot, ctx.static_load)
+        ctx.requirement_sizing = size(ctx.robot, moves)
+        block["requirement_moves"] = {
+            "ok": bool(ctx.requirement_sizing.ok),
+            "failures": [f"{joint}:{check}" for joint, check in ctx.requirement_sizing.failures()],
+        }
     if ctx.spec.sizing.select:
         select = api("armlab.dynamics", "select_drives")
         sel = _call(select, "sizing", ctx.robot, [ctx.trajectory],
