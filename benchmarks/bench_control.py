@@ -44,23 +44,7 @@ from armlab.control import (  # noqa: E402
     tune_cascade,
 )
 from armlab.control.loops import freq_grid  # noqa: E402
-from armlab.trajectory import Trajectory  # noqa: E402
-
-
-def sync_trapezoid(robot, q0, q1, dt=1e-3) -> Trajectory:
-    """Phase-synchronised trapezoid (thirds) within the robot's speed/acceleration limits."""
-    dq = q1 - q0
-    v, a = robot.limits.velocity_rad_s, robot.limits.acceleration_rad_s2
-    T = max(np.max(1.5 * np.abs(dq) / v), np.max(np.sqrt(4.5 * np.abs(dq) / a)))
-    ta = T / 3
-    vs, As = 1 / (T - ta), 1 / (T - ta) / ta
-    t = np.append(np.arange(0.0, T, dt), T)
-    s = np.where(t < ta, 0.5 * As * t**2,
-                 np.where(t < T - ta, 0.5 * As * ta**2 + vs * (t - ta), 1 - 0.5 * As * (T - t)**2))
-    sd = np.where(t < ta, As * t, np.where(t < T - ta, vs, As * (T - t)))
-    sdd = np.where(t < ta, As, np.where(t < T - ta, 0.0, -As))
-    return Trajectory(t, q0 + np.outer(s, dq), np.outer(sd, dq), np.outer(sdd, dq),
-                      joint_names=robot.joint_names, method="sync_trapezoid")
+from armlab.trajectory import ptp_sync  # noqa: E402
 
 
 def main() -> None:
@@ -97,7 +81,8 @@ def main() -> None:
     gains = ArmGains(joints=joints, robot=robot.name)
 
     # ------------------------------------------------------------------ simulation
-    traj = sync_trapezoid(robot, np.array(PARAMS["q_start"]), np.array(PARAMS["q_goal"]))
+    traj = ptp_sync(robot, np.array(PARAMS["q_start"]), np.array(PARAMS["q_goal"]), "trapezoid",
+                    dt=1e-3)
     print(f"\n## Closed-loop simulation, 6 joints, 1 kHz, Pinocchio ABA "
           f"(trajectory {traj.duration:.2f} s + 0.2 s settling)\n")
     print("| feed-forward | quantise | sim s / wall s (loop) | sim s / wall s (call) | "

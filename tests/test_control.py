@@ -36,7 +36,7 @@ from armlab.control.loops import freq_grid, pid_tf_discrete
 from armlab.errors import InputError, SpecError
 from armlab.kinematics import fk
 from armlab.robot.drives import RPM_TO_RAD_S
-from armlab.trajectory import Trajectory
+from armlab.trajectory import Trajectory, ptp_sync
 
 PM_MIN, GM_MIN = 45.0, 6.0
 
@@ -51,31 +51,10 @@ def arm_gains(teachbot6):
     return tune_arm(teachbot6, n_inertia_samples=200)
 
 
-def sync_trapezoid(robot, q0, q1, dt=1e-3) -> Trajectory:
-    """Phase-synchronised trapezoid (accelerate / cruise / brake thirds) within the robot's
-    speed and acceleration limits (seed 000 eq. 1-5 with a trapezoidal profile)."""
-    dq = q1 - q0
-    v, a = robot.limits.velocity_rad_s, robot.limits.acceleration_rad_s2
-    T = max(np.max(1.5 * np.abs(dq) / v), np.max(np.sqrt(4.5 * np.abs(dq) / a)))
-    ta = T / 3
-    vs, As = 1 / (T - ta), 1 / (T - ta) / ta
-    t = np.append(np.arange(0.0, T, dt), T)
-    s = np.where(t < ta, 0.5 * As * t**2,
-                 np.where(t < T - ta, 0.5 * As * ta**2 + vs * (t - ta), 1 - 0.5 * As * (T - t)**2))
-    sd = np.where(t < ta, As * t, np.where(t < T - ta, vs, As * (T - t)))
-    sdd = np.where(t < ta, As, np.where(t < T - ta, 0.0, -As))
-    return Trajectory(t, q0 + np.outer(s, dq), np.outer(sd, dq), np.outer(sdd, dq),
-                      joint_names=robot.joint_names, method="sync_trapezoid")
-
-
 def planned(robot):
     q0 = np.array([0.0, -0.3, 0.4, 0.0, 0.5, 0.0])
     q1 = np.array([0.8, 0.2, -0.2, 0.9, -0.4, 1.2])
-    try:
-        from armlab.trajectory.ptp import ptp_sync
-        return ptp_sync(robot, q0, q1, "trapezoid", dt=1e-3)
-    except Exception:  # planner not available or changed: our own trapezoid
-        return sync_trapezoid(robot, q0, q1)
+    return ptp_sync(robot, q0, q1, "trapezoid", dt=1e-3)
 
 
 # ---------------------------------------------------------------------------- thesis model
@@ -289,7 +268,7 @@ def test_holding_still_against_gravity(teachbot6, arm_gains):
 
 
 def test_simulation_input_errors(teachbot6, arm_gains):
-    traj = sync_trapezoid(teachbot6, np.zeros(6), np.full(6, 0.1))
+    traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.1), "trapezoid", dt=1e-3)
     with pytest.raises(InputError, match="feedforward"):
         simulate_tracking(teachbot6, traj, arm_gains, feedforward="jerk")
     with pytest.raises(InputError, match="no gains for joints"):
@@ -336,6 +315,6 @@ def test_plots_return_figures(teachbot6, arm_gains, inertias):
     figs = [plots.bode_figure(plant, g, "speed"), plots.step_figure(plant, g),
             plots.root_locus_figure(plant, g, "position", discrete=True),
             plots.force_figure([force_loop(700.0, duration_s=1.0)])]
-    traj = sync_trapezoid(teachbot6, np.zeros(6), np.full(6, 0.05))
+    traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.05), "trapezoid", dt=1e-3)
     figs.append(plots.tracking_figure(simulate_tracking(teachbot6, traj, arm_gains)))
     assert all(isinstance(f, Figure) and f.axes for f in figs)
