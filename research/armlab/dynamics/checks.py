@@ -25,11 +25,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armlab.robot.drives import RPM_TO_RAD_S, Drive
+from armlab.robot.drives import RPM_TO_RAD_S, Drive, available_torque_Nm
 
 __all__ = [
     "Check", "DriveArrays", "SizingOptions", "CHECK_NAMES", "motor_side", "evaluate_checks",
-    "checks_for_column", "binding", "envelope_torque",
+    "checks_for_column", "binding", "Checked", "envelope_torque",
 ]
 
 #: Check names, in report order, with their units.
@@ -238,7 +238,8 @@ def evaluate_checks(tau, qd, qdd, weights, drives: DriveArrays, lever_m,
     out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     out["thesis_rule"] = (
         peak_tau,
-        drives.stall_torque_Nm * drives.ratio * drives.efficiency * drives.derating,
+        available_torque_Nm(drives.stall_torque_Nm, drives.ratio, drives.efficiency,
+                            drives.derating),
     )
     power_limit = np.where(np.isfinite(drives.power_W), drives.power_W, np.inf)
     out["thesis_power_rule"] = (peak_tau * abs_qd.max(axis=0), power_limit)
@@ -290,3 +291,19 @@ def checks_for_column(results: dict[str, tuple[np.ndarray, np.ndarray]], c: int,
 def binding(checks: list[Check]) -> Check:
     """The check with the smallest margin (the one that binds, or fails worst)."""
     return min(checks, key=lambda ch: ch.margin)
+
+
+class Checked:
+    """Mixin of a result that holds ``checks: list[Check]``: its verdict and binding check."""
+
+    checks: list[Check]
+
+    @property
+    def ok(self) -> bool:
+        """True if every check passes."""
+        return all(c.ok for c in self.checks)
+
+    @property
+    def binding(self) -> Check:
+        """The check with the smallest margin (binds if all pass, fails worst otherwise)."""
+        return binding(self.checks)

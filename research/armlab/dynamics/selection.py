@@ -17,16 +17,16 @@ from dataclasses import dataclass, replace
 from armlab.dynamics.catalogue import Catalogue, load_catalogue
 from armlab.dynamics.checks import (
     Check,
+    Checked,
     DriveArrays,
     SizingOptions,
-    binding,
     checks_for_column,
     evaluate_checks,
 )
 from armlab.dynamics.inverse import as_trajectories, inverse_dynamics
 from armlab.dynamics.sizing import lever_arms_m
 from armlab.errors import InputError
-from armlab.robot.drives import Drive, Encoder, Motor, Reducer
+from armlab.robot.drives import Drive, Encoder, Motor, Reducer, available_torque_Nm
 
 __all__ = ["Candidate", "JointSelection", "Selection", "select_drives"]
 
@@ -34,7 +34,7 @@ OBJECTIVES = ("mass", "price")
 
 
 @dataclass
-class Candidate:
+class Candidate(Checked):
     """One motor + reducer for one joint, with its checks."""
 
     motor: Motor
@@ -51,18 +51,9 @@ class Candidate:
         return float(self.motor.price + self.reducer.price)
 
     @property
-    def ok(self) -> bool:
-        return all(c.ok for c in self.checks)
-
-    @property
-    def binding(self) -> Check:
-        """The check with the smallest margin (binds if all pass, fails worst otherwise)."""
-        return binding(self.checks)
-
-    @property
     def available_torque_Nm(self) -> float:
-        return (self.motor.stall_torque_Nm * self.reducer.ratio * self.reducer.efficiency
-                * self.derating)
+        return available_torque_Nm(self.motor.stall_torque_Nm, self.reducer.ratio,
+                                   self.reducer.efficiency, self.derating)
 
     def to_dict(self) -> dict:
         return {

@@ -16,9 +16,9 @@ import numpy as np
 
 from armlab.dynamics.checks import (
     Check,
+    Checked,
     DriveArrays,
     SizingOptions,
-    binding,
     checks_for_column,
     evaluate_checks,
 )
@@ -51,7 +51,7 @@ def lever_arms_m(robot) -> np.ndarray:
 
 
 @dataclass
-class JointSizing:
+class JointSizing(Checked):
     """The sizing of one joint: its signals' key figures and its checks."""
 
     joint: str
@@ -65,15 +65,6 @@ class JointSizing:
     motor_rms_torque_Nm: float
     available_torque_Nm: float
     counts_per_joint_rev: float
-
-    @property
-    def ok(self) -> bool:
-        return all(c.ok for c in self.checks)
-
-    @property
-    def binding(self) -> Check:
-        """The check with the smallest margin."""
-        return binding(self.checks)
 
     def check(self, name: str) -> Check:
         for c in self.checks:

@@ -12,9 +12,16 @@ from pathlib import Path
 from armlab.errors import RobotDescriptionError
 from armlab.tomlfile import read_toml
 
-__all__ = ["Motor", "Reducer", "Encoder", "Drive", "read_drives", "RPM_TO_RAD_S"]
+__all__ = ["Motor", "Reducer", "Encoder", "Drive", "read_drives", "RPM_TO_RAD_S",
+           "available_torque_Nm"]
 
 RPM_TO_RAD_S = 2.0 * math.pi / 60.0
+
+
+def available_torque_Nm(stall_torque_Nm, ratio, efficiency, derating=1.0):
+    """Thesis rule (table 4.3): available joint torque = stall torque x ratio x efficiency
+    x derating, in [N m]. Scalars or numpy arrays (one value per joint)."""
+    return stall_torque_Nm * ratio * efficiency * derating
 
 
 @dataclass(frozen=True)
@@ -131,8 +138,8 @@ class Drive:
     @property
     def available_torque_Nm(self) -> float:
         """Thesis rule: stall torque x ratio x efficiency x derating, in [N m] (table 4.3)."""
-        return (self.motor.stall_torque_Nm * self.reducer.ratio * self.reducer.efficiency
-                * self.derating)
+        return available_torque_Nm(self.motor.stall_torque_Nm, self.reducer.ratio,
+                                   self.reducer.efficiency, self.derating)
 
     @property
     def reflected_inertia_kg_m2(self) -> float:

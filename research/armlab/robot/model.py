@@ -25,7 +25,7 @@ __all__ = ["Robot", "JointLimits", "Payload", "load_robot", "robot_desc_dir", "l
 
 
 def robot_desc_dir() -> Path:
-    """The folder of built-in robot descriptions (``$ARMLAB_ROBOT_DESC`` or ``<repo>/robot_desc``)."""
+    """Folder of built-in robot descriptions: ``$ARMLAB_ROBOT_DESC`` or ``<repo>/robot_desc``."""
     env = os.environ.get("ARMLAB_ROBOT_DESC")
     if env:
         return Path(env)
