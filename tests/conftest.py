@@ -34,6 +34,32 @@ def _erd(rel: str) -> Path:
     return path
 
 
+def sweep_env() -> dict:
+    """Environment of an ``armlab sweep`` subprocess (headless plots)."""
+    return {**os.environ, "MPLBACKEND": "Agg"}
+
+
+def start_sweep(args: list[str], out: Path, rows: int, timeout_s: float = 120.0):
+    """Start ``armlab sweep ARGS --out OUT`` as a subprocess and return it once at least
+    ``rows`` result rows are on disk (one Parquet part file per finished row)."""
+    import subprocess
+    import time
+
+    cmd = [sys.executable, "-m", "armlab.cli", "sweep", *args, "--out", str(out)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=sweep_env())
+    parts = out / "results.parts"
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        done = len(list(parts.glob("*.parquet"))) if parts.is_dir() else 0
+        if done >= rows:
+            return proc
+        assert proc.poll() is None, proc.communicate()
+        time.sleep(0.02)
+    proc.kill()
+    raise AssertionError(f"fewer than {rows} sweep rows after {timeout_s} s")
+
+
 UR5_URDF = _erd("ur_description/urdf/ur5_robot.urdf")
 PANDA_URDF = _erd("panda_description/urdf/panda.urdf")
 PANDA_FINGERS = ("panda_finger_joint1", "panda_finger_joint2")

@@ -113,7 +113,8 @@ def test_classic_dh_table_gives_same_kinematics_as_modified(tmp_path):
             (0, 0, 0, -90), (0, 0, 0, 0)]
     text = 'name = "c"\nconvention = "classic"\n'
     for i, (off, d, a, al) in enumerate(rows, 1):
-        text += (f'[[joint]]\nname = "j{i}"\na_mm = {a}\nalpha_deg = {al}\ntheta_offset_deg = {off}\n'
+        text += (f'[[joint]]\nname = "j{i}"\na_mm = {a}\nalpha_deg = {al}\n'
+                 f'theta_offset_deg = {off}\n'
                  f'd_mm = {d}\nlower_deg = -170\nupper_deg = 170\nvelocity_rad_s = 1\n')
     classic.write_text(text)
     tc = read_dh_table(classic)
@@ -192,7 +193,8 @@ def test_dh_table_with_nan(tmp_path):
     text = (DESC / "mdh.toml").read_text().replace("a_mm = 220", "a_mm = nan", 1)
     p = tmp_path / "mdh.toml"
     p.write_text(text)
-    with pytest.raises(RobotDescriptionError, match=r"mdh\.toml: joint 3 \(joint3\) a_mm is not finite"):
+    with pytest.raises(RobotDescriptionError,
+                       match=r"mdh\.toml: joint 3 \(joint3\) a_mm is not finite"):
         read_dh_table(p)
 
 

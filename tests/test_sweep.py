@@ -7,8 +7,6 @@ import math
 import os
 import signal
 import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +23,7 @@ from armlab.sweep import (
     run_parameter_set,
     run_sweep_spec,
 )
+from conftest import start_sweep, sweep_env
 
 # A cheap study: teachbot6, joint waypoints, the kinematics checks and a short classical plan.
 QUICK_STUDY = """
@@ -244,25 +243,14 @@ key = "drives.joint2.ratio"
 values = [300, 410, 450]
 """)
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "armlab.cli", "sweep", str(sweep), "--out", str(out),
-           "--workers", "2"]
-    env = {**os.environ, "MPLBACKEND": "Agg"}
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=env)
-    parts = out / "results.parts"
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline:
-        n = len(list(parts.glob("*.parquet"))) if parts.is_dir() else 0
-        if n >= 2:
-            break
-        assert proc.poll() is None, proc.communicate()
-        time.sleep(0.02)
+    proc = start_sweep([str(sweep), "--workers", "2"], out, rows=2)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130 and err.strip().endswith("armlab: interrupted")
     done = pd.read_parquet(out / "results.parquet")
     assert 2 <= len(done) < 12 and (done["status"] == "done").all()
-    again = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=180)
+    again = subprocess.run(proc.args, capture_output=True, text=True, env=sweep_env(),
+                           timeout=180)
     assert again.returncode == 0, again.stderr
     assert f"{12 - len(done)} run now" in again.stdout
     assert f"{len(done)} already in" in again.stdout

@@ -14,6 +14,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from conftest import start_sweep, sweep_env
+
 DASK = [sys.executable, "-m", "dask"]
 ARMLAB = [sys.executable, "-m", "armlab.cli"]
 
@@ -101,21 +103,11 @@ def test_sweep_survives_a_dead_worker_and_resumes(tmp_path, cluster):
     sweep = tmp_path / "sweep.toml"
     sweep.write_text(SWEEP)
     out = tmp_path / "out"
-    cmd = [*ARMLAB, "sweep", str(sweep), "--out", str(out), "--scheduler", address]
-    env = {**os.environ, "MPLBACKEND": "Agg"}
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=env)
-    parts = out / "results.parts"
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline:
-        n_done = len(list(parts.glob("*.parquet"))) if parts.is_dir() else 0
-        if n_done >= 3:
-            break
-        assert proc.poll() is None, proc.communicate()
-        time.sleep(0.02)
+    proc = start_sweep([str(sweep), "--scheduler", address], out, rows=3)
     victim = workers[0]
     victim.send_signal(signal.SIGKILL)  # the worker dies with its task in hand
     killed_at = time.time()
+    n_done = len(list((out / "results.parts").glob("*.parquet")))  # rows before the kill
     stdout, stderr = proc.communicate(timeout=180)
     assert proc.returncode == 0, stderr
     assert n_done < 24  # the kill came mid-sweep
@@ -131,7 +123,8 @@ def test_sweep_survives_a_dead_worker_and_resumes(tmp_path, cluster):
     assert len(late) > 0
     assert not late["worker"].str.endswith(f":{victim.pid}").any()
     # the same command again runs nothing new
-    again = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=120)
+    again = subprocess.run(proc.args, capture_output=True, text=True, env=sweep_env(),
+                           timeout=120)
     assert again.returncode == 0, again.stderr
     assert "0 run now" in again.stdout and "24 already in" in again.stdout
     df2 = pd.read_parquet(out / "results.parquet")
