@@ -181,7 +181,7 @@ class Trajectory:
         if self.t[-1] - times[-1] > 1e-9 * max(1.0, dt):
             times = np.append(times, self.t[-1])
         q, qd, qdd, qddd = self.at(times)
-        if self.qddd is None:  # the Hermite jerk of a profile without jerk (trapezoid) means nothing
+        if self.qddd is None:  # Hermite jerk of a jerk-less profile (trapezoid) means nothing
             qddd = None
         out = Trajectory(times, q, qd, qdd, qddd, joint_names=self.joint_names, method=self.method)
         out.report, out.stats, out.meta = self.report, dict(self.stats), dict(self.meta)

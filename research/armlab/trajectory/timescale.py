@@ -116,7 +116,6 @@ def stretch_needed(traj, robot, limits, *, torque: bool = True) -> tuple[float, 
     eff = np.asarray(limits.effort_Nm, float)
     if torque and np.all(eff > 0) and np.any(np.isfinite(eff)):
         model, data = robot.model, robot.model.createData()
-        z = np.zeros(robot.n_joints)
         n = traj.n_samples
         g = np.empty((n, robot.n_joints))
         tau = np.empty((n, robot.n_joints))

@@ -608,7 +608,7 @@ class ToppProblem:
         out["velocity"] = np.sqrt(bv)
         bmax = np.empty(K1)
         for k in range(K1):
-            lo_a, hi_a = [], []  # constraints alpha * a + beta * b in [lo, hi]
+            lo_a = []  # constraints alpha * a + beta * b in [lo, hi]
             if ls.acceleration is not None:
                 for i in range(ls.n_joints):
                     lo_a.append((C["d1"][k, i], C["d2"][k, i], -ls.acceleration[i],
