@@ -15,13 +15,13 @@ import os
 # -------------------------------------------------------------------------- parameters (data)
 PARAMS = {
     "robot": "teachbot6",
-    "blas_threads": "1",          # small matrices: one BLAS thread (contention costs 10-50 x)
+    "blas_threads": "1",  # small matrices: one BLAS thread (contention costs 10-50 x)
     "n_inertia_samples": 400,
-    "spec": {},                   # TuningSpec keywords; {} = defaults (PM 50, GM 6, 1 kHz)
+    "spec": {},  # TuningSpec keywords; {} = defaults (PM 50, GM 6, 1 kHz)
     "q_start": [0.0, -0.3, 0.4, 0.0, 0.5, 0.0],
     "q_goal": [0.8, 0.2, -0.2, 0.9, -0.4, 1.2],
     "feedforwards": ["none", "velocity", "velocity+acceleration+gravity", "computed_torque"],
-    "repeats": 3,                 # simulation runs per row (best wall time kept)
+    "repeats": 3,  # simulation runs per row (best wall time kept)
     "margin_grid": 1500,
 }
 os.environ.setdefault("OPENBLAS_NUM_THREADS", PARAMS["blas_threads"])
@@ -50,17 +50,23 @@ from armlab.trajectory import ptp_sync  # noqa: E402
 def main() -> None:
     warnings.simplefilter("ignore")
     robot = armlab.load_robot(PARAMS["robot"])
-    print(f"armlab {armlab.__version__}, python-control {ct.__version__}, "
-          f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}")
+    print(
+        f"armlab {armlab.__version__}, python-control {ct.__version__}, "
+        f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}"
+    )
     t0 = time.perf_counter()
     inertias = inertia_range(robot, n_samples=PARAMS["n_inertia_samples"])
     t_inertia = time.perf_counter() - t0
 
     # ------------------------------------------------------------------ tuning
-    print(f"\n## Robust cascade tuning ({robot.name}; inertia range {t_inertia * 1e3:.0f} ms, "
-          f"{PARAMS['n_inertia_samples']} samples)\n")
-    print("| joint | tune [s] | J max/min | wc current | wc speed (min..max J) | wc position "
-          "| worst PM cont/disc [deg] | worst GM cont/disc [dB] |")
+    print(
+        f"\n## Robust cascade tuning ({robot.name}; inertia range {t_inertia * 1e3:.0f} ms, "
+        f"{PARAMS['n_inertia_samples']} samples)\n"
+    )
+    print(
+        "| joint | tune [s] | J max/min | wc current | wc speed (min..max J) | wc position "
+        "| worst PM cont/disc [deg] | worst GM cont/disc [dB] |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     joints = {}
     for name in robot.joint_names:
@@ -74,19 +80,26 @@ def main() -> None:
         pm_d = min(lg.phase_margin_discrete_deg for lg in g.loops().values())
         gm_c = min(lg.gain_margin_dB for lg in g.loops().values())
         gm_d = min(lg.gain_margin_discrete_dB for lg in g.loops().values())
-        print(f"| {name} | {dt:.2f} | {Jc['max'] / Jc['min']:.2f} | "
-              f"{g.current.crossover_rad_s:.0f} | {min(ws):.0f}..{max(ws):.0f} | "
-              f"{g.position.crossover_rad_s:.1f} | {pm_c:.1f} / {pm_d:.1f} | "
-              f"{gm_c:.1f} / {gm_d:.1f} |")
+        print(
+            f"| {name} | {dt:.2f} | {Jc['max'] / Jc['min']:.2f} | "
+            f"{g.current.crossover_rad_s:.0f} | {min(ws):.0f}..{max(ws):.0f} | "
+            f"{g.position.crossover_rad_s:.1f} | {pm_c:.1f} / {pm_d:.1f} | "
+            f"{gm_c:.1f} / {gm_d:.1f} |"
+        )
     gains = ArmGains(joints=joints, robot=robot.name)
 
     # ------------------------------------------------------------------ simulation
-    traj = ptp_sync(robot, np.array(PARAMS["q_start"]), np.array(PARAMS["q_goal"]), "trapezoid",
-                    dt=1e-3)
-    print(f"\n## Closed-loop simulation, 6 joints, 1 kHz, Pinocchio ABA "
-          f"(trajectory {traj.duration:.2f} s + 0.2 s settling)\n")
-    print("| feed-forward | quantise | sim s / wall s (loop) | sim s / wall s (call) | "
-          "TCP max error [mm] | worst joint max error [rad] |")
+    traj = ptp_sync(
+        robot, np.array(PARAMS["q_start"]), np.array(PARAMS["q_goal"]), "trapezoid", dt=1e-3
+    )
+    print(
+        f"\n## Closed-loop simulation, 6 joints, 1 kHz, Pinocchio ABA "
+        f"(trajectory {traj.duration:.2f} s + 0.2 s settling)\n"
+    )
+    print(
+        "| feed-forward | quantise | sim s / wall s (loop) | sim s / wall s (call) | "
+        "TCP max error [mm] | worst joint max error [rad] |"
+    )
     print("|---|---|---|---|---|---|")
     for ff in PARAMS["feedforwards"]:
         ffs = "none" if ff == "none" else tuple(ff.split("+"))
@@ -98,12 +111,16 @@ def main() -> None:
                 call = min(call, time.perf_counter() - t0)
                 best = res if best is None or res.wall_time_s < best.wall_time_s else best
             sim_s = best.t[-1] - best.t[0]
-            print(f"| {ff} | {quant} | {best.realtime_factor:.1f} | {sim_s / call:.1f} | "
-                  f"{best.tcp_max_error_m * 1e3:.4f} | {best.max_error_rad.max():.2e} |")
+            print(
+                f"| {ff} | {quant} | {best.realtime_factor:.1f} | {sim_s / call:.1f} | "
+                f"{best.tcp_max_error_m * 1e3:.4f} | {best.max_error_rad.max():.2e} |"
+            )
 
     # ------------------------------------------------------------------ margins vs peer
-    print("\n## Margin evaluation: ours (batched solve on a log grid) vs python-control "
-          "stability_margins (peer), joint 2, nominal inertia\n")
+    print(
+        "\n## Margin evaluation: ours (batched solve on a log grid) vs python-control "
+        "stability_margins (peer), joint 2, nominal inertia\n"
+    )
     print("| loop | ours PM [deg] | peer PM [deg] | ours [ms] | peer [ms] |")
     print("|---|---|---|---|---|")
     plant = joint_plant(robot, "joint2", inertias=inertias)
@@ -118,8 +135,10 @@ def main() -> None:
             frd = ct.frd(L, freq_grid(L.dt or None, n=PARAMS["margin_grid"]))
             _, pm, *_ = ct.stability_margins(frd)
             t_peer = time.perf_counter() - t0
-            print(f"| {loop} {'disc' if disc else 'cont'} | {ours.phase_margin_deg:.2f} | "
-                  f"{pm:.2f} | {t_ours * 1e3:.1f} | {t_peer * 1e3:.1f} |")
+            print(
+                f"| {loop} {'disc' if disc else 'cont'} | {ours.phase_margin_deg:.2f} | "
+                f"{pm:.2f} | {t_ours * 1e3:.1f} | {t_peer * 1e3:.1f} |"
+            )
 
 
 if __name__ == "__main__":

@@ -43,8 +43,10 @@ def cosine_motion(robot, duration_s, n, scale=0.9):
     for j in range(robot.n_joints):
         for k, frac in ((3, 0.45), (7, 0.3)):
             w = 2 * math.pi * k / duration_s
-            A = min(frac * scale * lim.velocity_rad_s[j] / w,
-                    frac * scale * lim.acceleration_rad_s2[j] / w**2)
+            A = min(
+                frac * scale * lim.velocity_rad_s[j] / w,
+                frac * scale * lim.acceleration_rad_s2[j] / w**2,
+            )
             q[:, j] += A * (1 - np.cos(w * t)) - A
             qd[:, j] += A * w * np.sin(w * t)
             qdd[:, j] += A * w * w * np.cos(w * t)
@@ -103,16 +105,20 @@ def main() -> None:
             t, text = best(lambda: json.dumps({"columns": lists}))
             rows.append(("peer json.dumps json", f"{len(text) / 1e6:.1f}", t, None, None))
 
-    print(f"set-point table: {ROBOT}, {table.n_axes} axes, {table.n_cycles} cycles of "
-          f"{CYCLE_S * 1e3:g} ms ({DURATION_S:g} s), {len(table.column_names())} columns; "
-          f"best of {REPEATS}, one core")
+    print(
+        f"set-point table: {ROBOT}, {table.n_axes} axes, {table.n_cycles} cycles of "
+        f"{CYCLE_S * 1e3:g} ms ({DURATION_S:g} s), {len(table.column_names())} columns; "
+        f"best of {REPEATS}, one core"
+    )
     print(f"{'what':<44}{'MB':>6}{'render [s]':>12}{'write [s]':>11}{'read [s]':>10}")
     for name, mb, tr, tw, trd in rows:
         f = lambda x: "-" if x is None else f"{x:.3f}"  # noqa: E731
         print(f"{name:<44}{mb:>6}{f(tr):>12}{f(tw):>11}{f(trd):>10}")
     csv_write = next(r[3] for r in rows if r[0] == "armlab csv")
-    print(f"CSV goal < 1 s: {'met' if csv_write < 1.0 else 'NOT met'} ({csv_write:.3f} s written "
-          "atomically, fsync included)")
+    print(
+        f"CSV goal < 1 s: {'met' if csv_write < 1.0 else 'NOT met'} ({csv_write:.3f} s written "
+        "atomically, fsync included)"
+    )
 
 
 if __name__ == "__main__":

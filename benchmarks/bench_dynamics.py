@@ -39,8 +39,7 @@ def sine_trajectory(n_joints: int) -> Trajectory:
     phase = np.linspace(0, np.pi, n_joints)
     s = np.sin(w * t[:, None] + phase)
     c = np.cos(w * t[:, None] + phase)
-    return Trajectory(t, amp * s, amp * w * c, -amp * w**2 * s, -amp * w**3 * c,
-                      method="sine")
+    return Trajectory(t, amp * s, amp * w * c, -amp * w**2 * s, -amp * w**3 * c, method="sine")
 
 
 def timed(fn, repeats: int = REPEATS) -> tuple[float, float]:
@@ -67,10 +66,16 @@ def main() -> None:
     rows = [
         ("pinocchio.rnea, Python loop (Trajectory.torques)", n, lambda: traj.torques(robot)),
         ("pinocchio.rnea, bare Python loop", n, loop_rnea),
-        ("joint_torques (rneaInParallel, 1 thread)", n,
-         lambda: joint_torques(robot, traj.q, traj.qd, traj.qdd, threads=1)),
-        ("joint_torques (rneaInParallel, 2 threads)", n,
-         lambda: joint_torques(robot, traj.q, traj.qd, traj.qdd, threads=2)),
+        (
+            "joint_torques (rneaInParallel, 1 thread)",
+            n,
+            lambda: joint_torques(robot, traj.q, traj.qd, traj.qdd, threads=1),
+        ),
+        (
+            "joint_torques (rneaInParallel, 2 threads)",
+            n,
+            lambda: joint_torques(robot, traj.q, traj.qd, traj.qdd, threads=2),
+        ),
         ("inverse_dynamics (+ motor side)", n, lambda: inverse_dynamics(robot, traj)),
         ("size: full sizing, 1 thread", n, lambda: size(robot, traj)),
         ("size: full sizing, 2 threads", n, lambda: size(robot, traj, threads=2)),
@@ -80,11 +85,16 @@ def main() -> None:
     n_moves = sum(m.n_samples for m in moves)
     slow = [
         ("static_load (6 joints, multi-start L-BFGS-B)", 0, lambda: static_load(robot)),
-        ("select_drives (108 combinations x 6 joints)", n_moves,
-         lambda: select_drives(robot, moves)),
+        (
+            "select_drives (108 combinations x 6 joints)",
+            n_moves,
+            lambda: select_drives(robot, moves),
+        ),
     ]
-    print(f"armlab.dynamics benchmark: {ROBOT}, {DURATION_S:g} s at {RATE_HZ:g} Hz "
-          f"({n} samples), best / median of {REPEATS}\n")
+    print(
+        f"armlab.dynamics benchmark: {ROBOT}, {DURATION_S:g} s at {RATE_HZ:g} Hz "
+        f"({n} samples), best / median of {REPEATS}\n"
+    )
     print(f"{'what':<52}{'best [ms]':>11}{'median [ms]':>13}{'samples/s':>13}")
     print("-" * 89)
     sizing_best = None
@@ -95,11 +105,12 @@ def main() -> None:
         if name.startswith("size: full sizing, 1"):
             sizing_best = best
     verdict = "met" if sizing_best * 1e3 < GOAL_SIZING_MS else "NOT met"
-    print(f"\ngoal: full sizing of the 10 s trajectory < {GOAL_SIZING_MS:g} ms -> "
-          f"{sizing_best * 1e3:.1f} ms, {verdict}")
+    print(
+        f"\ngoal: full sizing of the 10 s trajectory < {GOAL_SIZING_MS:g} ms -> "
+        f"{sizing_best * 1e3:.1f} ms, {verdict}"
+    )
     report = size(robot, traj)
-    print(f"sizing verdict of the sine trajectory: ok={report.ok}, "
-          f"failures={report.failures()}")
+    print(f"sizing verdict of the sine trajectory: ok={report.ok}, failures={report.failures()}")
 
 
 if __name__ == "__main__":

@@ -38,16 +38,20 @@ from armlab.trajectory import (  # noqa: E402
 
 # ---------------------------------------------------------------------- parameters (data)
 ROBOT = "teachbot6"
-N_POINTS = 1000            # samples per call (approximately, for our planners)
-REPEATS = 5                # best of
+N_POINTS = 1000  # samples per call (approximately, for our planners)
+REPEATS = 5  # best of
 Q_START = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
 Q_GOAL = [1.0, -0.5, 0.8, 2.0, -1.0, 0.3]
-VIA = [[0.0, 0.0, 0.0, 0.0, 0.0, 0.0], [0.5, -0.3, 0.4, 1.0, 0.2, 0.0],
-       [0.8, 0.2, 0.9, 0.5, -0.5, 1.0], [0.4, 0.3, 0.6, -0.5, 0.3, 0.5],
-       [0.2, 0.1, 0.3, 0.0, 0.0, 0.0]]
-Q_CART = [0.3, 0.3, 0.9, 0.5, 0.7, 0.2]      # comfortable start for Cartesian moves
+VIA = [
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [0.5, -0.3, 0.4, 1.0, 0.2, 0.0],
+    [0.8, 0.2, 0.9, 0.5, -0.5, 1.0],
+    [0.4, 0.3, 0.6, -0.5, 0.3, 0.5],
+    [0.2, 0.1, 0.3, 0.0, 0.0, 0.0],
+]
+Q_CART = [0.3, 0.3, 0.9, 0.5, 0.7, 0.2]  # comfortable start for Cartesian moves
 LINE_DP_M = [0.05, -0.1, 0.08]
-LINE_SPEED = 0.05          # [m/s]
+LINE_SPEED = 0.05  # [m/s]
 ARC_OFFSETS_M = ([0.02, 0.02, 0.0], [0.04, 0.0, 0.01])
 BLEND_OFFSETS_M = ([0.06, 0.0, 0.0], [0.06, 0.06, 0.0], [0.0, 0.06, 0.04])
 BLEND_RADIUS_M = 0.02
@@ -85,6 +89,7 @@ def main() -> None:
     try:
         import roboticstoolbox as rtb
         import spatialmath as sm
+
         rtb_robot = rtb.Robot.URDF(str(robot.urdf_path))
     except Exception as exc:  # pragma: no cover - benchmark-only peer
         print(f"roboticstoolbox unavailable ({exc}); armlab rows only")
@@ -104,9 +109,12 @@ def main() -> None:
         probe = ptp_sync(robot, q0, q1, profile, **extra)
         dt = dt_for(probe)
         for torque in (True, False):
-            name, r, n = ours(f"ptp_sync {profile} torque={torque}",
-                              lambda p=profile, d=dt, tq=torque, e=extra: ptp_sync(
-                                  robot, q0, q1, p, dt=d, torque=tq, **e))
+            name, r, n = ours(
+                f"ptp_sync {profile} torque={torque}",
+                lambda p=profile, d=dt, tq=torque, e=extra: ptp_sync(
+                    robot, q0, q1, p, dt=d, torque=tq, **e
+                ),
+            )
             rr, peer_name = None, "-"
             if profile == "trapezoid":
                 rr = peer(lambda n=n: rtb.mtraj(rtb.trapezoidal, q0, q1, n), n)
@@ -116,12 +124,16 @@ def main() -> None:
     T = quintic_via(robot, np.array([q0, q1])).duration  # the shortest within the limits
     W2 = np.array([q0, q1])
     for torque in (True, False):
-        name, r, n = ours(f"quintic_via 2 points torque={torque}",
-                          lambda tq=torque: quintic_via(robot, W2, durations=[T],
-                                                        dt=T / (N_POINTS - 1), torque=tq))
+        name, r, n = ours(
+            f"quintic_via 2 points torque={torque}",
+            lambda tq=torque: quintic_via(
+                robot, W2, durations=[T], dt=T / (N_POINTS - 1), torque=tq
+            ),
+        )
         rows.append((name, r, n, "jtraj", peer(lambda n=n: rtb.jtraj(q0, q1, n), n)))
-    rows.append(("  (same)", r, n, "mtraj(quintic)",
-                 peer(lambda: rtb.mtraj(rtb.quintic, q0, q1, n), n)))
+    rows.append(
+        ("  (same)", r, n, "mtraj(quintic)", peer(lambda: rtb.mtraj(rtb.quintic, q0, q1, n), n))
+    )
     W = np.array(VIA)
     probe = cubic_via(robot, W)
     for fn, label in ((cubic_via, "cubic_via 5 points"), (quintic_via, "quintic_via 5 points")):
@@ -144,9 +156,12 @@ def main() -> None:
     probe = line(robot, T0, T1, LINE_SPEED, q_start=qc, orientation="hold")
     dtl = dt_for(probe)
     for torque in (True, False):
-        name, r, n = ours(f"line + IK + limits torque={torque}",
-                          lambda tq=torque: line(robot, T0, T1, LINE_SPEED, q_start=qc,
-                                                 orientation="hold", dt=dtl, torque=tq))
+        name, r, n = ours(
+            f"line + IK + limits torque={torque}",
+            lambda tq=torque: line(
+                robot, T0, T1, LINE_SPEED, q_start=qc, orientation="hold", dt=dtl, torque=tq
+            ),
+        )
 
         def rtb_line(n=n):
             poses = rtb.ctraj(S0, S1, n)
@@ -163,14 +178,17 @@ def main() -> None:
     p1 = T0[:3, 3]
     p2, p3 = (p1 + np.array(o) for o in ARC_OFFSETS_M)
     probe = arc3(robot, p1, p2, p3, LINE_SPEED, q_start=qc)
-    name, r, n = ours("arc3 + IK + limits",
-                      lambda: arc3(robot, p1, p2, p3, LINE_SPEED, q_start=qc, dt=dt_for(probe)))
+    name, r, n = ours(
+        "arc3 + IK + limits",
+        lambda: arc3(robot, p1, p2, p3, LINE_SPEED, q_start=qc, dt=dt_for(probe)),
+    )
     rows.append((name, r, n, "-", None))
     pts = np.array([p1] + [p1 + np.array(o) for o in BLEND_OFFSETS_M])
     probe = blend(robot, pts, BLEND_RADIUS_M, LINE_SPEED, q_start=qc)
-    name, r, n = ours("blend (FlyBy) + IK + limits",
-                      lambda: blend(robot, pts, BLEND_RADIUS_M, LINE_SPEED, q_start=qc,
-                                    dt=dt_for(probe)))
+    name, r, n = ours(
+        "blend (FlyBy) + IK + limits",
+        lambda: blend(robot, pts, BLEND_RADIUS_M, LINE_SPEED, q_start=qc, dt=dt_for(probe)),
+    )
     rows.append((name, r, n, "-", None))
 
     # -- online ---------------------------------------------------------------------------
@@ -187,19 +205,23 @@ def main() -> None:
 
     # -- table --------------------------------------------------------------------------
     print(f"robot {ROBOT}, ~{N_POINTS} samples per call, best of {REPEATS}\n")
-    head = f"{'armlab':40s} {'points':>7s} {'points/s':>12s}   {'Robotics Toolbox':18s} " \
-           f"{'points/s':>12s} {'ratio':>7s}"
+    head = (
+        f"{'armlab':40s} {'points':>7s} {'points/s':>12s}   {'Robotics Toolbox':18s} "
+        f"{'points/s':>12s} {'ratio':>7s}"
+    )
     print(head)
     print("-" * len(head))
     for name, r, n, pname, pr in rows:
         ps = f"{pr:12.3g}" if pr is not None else f"{'-':>12s}"
         ratio = f"{r / pr:7.2f}" if pr else f"{'-':>7s}"
         print(f"{name:40s} {n:7d} {r:12.3g}   {pname:18s} {ps} {ratio}")
-    print("\npoints/s = samples produced / wall time of one call. armlab planners also choose the"
-          "\nduration from the joint limits and verify them (torque=True adds inverse dynamics at"
-          "\nevery sample); the toolbox functions only evaluate the profile for a given time."
-          "\n'ptp_sync velocity torque=True': the one-period velocity steps of seed 000 need more"
-          "\ntorque than the drives have, so the planner slows down (more samples).")
+    print(
+        "\npoints/s = samples produced / wall time of one call. armlab planners also choose the"
+        "\nduration from the joint limits and verify them (torque=True adds inverse dynamics at"
+        "\nevery sample); the toolbox functions only evaluate the profile for a given time."
+        "\n'ptp_sync velocity torque=True': the one-period velocity steps of seed 000 need more"
+        "\ntorque than the drives have, so the planner slows down (more samples)."
+    )
 
 
 if __name__ == "__main__":

@@ -53,8 +53,16 @@ PARAMS = {
     "rtb_slimit": 100,  # ik_LM searches (its default)
 }
 
-ERD = (Path(sys.prefix) / "lib" / f"python{sys.version_info.major}.{sys.version_info.minor}"
-       / "site-packages" / "cmeel.prefix" / "share" / "example-robot-data" / "robots")
+ERD = (
+    Path(sys.prefix)
+    / "lib"
+    / f"python{sys.version_info.major}.{sys.version_info.minor}"
+    / "site-packages"
+    / "cmeel.prefix"
+    / "share"
+    / "example-robot-data"
+    / "robots"
+)
 URDFS = {
     "ur5": ERD / "ur_description/urdf/ur5_robot.urdf",
     "panda": ERD / "panda_description/urdf/panda.urdf",
@@ -67,8 +75,11 @@ def load(name: str):
     if name == "ur5":
         return armlab.load_robot(URDFS["ur5"])
     if name == "panda":
-        return armlab.load_robot(URDFS["panda"], tool_frame="panda_hand",
-                                 lock_joints=("panda_finger_joint1", "panda_finger_joint2"))
+        return armlab.load_robot(
+            URDFS["panda"],
+            tool_frame="panda_hand",
+            lock_joints=("panda_finger_joint1", "panda_finger_joint2"),
+        )
     raise ValueError(name)
 
 
@@ -104,10 +115,16 @@ def rtb_robot(name: str, robot):
     tool = np.eye(4)
     if name == "teachbot6":  # from the DH table (MDH links)
         dh = robot.dh
-        links = [rtb.RevoluteMDH(a=dh.a_m[i], alpha=dh.alpha_rad[i], d=dh.d_m[i],
-                                 offset=dh.offset_rad[i],
-                                 qlim=[robot.limits.lower_rad[i], robot.limits.upper_rad[i]])
-                 for i in range(6)]
+        links = [
+            rtb.RevoluteMDH(
+                a=dh.a_m[i],
+                alpha=dh.alpha_rad[i],
+                d=dh.d_m[i],
+                offset=dh.offset_rad[i],
+                qlim=[robot.limits.lower_rad[i], robot.limits.upper_rad[i]],
+            )
+            for i in range(6)
+        ]
         twin = rtb.DHRobot(links, name=name)
         tool = robot.model.frames[robot.tool_frame_id].placement.homogeneous
         end = None
@@ -144,11 +161,27 @@ def bench_forward(rows: list) -> None:
     rows.append(("teachbot6", "jacobian (world), single", p["n_fk"], rate(p["n_fk"], t), "", ""))
     qb = robot.random_q(rng, p["n_batch_fk"])
     _, t = timed(lambda: fk_batch(robot, qb))
-    rows.append(("teachbot6", "fk_batch (Pinocchio loop)", p["n_batch_fk"],
-                 rate(p["n_batch_fk"], t), "", ""))
+    rows.append(
+        (
+            "teachbot6",
+            "fk_batch (Pinocchio loop)",
+            p["n_batch_fk"],
+            rate(p["n_batch_fk"], t),
+            "",
+            "",
+        )
+    )
     _, t = timed(lambda: robot.dh.fk(qb))
-    rows.append(("teachbot6", "dh.fk (closed form, numpy)", p["n_batch_fk"],
-                 rate(p["n_batch_fk"], t), "", ""))
+    rows.append(
+        (
+            "teachbot6",
+            "dh.fk (closed form, numpy)",
+            p["n_batch_fk"],
+            rate(p["n_batch_fk"], t),
+            "",
+            "",
+        )
+    )
 
 
 def bench_analytic(rows: list) -> None:
@@ -160,16 +193,33 @@ def bench_analytic(rows: list) -> None:
     n1 = p["n_ik_single"]
     sols, t = timed(lambda: [ik_all(robot, T[k]) for k in range(n1)])
     found = np.mean([np.abs(s - q[k]).max(axis=1).min() < 1e-6 for k, s in enumerate(sols)])
-    rows.append(("teachbot6", "ik_all, one pose per call", n1, rate(n1, t),
-                 f"{100 * found:.2f}", ""))
+    rows.append(
+        ("teachbot6", "ik_all, one pose per call", n1, rate(n1, t), f"{100 * found:.2f}", "")
+    )
     (sol, valid), t = timed(lambda: ik_all_batch(robot, T))
     found = np.where(valid, np.abs(sol - q[:, None]).max(axis=2), np.inf).min(axis=1) < 1e-6
-    rows.append(("teachbot6", "ik_all_batch (poses/s)", len(T), rate(len(T), t),
-                 f"{100 * found.mean():.2f}", ""))
+    rows.append(
+        (
+            "teachbot6",
+            "ik_all_batch (poses/s)",
+            len(T),
+            rate(len(T), t),
+            f"{100 * found.mean():.2f}",
+            "",
+        )
+    )
     out, t = timed(lambda: ik_nearest(robot, T, q))
     ok = np.abs(out - q).max(axis=1) < 1e-6
-    rows.append(("teachbot6", "ik_nearest batched (poses/s)", len(T), rate(len(T), t),
-                 f"{100 * ok.mean():.2f}", ""))
+    rows.append(
+        (
+            "teachbot6",
+            "ik_nearest batched (poses/s)",
+            len(T),
+            rate(len(T), t),
+            f"{100 * ok.mean():.2f}",
+            "",
+        )
+    )
 
 
 def bench_numerical(rows: list) -> None:
@@ -183,36 +233,77 @@ def bench_numerical(rows: list) -> None:
         T = fk_batch(robot, q)
         seeds = {
             "cold": robot.random_q(rng, n),
-            "warm": np.clip(q + p["warm_noise_rad"] * rng.standard_normal(q.shape),
-                            robot.limits.lower_rad, robot.limits.upper_rad),
+            "warm": np.clip(
+                q + p["warm_noise_rad"] * rng.standard_normal(q.shape),
+                robot.limits.lower_rad,
+                robot.limits.upper_rad,
+            ),
         }
         for start, q0 in seeds.items():
-            res, t = timed(lambda q0=q0: [
-                ik_solve(robot, T[k], q0[k], tol_pos_m=p["tol_pos_m"],
-                         tol_rot_rad=p["tol_rot_rad"], rng=np.random.default_rng(k))
-                for k in range(n)])
+            res, t = timed(
+                lambda q0=q0: [
+                    ik_solve(
+                        robot,
+                        T[k],
+                        q0[k],
+                        tol_pos_m=p["tol_pos_m"],
+                        tol_rot_rad=p["tol_rot_rad"],
+                        rng=np.random.default_rng(k),
+                    )
+                    for k in range(n)
+                ]
+            )
             ok = np.mean([r.success for r in res])
             iters = np.median([r.iterations for r in res])
-            rows.append((name, f"armlab ik_solve (OSQP), {start} seed", n, rate(n, t),
-                         f"{100 * ok:.2f}", f"{iters:g}"))
+            rows.append(
+                (
+                    name,
+                    f"armlab ik_solve (OSQP), {start} seed",
+                    n,
+                    rate(n, t),
+                    f"{100 * ok:.2f}",
+                    f"{iters:g}",
+                )
+            )
             if twin is None:
                 continue
             kw = {"end": end} if end else {}
             T_end = T @ np.linalg.inv(tool)
             np.random.seed(p["seed"])  # ik_LM restarts draw from numpy's global generator
-            sol, t = timed(lambda q0=q0, kw=kw: [
-                twin.ik_LM(T_end[k], q0=q0[k], ilimit=p["rtb_ilimit"], slimit=p["rtb_slimit"],
-                           tol=0.5 * p["tol_pos_m"] ** 2, joint_limits=True, **kw)
-                for k in range(n)])
+            sol, t = timed(
+                lambda q0=q0, kw=kw: [
+                    twin.ik_LM(
+                        T_end[k],
+                        q0=q0[k],
+                        ilimit=p["rtb_ilimit"],
+                        slimit=p["rtb_slimit"],
+                        tol=0.5 * p["tol_pos_m"] ** 2,
+                        joint_limits=True,
+                        **kw,
+                    )
+                    for k in range(n)
+                ]
+            )
             good = []
             for k, s in enumerate(sol):
                 pos, rot = pose_errors(robot, s.q, T[k])
-                good.append(pos <= p["tol_pos_m"] and rot <= p["tol_rot_rad"]
-                            and bool(robot.within_limits(s.q, tol=1e-9)))
+                good.append(
+                    pos <= p["tol_pos_m"]
+                    and rot <= p["tol_rot_rad"]
+                    and bool(robot.within_limits(s.q, tol=1e-9))
+                )
             own = np.mean([bool(s.success) for s in sol])
             iters = np.median([s.iterations for s in sol])
-            rows.append((name, f"rtb ik_LM (C++), {start} seed", n, rate(n, t),
-                         f"{100 * np.mean(good):.2f} (own flag {100 * own:.1f})", f"{iters:g}"))
+            rows.append(
+                (
+                    name,
+                    f"rtb ik_LM (C++), {start} seed",
+                    n,
+                    rate(n, t),
+                    f"{100 * np.mean(good):.2f} (own flag {100 * own:.1f})",
+                    f"{iters:g}",
+                )
+            )
 
 
 def main() -> None:

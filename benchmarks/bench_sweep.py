@@ -32,13 +32,16 @@ PARAMS = {
     # without the Monte-Carlo workspace/accuracy clouds: plan, static load, sizing, tuning,
     # tracking and the set-point table, in memory
     "study": "demo",
-    "overrides": {"study.report": False, "kinematics.workspace_samples": 0,
-                  "kinematics.accuracy_samples": 0},
-    "vary": "payload.mass_kg",          # one study per value
+    "overrides": {
+        "study.report": False,
+        "kinematics.workspace_samples": 0,
+        "kinematics.accuracy_samples": 0,
+    },
+    "vary": "payload.mass_kg",  # one study per value
     "values": list(np.round(np.linspace(0.0, 1.0, 6), 4)),
     "workers": (1, 2),
-    "repeats": 2,                       # best of: the machine is shared, interference only slows
-    "n_noop": 400,                      # tasks of the overhead measurement
+    "repeats": 2,  # best of: the machine is shared, interference only slows
+    "n_noop": 400,  # tasks of the overhead measurement
 }
 
 
@@ -56,8 +59,7 @@ def _sets():
     from armlab.study import apply_overrides, read_study_document
     from armlab.sweep import parameter_key
 
-    doc, base, source = read_study_document(None if PARAMS["study"] == "demo"
-                                            else PARAMS["study"])
+    doc, base, source = read_study_document(None if PARAMS["study"] == "demo" else PARAMS["study"])
     doc = apply_overrides(doc, PARAMS["overrides"])
     sets = [{PARAMS["vary"]: float(v)} for v in PARAMS["values"]]
     return doc, str(base), source, [(parameter_key(s), s) for s in sets]
@@ -74,18 +76,30 @@ def dask_run(n_workers: int, doc, base, source, sets) -> tuple[float, float]:
     from distributed import Client, LocalCluster
     from distributed import as_completed as dask_completed
 
-    with LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                      dashboard_address=":0", silence_logs=logging.ERROR) as cluster, \
-            Client(cluster) as client:
+    with (
+        LocalCluster(
+            n_workers=n_workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            silence_logs=logging.ERROR,
+        ) as cluster,
+        Client(cluster) as client,
+    ):
         # warm-up: every worker runs one study (imports, robot cache, CasADi build)
-        warm = [client.submit(_study_task, doc, base, source, sets[0][1], sets[0][0],
-                              pure=False, workers=[w]) for w in client.scheduler_info()["workers"]]
+        warm = [
+            client.submit(
+                _study_task, doc, base, source, sets[0][1], sets[0][0], pure=False, workers=[w]
+            )
+            for w in client.scheduler_info()["workers"]
+        ]
         _check(client.gather(warm))
         rate = 0.0
         for _ in range(PARAMS["repeats"]):
             t0 = time.perf_counter()
-            futs = [client.submit(_study_task, doc, base, source, s, k, pure=False)
-                    for k, s in sets]
+            futs = [
+                client.submit(_study_task, doc, base, source, s, k, pure=False) for k, s in sets
+            ]
             rows = [f.result() for f in dask_completed(futs)]
             rate = max(rate, len(sets) / (time.perf_counter() - t0))
             _check(rows)
@@ -105,11 +119,14 @@ def pool_run(n_workers: int, doc, base, source, sets) -> tuple[float, float]:
     import dask
 
     # the same single-threaded BLAS/OpenMP environment Dask's nanny gives its workers
-    os.environ.update({k: str(v) for k, v in
-                       dask.config.get("distributed.nanny.pre-spawn-environ").items()})
+    os.environ.update(
+        {k: str(v) for k, v in dask.config.get("distributed.nanny.pre-spawn-environ").items()}
+    )
     with ProcessPoolExecutor(n_workers, mp_context=get_context("spawn")) as pool:
-        warm = [pool.submit(_study_task, doc, base, source, sets[0][1], sets[0][0])
-                for _ in range(n_workers)]
+        warm = [
+            pool.submit(_study_task, doc, base, source, sets[0][1], sets[0][0])
+            for _ in range(n_workers)
+        ]
         _check([f.result() for f in warm])
         rate = 0.0
         for _ in range(PARAMS["repeats"]):
@@ -139,9 +156,11 @@ def main() -> None:
     stages = {k[6:]: v for k, v in one.items() if k.startswith("stage_")}
     print(f"default study: {source} with {PARAMS['overrides']}")
     print(f"stages: {stages}")
-    print(f"one study in this process (cold): {time.perf_counter() - t0:.2f} s; "
-          f"{len(sets)} studies per measurement, varying {PARAMS['vary']}; "
-          f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}")
+    print(
+        f"one study in this process (cold): {time.perf_counter() - t0:.2f} s; "
+        f"{len(sets)} studies per measurement, varying {PARAMS['vary']}; "
+        f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}"
+    )
     rows = []
     for name, run in (("dask LocalCluster", dask_run), ("process pool", pool_run)):
         rates = {}
@@ -150,8 +169,9 @@ def main() -> None:
             rates[w] = rate
             rows.append((name, w, rate, rate / rates[PARAMS["workers"][0]], per_task))
     print()
-    print(f"{'backend':<20}{'workers':>8}{'studies/s':>12}{'scaling':>10}"
-          f"{'overhead/task [ms]':>20}")
+    print(
+        f"{'backend':<20}{'workers':>8}{'studies/s':>12}{'scaling':>10}{'overhead/task [ms]':>20}"
+    )
     for name, w, rate, scale, per_task in rows:
         print(f"{name:<20}{w:>8}{rate:>12.3f}{scale:>9.2f}x{per_task * 1e3:>20.3f}")
     d2 = next(r for r in rows if r[0] == "dask LocalCluster" and r[1] == 2)
@@ -159,8 +179,10 @@ def main() -> None:
     d1 = next(r for r in rows if r[0] == "dask LocalCluster" and r[1] == 1)
     print()
     print(f"scaling 1 -> 2 workers (dask): {d2[3]:.2f}x (goal >= 1.8x)")
-    print(f"dask vs process pool on 1 worker: {d1[2] / p1[2]:.3f} x the pool's rate; "
-          f"overhead per task {d1[4] * 1e3:.2f} ms vs {p1[4] * 1e3:.2f} ms")
+    print(
+        f"dask vs process pool on 1 worker: {d1[2] / p1[2]:.3f} x the pool's rate; "
+        f"overhead per task {d1[4] * 1e3:.2f} ms vs {p1[4] * 1e3:.2f} ms"
+    )
 
 
 if __name__ == "__main__":

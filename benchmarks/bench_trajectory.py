@@ -41,8 +41,10 @@ ROBOTS = {
     "ur5": ("ur5", 5.0, {"a_max": 8.0, "j_max": 80.0}),
 }
 #: the full problem: faster drives than the thesis' so that torque limits bind in some cases
-FULL_LIMITS = {"teachbot6": {"v_max": 2.0, "a_max": 15.0, "j_max": 150.0},
-               "ur5": {"a_max": 15.0, "j_max": 150.0}}
+FULL_LIMITS = {
+    "teachbot6": {"v_max": 2.0, "a_max": 15.0, "j_max": 150.0},
+    "ur5": {"a_max": 15.0, "j_max": 150.0},
+}
 CASES = {"ptp": 20, "topp": 10, "full": 50}  # per robot
 QUICK = {"ptp": 4, "topp": 2, "full": 5}
 RANGE_FRACTION = 0.8  # waypoints drawn in this central fraction of each joint range ...
@@ -56,8 +58,10 @@ CHECK_SAMPLES = 4000
 
 def ur5_urdf() -> Path:
     base = Path(sys.prefix) / "lib"
-    for p in base.glob("python3*/site-packages/cmeel.prefix/share/example-robot-data/robots/"
-                       "ur_description/urdf/ur5_robot.urdf"):
+    for p in base.glob(
+        "python3*/site-packages/cmeel.prefix/share/example-robot-data/robots/"
+        "ur_description/urdf/ur5_robot.urdf"
+    ):
         return p
     raise SystemExit("example-robot-data UR5 URDF not found")
 
@@ -93,8 +97,11 @@ def draw_waypoints(robot, rng, n, step=None):
     while True:
         w = [draw_q(robot, rng)]
         for _ in range(n - 1):
-            q = draw_q(robot, rng) if step is None else \
-                w[-1] + rng.uniform(-step, step, robot.n_joints)
+            q = (
+                draw_q(robot, rng)
+                if step is None
+                else w[-1] + rng.uniform(-step, step, robot.n_joints)
+            )
             w.append(np.clip(q, robot.limits.lower_rad + 1e-3, robot.limits.upper_rad - 1e-3))
         w = np.array(w)
         if all(statically_ok(robot, q) for q in w):
@@ -105,6 +112,7 @@ def draw_waypoints(robot, rng, n, step=None):
 def bench_ruckig(robot, extra, rng, n):
     from ruckig import InputParameter, Ruckig
     from ruckig import Trajectory as RTrajectory
+
     v, a, j, _ = limits_of(robot, extra)
     nj = robot.n_joints
     ratios, ours_t, peer_t, ok = [], [], [], 0
@@ -123,8 +131,14 @@ def bench_ruckig(robot, extra, rng, n):
         otg.calculate(inp, rt)
         peer_t.append(time.perf_counter() - t0)
         ratios.append(tr.duration / rt.duration)
-    return dict(ratios=np.array(ratios), ours_t=np.array(ours_t), peer_t=np.array(peer_t),
-                ok=ok, peer_ok=n, n=n)
+    return dict(
+        ratios=np.array(ratios),
+        ours_t=np.array(ours_t),
+        peer_t=np.array(peer_t),
+        ok=ok,
+        peer_ok=n,
+        n=n,
+    )
 
 
 # ----------------------------------------------------------------------------- 2. TOPP-RA
@@ -132,6 +146,7 @@ def toppra_solve(robot, w, v, a, tau):
     import toppra as ta
     import toppra.algorithm as algo
     import toppra.constraint as constraint
+
     ta.setup_logging("WARNING")
     gp = GeometricPath(w, robot.n_joints)  # the same spline and parameter as ours
     path = ta.SplineInterpolator(gp.s_points, w, bc_type="not-a-knot")
@@ -140,10 +155,13 @@ def toppra_solve(robot, w, v, a, tau):
     def inv_dyn(q, qd, qdd):
         return pin.rnea(robot.model, data, q, qd, qdd)
 
-    cons = [constraint.JointVelocityConstraint(v),
-            constraint.JointAccelerationConstraint(a),
-            constraint.JointTorqueConstraint(inv_dyn, np.vstack([-tau, tau]).T,
-                                             np.zeros(robot.n_joints))]
+    cons = [
+        constraint.JointVelocityConstraint(v),
+        constraint.JointAccelerationConstraint(a),
+        constraint.JointTorqueConstraint(
+            inv_dyn, np.vstack([-tau, tau]).T, np.zeros(robot.n_joints)
+        ),
+    ]
     t0 = time.perf_counter()
     inst = algo.TOPPRA(cons, path, parametrizer="ParametrizeConstAccel")
     jt = inst.compute_trajectory(0, 0)
@@ -152,8 +170,7 @@ def toppra_solve(robot, w, v, a, tau):
         return None, elapsed
     T = jt.duration
     t = np.linspace(0, T, CHECK_SAMPLES + 1)
-    traj = Trajectory(t, jt(t), jt(t, 1), jt(t, 2), joint_names=robot.joint_names,
-                      method="toppra")
+    traj = Trajectory(t, jt(t), jt(t, 1), jt(t, 2), joint_names=robot.joint_names, method="toppra")
     return traj, elapsed
 
 
@@ -186,8 +203,20 @@ def stretch_to_feasible(robot, traj, v, a, tau, iters: int = 30) -> float:
 def bench_toppra(robot, extra, rng, n):
     v, a, _, tau = limits_of(robot, extra)
     lim = robot.with_limits(acceleration_rad_s2=a, jerk_rad_s3=None).limits
-    out = {k: [] for k in ("ratio_path", "ratio_free", "ours_t", "free_t", "peer_t",
-                           "ours_worst", "free_worst", "peer_worst", "ratio_stretched")}
+    out = {
+        k: []
+        for k in (
+            "ratio_path",
+            "ratio_free",
+            "ours_t",
+            "free_t",
+            "peer_t",
+            "ours_worst",
+            "free_worst",
+            "peer_worst",
+            "ratio_stretched",
+        )
+    }
     for _ in range(n):
         while True:  # a path whose spline stays inside the joint ranges
             w = draw_waypoints(robot, rng, TOPP_WAYPOINTS, step=TOPP_STEP_RAD)
@@ -233,8 +262,14 @@ def bench_full(robot, extra, rng, n):
         solve.append(tr.stats["solve_time_s"])
         ok += tr.report.ok(1e-6)
         torque_bound += any(k == "torque" for k, _, _ in tr.stats["binding"])
-    return dict(solve=np.array(solve), wall=np.array(wall), ok=ok, n=n, errors=errors,
-                torque_bound=torque_bound)
+    return dict(
+        solve=np.array(solve),
+        wall=np.array(wall),
+        ok=ok,
+        n=n,
+        errors=errors,
+        torque_bound=torque_bound,
+    )
 
 
 # ----------------------------------------------------------------------------- main
@@ -253,11 +288,22 @@ def main() -> None:
         t0 = time.perf_counter()
         optimal(robot, w, v_max=v, a_max=a, j_max=j, tau_max=False)
         vf, af, jf, _ = limits_of(robot, {**extra, **FULL_LIMITS[name]})
-        optimal(robot, draw_waypoints(robot, np.random.default_rng(1), FULL_WAYPOINTS),
-                v_max=vf, a_max=af, j_max=jf, tau_max=tau)
-        optimal(robot, draw_waypoints(robot, np.random.default_rng(2), TOPP_WAYPOINTS,
-                                      step=TOPP_STEP_RAD), v_max=v, a_max=a, j_max=False,
-                tau_max=tau)
+        optimal(
+            robot,
+            draw_waypoints(robot, np.random.default_rng(1), FULL_WAYPOINTS),
+            v_max=vf,
+            a_max=af,
+            j_max=jf,
+            tau_max=tau,
+        )
+        optimal(
+            robot,
+            draw_waypoints(robot, np.random.default_rng(2), TOPP_WAYPOINTS, step=TOPP_STEP_RAD),
+            v_max=v,
+            a_max=a,
+            j_max=False,
+            tau_max=tau,
+        )
         build = time.perf_counter() - t0
         r1 = bench_ruckig(robot, extra, rng, cases["ptp"])
         r2 = bench_toppra(robot, extra, rng, cases["topp"])
@@ -265,41 +311,61 @@ def main() -> None:
         rows.append((name, build, r1, r2, r3))
 
     print()
-    print("armlab.trajectory optimisers vs peers (seed %d%s)" % (SEED, ", quick" if args.quick
-                                                                  else ""))
-    hdr = (f"{'benchmark':<47}{'robot':<11}{'n':>4}  {'ratio med':>9}  {'ratio max':>9}  "
-           f"{'ours [s] med':>12}  {'peer [s] med':>12}  {'feasible ours/peer':>18}")
+    print(
+        "armlab.trajectory optimisers vs peers (seed %d%s)"
+        % (SEED, ", quick" if args.quick else "")
+    )
+    hdr = (
+        f"{'benchmark':<47}{'robot':<11}{'n':>4}  {'ratio med':>9}  {'ratio max':>9}  "
+        f"{'ours [s] med':>12}  {'peer [s] med':>12}  {'feasible ours/peer':>18}"
+    )
     print(hdr)
     print("-" * len(hdr))
     for name, build, r1, r2, r3 in rows:
-        print(f"{'PTP v/a/j: optimal / Ruckig':<47}{name:<11}{r1['n']:>4}  "
-              f"{np.median(r1['ratios']):>9.4f}  {np.max(r1['ratios']):>9.4f}  "
-              f"{np.median(r1['ours_t']):>12.3f}  {np.median(r1['peer_t']):>12.6f}  "
-              f"{r1['ok']:>8}/{r1['peer_ok']:<9}")
+        print(
+            f"{'PTP v/a/j: optimal / Ruckig':<47}{name:<11}{r1['n']:>4}  "
+            f"{np.median(r1['ratios']):>9.4f}  {np.max(r1['ratios']):>9.4f}  "
+            f"{np.median(r1['ours_t']):>12.3f}  {np.median(r1['peer_t']):>12.6f}  "
+            f"{r1['ok']:>8}/{r1['peer_ok']:<9}"
+        )
         n2 = len(r2["ratio_path"])
         peer_ok = int(np.sum(r2["peer_worst"] <= 1 + 1e-6))
         ok_path = int(np.sum(r2["ours_worst"] <= 1 + 1e-6))
         ok_free = int(np.sum(r2["free_worst"] <= 1 + 1e-6))
-        print(f"{'5-wp v/a/tau: time_optimal_path / TOPP-RA':<47}{name:<11}{n2:>4}  "
-              f"{np.median(r2['ratio_path']):>9.4f}  {np.max(r2['ratio_path']):>9.4f}  "
-              f"{np.median(r2['ours_t']):>12.3f}  {np.median(r2['peer_t']):>12.4f}  "
-              f"{ok_path:>8}/{peer_ok:<9}")
-        print(f"{'5-wp v/a/tau: optimal (free path) / TOPP-RA':<47}{name:<11}{n2:>4}  "
-              f"{np.median(r2['ratio_free']):>9.4f}  {np.max(r2['ratio_free']):>9.4f}  "
-              f"{np.median(r2['free_t']):>12.3f}  {np.median(r2['peer_t']):>12.4f}  "
-              f"{ok_free:>8}/{peer_ok:<9}")
-        print(f"{'  TOPP-RA worst limit ratio on the fine grid':<47}{name:<11}{n2:>4}  "
-              f"{np.median(r2['peer_worst']):>9.4f}  {np.max(r2['peer_worst']):>9.4f}")
-        print(f"{'  time_optimal_path / TOPP-RA made feasible':<47}{name:<11}{n2:>4}  "
-              f"{np.median(r2['ratio_stretched']):>9.4f}  {np.max(r2['ratio_stretched']):>9.4f}")
+        print(
+            f"{'5-wp v/a/tau: time_optimal_path / TOPP-RA':<47}{name:<11}{n2:>4}  "
+            f"{np.median(r2['ratio_path']):>9.4f}  {np.max(r2['ratio_path']):>9.4f}  "
+            f"{np.median(r2['ours_t']):>12.3f}  {np.median(r2['peer_t']):>12.4f}  "
+            f"{ok_path:>8}/{peer_ok:<9}"
+        )
+        print(
+            f"{'5-wp v/a/tau: optimal (free path) / TOPP-RA':<47}{name:<11}{n2:>4}  "
+            f"{np.median(r2['ratio_free']):>9.4f}  {np.max(r2['ratio_free']):>9.4f}  "
+            f"{np.median(r2['free_t']):>12.3f}  {np.median(r2['peer_t']):>12.4f}  "
+            f"{ok_free:>8}/{peer_ok:<9}"
+        )
+        print(
+            f"{'  TOPP-RA worst limit ratio on the fine grid':<47}{name:<11}{n2:>4}  "
+            f"{np.median(r2['peer_worst']):>9.4f}  {np.max(r2['peer_worst']):>9.4f}"
+        )
+        print(
+            f"{'  time_optimal_path / TOPP-RA made feasible':<47}{name:<11}{n2:>4}  "
+            f"{np.median(r2['ratio_stretched']):>9.4f}  {np.max(r2['ratio_stretched']):>9.4f}"
+        )
         solved = len(r3["solve"])
-        print(f"{'full v/a/j/tau, 3 wp, faster drives: success':<47}{name:<11}{r3['n']:>4}  "
-              f"{'':>9}  {'':>9}  {np.median(r3['solve']):>12.3f}  {'(no peer)':>12}  "
-              f"{r3['ok']:>8}/{r3['n']:<9}")
-        print(f"{'  ... wall per call incl. checks [s] med/max':<47}{name:<11}{solved:>4}  "
-              f"{'':>9}  {'':>9}  {np.median(r3['wall']):>12.3f}  {np.max(r3['wall']):>12.3f}")
-        print(f"{'  ... torque binding in':<47}{name:<11}{solved:>4}  "
-              f"{r3['torque_bound']:>9d} cases; first build of the compiled problems {build:.1f} s")
+        print(
+            f"{'full v/a/j/tau, 3 wp, faster drives: success':<47}{name:<11}{r3['n']:>4}  "
+            f"{'':>9}  {'':>9}  {np.median(r3['solve']):>12.3f}  {'(no peer)':>12}  "
+            f"{r3['ok']:>8}/{r3['n']:<9}"
+        )
+        print(
+            f"{'  ... wall per call incl. checks [s] med/max':<47}{name:<11}{solved:>4}  "
+            f"{'':>9}  {'':>9}  {np.median(r3['wall']):>12.3f}  {np.max(r3['wall']):>12.3f}"
+        )
+        print(
+            f"{'  ... torque binding in':<47}{name:<11}{solved:>4}  "
+            f"{r3['torque_bound']:>9d} cases; first build of the compiled problems {build:.1f} s"
+        )
         for e in r3["errors"][:3]:
             print(f"      error: {e}")
     all_solve = np.concatenate([r[4]["solve"] for r in rows])
@@ -308,10 +374,12 @@ def main() -> None:
     ptp = np.concatenate([r[2]["ratios"] for r in rows])
     topp = np.concatenate([r[3]["ratio_path"] for r in rows])
     print()
-    print(f"goals: PTP/Ruckig median {np.median(ptp):.4f} (<= 1.005), max {np.max(ptp):.4f} "
-          f"(<= 1.02); path/TOPP-RA median {np.median(topp):.4f} (<= 1.00); full problem "
-          f"{all_ok}/{all_n} feasible successes (100 %), median solve {np.median(all_solve):.3f} s"
-          f" (< 1 s)")
+    print(
+        f"goals: PTP/Ruckig median {np.median(ptp):.4f} (<= 1.005), max {np.max(ptp):.4f} "
+        f"(<= 1.02); path/TOPP-RA median {np.median(topp):.4f} (<= 1.00); full problem "
+        f"{all_ok}/{all_n} feasible successes (100 %), median solve {np.median(all_solve):.3f} s"
+        f" (< 1 s)"
+    )
 
 
 if __name__ == "__main__":

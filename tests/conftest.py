@@ -20,8 +20,16 @@ REPO = Path(__file__).resolve().parents[1]
 
 def example_robot_data_dir() -> Path:
     """Folder of the URDFs shipped by the ``example-robot-data`` wheel (data only)."""
-    return Path(sys.prefix) / "lib" / f"python{sys.version_info.major}.{sys.version_info.minor}" \
-        / "site-packages" / "cmeel.prefix" / "share" / "example-robot-data" / "robots"
+    return (
+        Path(sys.prefix)
+        / "lib"
+        / f"python{sys.version_info.major}.{sys.version_info.minor}"
+        / "site-packages"
+        / "cmeel.prefix"
+        / "share"
+        / "example-robot-data"
+        / "robots"
+    )
 
 
 def _erd(rel: str) -> Path:
@@ -46,8 +54,9 @@ def start_sweep(args: list[str], out: Path, rows: int, timeout_s: float = 120.0)
     import time
 
     cmd = [sys.executable, "-m", "armlab.cli", "sweep", *args, "--out", str(out)]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=sweep_env())
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=sweep_env()
+    )
     parts = out / "results.parts"
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:

@@ -62,14 +62,14 @@ def test_joint6_motor_model_is_the_thesis_one(teachbot6):
     """Thesis 5.4.1: Te = La/Ra = 4.85e-5 s, Tm ~ 0.024 s, 1/Ce = 1613 rpm/V and
     W(s) = (1/Ce)/(Tm Te s^2 + Tm s + 1), built here from the thesis' own numbers."""
     Ra, La, J, Ce_V_rpm, Cm = 2.27, 0.11e-3, 3.81e-7, 0.62e-3, 5.9e-3
-    Ce = Ce_V_rpm / RPM_TO_RAD_S                       # V s/rad
+    Ce = Ce_V_rpm / RPM_TO_RAD_S  # V s/rad
     Te, Tm = La / Ra, Ra * J / (Cm * Ce)
     assert Te == pytest.approx(4.85e-5, rel=2e-3)
     assert Tm == pytest.approx(0.024, rel=0.05)
     assert 1 / Ce_V_rpm == pytest.approx(1613, rel=1e-3)
     # the thesis prints Tm = 0.2364 s: Ce in V/rpm used as V s/rad (factor 60 / 2 pi)
     assert Ra * J / (Cm * Ce_V_rpm) == pytest.approx(0.2364, rel=5e-3)
-    W = ct.tf([1 / Ce], [Tm * Te, Tm, 1])              # rad/s per V
+    W = ct.tf([1 / Ce], [Tm * Te, Tm, 1])  # rad/s per V
 
     motor = teachbot6.drive("joint6").motor
     ours = motor_speed_tf(motor)
@@ -89,6 +89,7 @@ def test_joint6_motor_model_is_the_thesis_one(teachbot6):
 
 def test_inertia_range_brackets_the_mass_matrix(teachbot6, inertias):
     import pinocchio as pin
+
     rng = np.random.default_rng(7)
     model = teachbot6.model.copy()
     data = model.createData()
@@ -112,15 +113,16 @@ def test_incremental_coefficients_are_the_tustin_pi():
     assert (q2, lg.q0, lg.q1) == (0.0, q0, q1)
     # the thesis' backward form: q0 = kp + ki T + kd/T, q1 = -kp - 2 kd/T, q2 = kd/T
     assert incremental_coefficients(1.0, 10.0, 0.01, 1e-3, "backward") == pytest.approx(
-        (1.0 + 0.01 + 10.0, -1.0 - 20.0, 10.0))
+        (1.0 + 0.01 + 10.0, -1.0 - 20.0, 10.0)
+    )
 
 
 def test_incremental_pid_saturates_without_windup():
     pid = IncrementalPID([1.0], [-0.9], [0.0], [-1.0], [1.0])
-    for _ in range(200):                       # long positive error: output pinned at +1
+    for _ in range(200):  # long positive error: output pinned at +1
         u = pid.step(np.array([5.0]))
     assert u[0] == 1.0
-    u = pid.step(np.array([-0.5]))             # error reverses: leaves saturation at once
+    u = pid.step(np.array([-0.5]))  # error reverses: leaves saturation at once
     assert u[0] < 1.0
     # feed-forward is added outside and the sum is limited
     pid2 = IncrementalPID([1.0], [-1.0], [0.0], [-1.0], [1.0])
@@ -220,15 +222,28 @@ def test_gains_json_round_trip_reproduces_the_margins(teachbot6, arm_gains, iner
     rechecked = check_cascade(plant, back["joint6"])
     for name, lg in rechecked.loops().items():
         stored = arm_gains["joint6"].loops()[name]
-        for key in ("crossover_rad_s", "phase_margin_deg", "gain_margin_dB",
-                    "phase_margin_discrete_deg", "gain_margin_discrete_dB", "overshoot_pct"):
+        for key in (
+            "crossover_rad_s",
+            "phase_margin_deg",
+            "gain_margin_dB",
+            "phase_margin_discrete_deg",
+            "gain_margin_discrete_dB",
+            "overshoot_pct",
+        ):
             a, b = getattr(lg, key), getattr(stored, key)
             assert a == pytest.approx(b, rel=1e-9) or (math.isinf(a) and math.isinf(b)), key
     # the summary.json "control" block (DESIGN.md)
     block = arm_gains.summary()["joint1"]
     for loop in ("current", "speed", "position"):
-        for key in ("gains", "crossover_rad_s", "phase_margin_deg", "gain_margin_dB",
-                    "overshoot_pct", "settling_time_s", "sample_time_s"):
+        for key in (
+            "gains",
+            "crossover_rad_s",
+            "phase_margin_deg",
+            "gain_margin_dB",
+            "overshoot_pct",
+            "settling_time_s",
+            "sample_time_s",
+        ):
             assert key in block[loop]
     assert block["speed"]["sample_time_s"] == 1e-3 and block["current"]["sample_time_s"] == 5e-5
 
@@ -259,10 +274,12 @@ def test_tracking_stays_within_the_servo_share_of_the_accuracy(teachbot6, arm_ga
 def test_holding_still_against_gravity(teachbot6, arm_gains):
     q = np.array([0.3, -0.6, 0.9, 0.2, 0.7, 0.0])
     t = np.array([0.0, 0.3])
-    rest = Trajectory(t, np.vstack([q, q]), np.zeros((2, 6)), np.zeros((2, 6)),
-                      joint_names=teachbot6.joint_names)
-    res = simulate_tracking(teachbot6, rest, arm_gains, feedforward="none", quantise=False,
-                            t_after_s=0.0)
+    rest = Trajectory(
+        t, np.vstack([q, q]), np.zeros((2, 6)), np.zeros((2, 6)), joint_names=teachbot6.joint_names
+    )
+    res = simulate_tracking(
+        teachbot6, rest, arm_gains, feedforward="none", quantise=False, t_after_s=0.0
+    )
     assert np.abs(res.error_rad).max() < 1e-6
     assert np.abs(res.qd).max() < 1e-4
 
@@ -310,11 +327,15 @@ def test_plots_return_figures(teachbot6, arm_gains, inertias):
     from matplotlib.figure import Figure
 
     from armlab.control import plots
+
     plant = joint_plant(teachbot6, "joint4", inertias=inertias)
     g = arm_gains["joint4"]
-    figs = [plots.bode_figure(plant, g, "speed"), plots.step_figure(plant, g),
-            plots.root_locus_figure(plant, g, "position", discrete=True),
-            plots.force_figure([force_loop(700.0, duration_s=1.0)])]
+    figs = [
+        plots.bode_figure(plant, g, "speed"),
+        plots.step_figure(plant, g),
+        plots.root_locus_figure(plant, g, "position", discrete=True),
+        plots.force_figure([force_loop(700.0, duration_s=1.0)]),
+    ]
     traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.05), "trapezoid", dt=1e-3)
     figs.append(plots.tracking_figure(simulate_tracking(teachbot6, traj, arm_gains)))
     assert all(isinstance(f, Figure) and f.axes for f in figs)

@@ -54,8 +54,10 @@ def cosine_motion(robot, duration_s=60.0, n=6001, scale=0.9, terms=((3, 0.45), (
     for j in range(robot.n_joints):
         for k, frac in terms:
             w = 2 * math.pi * k / duration_s
-            A = min(frac * scale * lim.velocity_rad_s[j] / w,
-                    frac * scale * lim.acceleration_rad_s2[j] / w**2)
+            A = min(
+                frac * scale * lim.velocity_rad_s[j] / w,
+                frac * scale * lim.acceleration_rad_s2[j] / w**2,
+            )
             q[:, j] += A * (1 - np.cos(w * t)) - A
             qd[:, j] += A * w * np.sin(w * t)
             qdd[:, j] += A * w * w * np.cos(w * t)
@@ -86,11 +88,18 @@ def trapezoid_move(robot, joint, v, a, cruise_s, dt=1e-3):
     t[-1] = T
     acc = np.where(t < ta, a, np.where(t > ta + cruise_s, -a, 0.0))
     vel = np.where(t < ta, a * t, np.where(t > ta + cruise_s, v - a * (t - ta - cruise_s), v))
-    pos = np.where(t < ta, 0.5 * a * t**2,
-                   np.where(t > ta + cruise_s,
-                            0.5 * a * ta**2 + v * cruise_s + v * (t - ta - cruise_s)
-                            - 0.5 * a * (t - ta - cruise_s) ** 2,
-                            0.5 * a * ta**2 + v * (t - ta)))
+    pos = np.where(
+        t < ta,
+        0.5 * a * t**2,
+        np.where(
+            t > ta + cruise_s,
+            0.5 * a * ta**2
+            + v * cruise_s
+            + v * (t - ta - cruise_s)
+            - 0.5 * a * (t - ta - cruise_s) ** 2,
+            0.5 * a * ta**2 + v * (t - ta),
+        ),
+    )
     q = np.zeros((t.size, robot.n_joints))
     qd, qdd = np.zeros_like(q), np.zeros_like(q)
     q[:, j], qd[:, j], qdd[:, j] = pos, vel, acc
@@ -157,7 +166,8 @@ def test_counts_per_rev_from_drives_and_profile_decoding(teachbot6):
     t4 = setpoint_table(teachbot6, tr)
     np.testing.assert_allclose(t4.counts_per_joint_rev, [4000.0 * r for r in RATIOS])
     np.testing.assert_allclose(
-        t4.counts_per_rad, [teachbot6.drives[j].counts_per_rad for j in teachbot6.joint_names])
+        t4.counts_per_rad, [teachbot6.drives[j].counts_per_rad for j in teachbot6.joint_names]
+    )
     t2 = setpoint_table(teachbot6, tr, load_profile().replace(decoding=2))
     np.testing.assert_allclose(t2.counts_per_joint_rev, [2000.0 * r for r in RATIOS])
 
@@ -188,8 +198,10 @@ def test_round_trip_60s_1ms_six_joints(teachbot6, motion60, table60, tmp_path):
 
 
 def test_all_formats_read_back_equal(table60, tmp_path):
-    paths = {fmt: table60.write(tmp_path / f"sp.{ext}", fmt)
-             for fmt, ext in (("csv", "csv"), ("json", "json"), ("npz", "npz"), ("c", "h"))}
+    paths = {
+        fmt: table60.write(tmp_path / f"sp.{ext}", fmt)
+        for fmt, ext in (("csv", "csv"), ("json", "json"), ("npz", "npz"), ("c", "h"))
+    }
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sp.csv", "sp.h", "sp.json", "sp.npz"]
     cols = table60.columns()
     for fmt in ("csv", "json", "npz"):
@@ -204,9 +216,13 @@ def test_all_formats_read_back_equal(table60, tmp_path):
             if name.startswith(("counts", "dcounts", "cycle")):
                 assert got.dtype == np.int64
     head = paths["csv"].read_text()[:4000]
-    for needle in ("# robot: teachbot6", "# cycle_s: 0.001", "joint2=1640000",
-                   f"# trajectory_sha256: {table60.trajectory_sha256}",
-                   f"# armlab_version: {armlab.__version__}"):
+    for needle in (
+        "# robot: teachbot6",
+        "# cycle_s: 0.001",
+        "joint2=1640000",
+        f"# trajectory_sha256: {table60.trajectory_sha256}",
+        f"# armlab_version: {armlab.__version__}",
+    ):
         assert needle in head
     header = paths["c"].read_text()
     assert f'#define ARMLAB_SP_TRAJECTORY_SHA256 "{table60.trajectory_sha256}"' in header
@@ -240,13 +256,24 @@ def test_c_header_compiles_and_checksums(teachbot6, tmp_path):
     table.write(tmp_path / "sp.h", "c")
     (tmp_path / "main.c").write_text(C_PROGRAM)
     exe = tmp_path / "main"
-    subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", "-O0", "-o", str(exe),
-                    str(tmp_path / "main.c")], check=True, cwd=tmp_path, capture_output=True)
+    subprocess.run(
+        ["gcc", "-std=c99", "-Wall", "-Werror", "-O0", "-o", str(exe), str(tmp_path / "main.c")],
+        check=True,
+        cwd=tmp_path,
+        capture_output=True,
+    )
     out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.split()
     k = (np.arange(table.n_cycles) % 97 + 1)[:, None]
     a = np.arange(1, 7)[None, :]
-    expect = [table.n_cycles, 6, 4095, int(table.counts.sum()), int(table.dcounts.sum()),
-              int((k * a * table.dcounts).sum()), "joint6"]
+    expect = [
+        table.n_cycles,
+        6,
+        4095,
+        int(table.counts.sum()),
+        int(table.dcounts.sum()),
+        int((k * a * table.dcounts).sum()),
+        "joint6",
+    ]
     assert out == [str(x) for x in expect]
 
 
@@ -260,8 +287,9 @@ def test_axis_order_and_sign(teachbot6, tmp_path):
     assert np.array_equal(t.counts[:, 1], -ref.counts[:, 4])  # joint5 on axis 2, reversed
     assert np.array_equal(t.counts[:, 0], ref.counts[:, 5])
     assert np.array_equal(t.q_rad[:, 1], ref.q_rad[:, 4])  # positions stay joint-side
-    np.testing.assert_allclose(t.positions_from_counts(), t.q_rad,
-                               atol=0.5 / t.counts_per_rad.min() + 1e-9)
+    np.testing.assert_allclose(
+        t.positions_from_counts(), t.q_rad, atol=0.5 / t.counts_per_rad.min() + 1e-9
+    )
     back = read_setpoints(t.write(tmp_path / "s.csv"))
     assert back.column_names()[2] == "q_joint6_rad"
     assert list(back.axis_sign) == [1, -1, 1, 1, 1, 1]
@@ -415,8 +443,12 @@ def test_export_formats_carry_checksums(teachbot6, tmp_path):
     sha = trajectory_sha256(tr)
     src = file_sha256(study / "trajectory.npz")
     out = tmp_path / "out"
-    for fmt, name in (("csv", "setpoints.csv"), ("json", "setpoints.json"),
-                      ("npz", "setpoints.npz"), ("c", "setpoints.h")):
+    for fmt, name in (
+        ("csv", "setpoints.csv"),
+        ("json", "setpoints.json"),
+        ("npz", "setpoints.npz"),
+        ("c", "setpoints.h"),
+    ):
         paths = export_study(study, fmt=fmt, out_dir=out)
         assert [p.name for p in paths] == [name]  # no gains.json in this study
         if fmt == "npz":
@@ -444,9 +476,22 @@ def test_cli_refuses_too_fast_and_leaves_nothing(teachbot6, tmp_path, capsys):
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1
     assert not out.exists() or not any(out.iterdir())
     # a real process: exit status and no partial file (module run, like the console script)
-    proc = subprocess.run([sys.executable, "-m", "armlab.cli", "export", str(study), "--format",
-                           "c", "--out", str(out)], capture_output=True, text=True,
-                          env={**os.environ, "MPLBACKEND": "Agg"})
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "armlab.cli",
+            "export",
+            str(study),
+            "--format",
+            "c",
+            "--out",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "MPLBACKEND": "Agg"},
+    )
     assert proc.returncode != 0 and "joint joint4" in proc.stderr
     assert not out.exists() or not any(out.iterdir())
 
@@ -458,8 +503,9 @@ def test_cli_refuses_4096_pulses_with_profile_file(teachbot6, tmp_path, capsys):
     prof = write_profile(tmp_path / "dda25.toml", name="dda25", cycle_s=0.025)
     out = tmp_path / "out"
     for fmt in ("csv", "json", "npz", "c"):
-        code = cli_main(["export", str(study), "--format", fmt, "--profile", str(prof),
-                         "--out", str(out)])
+        code = cli_main(
+            ["export", str(study), "--format", fmt, "--profile", str(prof), "--out", str(out)]
+        )
         err = capsys.readouterr().err
         assert code != 0 and "joint joint5, pulse rate limit" in err and "4096 pulses" in err
     assert not out.exists() or not any(out.iterdir())
@@ -470,9 +516,10 @@ def test_cli_refuses_4096_pulses_with_profile_file(teachbot6, tmp_path, capsys):
 
 # ---------------------------------------------------------------------- number text
 @settings(max_examples=60, deadline=None)
-@given(st.lists(st.floats(min_value=-1e6, max_value=1e6, allow_nan=False), min_size=1,
-                max_size=40),
-       st.lists(st.integers(min_value=-2**40, max_value=2**40), min_size=1, max_size=40))
+@given(
+    st.lists(st.floats(min_value=-1e6, max_value=1e6, allow_nan=False), min_size=1, max_size=40),
+    st.lists(st.integers(min_value=-(2**40), max_value=2**40), min_size=1, max_size=40),
+)
 def test_numtext_exact(values, ints):
     x = np.array(values)
     text = format_list(x, 9).decode().split(",")
@@ -490,10 +537,14 @@ def test_numtext_refuses_nan():
 
 # ---------------------------------------------------------------------- properties
 @settings(max_examples=12, deadline=None)
-@given(scale=st.floats(0.05, 0.98), cycle_ms=st.integers(1, 40),
-       k1=st.integers(1, 4), k2=st.integers(5, 9), share=st.floats(0.2, 0.8))
-def test_any_motion_within_limits_passes_and_round_trips(teachbot6, scale, cycle_ms, k1, k2,
-                                                         share):
+@given(
+    scale=st.floats(0.05, 0.98),
+    cycle_ms=st.integers(1, 40),
+    k1=st.integers(1, 4),
+    k2=st.integers(5, 9),
+    share=st.floats(0.2, 0.8),
+)
+def test_any_motion_within_limits_passes_and_round_trips(teachbot6, scale, cycle_ms, k1, k2, share):
     """Motions within the limits pass every check at any cycle (when the pulse limit allows);
     the counts never drift; the same motion sped up past the limits is refused."""
     terms = ((k1, share), (k2, 1.0 - share))

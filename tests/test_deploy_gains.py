@@ -36,8 +36,10 @@ JOINTS = ("joint4", "joint6")  # the two fastest to tune
 @pytest.fixture(scope="module")
 def arm_gains(teachbot6):
     inertias = plant_mod.inertia_range(teachbot6, n_samples=200, seed=0)
-    joints = {j: tuning.tune_cascade(teachbot6, j, inertias=inertias, n_inertia_samples=200)
-              for j in JOINTS}
+    joints = {
+        j: tuning.tune_cascade(teachbot6, j, inertias=inertias, n_inertia_samples=200)
+        for j in JOINTS
+    }
     return ArmGains(joints=joints, robot="teachbot6", spec={})
 
 
@@ -80,8 +82,13 @@ def test_json_round_trip_same_gains_and_margins(teachbot6, arm_gains, tmp_path):
     rechecked = tuning.check_cascade(plant, back["joint6"])
     for name, lg in rechecked.loops().items():
         stored = arm_gains["joint6"].loops()[name]
-        for key in ("phase_margin_deg", "gain_margin_dB", "crossover_rad_s",
-                    "phase_margin_discrete_deg", "gain_margin_discrete_dB"):
+        for key in (
+            "phase_margin_deg",
+            "gain_margin_dB",
+            "crossover_rad_s",
+            "phase_margin_discrete_deg",
+            "gain_margin_discrete_dB",
+        ):
             a, b = getattr(lg, key), getattr(stored, key)
             assert a == pytest.approx(b, rel=1e-9) or (math.isinf(a) and math.isinf(b)), key
 
@@ -136,16 +143,28 @@ def test_gains_c_header_compiles(arm_gains, tmp_path):
     write_gains(tmp_path / "gains.h", arm_gains)
     (tmp_path / "main.c").write_text(GAINS_C)
     exe = tmp_path / "main"
-    subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", "-o", str(exe), "main.c", "-lm"],
-                   check=True, cwd=tmp_path, capture_output=True)
-    rows = subprocess.run([str(exe)], check=True, capture_output=True,
-                          text=True).stdout.splitlines()
+    subprocess.run(
+        ["gcc", "-std=c99", "-Wall", "-Werror", "-o", str(exe), "main.c", "-lm"],
+        check=True,
+        cwd=tmp_path,
+        capture_output=True,
+    )
+    rows = subprocess.run(
+        [str(exe)], check=True, capture_output=True, text=True
+    ).stdout.splitlines()
     assert len(rows) == 3 * len(JOINTS)
     for row in rows:
         j, loop, *nums, unit, signal = row.split()
         lg = arm_gains[j].loops()[loop]
-        assert [float(x) for x in nums] == [lg.kp, lg.ki, lg.kd, lg.q0, lg.q1, lg.q2,
-                                            lg.sample_time_s]
+        assert [float(x) for x in nums] == [
+            lg.kp,
+            lg.ki,
+            lg.kd,
+            lg.q0,
+            lg.q1,
+            lg.q2,
+            lg.sample_time_s,
+        ]
         assert unit == lg.units["kp"] and signal == lg.output_signal
 
 
@@ -160,10 +179,14 @@ def test_export_study_with_gains(teachbot6, arm_gains, tmp_path, capsys):
     (study / "gains.json").write_text(arm_gains.to_json())
     src = file_sha256(study / "gains.json")
     out = tmp_path / "out"
-    names = {fmt: [p.name for p in export_study(study, fmt, None, out)]
-             for fmt in ("json", "c", "ros2")}
-    assert names == {"json": ["setpoints.json", "gains.json"],
-                     "c": ["setpoints.h", "gains.h"], "ros2": ["gains_ros2.yaml"]}
+    names = {
+        fmt: [p.name for p in export_study(study, fmt, None, out)] for fmt in ("json", "c", "ros2")
+    }
+    assert names == {
+        "json": ["setpoints.json", "gains.json"],
+        "c": ["setpoints.h", "gains.h"],
+        "ros2": ["gains_ros2.yaml"],
+    }
     for name in ("gains.json", "gains.h", "gains_ros2.yaml"):
         text = (out / name).read_text()
         assert src in text and gains_sha256(arm_gains) in text and armlab.__version__ in text

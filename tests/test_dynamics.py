@@ -27,12 +27,14 @@ G = 9.81
 def _mdh(a, alpha, d, theta):
     """Craig's modified-DH link transform, written out (no armlab code)."""
     ca, sa, ct, st = math.cos(alpha), math.sin(alpha), math.cos(theta), math.sin(theta)
-    return np.array([
-        [ct, -st, 0.0, a],
-        [st * ca, ct * ca, -sa, -sa * d],
-        [st * sa, ct * sa, ca, ca * d],
-        [0.0, 0.0, 0.0, 1.0],
-    ])
+    return np.array(
+        [
+            [ct, -st, 0.0, a],
+            [st * ca, ct * ca, -sa, -sa * d],
+            [st * sa, ct * sa, ca, ca * d],
+            [0.0, 0.0, 0.0, 1.0],
+        ]
+    )
 
 
 def _link_lumps(dh, payload):
@@ -103,6 +105,7 @@ def test_rnea_matches_independent_newton_euler(teachbot6, payload_kg):
     payload = dh.payload
     if payload_kg is not None:
         from dataclasses import replace
+
         payload = replace(dh.payload, mass_kg=payload_kg)  # 30 mm sphere, as attach_payload
     rng = np.random.default_rng(7)
     q, qd, qdd = _states(rng, robot, 25)
@@ -179,8 +182,14 @@ def test_motoring_and_generating_rule():
     from armlab.robot.drives import Drive, Encoder, Motor, Reducer
 
     motor = Motor("m", 0.1, 3000, 1.0, 0.1, 0.1, 1.0, 1e-3, 0.0)
-    reducer = Reducer("r", ratio=100, efficiency=0.5, rated_torque_Nm=10, peak_torque_Nm=20,
-                      max_input_speed_rpm=5000)
+    reducer = Reducer(
+        "r",
+        ratio=100,
+        efficiency=0.5,
+        rated_torque_Nm=10,
+        peak_torque_Nm=20,
+        max_input_speed_rpm=5000,
+    )
     arr = DriveArrays.from_drives([Drive("j", motor, reducer, Encoder(1000), 1.0, 10.0)])
     tau = np.array([[2.0], [2.0], [2.0], [-2.0]])
     qd = np.array([[1.0], [-1.0], [0.0], [1.0]])
@@ -209,8 +218,9 @@ def test_inverse_dynamics_duty_cycle_and_errors(teachbot6, ur5):
     a.qd[2, 3] = np.nan  # modified after construction
     with pytest.raises(armlab.InputError, match="not finite"):
         inverse_dynamics(teachbot6, a)
-    plain = inverse_dynamics(ur5, Trajectory([0.0], np.zeros((1, 6)), np.zeros((1, 6)),
-                                             np.zeros((1, 6))))
+    plain = inverse_dynamics(
+        ur5, Trajectory([0.0], np.zeros((1, 6)), np.zeros((1, 6)), np.zeros((1, 6)))
+    )
     assert plain.motor_torque_Nm is None and plain.torque_Nm.shape == (1, 6)
 
 
@@ -279,8 +289,14 @@ def test_static_load_report_thesis_comparison(static):
     d = static.to_dict()
     assert set(d) == {f"joint{i}" for i in range(1, 7)}
     for v in d.values():
-        assert set(v) >= {"torque_Nm", "gravity_Nm", "acceleration_Nm", "pose", "payload_kg",
-                          "power_W"}
+        assert set(v) >= {
+            "torque_Nm",
+            "gravity_Nm",
+            "acceleration_Nm",
+            "pose",
+            "payload_kg",
+            "power_W",
+        }
         assert len(v["pose"]) == 6 and v["payload_kg"] == 0.5
     json.dumps(d)
     md = static.to_markdown()
@@ -315,8 +331,9 @@ def test_hold_check(teachbot6, static):
     pose = static.joints[1].pose_rad
     rep = hold_check(teachbot6, pose)
     assert rep.peak_torque_Nm[1] == pytest.approx(static.joints[1].gravity_Nm)
-    assert rep.margin[1] == pytest.approx(1 - static.joints[1].gravity_Nm
-                                          / teachbot6.limits.effort_Nm[1])
+    assert rep.margin[1] == pytest.approx(
+        1 - static.joints[1].gravity_Nm / teachbot6.limits.effort_Nm[1]
+    )
     assert rep.ok
     heavy = hold_check(teachbot6.with_payload(3.0), static.joints[4].pose_rad)
     assert not heavy.ok and heavy.margin[4] < 0  # (3 x 0.2 + 0.63 x 0.08) g > 5.26 N m

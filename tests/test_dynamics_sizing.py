@@ -54,14 +54,16 @@ def test_requirement_moves_reach_speed_and_acceleration(teachbot6, static, moves
         assert np.all(tr.qd[:, others] == 0) and np.all(teachbot6.within_limits(tr.q))
         # rest to rest, and q is the integral of qd (trapezoid rule on a 1 ms grid)
         assert tr.qd[0, j] == 0 and abs(tr.qd[-1, j]) < 1e-12
-        integral = np.concatenate([[0], np.cumsum(0.5 * (tr.qd[1:, j] + tr.qd[:-1, j])
-                                                  * np.diff(tr.t))])
+        integral = np.concatenate(
+            [[0], np.cumsum(0.5 * (tr.qd[1:, j] + tr.qd[:-1, j]) * np.diff(tr.t))]
+        )
         assert np.allclose(tr.q[:, j] - tr.q[0, j], integral, atol=1e-6)
     # the first sample of each move carries exactly the static-load torque (eq. 4-2)
     loads = inverse_dynamics(teachbot6, moves)
     first = np.array([np.flatnonzero(loads.segment == j)[0] for j in range(6)])
-    assert np.abs(loads.torque_Nm[first, np.arange(6)]) == pytest.approx(static.torque_Nm,
-                                                                         rel=1e-9, abs=1e-12)
+    assert np.abs(loads.torque_Nm[first, np.arange(6)]) == pytest.approx(
+        static.torque_Nm, rel=1e-9, abs=1e-12
+    )
 
 
 # --------------------------------------------------------------------------- thesis table 4.3
@@ -96,8 +98,13 @@ def test_sizing_report_contract(report, teachbot6):
     json.dumps(d)
     assert list(d) == teachbot6.joint_names
     for row in d.values():
-        assert {"peak_torque_Nm", "rms_torque_Nm", "peak_speed_rad_s",
-                "motor_peak_speed_rpm", "checks"} <= set(row)
+        assert {
+            "peak_torque_Nm",
+            "rms_torque_Nm",
+            "peak_speed_rad_s",
+            "motor_peak_speed_rpm",
+            "checks",
+        } <= set(row)
         names = [c["name"] for c in row["checks"]]
         assert names == list(CHECK_NAMES)  # every rating is known for teachbot6
         for c in row["checks"]:
@@ -112,8 +119,12 @@ def test_sizing_report_contract(report, teachbot6):
 
 def test_too_fast_reports_failing_checks_by_name(teachbot6, static):
     lim = teachbot6.limits
-    fast = requirement_moves(teachbot6, static, velocity_rad_s=2 * lim.velocity_rad_s,
-                             acceleration_rad_s2=2 * lim.acceleration_rad_s2)
+    fast = requirement_moves(
+        teachbot6,
+        static,
+        velocity_rad_s=2 * lim.velocity_rad_s,
+        acceleration_rad_s2=2 * lim.acceleration_rad_s2,
+    )
     rep = size(teachbot6, fast)
     fails = rep.failures()
     assert not rep.ok
@@ -146,12 +157,27 @@ def test_nan_and_bad_inputs(teachbot6, ur5, moves):
 
 # --------------------------------------------------------------------------- hand computations
 def _drive(**motor_kw):
-    m = dict(model="m", stall_torque_Nm=0.1, rated_speed_rpm=3000, current_A=1.0,
-             torque_constant_Nm_A=0.05, back_emf_V_s_rad=0.05, resistance_ohm=1.0,
-             inductance_H=1e-3, rotor_inertia_kg_m2=0.0, supply_voltage_V=24.0)
+    m = dict(
+        model="m",
+        stall_torque_Nm=0.1,
+        rated_speed_rpm=3000,
+        current_A=1.0,
+        torque_constant_Nm_A=0.05,
+        back_emf_V_s_rad=0.05,
+        resistance_ohm=1.0,
+        inductance_H=1e-3,
+        rotor_inertia_kg_m2=0.0,
+        supply_voltage_V=24.0,
+    )
     m.update(motor_kw)
-    r = Reducer("r", ratio=100, efficiency=0.5, rated_torque_Nm=4.0, peak_torque_Nm=8.0,
-                max_input_speed_rpm=6000)
+    r = Reducer(
+        "r",
+        ratio=100,
+        efficiency=0.5,
+        rated_torque_Nm=4.0,
+        peak_torque_Nm=8.0,
+        max_input_speed_rpm=6000,
+    )
     return Drive("j", Motor(**m), r, Encoder(1000, 4), 1.0, 10.0)
 
 
@@ -168,7 +194,9 @@ def test_checks_by_hand():
     assert res["reducer_average_torque"][0][0] == pytest.approx(t_av)
     assert res["reducer_average_torque"][1][0] == 4.0
     t_m = np.array([2.0, 4.0]) / (100 * 0.5)  # driving: tau / (N eta)
-    assert res["motor_rms_torque"][0][0] == pytest.approx(np.sqrt((3 * t_m[0]**2 + t_m[1]**2) / 4))
+    assert res["motor_rms_torque"][0][0] == pytest.approx(
+        np.sqrt((3 * t_m[0] ** 2 + t_m[1] ** 2) / 4)
+    )
     assert res["motor_peak_torque"][0][0] == pytest.approx(0.08)
     assert res["motor_peak_torque"][1][0] == pytest.approx(0.1)  # no peak rating: stall
     assert res["thesis_rule"][1][0] == pytest.approx(0.1 * 100 * 0.5)
@@ -187,12 +215,14 @@ def test_envelope_by_hand():
     arr = DriveArrays.from_drives([d])
     tau = np.array([[2.0], [-2.0]])  # joint side; motor side 0.04 N m
     qd = np.array([[3.0], [3.0]])  # 300 rad/s at the motor: driving, then generating
-    res = evaluate_checks(tau, qd, np.zeros_like(tau), np.ones(2), arr, np.array([1.0]),
-                          SizingOptions())
+    res = evaluate_checks(
+        tau, qd, np.zeros_like(tau), np.ones(2), arr, np.array([1.0]), SizingOptions()
+    )
     value, limit = res["motor_envelope"]
     assert limit[0] == pytest.approx(0.045) and value[0] == pytest.approx(0.04)
-    res = evaluate_checks(1.25 * tau, qd, np.zeros_like(tau), np.ones(2), arr, np.array([1.0]),
-                          SizingOptions())
+    res = evaluate_checks(
+        1.25 * tau, qd, np.zeros_like(tau), np.ones(2), arr, np.array([1.0]), SizingOptions()
+    )
     value, limit = res["motor_envelope"]  # 0.05 N m driving at 300 rad/s: outside
     assert value[0] == pytest.approx(0.05) and limit[0] == pytest.approx(0.045)
 
@@ -207,7 +237,8 @@ def test_rms_of_a_held_pose_is_the_holding_torque(teachbot6, static):
     d = teachbot6.drive(2)
     assert j2.rms_torque_Nm == pytest.approx(g, rel=1e-12)
     assert j2.check("motor_rms_torque").value == pytest.approx(
-        g / (d.reducer.ratio * d.reducer.efficiency), rel=1e-12)
+        g / (d.reducer.ratio * d.reducer.efficiency), rel=1e-12
+    )
     assert j2.check("reducer_average_torque").value == pytest.approx(g, rel=1e-12)
     assert j2.check("thesis_rule").value == pytest.approx(g, rel=1e-12)
     assert j2.check("motor_speed").value == 0.0
@@ -250,8 +281,10 @@ def test_selection_grows_with_the_payload(teachbot6, selection):
         bigger += js.chosen.mass_kg > light.chosen.mass_kg + 1e-12
     assert bigger >= 3
     # joint 5 holds the payload 0.2 m out: its choice must offer more torque
-    assert (sel.joint("joint5").chosen.available_torque_Nm
-            > selection.joint("joint5").chosen.available_torque_Nm)
+    assert (
+        sel.joint("joint5").chosen.available_torque_Nm
+        > selection.joint("joint5").chosen.available_torque_Nm
+    )
     assert not sel.joint("joint5").current.ok  # the thesis parts no longer pass
 
 

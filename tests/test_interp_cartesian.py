@@ -51,14 +51,14 @@ def test_circle_through_three_points(pts):
         return
     c = circle_through(p1, p2, p3)
     for p in (p1, p2, p3):
-        assert np.linalg.norm(p - c.centre) == pytest.approx(c.radius, abs=1e-9 * max(1,
-                                                                                    c.radius))
+        assert np.linalg.norm(p - c.centre) == pytest.approx(c.radius, abs=1e-9 * max(1, c.radius))
         assert abs((p - c.centre) @ c.normal) < 1e-9 * max(1, c.radius)
     # travel p1 -> p2 -> p3 is positive about the normal
     assert 0 < c.angle_of(p2) < c.angle_of(p3) < 2 * math.pi
     path = ArcPath(p1, p2, p3, rotation=np.eye(3))
-    np.testing.assert_allclose(path.evaluate(path.s_points).position, [p1, p2, p3],
-                               atol=1e-9 * max(1, c.radius))
+    np.testing.assert_allclose(
+        path.evaluate(path.s_points).position, [p1, p2, p3], atol=1e-9 * max(1, c.radius)
+    )
 
 
 def test_circle_degenerate_points():
@@ -94,13 +94,11 @@ def test_blend_degenerate_input():
     with pytest.raises(InputError, match="too large for segment 1"):
         BlendPath(P, 0.2, rotation=np.eye(3))
     with pytest.raises(InputError, match="turns back"):
-        BlendPath(np.array([[0, 0, 0], [1, 0, 0], [0.5, 0, 0]], float), 0.1,
-                  rotation=np.eye(3))
+        BlendPath(np.array([[0, 0, 0], [1, 0, 0], [0.5, 0, 0]], float), 0.1, rotation=np.eye(3))
     with pytest.raises(InputError, match="coincide"):
         BlendPath(np.array([[0, 0, 0], [0, 0, 0], [1, 0, 0]], float), 0.1, rotation=np.eye(3))
     # straight-through corner needs no arc
-    path = BlendPath(np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0]], float), 0.1,
-                     rotation=np.eye(3))
+    path = BlendPath(np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0]], float), 0.1, rotation=np.eye(3))
     assert path.length == pytest.approx(2.0)
 
 
@@ -122,8 +120,9 @@ def test_path_derivatives_match_finite_differences(teachbot6, start):
 @pytest.mark.parametrize("orientation", ["hold", "slerp"])
 def test_line_keeps_tcp_on_segment(teachbot6, start, profile, orientation):
     goal = _goal(start, [0.05, -0.1, 0.08], [0.3, 0.2, -0.5])
-    traj = line(teachbot6, start, goal, 0.3, q_start=Q_START, profile=profile,
-                orientation=orientation)
+    traj = line(
+        teachbot6, start, goal, 0.3, q_start=Q_START, profile=profile, orientation=orientation
+    )
     T = fk_batch(teachbot6, traj.q)
     assert _distance_to_segment(T[:, :3, 3], start[:3, 3], goal[:3, 3]).max() <= 1e-9
     np.testing.assert_allclose(T[0], start, atol=1e-9)
@@ -155,7 +154,7 @@ def test_line_orientation_strategies(teachbot6, start):
     T = fk_batch(teachbot6, first.q)
     # orientation first: the position stays at the start until the rotation is done
     k_rot_done = np.argmax(np.abs(T[:, :3, :3] - goal[:3, :3]).max(axis=(1, 2)) < 1e-9)
-    assert np.abs(T[:k_rot_done + 1, :3, 3] - start[:3, 3]).max() < 1e-9
+    assert np.abs(T[: k_rot_done + 1, :3, 3] - start[:3, 3]).max() < 1e-9
 
 
 def test_line_degenerate_and_unreachable(teachbot6, start):
@@ -165,8 +164,14 @@ def test_line_degenerate_and_unreachable(teachbot6, start):
     with pytest.raises(UnreachableError, match=r"s = [0-9.]+ m, p = \["):
         line(teachbot6, start, far, 0.1, q_start=Q_START)
     with pytest.raises(LimitViolation, match="joint"):
-        line(teachbot6, start, _goal(start, [0.05, -0.1, 0.08]), 0.3, q_start=Q_START,
-             on_limit="raise")
+        line(
+            teachbot6,
+            start,
+            _goal(start, [0.05, -0.1, 0.08]),
+            0.3,
+            q_start=Q_START,
+            on_limit="raise",
+        )
     with pytest.raises(InputError, match="q_start puts the tool"):
         line(teachbot6, start, far, 0.1, q_start=Q_START + 0.1)
     with pytest.raises(InputError, match="orientation"):
@@ -190,6 +195,7 @@ def test_line_numerical_ik_arm(ur5):
     P = fk_batch(ur5, traj.q)[:, :3, 3]
     assert _distance_to_segment(P, T0[:3, 3], T1[:3, 3]).max() <= 1e-9
     from armlab.trajectory.timescale import planner_limits
+
     assert traj.check_limits(ur5, limits=planner_limits(ur5, a_max=3.0)).ok(1e-9)
 
 
@@ -262,11 +268,15 @@ def test_blend_flyby_chain(teachbot6, start):
         blend(teachbot6, pts, 0.07, 0.1, q_start=Q_START)
 
 
-@settings(max_examples=20, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(dp=st.lists(st.floats(-0.05, 0.05), min_size=3, max_size=3),
-       rot=st.lists(st.floats(-0.3, 0.3), min_size=3, max_size=3),
-       speed=st.floats(0.01, 0.5), profile=st.sampled_from(["trapezoid", "scurve"]))
+@settings(
+    max_examples=20, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    dp=st.lists(st.floats(-0.05, 0.05), min_size=3, max_size=3),
+    rot=st.lists(st.floats(-0.3, 0.3), min_size=3, max_size=3),
+    speed=st.floats(0.01, 0.5),
+    profile=st.sampled_from(["trapezoid", "scurve"]),
+)
 def test_line_random_moves(teachbot6, start, dp, rot, speed, profile):
     if np.linalg.norm(dp) < 1e-3:
         return

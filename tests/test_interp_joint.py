@@ -37,8 +37,8 @@ def test_steps_table_values_with_cruise():
     p = trapezoid_steps(1.0, 0.1, 1.0, 0.5, 0.01)
     T = 0.01
     k1, k2 = np.arange(1, 11), np.arange(1, 21)
-    acc = (2 * k1 - 1) * 1.0 * T**2 / 2                 # S1k = (2k-1) a1 T^2 / 2
-    dec = 0.1 * T - (2 * k2 - 1) * 0.5 * T**2 / 2       # S2k = V T - (2k-1) a2 T^2 / 2
+    acc = (2 * k1 - 1) * 1.0 * T**2 / 2  # S1k = (2k-1) a1 T^2 / 2
+    dec = 0.1 * T - (2 * k2 - 1) * 0.5 * T**2 / 2  # S2k = V T - (2k-1) a2 T^2 / 2
     n3 = round((1.0 - 0.1**2 / 2 - 0.1**2 / 1.0) / (0.1 * T))  # S3 / (V T) = 985
     assert (p.n_acc, p.n_cruise, p.n_dec) == (10, n3, 20) == (10, 985, 20)
     assert p.a_acc == 1.0 and p.a_dec == 0.5 and p.leftover == 0.0 and p.cruise
@@ -49,11 +49,14 @@ def test_steps_table_values_with_cruise():
     assert p.duration == pytest.approx(1015 * T)
 
 
-@pytest.mark.parametrize("length, index, case", [
-    (0.1037, 10 + 96 + 4, "between steps 4 and 5"),   # dL = 2e-4 between 3e-4 and 1e-4
-    (0.10445, 10 + 96 + 0, "before step 1"),           # dL = 9.5e-4 >= S2_1 = 9e-4
-    (0.10355, 10 + 96 + 5, "after the last step"),     # dL = 5e-5 < S2_5 = 1e-4
-])
+@pytest.mark.parametrize(
+    "length, index, case",
+    [
+        (0.1037, 10 + 96 + 4, "between steps 4 and 5"),  # dL = 2e-4 between 3e-4 and 1e-4
+        (0.10445, 10 + 96 + 0, "before step 1"),  # dL = 9.5e-4 >= S2_1 = 9e-4
+        (0.10355, 10 + 96 + 5, "after the last step"),  # dL = 5e-5 < S2_5 = 1e-4
+    ],
+)
 def test_steps_leftover_inserted_where_decreasing(length, index, case):
     # V = 0.1, a1 = 1, a2 = 2, T = 10 ms: S1 = 5e-3, S2 = 2.5e-3, dec steps 9,7,5,3,1 e-4
     p = trapezoid_steps(length, 0.1, 1.0, 2.0, 0.01)
@@ -62,10 +65,11 @@ def test_steps_leftover_inserted_where_decreasing(length, index, case):
     assert p.leftover == pytest.approx(dL, abs=1e-15), case
     assert p.leftover_index == index, case
     assert p.phases[index] == "extra"
-    dec_part = p.lengths[10 + 96:]
+    dec_part = p.lengths[10 + 96 :]
     assert np.all(np.diff(dec_part) <= 1e-18), "deceleration steps stay non-increasing"
-    np.testing.assert_allclose(np.delete(dec_part, index - 106),
-                               1e-3 - (2 * np.arange(1, 6) - 1) * 1e-4, atol=1e-16)
+    np.testing.assert_allclose(
+        np.delete(dec_part, index - 106), 1e-3 - (2 * np.arange(1, 6) - 1) * 1e-4, atol=1e-16
+    )
     assert p.lengths.sum() == pytest.approx(length, abs=1e-14)
 
 
@@ -77,8 +81,9 @@ def test_steps_short_move_has_no_cruise():
     assert p.v_peak <= math.sqrt(2 * 0.0123 * 1.0 * 0.5 / 1.5) + 1e-15
     assert p.a_acc <= 1.0 and p.a_dec <= 0.5
     T = 0.01
-    np.testing.assert_allclose(p.lengths[:p.n_acc],
-                               (2 * np.arange(1, p.n_acc + 1) - 1) * p.a_acc * T**2 / 2)
+    np.testing.assert_allclose(
+        p.lengths[: p.n_acc], (2 * np.arange(1, p.n_acc + 1) - 1) * p.a_acc * T**2 / 2
+    )
     assert p.lengths.sum() == pytest.approx(0.0123, abs=1e-15)
     # the ramps end exactly at the peak: V = n1 a1' T = n2 a2' T
     assert p.n_acc * p.a_acc * T == pytest.approx(p.v_peak)
@@ -88,15 +93,25 @@ def test_steps_short_move_has_no_cruise():
 def test_steps_degenerate_inputs():
     p = trapezoid_steps(0.0, 0.1, 1.0, 1.0, 0.01)
     assert p.n_steps == 0 and p.lengths.sum() == 0
-    for bad in [(-1, 0.1, 1, 1, 0.01), (1, 0, 1, 1, 0.01), (1, 0.1, -1, 1, 0.01),
-                (1, 0.1, 1, 1, 0), (float("nan"), 0.1, 1, 1, 0.01)]:
+    for bad in [
+        (-1, 0.1, 1, 1, 0.01),
+        (1, 0, 1, 1, 0.01),
+        (1, 0.1, -1, 1, 0.01),
+        (1, 0.1, 1, 1, 0),
+        (float("nan"), 0.1, 1, 1, 0.01),
+    ]:
         with pytest.raises(InputError):
             trapezoid_steps(*bad)
 
 
 @settings(max_examples=150, deadline=None)
-@given(L=st.floats(1e-5, 5.0), V=st.floats(0.01, 2.0), a1=st.floats(0.05, 20.0),
-       a2=st.floats(0.05, 20.0), T=st.floats(1e-3, 0.05))
+@given(
+    L=st.floats(1e-5, 5.0),
+    V=st.floats(0.01, 2.0),
+    a1=st.floats(0.05, 20.0),
+    a2=st.floats(0.05, 20.0),
+    T=st.floats(1e-3, 0.05),
+)
 def test_steps_properties(L, V, a1, a2, T):
     p = trapezoid_steps(L, V, a1, a2, T)
     x = p.lengths
@@ -109,7 +124,7 @@ def test_steps_properties(L, V, a1, a2, T):
     assert acc.max() <= a1 * (1 + 1e-9) + 1e-9 and -acc.min() <= a2 * (1 + 1e-9) + 1e-9
     assert np.all(x <= p.v_peak * T * (1 + 1e-12))
     k = np.arange(1, p.n_acc + 1)
-    np.testing.assert_allclose(x[:p.n_acc], (2 * k - 1) * p.a_acc * T**2 / 2, rtol=1e-12)
+    np.testing.assert_allclose(x[: p.n_acc], (2 * k - 1) * p.a_acc * T**2 / 2, rtol=1e-12)
 
 
 # ---------------------------------------------------------------------- 1-D profiles
@@ -117,8 +132,8 @@ def test_steps_properties(L, V, a1, a2, T):
 
 def test_trapezoid_and_double_s_closed_forms():
     p = trapezoid_profile(1.0, 0.5, 2.0)
-    assert p.duration == pytest.approx(1.0 / 0.5 + 0.5 / 2.0)       # L/v + v/a
-    p = trapezoid_profile(0.01, 0.5, 2.0)                          # triangle
+    assert p.duration == pytest.approx(1.0 / 0.5 + 0.5 / 2.0)  # L/v + v/a
+    p = trapezoid_profile(0.01, 0.5, 2.0)  # triangle
     assert p.duration == pytest.approx(2 * math.sqrt(0.01 / 2.0))
     # double S, a reached, v reached: T = L/v + v/a + a/j
     p = double_s_profile(1.0, 0.5, 2.0, 10.0)
@@ -129,8 +144,13 @@ def test_trapezoid_and_double_s_closed_forms():
 
 
 @settings(max_examples=60, deadline=None)
-@given(L=st.floats(1e-4, 3.0), v=st.floats(0.05, 2.0), a=st.floats(0.1, 10.0),
-       j=st.floats(0.5, 100.0), stretch=st.floats(1.0, 3.0))
+@given(
+    L=st.floats(1e-4, 3.0),
+    v=st.floats(0.05, 2.0),
+    a=st.floats(0.1, 10.0),
+    j=st.floats(0.5, 100.0),
+    stretch=st.floats(1.0, 3.0),
+)
 def test_profiles_respect_limits_and_durations(L, v, a, j, stretch):
     for prof, tmin, limits in (
         (trapezoid_profile(L, v, a), trapezoid_min_time(L, v, a), (v, a, None)),
@@ -156,8 +176,12 @@ def test_profiles_respect_limits_and_durations(L, v, a, j, stretch):
 
 
 @settings(max_examples=100, deadline=None)
-@given(T=st.floats(0.0, 5.0), dt=st.floats(1e-3, 0.1),
-       corners=st.lists(st.floats(0.0, 5.0), max_size=8), ends=st.booleans())
+@given(
+    T=st.floats(0.0, 5.0),
+    dt=st.floats(1e-3, 0.1),
+    corners=st.lists(st.floats(0.0, 5.0), max_size=8),
+    ends=st.booleans(),
+)
 def test_time_grid(T, dt, corners, ends):
     t = time_grid(T, dt, corners, ends=ends, knots=corners[:2])
     assert t[0] == 0.0 and t[-1] == max(T, 0.0)
@@ -208,8 +232,7 @@ def test_ptp_joints_finish_together(teachbot6, profile, sync):
 def test_ptp_resamples_within_limits(teachbot6, profile):
     # knot pairs at the corners: resampling at another rate does not invent peaks
     q_mid = np.array([0.4, 0.2, 0.5, 1.0, 0.5, -0.3])
-    traj = ptp_sync(teachbot6, Q0, q_mid, profile).concat(ptp_sync(teachbot6, q_mid, Q1,
-                                                                   profile))
+    traj = ptp_sync(teachbot6, Q0, q_mid, profile).concat(ptp_sync(teachbot6, q_mid, Q1, profile))
     for dt in (1e-3, 7.7e-4):
         r = traj.check_limits(teachbot6, dt=dt)
         assert r.ratios["velocity"].max() <= 1 + 1e-6
@@ -230,8 +253,9 @@ def test_ptp_velocity_is_seed_000_eq_4(teachbot6):
     # eq. 5: during the cruise, each 100 ms step moves every joint by (Qd - Qc) dt / T
     grid = np.arange(1, int(T / dt)) * dt + dt / 2
     q, _, _, _ = traj.at(grid)
-    np.testing.assert_allclose(np.diff(q, axis=0), np.tile((Q1 - Q0) * dt / T,
-                                                           (grid.size - 1, 1)), atol=1e-12)
+    np.testing.assert_allclose(
+        np.diff(q, axis=0), np.tile((Q1 - Q0) * dt / T, (grid.size - 1, 1)), atol=1e-12
+    )
 
 
 def test_ptp_velocity_meets_acceleration_limit_by_slowing(teachbot6):
@@ -258,11 +282,14 @@ def test_ptp_degenerate_and_bad_input(teachbot6, ur5):
     assert traj.check_limits(ur5, limits=planner_limits(ur5, a_max=2.0)).ok(1e-9)
 
 
-@settings(max_examples=25, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(seed=st.integers(0, 2**31 - 1), profile=st.sampled_from(["trapezoid", "scurve",
-                                                                 "velocity"]),
-       sync=st.sampled_from(["time", "phase"]))
+@settings(
+    max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    profile=st.sampled_from(["trapezoid", "scurve", "velocity"]),
+    sync=st.sampled_from(["time", "phase"]),
+)
 def test_ptp_random_moves_respect_limits(teachbot6, seed, profile, sync):
     rng = np.random.default_rng(seed)
     q0, q1 = teachbot6.random_q(rng, 2)
@@ -292,8 +319,7 @@ def test_cubic_single_segment_is_thesis_formula(teachbot6):
     t = traj.t[:, None]
     d = W[1] - W[0]
     # v0 = v1 = 0: c2 = 3 d / T^2, c3 = -2 d / T^3
-    np.testing.assert_allclose(traj.q, W[0] + 3 * d * t**2 / T**2 - 2 * d * t**3 / T**3,
-                               atol=1e-14)
+    np.testing.assert_allclose(traj.q, W[0] + 3 * d * t**2 / T**2 - 2 * d * t**3 / T**3, atol=1e-14)
     np.testing.assert_allclose(traj.qd, 6 * d * t / T**2 - 6 * d * t**2 / T**3, atol=1e-14)
 
 
@@ -305,12 +331,14 @@ def test_heuristic_via_velocities():
     np.testing.assert_allclose(V[:, 0], [0.0, 1.0, 0.0, 0.0, 0.0])
 
 
-@pytest.mark.parametrize("fn, kw, smooth", [(cubic_via, {}, False),
-                                            (cubic_via, {"velocities": "spline"}, True),
-                                            (quintic_via, {}, True)])
+@pytest.mark.parametrize(
+    "fn, kw, smooth",
+    [(cubic_via, {}, False), (cubic_via, {"velocities": "spline"}, True), (quintic_via, {}, True)],
+)
 def test_via_points_pass_and_respect_limits(teachbot6, fn, kw, smooth):
-    W = np.array([Q0, [0.5, -0.3, 0.4, 1, 0.2, 0], [0.8, 0.2, 0.9, 0.5, -0.5, 1],
-                  [0.2, 0.1, 0.3, 0, 0, 0]])
+    W = np.array(
+        [Q0, [0.5, -0.3, 0.4, 1, 0.2, 0], [0.8, 0.2, 0.9, 0.5, -0.5, 1], [0.2, 0.1, 0.3, 0, 0, 0]]
+    )
     traj = fn(teachbot6, W, **kw)
     knots = np.asarray(traj.meta["knot_times_s"])
     idx = np.searchsorted(traj.t, knots)

@@ -129,9 +129,15 @@ def test_zero_override_holds_and_bad_input():
 
 
 @settings(max_examples=80, deadline=None)
-@given(L=st.floats(1e-4, 1.0), vc=st.floats(0.05, 1.0), a=st.floats(0.05, 5.0),
-       v0=st.floats(0.0, 1.0), v1=st.floats(0.0, 1.0), period=st.floats(4e-3, 0.02),
-       ovs=st.lists(st.floats(0.2, 1.0), min_size=1, max_size=6))
+@given(
+    L=st.floats(1e-4, 1.0),
+    vc=st.floats(0.05, 1.0),
+    a=st.floats(0.05, 5.0),
+    v0=st.floats(0.0, 1.0),
+    v1=st.floats(0.0, 1.0),
+    period=st.floats(4e-3, 0.02),
+    ovs=st.lists(st.floats(0.2, 1.0), min_size=1, max_size=6),
+)
 def test_online_properties(L, vc, a, v0, v1, period, ovs):
     assume(abs(v0**2 - v1**2) / (2 * a) <= L)
     oi = OnlineInterpolator(L, vc, a, v0, v1)
@@ -149,8 +155,9 @@ def test_online_along_paths(teachbot6):
     q0 = np.zeros(6)
     q1 = np.array([0.5, -0.3, 0.4, 1.0, 0.2, 0.0])
     path = JointPath(q0, q1)
-    v_s, a_s = path.speed_limits(teachbot6.limits.velocity_rad_s,
-                                 teachbot6.limits.acceleration_rad_s2)
+    v_s, a_s = path.speed_limits(
+        teachbot6.limits.velocity_rad_s, teachbot6.limits.acceleration_rad_s2
+    )
     oi = OnlineInterpolator(path, v_s, a_s)
     run = oi.run(0.01, keep_points=True)
     Q = np.array(run.points)

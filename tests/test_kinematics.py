@@ -169,7 +169,8 @@ def test_ik_all_matches_batch_and_branch_count(teachbot6):
 def test_ik_all_adds_two_pi_variants_for_wide_ranges(teachbot6):
     wide = teachbot6.with_limits(
         lower_rad=np.r_[-math.pi, -math.pi, -math.pi, -2 * math.pi, -math.pi, -math.pi],
-        upper_rad=np.r_[math.pi, math.pi, math.pi, 2 * math.pi, math.pi, math.pi])
+        upper_rad=np.r_[math.pi, math.pi, math.pi, 2 * math.pi, math.pi, math.pi],
+    )
     T = fk(wide, np.array([0.3, -0.2, 1.2, 0.6, 0.7, 0.8]))
     sols = ik_all(wide, T)
     assert len(sols) == 16  # q4 and q4 - 2 pi (or + 2 pi) for each of the 8 branches
@@ -194,8 +195,11 @@ def test_ik_honours_base_and_tool_transforms(teachbot6):
     sol, valid = ik_all_batch(robot, T)
     dist = np.where(valid, np.abs(sol - q[:, None, :]).max(axis=2), np.inf).min(axis=1)
     assert dist.max() < 1e-8
-    np.testing.assert_allclose(fk_batch(robot, sol[valid])[:, :3, 3],
-                               np.repeat(T, valid.sum(1), axis=0)[:, :3, 3], atol=1e-12)
+    np.testing.assert_allclose(
+        fk_batch(robot, sol[valid])[:, :3, 3],
+        np.repeat(T, valid.sum(1), axis=0)[:, :3, 3],
+        atol=1e-12,
+    )
 
 
 def test_ik_nearest_picks_the_reference_branch(teachbot6):
@@ -251,8 +255,11 @@ def test_unreachable_poses_raise_with_reason(teachbot6):
     T_out = fk(wide, q_out)
     sols_wide = ik_all(wide, T_out)
     assert not teachbot6.within_limits(sols_wide).any()
-    with pytest.raises(UnreachableError, match=r"all 4 solutions lie outside the joint ranges "
-                                               r"\(joint2 blocks 4\)"):
+    with pytest.raises(
+        UnreachableError,
+        match=r"all 4 solutions lie outside the joint ranges "
+        r"\(joint2 blocks 4\)",
+    ):
         ik_all(teachbot6, T_out)
     with pytest.raises(UnreachableError, match=r"pose 1 \(of 2\)"):
         ik_nearest(teachbot6, np.stack([T, far]), np.zeros(6))
@@ -316,8 +323,9 @@ def test_numerical_ik_success_rate(name, request):
     n = 400
     q = robot.random_q(rng, n)
     seeds = robot.random_q(rng, n)
-    results = [ik_solve(robot, fk(robot, q[k]), seeds[k], rng=np.random.default_rng(k))
-               for k in range(n)]
+    results = [
+        ik_solve(robot, fk(robot, q[k]), seeds[k], rng=np.random.default_rng(k)) for k in range(n)
+    ]
     ok = np.array([r.success for r in results])
     assert ok.mean() >= 0.995, f"{name}: {ok.mean():.2%}"
     for r, qk in zip(results, q, strict=True):
@@ -343,8 +351,9 @@ def test_numerical_ik_reports_failure_honestly(ur5):
 def test_numerical_ik_other_frame_and_base(panda):
     base = np.eye(4)
     base[:3, 3] = [1.0, 2.0, 0.5]
-    robot = armlab.load_robot(PANDA_URDF, lock_joints=PANDA_FINGERS, tool_frame="panda_hand",
-                              transform_base_to_world=base)
+    robot = armlab.load_robot(
+        PANDA_URDF, lock_joints=PANDA_FINGERS, tool_frame="panda_hand", transform_base_to_world=base
+    )
     q = np.array([0.1, -0.3, 0.2, -2.0, 0.1, 1.8, 0.5])
     T = fk(robot, q, frame="panda_link5")
     res = ik_solve(robot, T, np.zeros(7), frame="panda_link5")
@@ -363,12 +372,14 @@ def test_workspace_reach_meets_thesis_requirement(teachbot6):
     result = workspace_cloud(teachbot6, n_samples=4000, seed=1)
     assert result.max_reach_m >= 0.7  # thesis 2.2.2
     assert result.max_reach_m == pytest.approx(expected, abs=1e-6)
-    assert result.max_height_m == pytest.approx(dh.a_m[2] + math.hypot(dh.a_m[3], dh.d_m[3])
-                                                + tool, abs=1e-6)
+    assert result.max_height_m == pytest.approx(
+        dh.a_m[2] + math.hypot(dh.a_m[3], dh.d_m[3]) + tool, abs=1e-6
+    )
     assert result.cloud_max_radius_m <= result.max_reach_m + 1e-12
     assert result.radius_m.max() == pytest.approx(result.cloud_max_radius_m)
-    np.testing.assert_allclose(np.hypot(*fk(teachbot6, result.q_max_reach)[:2, 3]),
-                               result.max_reach_m, atol=1e-12)
+    np.testing.assert_allclose(
+        np.hypot(*fk(teachbot6, result.q_max_reach)[:2, 3]), result.max_reach_m, atol=1e-12
+    )
     assert max_reach_m(teachbot6) == pytest.approx(expected, abs=1e-6)
     d = json.loads(json.dumps(result.to_dict()))
     assert d["max_reach_m"] == pytest.approx(expected, abs=1e-6)

@@ -37,9 +37,15 @@ def kernel_env(tmp_path_factory):
     root = tmp_path_factory.mktemp("jupyter")
     spec = root / "kernels" / "python3"
     spec.mkdir(parents=True)
-    (spec / "kernel.json").write_text(json.dumps({
-        "argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
-        "display_name": "armlab (test interpreter)", "language": "python"}))
+    (spec / "kernel.json").write_text(
+        json.dumps(
+            {
+                "argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
+                "display_name": "armlab (test interpreter)",
+                "language": "python",
+            }
+        )
+    )
     return root
 
 
@@ -66,10 +72,16 @@ def test_notebook_executes(path, kernel_env, tmp_path, monkeypatch):
     monkeypatch.setenv("ARMLAB_NOTEBOOK_TEST", "1")
     monkeypatch.setenv("ARMLAB_NOTEBOOK_OUT", str(tmp_path))
     monkeypatch.setenv("MPLBACKEND", "Agg")
-    client = NotebookClient(nb, timeout=300, kernel_name="python3",
-                            resources={"metadata": {"path": str(path.parent)}})
+    client = NotebookClient(
+        nb, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}}
+    )
     client.execute()
-    kernel_python = [o for c in nb.cells if c.cell_type == "code" for o in c.outputs
-                     if o.get("name") == "stdout" and "python:" in o.get("text", "")]
+    kernel_python = [
+        o
+        for c in nb.cells
+        if c.cell_type == "code"
+        for o in c.outputs
+        if o.get("name") == "stdout" and "python:" in o.get("text", "")
+    ]
     assert kernel_python, "the first cell prints the interpreter"
     assert sys.executable in kernel_python[0]["text"]

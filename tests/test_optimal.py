@@ -110,8 +110,12 @@ def test_joints_start_and_end_together_at_rest(teachbot6):
     lim = teachbot6.limits
     Ts = []
     for i in range(6):
-        D, v, a, j = abs(w[1, i] - w[0, i]), lim.velocity_rad_s[i], \
-            lim.acceleration_rad_s2[i], lim.jerk_rad_s3[i]
+        D, v, a, j = (
+            abs(w[1, i] - w[0, i]),
+            lim.velocity_rad_s[i],
+            lim.acceleration_rad_s2[i],
+            lim.jerk_rad_s3[i],
+        )
         if v * j >= a * a and D >= v * (v / a + a / j):
             Ts.append(s_curve_time(D, v, a, j))
     assert T >= max(Ts) - 1e-6
@@ -119,8 +123,13 @@ def test_joints_start_and_end_together_at_rest(teachbot6):
 
 
 def test_via_points_are_passed_exactly_or_within_tolerance(teachbot6):
-    w = np.array([[0.0, 0.0, 0.5, 0.0, 0.3, 0.0], [0.5, 0.3, 0.2, 0.4, 0.0, 0.4],
-                  [1.0, 0.1, -0.2, 0.8, -0.3, 0.8]])
+    w = np.array(
+        [
+            [0.0, 0.0, 0.5, 0.0, 0.3, 0.0],
+            [0.5, 0.3, 0.2, 0.4, 0.0, 0.4],
+            [1.0, 0.1, -0.2, 0.8, -0.3, 0.8],
+        ]
+    )
     exact = optimal(teachbot6, w, n_intervals=12)
     q_at, qd_at, _, _ = exact.at(exact.meta["waypoint_times_s"])
     np.testing.assert_allclose(q_at, w, atol=1e-8)
@@ -136,21 +145,33 @@ def _independent_ratios(traj, robot, limits, dt):
     """Ratios recomputed here on another grid, with pinocchio directly."""
     fine = traj.sample(dt)
     data = robot.model.createData()
-    tau = np.array([pin.rnea(robot.model, data, q, v, a)
-                    for q, v, a in zip(fine.q, fine.qd, fine.qdd, strict=True)])
-    out = {"velocity": np.abs(fine.qd).max(0) / limits["v"],
-           "acceleration": np.abs(fine.qdd).max(0) / limits["a"],
-           "torque": np.abs(tau).max(0) / limits["tau"]}
+    tau = np.array(
+        [
+            pin.rnea(robot.model, data, q, v, a)
+            for q, v, a in zip(fine.q, fine.qd, fine.qdd, strict=True)
+        ]
+    )
+    out = {
+        "velocity": np.abs(fine.qd).max(0) / limits["v"],
+        "acceleration": np.abs(fine.qdd).max(0) / limits["a"],
+        "torque": np.abs(tau).max(0) / limits["tau"],
+    }
     if "j" in limits:
         out["jerk"] = np.abs(fine.qddd).max(0) / limits["j"]
     return out
 
 
 def test_all_four_limits_hold_on_an_independent_fine_grid(teachbot6):
-    w = np.array([[-1.0, 0.5, -0.3, 0.0, 0.3, 0.0], [0.2, 0.1, 0.4, 0.6, -0.2, 0.5],
-                  [1.0, 0.5, -0.3, 0.0, 0.3, 0.0]])
-    lim = dict(v=np.full(6, 2.0), a=np.full(6, 15.0), j=np.full(6, 150.0),
-               tau=teachbot6.limits.effort_Nm)
+    w = np.array(
+        [
+            [-1.0, 0.5, -0.3, 0.0, 0.3, 0.0],
+            [0.2, 0.1, 0.4, 0.6, -0.2, 0.5],
+            [1.0, 0.5, -0.3, 0.0, 0.3, 0.0],
+        ]
+    )
+    lim = dict(
+        v=np.full(6, 2.0), a=np.full(6, 15.0), j=np.full(6, 150.0), tau=teachbot6.limits.effort_Nm
+    )
     traj = optimal(teachbot6, w, v_max=2.0, a_max=15.0, j_max=150.0, n_intervals=12)
     r = _independent_ratios(traj, teachbot6, lim, traj.duration / 7001)
     for kind, x in r.items():
@@ -196,9 +217,9 @@ def test_fixed_duration_objectives(teachbot6):
         return float(np.trapezoid(np.sum((f.qddd / teachbot6.limits.jerk_rad_s3) ** 2, 1), f.t))
 
     # the time-optimal plan stretched to T is a feasible candidate with more jerk
-    stretched = armlab.trajectory.Trajectory(fast.t * (T / fast.duration), fast.q,
-                                             fast.qd / 1.4, fast.qdd / 1.4**2,
-                                             fast.qddd / 1.4**3)
+    stretched = armlab.trajectory.Trajectory(
+        fast.t * (T / fast.duration), fast.q, fast.qd / 1.4, fast.qdd / 1.4**2, fast.qddd / 1.4**3
+    )
     assert jerk_integral(smooth) < jerk_integral(stretched)
     # minimum time + smoothness: a heavy weight trades duration for less jerk
     soft = optimal(teachbot6, w, objective="time+smooth", smooth_weight=5.0, n_intervals=12)
@@ -242,8 +263,15 @@ def test_bad_inputs_raise_input_errors(teachbot6, ur5):
 
 # ---------------------------------------------------------------------------- TOPP
 def test_topp_one_joint_trapezoid(one_joint):
-    traj = time_optimal_path(one_joint, [[0.0], [1.0], [2.0]], v_max=0.5, a_max=2.0,
-                             j_max=False, tau_max=False, n_grid=100)
+    traj = time_optimal_path(
+        one_joint,
+        [[0.0], [1.0], [2.0]],
+        v_max=0.5,
+        a_max=2.0,
+        j_max=False,
+        tau_max=False,
+        n_grid=100,
+    )
     # the convex pass tightens every limit by LIMIT_MARGIN (documented): v' = v (1 - m); the
     # switch to cruising falls inside a path interval (b linear there): ~1e-3 s on this grid
     v, a = 0.5 * (1 - LIMIT_MARGIN), 2.0 * (1 - LIMIT_MARGIN)
@@ -255,8 +283,13 @@ def test_topp_one_joint_trapezoid(one_joint):
 
 
 def test_topp_keeps_the_path_and_the_limits(teachbot6):
-    w = np.array([[0.0, 0.0, 0.5, 0.0, 0.3, 0.0], [0.5, 0.3, 0.2, 0.4, 0.0, 0.4],
-                  [1.0, 0.1, -0.2, 0.8, -0.3, 0.8]])
+    w = np.array(
+        [
+            [0.0, 0.0, 0.5, 0.0, 0.3, 0.0],
+            [0.5, 0.3, 0.2, 0.4, 0.0, 0.4],
+            [1.0, 0.1, -0.2, 0.8, -0.3, 0.8],
+        ]
+    )
     traj = time_optimal_path(teachbot6, w, a_max=20.0, v_max=2.0, j_max=False, n_grid=80)
     assert traj.report.ok(1e-6)
     assert any(k == "torque" for k, _, _ in traj.stats["binding"])
@@ -269,8 +302,10 @@ def test_topp_keeps_the_path_and_the_limits(teachbot6):
     fig = plot_phase_plane(traj)
     assert isinstance(fig, Figure)
     curves = traj.meta["topp"].limit_curves()
-    assert np.all(traj.meta["sd"][1:-1] <= np.interp(traj.meta["s"][1:-1], curves["s"],
-                                                      curves["velocity"]) * 1.001 + 1e-9)
+    assert np.all(
+        traj.meta["sd"][1:-1]
+        <= np.interp(traj.meta["s"][1:-1], curves["s"], curves["velocity"]) * 1.001 + 1e-9
+    )
 
 
 def test_topp_of_a_trajectory_geometry_and_jerk_pass(teachbot6):

@@ -30,11 +30,13 @@ def test_urdf_fk_equals_closed_form_mdh_product(teachbot6):
     model, data = teachbot6.model, teachbot6.model.createData()
     for q in teachbot6.random_q(rng, 300):
         pin.framesForwardKinematics(model, data, q)
-        np.testing.assert_allclose(data.oMf[teachbot6.tool_frame_id].homogeneous,
-                                   teachbot6.dh.fk(q), atol=1e-12)
+        np.testing.assert_allclose(
+            data.oMf[teachbot6.tool_frame_id].homogeneous, teachbot6.dh.fk(q), atol=1e-12
+        )
         for i in range(1, 7):  # every DH frame i is the placement of joint i
-            np.testing.assert_allclose(data.oMi[i].homogeneous, teachbot6.dh.fk(q, upto=i),
-                                       atol=1e-12)
+            np.testing.assert_allclose(
+                data.oMi[i].homogeneous, teachbot6.dh.fk(q, upto=i), atol=1e-12
+            )
 
 
 def test_mdh_table_values_match_the_thesis(teachbot6):
@@ -42,15 +44,15 @@ def test_mdh_table_values_match_the_thesis(teachbot6):
     np.testing.assert_allclose(dh.a_m, [0, 0.12, 0.22, 0.08, 0, 0])
     np.testing.assert_allclose(dh.d_m, [0, 0, 0, 0.202, 0, 0])
     np.testing.assert_allclose(np.degrees(dh.alpha_rad), [0, -90, 0, -90, 90, -90])
-    np.testing.assert_allclose(teachbot6.limits.velocity_rad_s, [0.56, 0.26, 0.65, 0.875, 0.875,
-                                                                 1.22])
+    np.testing.assert_allclose(
+        teachbot6.limits.velocity_rad_s, [0.56, 0.26, 0.65, 0.875, 0.875, 1.22]
+    )
     assert dh.labels == ("S", "L", "U", "R", "B", "T")
 
 
 def test_effort_limits_are_table_4_3_available_torque(teachbot6):
     # thesis table 4.3 "available output torque": 9.55, 55, 30, 1.4, 5.3, 1.2 N m
-    np.testing.assert_allclose(teachbot6.limits.effort_Nm, [9.55, 55, 30, 1.4, 5.3, 1.2],
-                               rtol=0.02)
+    np.testing.assert_allclose(teachbot6.limits.effort_Nm, [9.55, 55, 30, 1.4, 5.3, 1.2], rtol=0.02)
     d2 = teachbot6.drive("joint2")
     assert d2.available_torque_Nm == pytest.approx(0.28 * 410 * 0.6 * 0.8)
 
@@ -65,8 +67,9 @@ def test_gravity_torque_of_payload_at_home(teachbot6):
     """At q = 0 the tool points along +x base (horizontal), 0.2 m from the wrist centre: the
     payload's gravity moment about joint 5 is m g 0.2."""
     bare = teachbot6.with_payload(0.0)
-    g_with = pin.computeGeneralizedGravity(teachbot6.model, teachbot6.model.createData(),
-                                           np.zeros(6))
+    g_with = pin.computeGeneralizedGravity(
+        teachbot6.model, teachbot6.model.createData(), np.zeros(6)
+    )
     g_bare = pin.computeGeneralizedGravity(bare.model, bare.model.createData(), np.zeros(6))
     assert abs(g_with[4] - g_bare[4]) == pytest.approx(0.5 * 9.81 * 0.2, rel=1e-9)
     # a heavier payload scales the difference linearly
@@ -109,13 +112,21 @@ def test_classic_dh_table_gives_same_kinematics_as_modified(tmp_path):
     """PUMA-like arm written in both conventions: same tool pose at random q."""
     classic = tmp_path / "c.toml"
     # classic rows (theta offset, d, a, alpha) of the teachbot6 geometry
-    rows = [(0, 0, 120, -90), (-90, 0, 220, 0), (0, 0, 80, -90), (0, 202, 0, 90),
-            (0, 0, 0, -90), (0, 0, 0, 0)]
+    rows = [
+        (0, 0, 120, -90),
+        (-90, 0, 220, 0),
+        (0, 0, 80, -90),
+        (0, 202, 0, 90),
+        (0, 0, 0, -90),
+        (0, 0, 0, 0),
+    ]
     text = 'name = "c"\nconvention = "classic"\n'
     for i, (off, d, a, al) in enumerate(rows, 1):
-        text += (f'[[joint]]\nname = "j{i}"\na_mm = {a}\nalpha_deg = {al}\n'
-                 f'theta_offset_deg = {off}\n'
-                 f'd_mm = {d}\nlower_deg = -170\nupper_deg = 170\nvelocity_rad_s = 1\n')
+        text += (
+            f'[[joint]]\nname = "j{i}"\na_mm = {a}\nalpha_deg = {al}\n'
+            f"theta_offset_deg = {off}\n"
+            f"d_mm = {d}\nlower_deg = -170\nupper_deg = 170\nvelocity_rad_s = 1\n"
+        )
     classic.write_text(text)
     tc = read_dh_table(classic)
     tm = read_dh_table(DESC / "mdh.toml")
@@ -137,12 +148,24 @@ def test_mdh_transform_is_craig_product():
     T = mdh_transforms(np.array([a]), np.array([al]), np.array([d]), np.array([[th]]))[0, 0]
 
     def rx(x):
-        return np.array([[1, 0, 0, 0], [0, math.cos(x), -math.sin(x), 0],
-                         [0, math.sin(x), math.cos(x), 0], [0, 0, 0, 1]])
+        return np.array(
+            [
+                [1, 0, 0, 0],
+                [0, math.cos(x), -math.sin(x), 0],
+                [0, math.sin(x), math.cos(x), 0],
+                [0, 0, 0, 1],
+            ]
+        )
 
     def rz(x):
-        return np.array([[math.cos(x), -math.sin(x), 0, 0], [math.sin(x), math.cos(x), 0, 0],
-                         [0, 0, 1, 0], [0, 0, 0, 1]])
+        return np.array(
+            [
+                [math.cos(x), -math.sin(x), 0, 0],
+                [math.sin(x), math.cos(x), 0, 0],
+                [0, 0, 1, 0],
+                [0, 0, 0, 1],
+            ]
+        )
 
     def tr(x, y, z):
         m = np.eye(4)
@@ -193,8 +216,9 @@ def test_dh_table_with_nan(tmp_path):
     text = (DESC / "mdh.toml").read_text().replace("a_mm = 220", "a_mm = nan", 1)
     p = tmp_path / "mdh.toml"
     p.write_text(text)
-    with pytest.raises(RobotDescriptionError,
-                       match=r"mdh\.toml: joint 3 \(joint3\) a_mm is not finite"):
+    with pytest.raises(
+        RobotDescriptionError, match=r"mdh\.toml: joint 3 \(joint3\) a_mm is not finite"
+    ):
         read_dh_table(p)
 
 
@@ -239,8 +263,9 @@ def test_cli_info_teachbot6():
     assert reach_mm >= 700.0  # thesis 2.2.2 requirement
 
 
-@pytest.mark.parametrize("arg, needle", [("nosuchbot", "unknown robot"),
-                                         ("/nonexistent/x.urdf", "not found")])
+@pytest.mark.parametrize(
+    "arg, needle", [("nosuchbot", "unknown robot"), ("/nonexistent/x.urdf", "not found")]
+)
 def test_cli_errors_are_one_line(arg, needle):
     res = _armlab("info", arg)
     assert res.returncode != 0

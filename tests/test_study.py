@@ -66,28 +66,33 @@ def test_demo_study_parses_and_names_every_stage():
     assert load_study(None).hash == spec.hash
 
 
-@pytest.mark.parametrize("mutate, key", [
-    (lambda d: d["plan"].update(speed_scal=0.5), "plan.speed_scal"),
-    (lambda d: d.update(planner={"x": 1}), "planner"),
-    (lambda d: d["payload"].update(mass_kg="heavy"), "payload.mass_kg"),
-    (lambda d: d["payload"].update(mass_kg=-1.0), "payload.mass_kg"),
-    (lambda d: d["plan"].update(speed_scale=0.0), "plan.speed_scale"),
-    (lambda d: d["plan"].update(speed_scale=1.5), "plan.speed_scale"),
-    (lambda d: d["plan"].update(planner="teleport"), "plan.planner"),
-    (lambda d: d["waypoints"].update(unit="grad"), "waypoints.unit"),
-    (lambda d: d["waypoints"].update(joint=[[0, 0], [1]]), "waypoints.joint"),
-    (lambda d: d["waypoints"].update(cartesian=[[0.5, 0, 0.3, 0, 0, 0]] * 2),
-     "waypoints.joint"),
-    (lambda d: d["study"].update(stages=["plan", "kinematics"]), "study.stages"),
-    (lambda d: d["study"].update(stages=["kinematics", "fly"]), "study.stages[1]"),
-    (lambda d: d["study"].update(seed=1.5), "study.seed"),
-    (lambda d: d.update(drives={"joint2": {"ratio": 0}}), "drives.joint2.ratio"),
-    (lambda d: d.update(drives={"joint2": {"gear": 100}}), "drives.joint2.gear"),
-    (lambda d: d.update(controller={"cycle_s": 5.0}), "controller.cycle_s"),
-    (lambda d: d.update(limits={"velocity_rad_s": [1.0, -1.0]}), "limits.velocity_rad_s[1]"),
-    (lambda d: d.pop("robot"), "robot.name"),
-    (lambda d: d["plan"].update(planner="line"), "plan.planner"),
-])
+@pytest.mark.parametrize(
+    "mutate, key",
+    [
+        (lambda d: d["plan"].update(speed_scal=0.5), "plan.speed_scal"),
+        (lambda d: d.update(planner={"x": 1}), "planner"),
+        (lambda d: d["payload"].update(mass_kg="heavy"), "payload.mass_kg"),
+        (lambda d: d["payload"].update(mass_kg=-1.0), "payload.mass_kg"),
+        (lambda d: d["plan"].update(speed_scale=0.0), "plan.speed_scale"),
+        (lambda d: d["plan"].update(speed_scale=1.5), "plan.speed_scale"),
+        (lambda d: d["plan"].update(planner="teleport"), "plan.planner"),
+        (lambda d: d["waypoints"].update(unit="grad"), "waypoints.unit"),
+        (lambda d: d["waypoints"].update(joint=[[0, 0], [1]]), "waypoints.joint"),
+        (
+            lambda d: d["waypoints"].update(cartesian=[[0.5, 0, 0.3, 0, 0, 0]] * 2),
+            "waypoints.joint",
+        ),
+        (lambda d: d["study"].update(stages=["plan", "kinematics"]), "study.stages"),
+        (lambda d: d["study"].update(stages=["kinematics", "fly"]), "study.stages[1]"),
+        (lambda d: d["study"].update(seed=1.5), "study.seed"),
+        (lambda d: d.update(drives={"joint2": {"ratio": 0}}), "drives.joint2.ratio"),
+        (lambda d: d.update(drives={"joint2": {"gear": 100}}), "drives.joint2.gear"),
+        (lambda d: d.update(controller={"cycle_s": 5.0}), "controller.cycle_s"),
+        (lambda d: d.update(limits={"velocity_rad_s": [1.0, -1.0]}), "limits.velocity_rad_s[1]"),
+        (lambda d: d.pop("robot"), "robot.name"),
+        (lambda d: d["plan"].update(planner="line"), "plan.planner"),
+    ],
+)
 def test_bad_study_names_the_key(mutate, key):
     doc = quick_doc()
     mutate(doc)
@@ -98,15 +103,20 @@ def test_bad_study_names_the_key(mutate, key):
 
 
 def test_check_key_and_overrides():
-    for good in ("payload.mass_kg", "drives.joint2.ratio", "drives.joint3.motor",
-                 "controller.cycle_s", "control.position_bandwidth_rad_s", "plan.speed_scale"):
+    for good in (
+        "payload.mass_kg",
+        "drives.joint2.ratio",
+        "drives.joint3.motor",
+        "controller.cycle_s",
+        "control.position_bandwidth_rad_s",
+        "plan.speed_scale",
+    ):
         check_key(good)
     for bad in ("payload", "payload.mass", "drives.joint2", "drives.joint2.gear", "robots.name"):
         with pytest.raises(SpecError, match=bad.replace(".", r"\.")):
             check_key(bad)
     doc = quick_doc()
-    new = apply_overrides(doc, {"payload.mass_kg": np.float64(1.25),
-                                "drives.joint2.ratio": 300})
+    new = apply_overrides(doc, {"payload.mass_kg": np.float64(1.25), "drives.joint2.ratio": 300})
     assert new["payload"]["mass_kg"] == 1.25 and type(new["payload"]["mass_kg"]) is float
     assert new["drives"]["joint2"]["ratio"] == 300
     assert "drives" not in doc  # the original is untouched
@@ -144,20 +154,27 @@ def test_a_catalogue_motor_can_replace_a_joint_motor():
     from armlab.study.stages import api
 
     path = api("armlab.dynamics", "load_catalogue")().path  # read the file independently
-    entry = next(m for m in tomllib.loads(open(path).read())["motor"]
-                 if m["model"] == "maxon RE 30 60 W 24 V")
+    entry = next(
+        m
+        for m in tomllib.loads(open(path).read())["motor"]
+        if m["model"] == "maxon RE 30 60 W 24 V"
+    )
     spec = parse_study(quick_doc(drives={"joint3": {"motor": "maxon RE 30 60 W 24 V"}}))
     robot = build_robot(spec)
     assert robot.drives["joint3"].motor.torque_constant_Nm_A == entry["torque_constant_Nm_A"]
     assert robot.limits.effort_Nm[2] == pytest.approx(
-        entry["stall_torque_Nm"] * 385 * 0.6 * entry.get("derating", 1.0))
+        entry["stall_torque_Nm"] * 385 * 0.6 * entry.get("derating", 1.0)
+    )
 
 
-@pytest.mark.parametrize("drives, limits, key", [
-    ({"joint9": {"ratio": 100}}, {}, "drives.joint9"),
-    ({"joint3": {"motor": "warp-drive"}}, {}, "drives.joint3.motor"),
-    ({}, {"velocity_rad_s": [1.0, 1.0]}, "limits.velocity_rad_s"),
-])
+@pytest.mark.parametrize(
+    "drives, limits, key",
+    [
+        ({"joint9": {"ratio": 100}}, {}, "drives.joint9"),
+        ({"joint3": {"motor": "warp-drive"}}, {}, "drives.joint3.motor"),
+        ({}, {"velocity_rad_s": [1.0, 1.0]}, "limits.velocity_rad_s"),
+    ],
+)
 def test_bad_robot_changes_name_the_key(drives, limits, key):
     spec = parse_study(quick_doc(drives=drives, limits=limits))
     with pytest.raises(SpecError) as err:
@@ -216,8 +233,9 @@ def test_cartesian_waypoints_go_through_ik(teachbot6):
     assert kin["waypoints_from"] == "cartesian (IK)"
     q_ik = np.array(kin["waypoints_rad"])
     for row, qi in zip(q, q_ik, strict=True):  # same pose (maybe another branch)
-        np.testing.assert_allclose(armlab.kinematics.fk(teachbot6, qi),
-                                   armlab.kinematics.fk(teachbot6, row), atol=1e-9)
+        np.testing.assert_allclose(
+            armlab.kinematics.fk(teachbot6, qi), armlab.kinematics.fk(teachbot6, row), atol=1e-9
+        )
 
 
 def test_waypoint_out_of_range_is_an_error_recorded_in_the_summary(tmp_path):
@@ -249,8 +267,12 @@ def test_run_study_prints_a_one_screen_summary(tmp_path, capsys):
 def test_cli_reports_a_bad_study_on_one_line(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text(QUICK.replace('planner = "ptp"', 'planner = "ptp"\nspeed = 3'))
-    proc = subprocess.run([sys.executable, "-m", "armlab.cli", "run", str(bad), "--out",
-                           str(tmp_path / "o")], capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "armlab.cli", "run", str(bad), "--out", str(tmp_path / "o")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2
     assert proc.stderr.strip().count("\n") == 0
     assert "plan.speed: unknown key" in proc.stderr
@@ -262,19 +284,37 @@ def test_key_figures_from_a_summary():
         "kinematics": {"max_reach_m": 0.75},
         "trajectory": {"duration_s": 2.5, "peak_ratio": {"velocity": 1.0, "torque": 0.4}},
         "static_load": {"joints": {"joint1": {"torque_Nm": 3.0}, "joint2": {"torque_Nm": 9.0}}},
-        "sizing": {"joints": {
-            "joint1": {"checks": [{"name": "rms", "margin": 0.5, "ok": True}]},
-            "joint2": {"checks": [{"name": "peak", "margin": 0.2, "ok": True},
-                                  {"name": "speed", "margin": -0.1, "ok": False}]}}},
-        "control": {"joint1": {
-            "position": {"phase_margin_deg": 60.0, "phase_margin_discrete_deg": 55.0,
-                         "gain_margin_dB": "inf", "gain_margin_discrete_dB": 12.0,
-                         "crossover_rad_s": 30.0},
-            "speed": {"phase_margin_deg": 50.0, "gain_margin_dB": 8.0,
-                      "crossover_rad_s": 300.0}}},
-        "tracking": {"joints": {"joint1": {"max_error_rad": 1e-3},
-                                "joint2": {"max_error_rad": 2e-3}},
-                     "tcp": {"max_error_m": 4e-4}},
+        "sizing": {
+            "joints": {
+                "joint1": {"checks": [{"name": "rms", "margin": 0.5, "ok": True}]},
+                "joint2": {
+                    "checks": [
+                        {"name": "peak", "margin": 0.2, "ok": True},
+                        {"name": "speed", "margin": -0.1, "ok": False},
+                    ]
+                },
+            }
+        },
+        "control": {
+            "joint1": {
+                "position": {
+                    "phase_margin_deg": 60.0,
+                    "phase_margin_discrete_deg": 55.0,
+                    "gain_margin_dB": "inf",
+                    "gain_margin_discrete_dB": 12.0,
+                    "crossover_rad_s": 30.0,
+                },
+                "speed": {
+                    "phase_margin_deg": 50.0,
+                    "gain_margin_dB": 8.0,
+                    "crossover_rad_s": 300.0,
+                },
+            }
+        },
+        "tracking": {
+            "joints": {"joint1": {"max_error_rad": 1e-3}, "joint2": {"max_error_rad": 2e-3}},
+            "tcp": {"max_error_m": 4e-4},
+        },
         "export": {"n_cycles": 2501},
         "study": {"stages": {"plan": {"status": "ok"}}},
     }
@@ -328,8 +368,9 @@ def test_full_chain_outputs_agree_with_each_other(tmp_path, capsys):
     assert main(["run", str(path), "--out", str(out)]) == 0
     printed = capsys.readouterr().out
     summary = json.loads((out / "summary.json").read_text())
-    assert {s: i["status"] for s, i in summary["study"]["stages"].items()} == \
-        dict.fromkeys(("robot", *STAGES), "ok")
+    assert {s: i["status"] for s, i in summary["study"]["stages"].items()} == dict.fromkeys(
+        ("robot", *STAGES), "ok"
+    )
     assert printed.splitlines()[-1].startswith(f"files in {out}/")
     # report.md and every plot it shows
     report = (out / "report.md").read_text()
@@ -363,14 +404,14 @@ def test_full_chain_outputs_agree_with_each_other(tmp_path, capsys):
         if joint == "status":
             continue
         for loop, fig in loops.items():
-            assert getattr(gains[joint], loop).phase_margin_deg == \
-                pytest.approx(fig["phase_margin_deg"], rel=1e-12)
+            assert getattr(gains[joint], loop).phase_margin_deg == pytest.approx(
+                fig["phase_margin_deg"], rel=1e-12
+            )
             assert fig["phase_margin_deg"] >= 45 and fig["phase_margin_discrete_deg"] >= 45
     # sizing and tracking blocks carry the DESIGN.md fields
     for joint in summary["robot"]["joint_names"]:
         block = summary["sizing"][joint]
-        for key in ("peak_torque_Nm", "rms_torque_Nm", "peak_speed_rad_s",
-                    "motor_peak_speed_rpm"):
+        for key in ("peak_torque_Nm", "rms_torque_Nm", "peak_speed_rad_s", "motor_peak_speed_rpm"):
             assert math.isfinite(block[key])
         assert {"name", "value", "limit", "margin", "ok"} <= set(block["checks"][0])
         assert summary["tracking"]["joints"][joint]["max_error_rad"] >= 0
@@ -390,8 +431,10 @@ def test_full_chain_outputs_agree_with_each_other(tmp_path, capsys):
 
 def test_cartesian_line_study_starts_and_ends_at_the_waypoints():
     rows = [[0.42, 0.0, -0.10, 180, 0, 0], [0.42, 0.15, -0.10, 180, 0, 0]]
-    doc = quick_doc(waypoints={"unit": "deg", "cartesian": rows},
-                    plan={"planner": "line", "speed_m_s": 0.05, "check_dt_s": 0.01})
+    doc = quick_doc(
+        waypoints={"unit": "deg", "cartesian": rows},
+        plan={"planner": "line", "speed_m_s": 0.05, "check_dt_s": 0.01},
+    )
     doc["study"]["stages"] = ["kinematics", "plan"]
     res = run_spec(parse_study(doc))
     assert res.summary["trajectory"]["method"] == "line"
@@ -404,11 +447,12 @@ def test_cartesian_line_study_starts_and_ends_at_the_waypoints():
 def test_a_plain_urdf_study_skips_the_drive_stages():
     from conftest import UR5_URDF
 
-    doc = quick_doc(robot={"name": str(UR5_URDF)},
-                    waypoints={"unit": "deg", "joint": [[0, -90, 90, 0, 90, 0],
-                                                        [30, -70, 70, 20, 70, 10]]},
-                    limits={"acceleration_rad_s2": 5.0, "jerk_rad_s3": 50.0},
-                    payload={"mass_kg": 1.0})
+    doc = quick_doc(
+        robot={"name": str(UR5_URDF)},
+        waypoints={"unit": "deg", "joint": [[0, -90, 90, 0, 90, 0], [30, -70, 70, 20, 70, 10]]},
+        limits={"acceleration_rad_s2": 5.0, "jerk_rad_s3": 50.0},
+        payload={"mass_kg": 1.0},
+    )
     doc["study"]["stages"] = ["kinematics", "plan", "sizing", "tuning", "export"]
     doc["plan"]["check_dt_s"] = 0.01
     res = run_spec(parse_study(doc))

@@ -48,9 +48,13 @@ def write(path: Path, text: str) -> Path:
 
 
 def sweep_doc(**sweep) -> dict:
-    return {"sweep": {"study": "demo", **sweep},
-            "parameter": [{"key": "payload.mass_kg", "values": [0.0, 0.5, 1.0]},
-                          {"key": "drives.joint2.ratio", "low": 300, "high": 500, "num": 3}]}
+    return {
+        "sweep": {"study": "demo", **sweep},
+        "parameter": [
+            {"key": "payload.mass_kg", "values": [0.0, 0.5, 1.0]},
+            {"key": "drives.joint2.ratio", "low": 300, "high": 500, "num": 3},
+        ],
+    }
 
 
 @pytest.fixture(scope="module")
@@ -58,8 +62,13 @@ def client():
     """One local Dask cluster for the module (the same kind run_sweep starts)."""
     from distributed import Client, LocalCluster
 
-    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                           dashboard_address=":0", silence_logs=logging.ERROR)
+    cluster = LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",
+        silence_logs=logging.ERROR,
+    )
     with Client(cluster) as c:
         yield c
     cluster.close()
@@ -102,22 +111,25 @@ def test_parameter_key_is_stable():
     assert len(parameter_key(a)) == 16
 
 
-@pytest.mark.parametrize("mutate, key", [
-    (lambda d: d["sweep"].update(mode="sobol"), "sweep.mode"),
-    (lambda d: d["sweep"].update(mode="random"), "sweep.samples"),
-    (lambda d: d["sweep"].update(workers=3), "sweep.workers"),
-    (lambda d: d["sweep"].update(figures=["speed"]), "sweep.figures"),
-    (lambda d: d["parameter"][0].update(key="payload.mass"), "payload.mass"),
-    (lambda d: d["parameter"][0].update(low=1), "parameter[0].low"),
-    (lambda d: d["parameter"][1].pop("num"), "parameter[1].num"),
-    (lambda d: d["parameter"][1].update(high=100), "parameter[1].high"),
-    (lambda d: d["parameter"][0].update(values=[1, 1]), "parameter[0].values"),
-    (lambda d: d["parameter"][0].update(values=[1, "a"]), "parameter[0].values"),
-    (lambda d: d["parameter"].append({"key": "payload.mass_kg", "values": [2]}), "parameter"),
-    (lambda d: d.update(set={"plan": {"planer": "ptp"}}), "plan.planer"),
-    (lambda d: d["sweep"].update(study="nowhere.toml"), "sweep.study"),
-    (lambda d: d.update(parameter=[]), "parameter"),
-])
+@pytest.mark.parametrize(
+    "mutate, key",
+    [
+        (lambda d: d["sweep"].update(mode="sobol"), "sweep.mode"),
+        (lambda d: d["sweep"].update(mode="random"), "sweep.samples"),
+        (lambda d: d["sweep"].update(workers=3), "sweep.workers"),
+        (lambda d: d["sweep"].update(figures=["speed"]), "sweep.figures"),
+        (lambda d: d["parameter"][0].update(key="payload.mass"), "payload.mass"),
+        (lambda d: d["parameter"][0].update(low=1), "parameter[0].low"),
+        (lambda d: d["parameter"][1].pop("num"), "parameter[1].num"),
+        (lambda d: d["parameter"][1].update(high=100), "parameter[1].high"),
+        (lambda d: d["parameter"][0].update(values=[1, 1]), "parameter[0].values"),
+        (lambda d: d["parameter"][0].update(values=[1, "a"]), "parameter[0].values"),
+        (lambda d: d["parameter"].append({"key": "payload.mass_kg", "values": [2]}), "parameter"),
+        (lambda d: d.update(set={"plan": {"planer": "ptp"}}), "plan.planer"),
+        (lambda d: d["sweep"].update(study="nowhere.toml"), "sweep.study"),
+        (lambda d: d.update(parameter=[]), "parameter"),
+    ],
+)
 def test_bad_sweep_names_the_key(mutate, key):
     doc = sweep_doc()
     mutate(doc)
@@ -160,7 +172,9 @@ def quick_sweep(tmp_path: Path, ratios: list[float], payloads=(0.0, 1.0)) -> Pat
     write(tmp_path / "quick_study.toml", QUICK_STUDY)
     params = ", ".join(repr(r) for r in ratios)
     masses = ", ".join(repr(m) for m in payloads)
-    return write(tmp_path / "sweep.toml", f"""
+    return write(
+        tmp_path / "sweep.toml",
+        f"""
 [sweep]
 name = "quick"
 study = "quick_study.toml"
@@ -171,7 +185,8 @@ values = [{masses}]
 [[parameter]]
 key = "drives.joint2.ratio"
 values = [{params}]
-""")
+""",
+    )
 
 
 def test_impossible_set_is_an_error_row_and_the_rest_are_done(tmp_path, client, capsys):
@@ -219,8 +234,10 @@ def test_resume_runs_only_what_is_missing(tmp_path, client):
     changed = df2.set_index("key")["finished_at"] != df.set_index("key")["finished_at"]
     assert sorted(changed[changed].index) == sorted(lost)
     # the sweep with another base study refuses the folder
-    write(tmp_path / "quick_study.toml", QUICK_STUDY.replace("check_dt_s = 0.01",
-                                                             "check_dt_s = 0.005"))
+    write(
+        tmp_path / "quick_study.toml",
+        QUICK_STUDY.replace("check_dt_s = 0.01", "check_dt_s = 0.005"),
+    )
     with pytest.raises(SpecError, match="another base study"):
         run_sweep_spec(load_sweep(path), out, client=client, quiet=True)
 
@@ -228,9 +245,15 @@ def test_resume_runs_only_what_is_missing(tmp_path, client):
 def test_ctrl_c_loses_nothing_and_the_same_command_resumes(tmp_path):
     """`armlab sweep` on its own local cluster, interrupted (SIGINT) after a few rows: exit 130,
     the rows done are on disk; the same command then runs only the rest, and plots."""
-    write(tmp_path / "study.toml", QUICK_STUDY.replace(
-        'report = false', 'report = false\n[kinematics]\naccuracy_samples = 10000'))
-    sweep = write(tmp_path / "sweep.toml", """
+    write(
+        tmp_path / "study.toml",
+        QUICK_STUDY.replace(
+            "report = false", "report = false\n[kinematics]\naccuracy_samples = 10000"
+        ),
+    )
+    sweep = write(
+        tmp_path / "sweep.toml",
+        """
 [sweep]
 name = "interrupt"
 study = "study.toml"
@@ -241,7 +264,8 @@ values = [0.0, 0.25, 0.5, 0.75]
 [[parameter]]
 key = "drives.joint2.ratio"
 values = [300, 410, 450]
-""")
+""",
+    )
     out = tmp_path / "out"
     proc = start_sweep([str(sweep), "--workers", "2"], out, rows=2)
     proc.send_signal(signal.SIGINT)
@@ -249,8 +273,7 @@ values = [300, 410, 450]
     assert proc.returncode == 130 and err.strip().endswith("armlab: interrupted")
     done = pd.read_parquet(out / "results.parquet")
     assert 2 <= len(done) < 12 and (done["status"] == "done").all()
-    again = subprocess.run(proc.args, capture_output=True, text=True, env=sweep_env(),
-                           timeout=180)
+    again = subprocess.run(proc.args, capture_output=True, text=True, env=sweep_env(), timeout=180)
     assert again.returncode == 0, again.stderr
     assert f"{12 - len(done)} run now" in again.stdout
     assert f"{len(done)} already in" in again.stdout

@@ -56,8 +56,9 @@ values = [0.5, 1.0]
 
 
 def _start(cmd, log: Path) -> subprocess.Popen:
-    return subprocess.Popen(cmd, stdout=log.open("w"), stderr=subprocess.STDOUT,
-                            start_new_session=True)
+    return subprocess.Popen(
+        cmd, stdout=log.open("w"), stderr=subprocess.STDOUT, start_new_session=True
+    )
 
 
 def _stop(proc: subprocess.Popen) -> None:
@@ -76,18 +77,50 @@ def cluster(tmp_path):
     from distributed import Client
 
     sched_file = tmp_path / "scheduler.json"
-    procs = [_start([*DASK, "scheduler", "--host", "127.0.0.1", "--port", "0",
-                     "--no-dashboard", "--scheduler-file", str(sched_file),
-                     "--idle-timeout", "300"], tmp_path / "scheduler.log")]
+    procs = [
+        _start(
+            [
+                *DASK,
+                "scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                "0",
+                "--no-dashboard",
+                "--scheduler-file",
+                str(sched_file),
+                "--idle-timeout",
+                "300",
+            ],
+            tmp_path / "scheduler.log",
+        )
+    ]
     try:
         deadline = time.monotonic() + 60
         while not sched_file.is_file() and time.monotonic() < deadline:
             time.sleep(0.1)
         address = json.loads(sched_file.read_text())["address"]
-        workers = [_start([*DASK, "worker", address, "--host", "127.0.0.1", "--nthreads", "1",
-                           "--no-nanny", "--no-dashboard", "--name", f"w{i}",
-                           "--death-timeout", "60"], tmp_path / f"worker{i}.log")
-                   for i in range(2)]
+        workers = [
+            _start(
+                [
+                    *DASK,
+                    "worker",
+                    address,
+                    "--host",
+                    "127.0.0.1",
+                    "--nthreads",
+                    "1",
+                    "--no-nanny",
+                    "--no-dashboard",
+                    "--name",
+                    f"w{i}",
+                    "--death-timeout",
+                    "60",
+                ],
+                tmp_path / f"worker{i}.log",
+            )
+            for i in range(2)
+        ]
         procs += workers
         with Client(address, timeout="30s") as c:
             c.wait_for_workers(2, timeout=60)
@@ -123,10 +156,10 @@ def test_sweep_survives_a_dead_worker_and_resumes(tmp_path, cluster):
     assert len(late) > 0
     assert not late["worker"].str.endswith(f":{victim.pid}").any()
     # the same command again runs nothing new
-    again = subprocess.run(proc.args, capture_output=True, text=True, env=sweep_env(),
-                           timeout=120)
+    again = subprocess.run(proc.args, capture_output=True, text=True, env=sweep_env(), timeout=120)
     assert again.returncode == 0, again.stderr
     assert "0 run now" in again.stdout and "24 already in" in again.stdout
     df2 = pd.read_parquet(out / "results.parquet")
-    pd.testing.assert_frame_equal(df2.sort_values("key").reset_index(drop=True),
-                                  df.sort_values("key").reset_index(drop=True))
+    pd.testing.assert_frame_equal(
+        df2.sort_values("key").reset_index(drop=True), df.sort_values("key").reset_index(drop=True)
+    )

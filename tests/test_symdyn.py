@@ -18,8 +18,11 @@ from armlab.trajectory.symdyn import (
 
 def _random_states(rng, model, n=5):
     for _ in range(n):
-        q = pin.randomConfiguration(model) if np.all(np.isfinite(model.upperPositionLimit)) \
+        q = (
+            pin.randomConfiguration(model)
+            if np.all(np.isfinite(model.upperPositionLimit))
             else rng.normal(size=model.nq)
+        )
         yield q, rng.normal(size=model.nv) * 2.0, rng.normal(size=model.nv) * 5.0
 
 

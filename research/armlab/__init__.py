@@ -26,6 +26,14 @@ from armlab.robot import Robot, load_robot
 __version__ = "0.1.0"
 
 __all__ = [
-    "ArmlabError", "InfeasibleError", "InputError", "LimitViolation", "RobotDescriptionError",
-    "SpecError", "UnreachableError", "Robot", "load_robot", "__version__",
+    "ArmlabError",
+    "InfeasibleError",
+    "InputError",
+    "LimitViolation",
+    "RobotDescriptionError",
+    "SpecError",
+    "UnreachableError",
+    "Robot",
+    "load_robot",
+    "__version__",
 ]

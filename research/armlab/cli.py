@@ -38,11 +38,16 @@ def info_text(robot_name: str) -> str:
         acc = "-" if lim.acceleration_rad_s2 is None else f"{lim.acceleration_rad_s2[i]:.3g}"
         jerk = "-" if lim.jerk_rad_s3 is None else f"{lim.jerk_rad_s3[i]:.3g}"
         rng = f"{math.degrees(lim.lower_rad[i]):.0f} .. {math.degrees(lim.upper_rad[i]):.0f}"
-        lines.append(f"{name:<10}{rng:>18}{lim.velocity_rad_s[i]:>11.4g}{acc:>12}{jerk:>12}"
-                     f"{lim.effort_Nm[i]:>13.4g}")
+        lines.append(
+            f"{name:<10}{rng:>18}{lim.velocity_rad_s[i]:>11.4g}{acc:>12}{jerk:>12}"
+            f"{lim.effort_Nm[i]:>13.4g}"
+        )
     if robot.drives is not None:
-        lines += ["", f"{'joint':<10}{'motor':<22}{'stall [Nm]':>11}{'speed [rpm]':>12}"
-                      f"{'reducer':<16}{'ratio':>7}{'eta':>6}{'counts/rev':>12}"]
+        lines += [
+            "",
+            f"{'joint':<10}{'motor':<22}{'stall [Nm]':>11}{'speed [rpm]':>12}"
+            f"{'reducer':<16}{'ratio':>7}{'eta':>6}{'counts/rev':>12}",
+        ]
         for name in robot.joint_names:
             d = robot.drives[name]
             lines.append(
@@ -76,8 +81,9 @@ def _cmd_sweep(args) -> int:
 def _cmd_export(args) -> int:
     from armlab.deploy import export_study
 
-    for path in export_study(args.study_dir, fmt=args.format, profile=args.profile,
-                             out_dir=args.out):
+    for path in export_study(
+        args.study_dir, fmt=args.format, profile=args.profile, out_dir=args.out
+    ):
         print(path)
     return 0
 

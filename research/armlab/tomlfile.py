@@ -10,8 +10,9 @@ from armlab.errors import ArmlabError, RobotDescriptionError
 __all__ = ["read_toml"]
 
 
-def read_toml(path: str | Path, what: str, error: type[ArmlabError] = RobotDescriptionError,
-              prefix: str = "") -> dict:
+def read_toml(
+    path: str | Path, what: str, error: type[ArmlabError] = RobotDescriptionError, prefix: str = ""
+) -> dict:
     """The parsed TOML document at ``path``.
 
     Raises ``error`` with a one-line message ``"<prefix><path>: <what> not found"``, ``"... cannot

@@ -43,8 +43,14 @@ class IncrementalPID:
     @classmethod
     def from_gains(cls, loops: list[LoopGains], u0=None) -> IncrementalPID:
         """One controller per joint from their :class:`LoopGains`."""
-        return cls([g.q0 for g in loops], [g.q1 for g in loops], [g.q2 for g in loops],
-                   [g.output_min for g in loops], [g.output_max for g in loops], u0)
+        return cls(
+            [g.q0 for g in loops],
+            [g.q1 for g in loops],
+            [g.q2 for g in loops],
+            [g.output_min for g in loops],
+            [g.output_max for g in loops],
+            u0,
+        )
 
     def reset(self, e0=None, u0=None) -> None:
         """Set the stored errors to ``e0`` (default 0) and the output to ``u0``."""

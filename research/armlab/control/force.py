@@ -41,8 +41,16 @@ import numpy as np
 
 from armlab.errors import InputError, SpecError
 
-__all__ = ["SEED_DESIGNS", "ForceLoopResult", "ForceRobustness", "force_loop",
-           "force_loop_model", "force_robustness", "STIFFNESS_N_M", "FORCE_SAMPLE_TIME_S"]
+__all__ = [
+    "SEED_DESIGNS",
+    "ForceLoopResult",
+    "ForceRobustness",
+    "force_loop",
+    "force_loop_model",
+    "force_robustness",
+    "STIFFNESS_N_M",
+    "FORCE_SAMPLE_TIME_S",
+]
 
 #: The seed's designs: environment stiffness [N/m] -> (Kp, Ki, Kd) per sample (seed 004 figs. 6-8).
 SEED_DESIGNS: dict[float, tuple[float, float, float]] = {
@@ -60,13 +68,16 @@ def _gains(environment_stiffness_N_m: float, gains) -> tuple[float, float, float
     if gains is None:
         key = float(environment_stiffness_N_m)
         if key not in SEED_DESIGNS:
-            raise SpecError(f"force loop: no seed design for K_E={environment_stiffness_N_m} N/m "
-                            f"(seed designs: {sorted(SEED_DESIGNS)}); pass gains=(Kp, Ki, Kd)")
+            raise SpecError(
+                f"force loop: no seed design for K_E={environment_stiffness_N_m} N/m "
+                f"(seed designs: {sorted(SEED_DESIGNS)}); pass gains=(Kp, Ki, Kd)"
+            )
         return SEED_DESIGNS[key]
     g = tuple(float(x) for x in gains)
     if len(g) != 3 or not all(math.isfinite(x) and x >= 0 for x in g):
-        raise SpecError(f"force loop: gains must be three finite numbers >= 0 (Kp, Ki, Kd), "
-                        f"got {gains!r}")
+        raise SpecError(
+            f"force loop: gains must be three finite numbers >= 0 (Kp, Ki, Kd), got {gains!r}"
+        )
     return g
 
 
@@ -125,41 +136,65 @@ class ForceLoopResult:
         return bool(np.all(np.isfinite(self.force_N)) and math.isfinite(self.settling_time_s))
 
     def to_dict(self) -> dict:
-        return {"environment_stiffness_N_m": self.environment_stiffness_N_m,
-                "gains": list(self.gains), "setpoint_N": self.setpoint_N,
-                "natural_frequency_rad_s": self.natural_frequency_rad_s, "damping": self.damping,
-                "overshoot_pct": self.overshoot_pct,
-                "settling_time_s": self.settling_time_s if math.isfinite(self.settling_time_s)
-                else None,
-                "final_error_N": self.final_error_N, "stable": self.stable}
+        return {
+            "environment_stiffness_N_m": self.environment_stiffness_N_m,
+            "gains": list(self.gains),
+            "setpoint_N": self.setpoint_N,
+            "natural_frequency_rad_s": self.natural_frequency_rad_s,
+            "damping": self.damping,
+            "overshoot_pct": self.overshoot_pct,
+            "settling_time_s": self.settling_time_s
+            if math.isfinite(self.settling_time_s)
+            else None,
+            "final_error_N": self.final_error_N,
+            "stable": self.stable,
+        }
 
 
-def force_loop_model(environment_stiffness_N_m: float, gains=None, *,
-                     stiffness_N_m: float = STIFFNESS_N_M,
-                     natural_frequency_rad_s: float = 320.0, damping: float = 0.2,
-                     sample_time_s: float = FORCE_SAMPLE_TIME_S):
+def force_loop_model(
+    environment_stiffness_N_m: float,
+    gains=None,
+    *,
+    stiffness_N_m: float = STIFFNESS_N_M,
+    natural_frequency_rad_s: float = 320.0,
+    damping: float = 0.2,
+    sample_time_s: float = FORCE_SAMPLE_TIME_S,
+):
     """Linear (contact kept) closed force loop f_d -> f as a discrete python-control TF.
 
     ``L(z) = C(z) K_E / K ZOH{G_a}(z)`` with ``C(z) = Kp + Ki z/(z - 1) + Kd (z - 1)/z``.
     """
     kp, ki, kd = _gains(environment_stiffness_N_m, gains)
-    for name, x in (("environment_stiffness_N_m", environment_stiffness_N_m),
-                    ("stiffness_N_m", stiffness_N_m),
-                    ("natural_frequency_rad_s", natural_frequency_rad_s),
-                    ("damping", damping), ("sample_time_s", sample_time_s)):
+    for name, x in (
+        ("environment_stiffness_N_m", environment_stiffness_N_m),
+        ("stiffness_N_m", stiffness_N_m),
+        ("natural_frequency_rad_s", natural_frequency_rad_s),
+        ("damping", damping),
+        ("sample_time_s", sample_time_s),
+    ):
         _check(name, float(x))
     T = sample_time_s
-    C = ct.tf([kp], [1.0], T) + ki * ct.tf([1.0, 0.0], [1.0, -1.0], T) \
+    C = (
+        ct.tf([kp], [1.0], T)
+        + ki * ct.tf([1.0, 0.0], [1.0, -1.0], T)
         + kd * ct.tf([1.0, -1.0], [1.0, 0.0], T)
+    )
     wn, z = natural_frequency_rad_s, damping
     Ga = ct.sample_system(ct.tf([wn**2], [1.0, 2 * z * wn, wn**2]), T, "zoh")
     return ct.feedback(C * (environment_stiffness_N_m / stiffness_N_m) * Ga, 1)
 
 
-def force_loop(environment_stiffness_N_m: float, gains=None, *, force_setpoint_N: float = 10.0,
-               stiffness_N_m: float = STIFFNESS_N_M, natural_frequency_rad_s: float = 320.0,
-               damping: float = 0.2, sample_time_s: float = FORCE_SAMPLE_TIME_S,
-               duration_s: float = 8.0) -> ForceLoopResult:
+def force_loop(
+    environment_stiffness_N_m: float,
+    gains=None,
+    *,
+    force_setpoint_N: float = 10.0,
+    stiffness_N_m: float = STIFFNESS_N_M,
+    natural_frequency_rad_s: float = 320.0,
+    damping: float = 0.2,
+    sample_time_s: float = FORCE_SAMPLE_TIME_S,
+    duration_s: float = 8.0,
+) -> ForceLoopResult:
     """Simulate a force step on the seed-004 loop (contact nonlinearity included).
 
     Parameters
@@ -181,11 +216,15 @@ def force_loop(environment_stiffness_N_m: float, gains=None, *, force_setpoint_N
     ForceLoopResult
     """
     kp, ki, kd = _gains(environment_stiffness_N_m, gains)
-    for name, x in (("environment_stiffness_N_m", environment_stiffness_N_m),
-                    ("stiffness_N_m", stiffness_N_m), ("force_setpoint_N", force_setpoint_N),
-                    ("natural_frequency_rad_s", natural_frequency_rad_s),
-                    ("damping", damping), ("sample_time_s", sample_time_s),
-                    ("duration_s", duration_s)):
+    for name, x in (
+        ("environment_stiffness_N_m", environment_stiffness_N_m),
+        ("stiffness_N_m", stiffness_N_m),
+        ("force_setpoint_N", force_setpoint_N),
+        ("natural_frequency_rad_s", natural_frequency_rad_s),
+        ("damping", damping),
+        ("sample_time_s", sample_time_s),
+        ("duration_s", duration_s),
+    ):
         _check(name, float(x))
     T = float(sample_time_s)
     n = int(round(duration_s / T)) + 1
@@ -193,12 +232,13 @@ def force_loop(environment_stiffness_N_m: float, gains=None, *, force_setpoint_N
     A = np.array([[0.0, 1.0], [-wn * wn, -2 * zeta * wn]])
     B = np.array([0.0, wn * wn])
     from scipy.linalg import expm
+
     M = np.zeros((3, 3))
     M[:2, :2], M[:2, 2] = A * T, B * T
     E = expm(M)
     Ad, Bd = E[:2, :2], E[:2, 2]
     KE, K, fd = float(environment_stiffness_N_m), float(stiffness_N_m), float(force_setpoint_N)
-    x = np.zeros(2)     # tool position (0 = surface) and speed
+    x = np.zeros(2)  # tool position (0 = surface) and speed
     s_e, e1 = 0.0, 0.0
     f_out = np.empty(n)
     dx_out = np.empty(n)
@@ -213,14 +253,22 @@ def force_loop(environment_stiffness_N_m: float, gains=None, *, force_setpoint_N
         f_out[k], dx_out[k], x_out[k] = f, dx, x[0]
         x = Ad @ x + Bd * dx
         if not math.isfinite(x[0]) or abs(x[0]) > 1e3:
-            f_out[k + 1:] = np.nan
-            dx_out[k + 1:] = np.nan
-            x_out[k + 1:] = np.nan
+            f_out[k + 1 :] = np.nan
+            dx_out[k + 1 :] = np.nan
+            x_out[k + 1 :] = np.nan
             break
-    return ForceLoopResult(t=T * np.arange(n), force_N=f_out, correction_m=dx_out,
-                           position_m=x_out, setpoint_N=fd, environment_stiffness_N_m=KE,
-                           natural_frequency_rad_s=wn, damping=zeta, gains=(kp, ki, kd),
-                           meta={"stiffness_N_m": K, "sample_time_s": T})
+    return ForceLoopResult(
+        t=T * np.arange(n),
+        force_N=f_out,
+        correction_m=dx_out,
+        position_m=x_out,
+        setpoint_N=fd,
+        environment_stiffness_N_m=KE,
+        natural_frequency_rad_s=wn,
+        damping=zeta,
+        gains=(kp, ki, kd),
+        meta={"stiffness_N_m": K, "sample_time_s": T},
+    )
 
 
 @dataclass
@@ -252,15 +300,26 @@ class ForceRobustness:
         return all(r.stable for r in self.runs)
 
     def to_dict(self) -> dict:
-        return {"nominal": self.nominal.to_dict(), "n_runs": len(self.runs),
-                "max_deviation_N": self.max_deviation_N, "all_stable": self.all_stable,
-                "max_overshoot_pct": max(r.overshoot_pct for r in self.runs),
-                "max_settling_time_s": max(r.settling_time_s for r in self.runs)}
+        return {
+            "nominal": self.nominal.to_dict(),
+            "n_runs": len(self.runs),
+            "max_deviation_N": self.max_deviation_N,
+            "all_stable": self.all_stable,
+            "max_overshoot_pct": max(r.overshoot_pct for r in self.runs),
+            "max_settling_time_s": max(r.settling_time_s for r in self.runs),
+        }
 
 
-def force_robustness(environment_stiffness_N_m: float, gains=None, *, n_runs: int = 20,
-                     seed: int = 0, natural_frequency_range_rad_s=(290.0, 350.0),
-                     damping_range=(0.1, 0.3), **kwargs) -> ForceRobustness:
+def force_robustness(
+    environment_stiffness_N_m: float,
+    gains=None,
+    *,
+    n_runs: int = 20,
+    seed: int = 0,
+    natural_frequency_range_rad_s=(290.0, 350.0),
+    damping_range=(0.1, 0.3),
+    **kwargs,
+) -> ForceRobustness:
     """Seed 004's robustness study: w_n and zeta uniform in their ranges (seeded).
 
     ``kwargs`` go to :func:`force_loop`.
@@ -270,12 +329,20 @@ def force_robustness(environment_stiffness_N_m: float, gains=None, *, n_runs: in
     rng = np.random.default_rng(seed)
     (w0, w1), (z0, z1) = natural_frequency_range_rad_s, damping_range
     if not (0 < w0 <= w1 and 0 < z0 <= z1):
-        raise SpecError(f"force robustness: bad ranges {natural_frequency_range_rad_s}, "
-                        f"{damping_range}")
+        raise SpecError(
+            f"force robustness: bad ranges {natural_frequency_range_rad_s}, {damping_range}"
+        )
     wn = rng.uniform(w0, w1, int(n_runs))
     zeta = rng.uniform(z0, z1, int(n_runs))
-    nominal = force_loop(environment_stiffness_N_m, gains, natural_frequency_rad_s=0.5 * (w0 + w1),
-                         damping=0.5 * (z0 + z1), **kwargs)
-    runs = [force_loop(environment_stiffness_N_m, gains, natural_frequency_rad_s=w,
-                       damping=z, **kwargs) for w, z in zip(wn, zeta, strict=True)]
+    nominal = force_loop(
+        environment_stiffness_N_m,
+        gains,
+        natural_frequency_rad_s=0.5 * (w0 + w1),
+        damping=0.5 * (z0 + z1),
+        **kwargs,
+    )
+    runs = [
+        force_loop(environment_stiffness_N_m, gains, natural_frequency_rad_s=w, damping=z, **kwargs)
+        for w, z in zip(wn, zeta, strict=True)
+    ]
     return ForceRobustness(nominal=nominal, runs=runs, natural_frequency_rad_s=wn, damping=zeta)

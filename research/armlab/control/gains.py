@@ -95,8 +95,7 @@ _METHODS = ("tustin", "backward", "zoh")
 #: Units of (input, output, kp, ki, kd) per loop; all motor side.
 LOOP_UNITS: dict[str, dict[str, str]] = {
     "current": {"input": "A", "output": "V", "kp": "V/A", "ki": "V/(A s)", "kd": "V s/A"},
-    "speed": {"input": "rad/s", "output": "A", "kp": "A/(rad/s)", "ki": "A/rad",
-              "kd": "A s^2/rad"},
+    "speed": {"input": "rad/s", "output": "A", "kp": "A/(rad/s)", "ki": "A/rad", "kd": "A s^2/rad"},
     "position": {"input": "rad", "output": "rad/s", "kp": "1/s", "ki": "1/s^2", "kd": "1"},
 }
 
@@ -107,8 +106,9 @@ _DEFAULT_SIGNALS = {
 }
 
 
-def incremental_coefficients(kp: float, ki: float, kd: float, sample_time_s: float,
-                             method: str = "tustin") -> tuple[float, float, float]:
+def incremental_coefficients(
+    kp: float, ki: float, kd: float, sample_time_s: float, method: str = "tustin"
+) -> tuple[float, float, float]:
     """Coefficients (q0, q1, q2) of the incremental PID.
 
     ``u_k = u_{k-1} + q0 e_k + q1 e_{k-1} + q2 e_{k-2}`` (thesis ch. 5).
@@ -240,11 +240,13 @@ class LoopGains:
         if self.kind not in _KINDS:
             raise InputError(f"{self.loop} loop: kind must be one of {_KINDS}, got {self.kind!r}")
         if self.method not in _METHODS:
-            raise InputError(f"{self.loop} loop: method must be one of {_METHODS}, "
-                             f"got {self.method!r}")
+            raise InputError(
+                f"{self.loop} loop: method must be one of {_METHODS}, got {self.method!r}"
+            )
         if not self.sample_time_s > 0.0:
-            raise InputError(f"{self.loop} loop: sample_time_s must be > 0, "
-                             f"got {self.sample_time_s}")
+            raise InputError(
+                f"{self.loop} loop: sample_time_s must be > 0, got {self.sample_time_s}"
+            )
         for name in ("kp", "ki", "kd"):
             v = float(getattr(self, name))
             if not math.isfinite(v) or v < 0.0:
@@ -253,11 +255,14 @@ class LoopGains:
         self.output_min, self.output_max = float(self.output_min), float(self.output_max)
         self.sample_time_s = float(self.sample_time_s)
         if not self.output_min < self.output_max:
-            raise InputError(f"{self.loop} loop: output_min {self.output_min} must be < "
-                             f"output_max {self.output_max}")
+            raise InputError(
+                f"{self.loop} loop: output_min {self.output_min} must be < "
+                f"output_max {self.output_max}"
+            )
         if any(math.isnan(q) for q in (self.q0, self.q1, self.q2)):
             self.q0, self.q1, self.q2 = incremental_coefficients(
-                self.kp, self.ki, self.kd, self.sample_time_s, self.method)
+                self.kp, self.ki, self.kd, self.sample_time_s, self.method
+            )
         if not self.input_signal or not self.output_signal:
             i, o = _DEFAULT_SIGNALS[self.loop]
             self.input_signal = self.input_signal or i
@@ -283,11 +288,26 @@ class LoopGains:
 
     def with_gains(self, kp: float, ki: float = 0.0, kd: float = 0.0) -> LoopGains:
         """Copy with new continuous gains; q0..q2 recomputed, checked figures cleared."""
-        keep = {f.name: getattr(self, f.name) for f in fields(self)
-                if f.name in ("loop", "kind", "sample_time_s", "method", "output_min",
-                              "output_max", "input_signal", "output_signal",
-                              "derivative_filter_s", "delay_samples", "output_per_volt",
-                              "da_range_V", "da_bits")}
+        keep = {
+            f.name: getattr(self, f.name)
+            for f in fields(self)
+            if f.name
+            in (
+                "loop",
+                "kind",
+                "sample_time_s",
+                "method",
+                "output_min",
+                "output_max",
+                "input_signal",
+                "output_signal",
+                "derivative_filter_s",
+                "delay_samples",
+                "output_per_volt",
+                "da_range_V",
+                "da_bits",
+            )
+        }
         return LoopGains(kp=kp, ki=ki, kd=kd, **keep)
 
     # ------------------------------------------------------------------ JSON
@@ -297,9 +317,17 @@ class LoopGains:
         for f in fields(self):
             v = getattr(self, f.name)
             if f.name == "robustness":
-                out[f.name] = [{k: (_num(x) if isinstance(x, (int, float)) and not
-                                    isinstance(x, bool) else x) for k, x in row.items()}
-                               for row in v]
+                out[f.name] = [
+                    {
+                        k: (
+                            _num(x)
+                            if isinstance(x, (int, float)) and not isinstance(x, bool)
+                            else x
+                        )
+                        for k, x in row.items()
+                    }
+                    for row in v
+                ]
             elif isinstance(v, float):
                 out[f.name] = _num(v)
             else:
@@ -321,10 +349,17 @@ class LoopGains:
                 kw[f.name] = _unnum(kw[f.name])
         if "robustness" in kw:
             kw["robustness"] = [
-                {k: (_unnum(x) if (x is None or x in ("inf", "-inf")
-                                   or isinstance(x, (int, float))) and not isinstance(x, bool)
-                     else x) for k, x in row.items()}
-                for row in kw["robustness"]]
+                {
+                    k: (
+                        _unnum(x)
+                        if (x is None or x in ("inf", "-inf") or isinstance(x, (int, float)))
+                        and not isinstance(x, bool)
+                        else x
+                    )
+                    for k, x in row.items()
+                }
+                for row in kw["robustness"]
+            ]
         return cls(**kw)
 
     def summary(self) -> dict:
@@ -381,8 +416,14 @@ class PlantSummary:
     estimated: bool = False
 
     def to_dict(self) -> dict:
-        return {f.name: (_num(getattr(self, f.name)) if isinstance(getattr(self, f.name), float)
-                         else getattr(self, f.name)) for f in fields(self)}
+        return {
+            f.name: (
+                _num(getattr(self, f.name))
+                if isinstance(getattr(self, f.name), float)
+                else getattr(self, f.name)
+            )
+            for f in fields(self)
+        }
 
     @classmethod
     def from_dict(cls, d: dict) -> PlantSummary:
@@ -497,8 +538,12 @@ class ArmGains:
         return list(self.joints)
 
     def to_dict(self) -> dict:
-        return {"format": GAINS_FORMAT, "robot": self.robot, "spec": self.spec,
-                "joints": {name: g.to_dict() for name, g in self.joints.items()}}
+        return {
+            "format": GAINS_FORMAT,
+            "robot": self.robot,
+            "spec": self.spec,
+            "joints": {name: g.to_dict() for name, g in self.joints.items()},
+        }
 
     def summary(self) -> dict:
         """summary.json "control" block: ``{joint: {loop: figures}}``."""
@@ -511,8 +556,11 @@ class ArmGains:
             raise InputError(f"gains: format {fmt!r} is not {GAINS_FORMAT!r}")
         if "joints" not in d:
             raise InputError("gains: missing key 'joints'")
-        return cls(joints={k: CascadeGains.from_dict(v) for k, v in d["joints"].items()},
-                   robot=d.get("robot", ""), spec=dict(d.get("spec") or {}))
+        return cls(
+            joints={k: CascadeGains.from_dict(v) for k, v in d["joints"].items()},
+            robot=d.get("robot", ""),
+            spec=dict(d.get("spec") or {}),
+        )
 
     def to_json(self, indent: int | None = 2) -> str:
         return json.dumps(self.to_dict(), indent=indent)

@@ -39,8 +39,16 @@ from armlab.control.gains import CascadeGains, LoopGains
 from armlab.control.plant import JointPlant
 from armlab.errors import SpecError
 
-__all__ = ["Margins", "margins", "freq_grid", "pid_tf", "pid_tf_discrete", "pid_response",
-           "CascadeModel", "step_figures"]
+__all__ = [
+    "Margins",
+    "margins",
+    "freq_grid",
+    "pid_tf",
+    "pid_tf_discrete",
+    "pid_response",
+    "CascadeModel",
+    "step_figures",
+]
 
 
 # ---------------------------------------------------------------------------- controllers
@@ -119,8 +127,9 @@ class Margins:
         return self.phase_margin_deg >= phase_margin_deg and self.gain_margin_dB >= gain_margin_dB
 
 
-def freq_grid(dt: float | None = None, w_min: float = 1e-1, w_max: float = 1e6,
-              n: int = 1500) -> np.ndarray:
+def freq_grid(
+    dt: float | None = None, w_min: float = 1e-1, w_max: float = 1e6, n: int = 1500
+) -> np.ndarray:
     """Log grid in [rad/s]; for a discrete loop it stops just below Nyquist ``pi / dt``."""
     if dt is not None:
         w_max = min(w_max, math.pi / dt * (1 - 1e-6))
@@ -213,8 +222,11 @@ class CascadeModel:
         lg = self._g("current")
         if discrete:
             dt = lg.sample_time_s
-            return ct.ss(pid_tf_discrete(lg)) * ct.ss(_delay_z(_int_delay(lg), dt)) \
+            return (
+                ct.ss(pid_tf_discrete(lg))
+                * ct.ss(_delay_z(_int_delay(lg), dt))
                 * self.current_plant(True)
+            )
         return ct.ss(pid_tf(lg)) * self.current_plant(False)
 
     def current_closed(self, discrete: bool = False):
@@ -257,10 +269,10 @@ class CascadeModel:
         B[n, 0] = G.D[0, 0]
         Ad, Bd = _zoh(A, B, dt)
         Ax = np.zeros((n + 2, n + 2))
-        Ax[:n + 1, :n + 1] = Ad
+        Ax[: n + 1, : n + 1] = Ad
         Ax[n + 1, :n] = Ad[n, :n] / dt
         Bx = np.zeros((n + 2, 1))
-        Bx[:n + 1] = Bd
+        Bx[: n + 1] = Bd
         Bx[n + 1, 0] = Bd[n, 0] / dt
         C = np.zeros((2, n + 2))
         C[0, n] = 1.0
@@ -284,8 +296,11 @@ class CascadeModel:
         lg = self._g("speed")
         if discrete:
             dt = lg.sample_time_s
-            return ct.ss(pid_tf_discrete(lg)) * ct.ss(_delay_z(_int_delay(lg), dt)) \
+            return (
+                ct.ss(pid_tf_discrete(lg))
+                * ct.ss(_delay_z(_int_delay(lg), dt))
                 * self.speed_plant(True)
+            )
         return ct.ss(pid_tf(lg)) * self.speed_plant(False)
 
     def speed_closed(self, discrete: bool = False):
@@ -299,8 +314,11 @@ class CascadeModel:
             return self.speed_closed(False) * ct.ss(ct.tf([1.0], [1.0, 0.0]))
         lg = self._g("speed")
         dt = lg.sample_time_s
-        fwd = self._discrete_drive() * ct.ss(_delay_z(_int_delay(lg), dt)) \
+        fwd = (
+            self._discrete_drive()
+            * ct.ss(_delay_z(_int_delay(lg), dt))
             * ct.ss(pid_tf_discrete(lg))
+        )
         pick = ct.ss(np.zeros((0, 0)), np.zeros((0, 2)), np.zeros((1, 0)), [[0.0, 1.0]], dt)
         return ct.feedback(fwd, pick)[0, 0]
 
@@ -308,9 +326,11 @@ class CascadeModel:
         lg = self._g("position")
         if discrete:
             if abs(lg.sample_time_s - self._g("speed").sample_time_s) > 1e-12:
-                raise SpecError(f"{self.plant.joint}: position and speed loops must share a "
-                                f"sample time ({lg.sample_time_s} s != "
-                                f"{self._g('speed').sample_time_s} s)")
+                raise SpecError(
+                    f"{self.plant.joint}: position and speed loops must share a "
+                    f"sample time ({lg.sample_time_s} s != "
+                    f"{self._g('speed').sample_time_s} s)"
+                )
             return ct.ss(pid_tf_discrete(lg)) * self.position_plant(True)
         return ct.ss(pid_tf(lg)) * self.position_plant(False)
 
@@ -343,6 +363,7 @@ def _zoh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarra
     companion-form states python-control builds span many decades, which makes an unbalanced
     ``expm`` slow)."""
     from scipy.linalg import expm, matrix_balance
+
     n, m = B.shape
     M = np.zeros((n + m, n + m))
     M[:n, :n] = A * dt

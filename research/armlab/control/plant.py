@@ -37,8 +37,14 @@ import pinocchio as pin
 from armlab.errors import SpecError
 from armlab.robot.drives import RPM_TO_RAD_S
 
-__all__ = ["JointPlant", "InertiaRange", "inertia_range", "joint_plant", "motor_speed_tf",
-           "INERTIA_CASES"]
+__all__ = [
+    "JointPlant",
+    "InertiaRange",
+    "inertia_range",
+    "joint_plant",
+    "motor_speed_tf",
+    "INERTIA_CASES",
+]
 
 INERTIA_CASES = ("min", "nominal", "max")
 
@@ -67,9 +73,11 @@ class InertiaRange:
     seed: int
 
     def of(self, joint_index: int) -> dict[str, float]:
-        return {"min": float(self.min_kg_m2[joint_index]),
-                "nominal": float(self.nominal_kg_m2[joint_index]),
-                "max": float(self.max_kg_m2[joint_index])}
+        return {
+            "min": float(self.min_kg_m2[joint_index]),
+            "nominal": float(self.nominal_kg_m2[joint_index]),
+            "max": float(self.max_kg_m2[joint_index]),
+        }
 
 
 def _mass_diag(model: pin.Model, Q: np.ndarray) -> np.ndarray:
@@ -102,8 +110,9 @@ def inertia_range(robot, *, n_samples: int = 400, seed: int = 0) -> InertiaRange
     centre = 0.5 * (robot.limits.lower_rad + robot.limits.upper_rad)
     Q = np.vstack([centre, Q])
     with_payload = _mass_diag(robot.model, Q)
-    empty = _mass_diag(robot.with_payload(0.0).model, Q) if robot.payload.mass_kg > 0 else \
-        with_payload
+    empty = (
+        _mass_diag(robot.with_payload(0.0).model, Q) if robot.payload.mass_kg > 0 else with_payload
+    )
     return InertiaRange(
         joint_names=list(robot.joint_names),
         min_kg_m2=np.minimum(with_payload.min(0), empty.min(0)),
@@ -123,13 +132,23 @@ def motor_speed_tf(motor, inertia_kg_m2: float | None = None, *, friction: bool 
     """
     J = motor.rotor_inertia_kg_m2 if inertia_kg_m2 is None else float(inertia_kg_m2)
     B = motor.viscous_friction_Nm_s_rad if friction else 0.0
-    L, R, Kt, Ke = (motor.inductance_H, motor.resistance_ohm, motor.torque_constant_Nm_A,
-                    motor.back_emf_V_s_rad)
+    L, R, Kt, Ke = (
+        motor.inductance_H,
+        motor.resistance_ohm,
+        motor.torque_constant_Nm_A,
+        motor.back_emf_V_s_rad,
+    )
     return ct.tf([Kt], [L * J, L * B + R * J, R * B + Kt * Ke], inputs="U_V", outputs="w_rad_s")
 
 
-_REQUIRED = ("torque_constant_Nm_A", "back_emf_V_s_rad", "resistance_ohm", "inductance_H",
-             "rotor_inertia_kg_m2", "supply_voltage_V")
+_REQUIRED = (
+    "torque_constant_Nm_A",
+    "back_emf_V_s_rad",
+    "resistance_ohm",
+    "inductance_H",
+    "rotor_inertia_kg_m2",
+    "supply_voltage_V",
+)
 
 
 @dataclass
@@ -204,6 +223,7 @@ class JointPlant:
     def at(self, inertia: str | float) -> JointPlant:
         """The same drive at another inertia case."""
         from dataclasses import replace
+
         return replace(self, inertia=inertia)
 
     # ------------------------------------------------------------------ time constants
@@ -226,8 +246,12 @@ class JointPlant:
     def voltage_to_current(self):
         """U [V] -> i [A] with the back-EMF loop: ``(J s + B) / ((L s + R)(J s + B) + Kt Ke)``."""
         J, B = self.J, self.B
-        return ct.tf([J, B], [self.L * J, self.L * B + self.R * J, self.R * B + self.Kt * self.Ke],
-                     inputs="U_V", outputs="i_A")
+        return ct.tf(
+            [J, B],
+            [self.L * J, self.L * B + self.R * J, self.R * B + self.Kt * self.Ke],
+            inputs="U_V",
+            outputs="i_A",
+        )
 
     def current_to_speed(self):
         """i [A] -> motor speed w [rad/s]: ``Kt / (J s + B)``."""
@@ -240,17 +264,31 @@ class JointPlant:
     def voltage_to_speed(self):
         """Thesis eq. 5-8 with friction, U [V] -> w [rad/s]:
         ``Kt / ((L s + R)(J s + B) + Kt Ke)``."""
-        return ct.tf([self.Kt], [self.L * self.J, self.L * self.B + self.R * self.J,
-                                 self.R * self.B + self.Kt * self.Ke],
-                     inputs="U_V", outputs="w_rad_s")
+        return ct.tf(
+            [self.Kt],
+            [
+                self.L * self.J,
+                self.L * self.B + self.R * self.J,
+                self.R * self.B + self.Kt * self.Ke,
+            ],
+            inputs="U_V",
+            outputs="w_rad_s",
+        )
 
     def state_space(self):
         """States (i, w, theta) at the motor; inputs (U [V], tau_L [N m]); outputs (i, w, theta)."""
         J, L = self.J, self.L
         A = [[-self.R / L, -self.Ke / L, 0.0], [self.Kt / J, -self.B / J, 0.0], [0.0, 1.0, 0.0]]
         Bm = [[1.0 / L, 0.0], [0.0, -1.0 / J], [0.0, 0.0]]
-        return ct.ss(A, Bm, np.eye(3), np.zeros((3, 2)), inputs=["U_V", "tau_load_Nm"],
-                     outputs=["i_A", "w_rad_s", "theta_rad"], states=["i", "w", "theta"])
+        return ct.ss(
+            A,
+            Bm,
+            np.eye(3),
+            np.zeros((3, 2)),
+            inputs=["U_V", "tau_load_Nm"],
+            outputs=["i_A", "w_rad_s", "theta_rad"],
+            states=["i", "w", "theta"],
+        )
 
     def summary(self) -> dict:
         """JSON-able summary for :class:`armlab.control.PlantSummary`."""
@@ -259,15 +297,23 @@ class JointPlant:
             "inertia_motor_kg_m2": self.cases(),
             "inertia_joint_kg_m2": dict(self.J_arm),
             "payload_kg": self.payload_kg,
-            "torque_constant_Nm_A": self.Kt, "back_emf_V_s_rad": self.Ke,
-            "resistance_ohm": self.R, "inductance_H": self.L,
+            "torque_constant_Nm_A": self.Kt,
+            "back_emf_V_s_rad": self.Ke,
+            "resistance_ohm": self.R,
+            "inductance_H": self.L,
             "estimated": self.estimated,
         }
 
 
-def joint_plant(robot, joint, *, inertia: str | float = "nominal",
-                inertias: InertiaRange | None = None, n_samples: int = 400,
-                seed: int = 0) -> JointPlant:
+def joint_plant(
+    robot,
+    joint,
+    *,
+    inertia: str | float = "nominal",
+    inertias: InertiaRange | None = None,
+    n_samples: int = 400,
+    seed: int = 0,
+) -> JointPlant:
     """The drive of one joint as a :class:`JointPlant` (python-control LTI models on demand).
 
     Parameters
@@ -292,39 +338,48 @@ def joint_plant(robot, joint, *, inertia: str | float = "nominal",
     j = robot.joint_index(joint)
     name = robot.joint_names[j]
     if robot.drives is None or name not in robot.drives:
-        raise SpecError(f"{name}: no drive data (drives.toml) for robot {robot.name!r}: "
-                        f"cannot build the servo plant")
+        raise SpecError(
+            f"{name}: no drive data (drives.toml) for robot {robot.name!r}: "
+            f"cannot build the servo plant"
+        )
     drive = robot.drives[name]
     motor, reducer = drive.motor, drive.reducer
     for f in _REQUIRED:
         v = getattr(motor, f, None)
         if v is None or not math.isfinite(float(v)) or float(v) <= 0.0:
-            raise SpecError(f"{name}: motor data {f} = {v!r} is missing or not > 0 "
-                            f"(drives.toml)")
+            raise SpecError(f"{name}: motor data {f} = {v!r} is missing or not > 0 (drives.toml)")
     if not (math.isfinite(reducer.ratio) and reducer.ratio > 0):
         raise SpecError(f"{name}: reducer ratio = {reducer.ratio!r} is missing or not > 0")
     if isinstance(inertia, str) and inertia not in INERTIA_CASES:
-        raise SpecError(f"{name}: inertia must be one of {INERTIA_CASES} or a float, "
-                        f"got {inertia!r}")
-    if not isinstance(inertia, str) and not (math.isfinite(float(inertia))
-                                             and float(inertia) >= 0):
+        raise SpecError(
+            f"{name}: inertia must be one of {INERTIA_CASES} or a float, got {inertia!r}"
+        )
+    if not isinstance(inertia, str) and not (math.isfinite(float(inertia)) and float(inertia) >= 0):
         raise SpecError(f"{name}: inertia = {inertia!r} must be >= 0 [kg m^2]")
-    rng = inertias if inertias is not None else inertia_range(robot, n_samples=n_samples,
-                                                              seed=seed)
+    rng = inertias if inertias is not None else inertia_range(robot, n_samples=n_samples, seed=seed)
     Kt, R = motor.torque_constant_Nm_A, motor.resistance_ohm
-    peak_torque = motor.peak_torque_Nm if math.isfinite(motor.peak_torque_Nm) \
-        else 3.0 * motor.stall_torque_Nm
+    peak_torque = (
+        motor.peak_torque_Nm if math.isfinite(motor.peak_torque_Nm) else 3.0 * motor.stall_torque_Nm
+    )
     current_limit = min(peak_torque / Kt, motor.supply_voltage_V / R)
     speed_limit = motor.no_load_speed_rad_s
     if math.isfinite(reducer.max_input_speed_rpm) and reducer.max_input_speed_rpm > 0:
         speed_limit = min(speed_limit, reducer.max_input_speed_rpm * RPM_TO_RAD_S)
     return JointPlant(
-        joint=name, ratio=float(reducer.ratio), efficiency=float(reducer.efficiency),
-        Kt=Kt, Ke=motor.back_emf_V_s_rad, R=R, L=motor.inductance_H,
+        joint=name,
+        ratio=float(reducer.ratio),
+        efficiency=float(reducer.efficiency),
+        Kt=Kt,
+        Ke=motor.back_emf_V_s_rad,
+        R=R,
+        L=motor.inductance_H,
         B=float(motor.viscous_friction_Nm_s_rad or 0.0),
-        J_rotor=motor.rotor_inertia_kg_m2, J_reducer=float(reducer.inertia_kg_m2 or 0.0),
-        J_arm=rng.of(j), inertia=inertia,
-        supply_voltage_V=motor.supply_voltage_V, current_limit_A=current_limit,
+        J_rotor=motor.rotor_inertia_kg_m2,
+        J_reducer=float(reducer.inertia_kg_m2 or 0.0),
+        J_arm=rng.of(j),
+        inertia=inertia,
+        supply_voltage_V=motor.supply_voltage_V,
+        current_limit_A=current_limit,
         speed_limit_rad_s=speed_limit,
         counts_per_rad=drive.encoder.pulses_per_rev * drive.encoder.decoding / (2 * math.pi),
         payload_kg=rng.payload_kg,

@@ -15,14 +15,14 @@ from armlab.control.gains import LOOPS, CascadeGains
 from armlab.control.loops import CascadeModel, _response, freq_grid, margins
 from armlab.control.plant import INERTIA_CASES, JointPlant
 
-__all__ = ["bode_figure", "step_figure", "root_locus_figure", "tracking_figure",
-           "force_figure"]
+__all__ = ["bode_figure", "step_figure", "root_locus_figure", "tracking_figure", "force_figure"]
 
 _COLORS = {"min": "tab:blue", "nominal": "tab:green", "max": "tab:red"}
 
 
-def bode_figure(plant: JointPlant, gains: CascadeGains, loop: str = "speed", *,
-                discrete: bool = True) -> Figure:
+def bode_figure(
+    plant: JointPlant, gains: CascadeGains, loop: str = "speed", *, discrete: bool = True
+) -> Figure:
     """Open-loop Bode plot of one loop at min/nominal/max inertia, continuous (dashed) and
     discrete (solid), gain crossover and -180 deg marked, margins in the legend."""
     fig = Figure(figsize=(8, 6))
@@ -36,8 +36,10 @@ def bode_figure(plant: JointPlant, gains: CascadeGains, loop: str = "speed", *,
             w = freq_grid(dt if disc else None, n=800)
             L = _response(m.open_loop(loop, disc), w, dt if disc else None)
             mg = margins(w, L)
-            label = (f"{case} {'disc' if disc else 'cont'}: PM {mg.phase_margin_deg:.0f} deg, "
-                     f"GM {mg.gain_margin_dB:.1f} dB, wc {mg.crossover_rad_s:.3g} rad/s")
+            label = (
+                f"{case} {'disc' if disc else 'cont'}: PM {mg.phase_margin_deg:.0f} deg, "
+                f"GM {mg.gain_margin_dB:.1f} dB, wc {mg.crossover_rad_s:.3g} rad/s"
+            )
             ax_m.semilogx(w, 20 * np.log10(np.abs(L)), ls, color=_COLORS[case], label=label)
             ax_p.semilogx(w, np.degrees(np.unwrap(np.angle(L))), ls, color=_COLORS[case])
             if math.isfinite(mg.crossover_rad_s):
@@ -67,13 +69,23 @@ def step_figure(plant: JointPlant, gains: CascadeGains) -> Figure:
             m = CascadeModel(plant.at(case), gains)
             for disc, ls in ((False, "--"), (True, "-")):
                 sys = m.closed_loop(loop, disc)
-                T = (np.arange(0.0, t_end, lg.sample_time_s) if disc
-                     else np.linspace(0.0, t_end, 1000))
+                T = (
+                    np.arange(0.0, t_end, lg.sample_time_s)
+                    if disc
+                    else np.linspace(0.0, t_end, 1000)
+                )
                 r = ct.step_response(sys, T=T)
                 y = np.squeeze(r.outputs)
                 if disc:
-                    ax.step(r.time, y, ls, where="post", color=_COLORS[case], lw=1,
-                            label=f"{case}" if disc else None)
+                    ax.step(
+                        r.time,
+                        y,
+                        ls,
+                        where="post",
+                        color=_COLORS[case],
+                        lw=1,
+                        label=f"{case}" if disc else None,
+                    )
                 else:
                     ax.plot(r.time, y, ls, color=_COLORS[case], lw=0.8)
         ax.set_title(f"{loop} loop (OS {lg.overshoot_discrete_pct:.0f} %)", fontsize=9)
@@ -86,8 +98,9 @@ def step_figure(plant: JointPlant, gains: CascadeGains) -> Figure:
     return fig
 
 
-def root_locus_figure(plant: JointPlant, gains: CascadeGains, loop: str = "speed", *,
-                      discrete: bool = False) -> Figure:
+def root_locus_figure(
+    plant: JointPlant, gains: CascadeGains, loop: str = "speed", *, discrete: bool = False
+) -> Figure:
     """Root locus of ``1 + k L`` for one loop at the nominal inertia; the tuned gain (k = 1)
     marked. Discrete loops are drawn with the unit circle."""
     fig = Figure(figsize=(6, 5))
@@ -116,8 +129,11 @@ def root_locus_figure(plant: JointPlant, gains: CascadeGains, loop: str = "speed
         ax.set_xlim(-r, 0.3 * r)
         ax.set_ylim(-r, r)
     ax.set_aspect("equal", adjustable="box")
-    ax.set_title(f"{gains.joint}: root locus of the {loop} loop "
-                 f"({'discrete' if discrete else 'continuous'}, nominal inertia)", fontsize=9)
+    ax.set_title(
+        f"{gains.joint}: root locus of the {loop} loop "
+        f"({'discrete' if discrete else 'continuous'}, nominal inertia)",
+        fontsize=9,
+    )
     ax.legend(fontsize=7)
     ax.grid(True, alpha=0.3)
     return fig
@@ -134,8 +150,12 @@ def tracking_figure(result) -> Figure:
     ax_j.legend(fontsize=7, ncol=3)
     ax_j.grid(True, alpha=0.3)
     ax_t.plot(result.t, result.tcp_error_m * 1e3, color="k", lw=0.8, label="TCP error")
-    ax_t.axhline(result.accuracy_m * 1e3, color="tab:red", ls="--",
-                 label=f"tolerance {result.accuracy_m * 1e3:.2g} mm")
+    ax_t.axhline(
+        result.accuracy_m * 1e3,
+        color="tab:red",
+        ls="--",
+        label=f"tolerance {result.accuracy_m * 1e3:.2g} mm",
+    )
     ax_t.set_ylabel("TCP error [mm]")
     ax_t.set_xlabel("t [s]")
     ax_t.legend(fontsize=7)
@@ -149,9 +169,13 @@ def force_figure(results) -> Figure:
     fig = Figure(figsize=(7, 4))
     ax = fig.subplots()
     for r in results:
-        ax.plot(r.t, r.force_N, lw=0.8,
-                label=f"K_E={r.environment_stiffness_N_m:g} N/m, "
-                      f"w_n={r.natural_frequency_rad_s:.0f}, zeta={r.damping:.2f}")
+        ax.plot(
+            r.t,
+            r.force_N,
+            lw=0.8,
+            label=f"K_E={r.environment_stiffness_N_m:g} N/m, "
+            f"w_n={r.natural_frequency_rad_s:.0f}, zeta={r.damping:.2f}",
+        )
     if results:
         ax.axhline(results[0].setpoint_N, color="k", lw=0.5)
     ax.set_xlabel("t [s]")

@@ -49,8 +49,13 @@ from armlab.control.discrete import IncrementalPID
 from armlab.control.gains import ArmGains, CascadeGains
 from armlab.errors import InputError
 
-__all__ = ["TrackingResult", "simulate_tracking", "POSITIONING_ACCURACY_M", "SERVO_SHARE",
-           "FEEDFORWARDS"]
+__all__ = [
+    "TrackingResult",
+    "simulate_tracking",
+    "POSITIONING_ACCURACY_M",
+    "SERVO_SHARE",
+    "FEEDFORWARDS",
+]
 
 #: Total positioning accuracy the thesis' Monte-Carlo analysis finds achievable, in [m].
 POSITIONING_ACCURACY_M = 1.0e-3
@@ -129,13 +134,18 @@ class TrackingResult:
     def to_dict(self) -> dict:
         """summary.json "tracking": per joint max_error_rad; tcp max_error_m (+ context)."""
         return {
-            "joints": {n: {"max_error_rad": float(e), "final_error_rad": float(f)}
-                       for n, e, f in zip(self.joint_names, self.max_error_rad,
-                                          self.final_error_rad, strict=True)},
-            "tcp": {"max_error_m": self.tcp_max_error_m,
-                    "final_error_m": float(self.tcp_error_m[-1]),
-                    "accuracy_m": self.accuracy_m,
-                    "within_accuracy": self.within_accuracy},
+            "joints": {
+                n: {"max_error_rad": float(e), "final_error_rad": float(f)}
+                for n, e, f in zip(
+                    self.joint_names, self.max_error_rad, self.final_error_rad, strict=True
+                )
+            },
+            "tcp": {
+                "max_error_m": self.tcp_max_error_m,
+                "final_error_m": float(self.tcp_error_m[-1]),
+                "accuracy_m": self.accuracy_m,
+                "within_accuracy": self.within_accuracy,
+            },
             "feedforward": list(self.feedforward),
             "duration_s": float(self.t[-1] - self.t[0]),
             "sample_time_s": float(self.t[1] - self.t[0]) if self.t.size > 1 else math.nan,
@@ -166,9 +176,17 @@ def _cascades(robot, gains) -> list[CascadeGains]:
     return [table[n] for n in robot.joint_names]
 
 
-def simulate_tracking(robot, trajectory, gains, *, feedforward=("velocity",),
-                      quantise: bool = True, t_after_s: float = 0.2,
-                      accuracy_m: float | None = None, tcp: bool = True) -> TrackingResult:
+def simulate_tracking(
+    robot,
+    trajectory,
+    gains,
+    *,
+    feedforward=("velocity",),
+    quantise: bool = True,
+    t_after_s: float = 0.2,
+    accuracy_m: float | None = None,
+    tcp: bool = True,
+) -> TrackingResult:
     """Simulate every joint's cascade tracking ``trajectory`` on the nonlinear arm.
 
     Parameters
@@ -198,16 +216,19 @@ def simulate_tracking(robot, trajectory, gains, *, feedforward=("velocity",),
     if robot.drives is None:
         raise InputError(f"{robot.name}: no drives (drives.toml): cannot simulate the servo")
     if trajectory.n_joints != robot.n_joints:
-        raise InputError(f"trajectory has {trajectory.n_joints} joints, robot "
-                         f"{robot.name} has {robot.n_joints}")
+        raise InputError(
+            f"trajectory has {trajectory.n_joints} joints, robot {robot.name} has {robot.n_joints}"
+        )
     ff = _feedforwards(feedforward)
     cas = _cascades(robot, gains)
     T = cas[0].speed.sample_time_s
     for g in cas:
         for lg in (g.speed, g.position):
             if abs(lg.sample_time_s - T) > 1e-12:
-                raise InputError(f"{g.joint}: {lg.loop} loop sample time {lg.sample_time_s} s "
-                                 f"differs from {T} s: one servo period for all joints")
+                raise InputError(
+                    f"{g.joint}: {lg.loop} loop sample time {lg.sample_time_s} s "
+                    f"differs from {T} s: one servo period for all joints"
+                )
     nj = robot.n_joints
     drives = [robot.drives[n] for n in robot.joint_names]
     N = np.array([d.reducer.ratio for d in drives], float)
@@ -217,10 +238,10 @@ def simulate_tracking(robot, trajectory, gains, *, feedforward=("velocity",),
     L = np.array([d.motor.inductance_H for d in drives])
     Bm = np.array([d.motor.viscous_friction_Nm_s_rad or 0.0 for d in drives])
     U = np.array([d.motor.supply_voltage_V for d in drives])
-    cpr = np.array([d.encoder.pulses_per_rev * d.encoder.decoding / (2 * math.pi)
-                    for d in drives])
-    J_rot = np.array([d.motor.rotor_inertia_kg_m2 + (d.reducer.inertia_kg_m2 or 0.0)
-                      for d in drives])
+    cpr = np.array([d.encoder.pulses_per_rev * d.encoder.decoding / (2 * math.pi) for d in drives])
+    J_rot = np.array(
+        [d.motor.rotor_inertia_kg_m2 + (d.reducer.inertia_kg_m2 or 0.0) for d in drives]
+    )
     per_volt = np.array([g.speed.output_per_volt or (g.speed.output_max / 10.0) for g in cas])
     da_range = cas[0].speed.da_range_V
     da_bits = cas[0].speed.da_bits
@@ -242,12 +263,17 @@ def simulate_tracking(robot, trajectory, gains, *, feedforward=("velocity",),
             i_ff += tau / (N * Kt)
         else:
             if "gravity" in ff:
-                tau_g = np.array([pin.computeGeneralizedGravity(model, data, q_d[k])
-                                  for k in range(n)])
+                tau_g = np.array(
+                    [pin.computeGeneralizedGravity(model, data, q_d[k]) for k in range(n)]
+                )
                 i_ff += tau_g / (N * Kt)
             if "acceleration" in ff:
-                Jn = np.array([c.plant.inertia_motor_kg_m2["nominal"] if c.plant else
-                               J_rot[j] for j, c in enumerate(cas)])
+                Jn = np.array(
+                    [
+                        c.plant.inertia_motor_kg_m2["nominal"] if c.plant else J_rot[j]
+                        for j, c in enumerate(cas)
+                    ]
+                )
                 i_ff += Jn * N * qdd_d / Kt
             if "friction" in ff:
                 i_ff += Bm * N * qd_d / Kt
@@ -265,9 +291,9 @@ def simulate_tracking(robot, trajectory, gains, *, feedforward=("velocity",),
     # update all joints (no BLAS call in the loop: tiny BLAS calls cost more than they do)
     coef = np.zeros((3, 4, nj))
     for j in range(nj):
-        A = np.array([[-(kp_i[j] + R[j]) / L[j], 1.0 / L[j], 0.0],
-                      [-ki_i[j], 0.0, 0.0],
-                      [1.0, 0.0, 0.0]])
+        A = np.array(
+            [[-(kp_i[j] + R[j]) / L[j], 1.0 / L[j], 0.0], [-ki_i[j], 0.0, 0.0], [1.0, 0.0, 0.0]]
+        )
         B = np.array([[kp_i[j] / L[j], -Ke[j] / L[j]], [ki_i[j], 0.0], [0.0, 0.0]])
         M = np.zeros((5, 5))
         M[:3, :3], M[:3, 3:] = A * T, B * T
@@ -275,7 +301,7 @@ def simulate_tracking(robot, trajectory, gains, *, feedforward=("velocity",),
         coef[:, :2, j] = E[:3, :2]
         coef[:, 2, j] = E[:3, 3]
         coef[:, 3, j] = E[:3, 4] * N[j]
-        coef[2, :, j] /= T                  # integral of i over the period -> mean current
+        coef[2, :, j] /= T  # integral of i over the period -> mean current
 
     # ---------------------------------------------------------------- initial state
     q = q_d[0].copy()
@@ -283,7 +309,7 @@ def simulate_tracking(robot, trajectory, gains, *, feedforward=("velocity",),
     g0 = pin.computeGeneralizedGravity(model, data, q)
     i_hold = (g0 + Bm * N**2 * v) / (N * Kt)
     i_cmd = i_hold.copy()  # applied during the first period
-    S = np.zeros((4, nj))                   # (i, x_I, i*, v) of every joint
+    S = np.zeros((4, nj))  # (i, x_I, i*, v) of every joint
     S[0] = i_hold
     S[1] = R * i_hold + Ke * N * v
     spd.reset(u0=i_hold - i_ff[0])
@@ -297,7 +323,7 @@ def simulate_tracking(robot, trajectory, gains, *, feedforward=("velocity",),
     da_lsb = 1.0 / da_scale
     v_lo, v_hi = -da_range, da_range - da_lsb
     inv_pv = 1.0 / per_volt
-    U_R, Ke_R = U / R, Ke * N / R            # voltage limit on the current: +-U/R - Ke N v/R
+    U_R, Ke_R = U / R, Ke * N / R  # voltage limit on the current: +-U/R - Ke N v/R
     NKt, NBmN = N * Kt, N * Bm * N
     hT2 = 0.5 * T * T
 
@@ -332,7 +358,7 @@ def simulate_tracking(robot, trajectory, gains, *, feedforward=("velocity",),
         i_lo = i_hi - 2.0 * U_R
         i_mean = mn(mx(nxt[2], i_lo), i_hi)
         S[0] = mn(mx(nxt[0], i_lo), i_hi)
-        S[1] = mn(mx(nxt[1], -U), U)          # amplifier PI anti-windup
+        S[1] = mn(mx(nxt[1], -U), U)  # amplifier PI anti-windup
         out_i[k] = i_mean
         i_cmd = volts * per_volt
         # arm
@@ -345,11 +371,22 @@ def simulate_tracking(robot, trajectory, gains, *, feedforward=("velocity",),
     tcp_err = np.full(n, np.nan)
     if tcp:
         from armlab.kinematics import fk_batch
+
         p_ref = fk_batch(robot, q_d)[:, :3, 3]
         p = fk_batch(robot, out_q)[:, :3, 3]
         tcp_err = np.linalg.norm(p - p_ref, axis=1)
     acc = POSITIONING_ACCURACY_M * SERVO_SHARE if accuracy_m is None else float(accuracy_m)
-    return TrackingResult(t=t, q_ref=q_d, q=out_q, qd=out_v, current_A=out_i, da_V=out_da,
-                          tcp_error_m=tcp_err, joint_names=list(robot.joint_names),
-                          feedforward=ff, accuracy_m=acc, wall_time_s=wall,
-                          meta={"quantise": quantise, "n_steps": n})
+    return TrackingResult(
+        t=t,
+        q_ref=q_d,
+        q=out_q,
+        qd=out_v,
+        current_A=out_i,
+        da_V=out_da,
+        tcp_error_m=tcp_err,
+        joint_names=list(robot.joint_names),
+        feedforward=ff,
+        accuracy_m=acc,
+        wall_time_s=wall,
+        meta={"quantise": quantise, "n_steps": n},
+    )

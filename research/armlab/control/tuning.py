@@ -131,10 +131,12 @@ class TuningSpec:
         if self.position_bandwidth_rad_s is not None and self.rise_time_s is not None:
             bad("rise_time_s", "cannot be given together with position_bandwidth_rad_s")
         if self.position_bandwidth_rad_s is not None and not (
-                self.position_bandwidth_rad_s > 0 and math.isfinite(self.position_bandwidth_rad_s)):
+            self.position_bandwidth_rad_s > 0 and math.isfinite(self.position_bandwidth_rad_s)
+        ):
             bad("position_bandwidth_rad_s", "must be a finite number > 0 rad/s")
-        if self.rise_time_s is not None and not (self.rise_time_s > 0
-                                                 and math.isfinite(self.rise_time_s)):
+        if self.rise_time_s is not None and not (
+            self.rise_time_s > 0 and math.isfinite(self.rise_time_s)
+        ):
             bad("rise_time_s", "must be > 0 s")
         if int(self.delay_samples) != self.delay_samples or self.delay_samples < 0:
             bad("delay_samples", "must be a whole number >= 0")
@@ -158,14 +160,16 @@ class TuningSpec:
         names = set(cls.__dataclass_fields__)
         unknown = sorted(set(spec) - names)
         if unknown:
-            raise SpecError(f"{joint + ': ' if joint else ''}unknown tuning spec "
-                            f"{', '.join(unknown)} (known: {', '.join(sorted(names))})")
+            raise SpecError(
+                f"{joint + ': ' if joint else ''}unknown tuning spec "
+                f"{', '.join(unknown)} (known: {', '.join(sorted(names))})"
+            )
         return cls(**spec).validate(joint)
 
 
 # ---------------------------------------------------------------------------- helpers
-_PM_PAD = 0.5   # [deg] kept in the search so the final python-control check passes
-_GM_PAD = 0.2   # [dB]
+_PM_PAD = 0.5  # [deg] kept in the search so the final python-control check passes
+_GM_PAD = 0.2  # [dB]
 
 
 @dataclass
@@ -215,20 +219,33 @@ def _bisect_max(feasible, lo: float, hi: float, n: int = 40) -> float | None:
     return math.exp(a)
 
 
-def _loop(loop: str, kind: str, kp: float, ki: float, dt: float, spec: TuningSpec,
-          plant: JointPlant) -> LoopGains:
+def _loop(
+    loop: str, kind: str, kp: float, ki: float, dt: float, spec: TuningSpec, plant: JointPlant
+) -> LoopGains:
     kw = {}
     if loop == "current":
         lo, hi = -plant.supply_voltage_V, plant.supply_voltage_V
     elif loop == "speed":
         lo, hi = -plant.current_limit_A, plant.current_limit_A
-        kw = {"output_per_volt": plant.current_limit_A / spec.da_range_V,
-              "da_range_V": spec.da_range_V, "da_bits": spec.da_bits}
+        kw = {
+            "output_per_volt": plant.current_limit_A / spec.da_range_V,
+            "da_range_V": spec.da_range_V,
+            "da_bits": spec.da_bits,
+        }
     else:
         lo, hi = -plant.speed_limit_rad_s, plant.speed_limit_rad_s
-    return LoopGains(loop=loop, kind=kind, kp=kp, ki=ki, sample_time_s=dt, method=spec.method,
-                     output_min=lo, output_max=hi, delay_samples=float(spec.delay_samples),
-                     **kw)
+    return LoopGains(
+        loop=loop,
+        kind=kind,
+        kp=kp,
+        ki=ki,
+        sample_time_s=dt,
+        method=spec.method,
+        output_min=lo,
+        output_max=hi,
+        delay_samples=float(spec.delay_samples),
+        **kw,
+    )
 
 
 # ---------------------------------------------------------------------------- per loop
@@ -259,9 +276,11 @@ def _tune_current(plants: dict[str, JointPlant], spec: TuningSpec, n_grid: int) 
         if best is None or wmin > best[0]:
             best = (wmin, lg)
     if best is None:
-        raise SpecError(f"{p0.joint}: no current-loop PI meets phase_margin_deg>="
-                        f"{spec.phase_margin_deg} and gain_margin_dB>={spec.gain_margin_dB} "
-                        f"at current_sample_time_s={spec.current_sample_time_s}")
+        raise SpecError(
+            f"{p0.joint}: no current-loop PI meets phase_margin_deg>="
+            f"{spec.phase_margin_deg} and gain_margin_dB>={spec.gain_margin_dB} "
+            f"at current_sample_time_s={spec.current_sample_time_s}"
+        )
     return best[1]
 
 
@@ -276,12 +295,16 @@ def _tune_speed(plants, current: LoopGains, spec: TuningSpec, n_grid: int) -> Lo
         w_c = freq_grid(None, n=n_grid)
         w_d = freq_grid(dt, n=n_grid)
         zi = np.exp(-1j * w_d * dt) ** spec.delay_samples
-        cases.append(_Case(w_c, _resp(m.speed_plant(False), w_c), w_d,
-                           _resp(m.speed_plant(True), w_d, dt) * zi))
+        cases.append(
+            _Case(
+                w_c, _resp(m.speed_plant(False), w_c), w_d, _resp(m.speed_plant(True), w_d, dt) * zi
+            )
+        )
     w_cap = wci_min / spec.separation_current_speed
     J_max = max(p.J for p in plants.values())
     found = []
     for beta in np.geomspace(0.05, 0.5, 8):
+
         def make(kp, beta=beta):
             return _loop("speed", "PI", kp, kp * beta * kp * p0.Kt / J_max, dt, spec, p0)
 
@@ -303,15 +326,18 @@ def _tune_speed(plants, current: LoopGains, spec: TuningSpec, n_grid: int) -> Lo
         best = max((f for f in found if f[0] >= 0.85 * w_best), key=lambda f: f[1])
         best = (best[0], best[2])
     if best is None:
-        raise SpecError(f"{p0.joint}: no speed-loop PI meets phase_margin_deg>="
-                        f"{spec.phase_margin_deg}, gain_margin_dB>={spec.gain_margin_dB} and "
-                        f"separation_current_speed={spec.separation_current_speed} over the "
-                        f"inertia range at speed_sample_time_s={spec.speed_sample_time_s}")
+        raise SpecError(
+            f"{p0.joint}: no speed-loop PI meets phase_margin_deg>="
+            f"{spec.phase_margin_deg}, gain_margin_dB>={spec.gain_margin_dB} and "
+            f"separation_current_speed={spec.separation_current_speed} over the "
+            f"inertia range at speed_sample_time_s={spec.speed_sample_time_s}"
+        )
     return best[1]
 
 
-def _tune_position(plants, current: LoopGains, speed: LoopGains, spec: TuningSpec,
-                   n_grid: int) -> LoopGains:
+def _tune_position(
+    plants, current: LoopGains, speed: LoopGains, spec: TuningSpec, n_grid: int
+) -> LoopGains:
     p0 = plants["nominal"]
     dt = spec.position_sample_time_s
     cases, models, ww_min = [], [], math.inf
@@ -322,8 +348,14 @@ def _tune_position(plants, current: LoopGains, speed: LoopGains, spec: TuningSpe
         ww_min = min(ww_min, m.margins("speed", False, n=n_grid).crossover_rad_s)
         w_c = freq_grid(None, n=n_grid)
         w_d = freq_grid(dt, n=n_grid)
-        cases.append(_Case(w_c, _resp(m.position_plant(False), w_c), w_d,
-                           _resp(m.position_plant(True), w_d, dt)))
+        cases.append(
+            _Case(
+                w_c,
+                _resp(m.position_plant(False), w_c),
+                w_d,
+                _resp(m.position_plant(True), w_d, dt),
+            )
+        )
     w_cap = ww_min / spec.separation_speed_position
 
     def make(kp):
@@ -336,8 +368,10 @@ def _tune_position(plants, current: LoopGains, speed: LoopGains, spec: TuningSpe
     kp_max = _bisect_max(feasible, 1e-2, 10.0 / dt)
     target = spec.target_bandwidth_rad_s
     if kp_max is None:
-        raise SpecError(f"{p0.joint}: no position-loop gain meets phase_margin_deg>="
-                        f"{spec.phase_margin_deg} and gain_margin_dB>={spec.gain_margin_dB}")
+        raise SpecError(
+            f"{p0.joint}: no position-loop gain meets phase_margin_deg>="
+            f"{spec.phase_margin_deg} and gain_margin_dB>={spec.gain_margin_dB}"
+        )
     nominal = cases[list(plants).index("nominal")]
 
     def wc_nominal(kp):
@@ -346,14 +380,18 @@ def _tune_position(plants, current: LoopGains, speed: LoopGains, spec: TuningSpe
     if target is not None:
         w_best = wc_nominal(kp_max)
         if target > w_best * (1 + 1e-3):
-            name = "position_bandwidth_rad_s" if spec.position_bandwidth_rad_s is not None \
+            name = (
+                "position_bandwidth_rad_s"
+                if spec.position_bandwidth_rad_s is not None
                 else "rise_time_s"
+            )
             val = getattr(spec, name)
             raise SpecError(
                 f"{p0.joint}: spec {name}={val!r} is impossible: the position loop reaches at "
                 f"most {w_best:.4g} rad/s with phase_margin_deg>={spec.phase_margin_deg}, "
                 f"gain_margin_dB>={spec.gain_margin_dB} and separation_speed_position="
-                f"{spec.separation_speed_position} over the inertia range")
+                f"{spec.separation_speed_position} over the inertia range"
+            )
         # bisection on the nominal crossover
         a, b = math.log(1e-3), math.log(kp_max)
         for _ in range(60):
@@ -378,16 +416,23 @@ def _tune_position(plants, current: LoopGains, speed: LoopGains, spec: TuningSpe
         if worst <= spec.overshoot_pct:
             return lg
         if target is not None:
-            raise SpecError(f"{p0.joint}: spec overshoot_pct={spec.overshoot_pct} cannot be met "
-                            f"at position_bandwidth_rad_s={target:.4g} (overshoot "
-                            f"{worst:.3g} %)")
+            raise SpecError(
+                f"{p0.joint}: spec overshoot_pct={spec.overshoot_pct} cannot be met "
+                f"at position_bandwidth_rad_s={target:.4g} (overshoot "
+                f"{worst:.3g} %)"
+            )
         kp *= 0.9
     raise SpecError(f"{p0.joint}: spec overshoot_pct={spec.overshoot_pct} cannot be met")
 
 
 # ---------------------------------------------------------------------------- checks
-def check_cascade(plant: JointPlant, gains: CascadeGains, *, n_grid: int = 1500,
-                  inner_overshoot_pct: float | None = None) -> CascadeGains:
+def check_cascade(
+    plant: JointPlant,
+    gains: CascadeGains,
+    *,
+    n_grid: int = 1500,
+    inner_overshoot_pct: float | None = None,
+) -> CascadeGains:
     """Recompute every loop's figures on the python-control models over the inertia range.
 
     For each loop and each inertia case (min, nominal, max): crossover, phase and gain margins,
@@ -414,17 +459,25 @@ def check_cascade(plant: JointPlant, gains: CascadeGains, *, n_grid: int = 1500,
                 if name == "position":
                     t_end = 12.0 / wc if math.isfinite(wc) and wc > 0 else 1.0
                 os_, ts = step_figures(m.closed_loop(name, disc), t_end)
-                row.update({f"crossover{sfx}_rad_s": wc, f"phase_margin{sfx}_deg":
-                            mg.phase_margin_deg, f"gain_margin{sfx}_dB": mg.gain_margin_dB,
-                            f"overshoot{sfx}_pct": os_, f"settling_time{sfx}_s": ts,
-                            f"stable{sfx}": m.stable(name, disc)})
+                row.update(
+                    {
+                        f"crossover{sfx}_rad_s": wc,
+                        f"phase_margin{sfx}_deg": mg.phase_margin_deg,
+                        f"gain_margin{sfx}_dB": mg.gain_margin_dB,
+                        f"overshoot{sfx}_pct": os_,
+                        f"settling_time{sfx}_s": ts,
+                        f"stable{sfx}": m.stable(name, disc),
+                    }
+                )
             rows.append(row)
         nom = rows[INERTIA_CASES.index("nominal")]
         lg.crossover_rad_s = nom["crossover_rad_s"]
         lg.crossover_discrete_rad_s = nom["crossover_discrete_rad_s"]
         for key in ("phase_margin", "gain_margin"):
-            for sfx, unit in (("", "_deg" if key == "phase_margin" else "_dB"),
-                              ("_discrete", "_deg" if key == "phase_margin" else "_dB")):
+            for sfx, unit in (
+                ("", "_deg" if key == "phase_margin" else "_dB"),
+                ("_discrete", "_deg" if key == "phase_margin" else "_dB"),
+            ):
                 k = f"{key}{sfx}{unit}"
                 setattr(lg, k, min(r[k] for r in rows))
         for sfx in ("", "_discrete"):
@@ -477,8 +530,9 @@ def tune_cascade(robot, joint, *, inertias=None, n_grid: int = 600, **spec) -> C
     except (np.linalg.LinAlgError, ValueError, ZeroDivisionError) as e:
         raise SpecError(f"{name}: tuning failed numerically ({e})") from None
     summary = PlantSummary(**base.summary())
-    g = CascadeGains(joint=name, current=cur, speed=spd, position=pos, plant=summary,
-                     spec=sp.to_dict())
+    g = CascadeGains(
+        joint=name, current=cur, speed=spd, position=pos, plant=summary, spec=sp.to_dict()
+    )
     g = check_cascade(base, g)
     _assert_meets(g, sp)
     return g
@@ -490,19 +544,24 @@ def _assert_meets(g: CascadeGains, sp: TuningSpec) -> None:
             pm = getattr(lg, f"phase_margin{sfx}_deg")
             gm = getattr(lg, f"gain_margin{sfx}_dB")
             if pm < sp.phase_margin_deg - 1e-6 or gm < sp.gain_margin_dB - 1e-6:
-                raise SpecError(f"{g.joint}: the {name} loop ends at phase margin {pm:.3g} deg, "
-                                f"gain margin {gm:.3g} dB ({'discrete' if sfx else 'continuous'}"
-                                f") < spec phase_margin_deg={sp.phase_margin_deg}, "
-                                f"gain_margin_dB={sp.gain_margin_dB}")
+                raise SpecError(
+                    f"{g.joint}: the {name} loop ends at phase margin {pm:.3g} deg, "
+                    f"gain margin {gm:.3g} dB ({'discrete' if sfx else 'continuous'}"
+                    f") < spec phase_margin_deg={sp.phase_margin_deg}, "
+                    f"gain_margin_dB={sp.gain_margin_dB}"
+                )
         for row in lg.robustness:
             if not (row["stable"] and row["stable_discrete"]):
-                raise SpecError(f"{g.joint}: the {name} loop is unstable at the {row['label']} "
-                                f"inertia")
+                raise SpecError(
+                    f"{g.joint}: the {name} loop is unstable at the {row['label']} inertia"
+                )
         if sp.inner_overshoot_pct is not None and name != "position":
             os_ = max(lg.overshoot_pct, lg.overshoot_discrete_pct)
             if os_ > sp.inner_overshoot_pct:
-                raise SpecError(f"{g.joint}: spec inner_overshoot_pct={sp.inner_overshoot_pct} "
-                                f"not met by the {name} loop ({os_:.3g} %)")
+                raise SpecError(
+                    f"{g.joint}: spec inner_overshoot_pct={sp.inner_overshoot_pct} "
+                    f"not met by the {name} loop ({os_:.3g} %)"
+                )
 
 
 def tune_arm(robot, **spec) -> ArmGains:
@@ -515,6 +574,7 @@ def tune_arm(robot, **spec) -> ArmGains:
     """
     sp = TuningSpec.from_kwargs("", **spec)
     inertias = inertia_range(robot, n_samples=sp.n_inertia_samples, seed=sp.seed)
-    joints = {name: tune_cascade(robot, name, inertias=inertias, **spec)
-              for name in robot.joint_names}
+    joints = {
+        name: tune_cascade(robot, name, inertias=inertias, **spec) for name in robot.joint_names
+    }
     return ArmGains(joints=joints, robot=robot.name, spec=sp.to_dict())

@@ -35,8 +35,15 @@ from armlab.errors import LimitViolation
 __all__ = ["CHECKS", "PreflightFailure", "PreflightReport", "preflight"]
 
 #: Check names in the order they are reported when two fail on the same cycle and joint.
-CHECKS = ("finite", "start pose", "joint range", "counter range", "speed", "pulse rate",
-          "continuity")
+CHECKS = (
+    "finite",
+    "start pose",
+    "joint range",
+    "counter range",
+    "speed",
+    "pulse rate",
+    "continuity",
+)
 
 INT32_MAX = 2**31 - 1
 RANGE_TOL_RAD = 1e-9
@@ -73,8 +80,10 @@ class PreflightFailure:
 
     def message(self) -> str:
         """One line naming cycle, joint and limit."""
-        return (f"pre-flight check failed at cycle {self.cycle} (t = {self.t_s:.6g} s), "
-                f"joint {self.joint}, {self.check} limit: {self.detail}; nothing written")
+        return (
+            f"pre-flight check failed at cycle {self.cycle} (t = {self.t_s:.6g} s), "
+            f"joint {self.joint}, {self.check} limit: {self.detail}; nothing written"
+        )
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -119,9 +128,13 @@ class PreflightReport:
             raise exc
 
     def to_dict(self) -> dict:
-        return {"ok": self.ok(), "checks": list(self.checks), "n_cycles": self.n_cycles,
-                "failures": [f.to_dict() for f in self.failures],
-                "peak_ratio": self.peak_ratio}
+        return {
+            "ok": self.ok(),
+            "checks": list(self.checks),
+            "n_cycles": self.n_cycles,
+            "failures": [f.to_dict() for f in self.failures],
+            "peak_ratio": self.peak_ratio,
+        }
 
 
 def _first(bad: np.ndarray) -> tuple[int, int] | None:
@@ -137,17 +150,32 @@ def _peak(ratio: np.ndarray, names: list[str]) -> dict[str, float | None]:
     """Largest ratio per joint (None where not finite, e.g. a zero limit)."""
     if ratio.size == 0:
         return {n: 0.0 for n in names}
-    return {n: (float(r) if np.isfinite(r) else None)
-            for n, r in zip(names, ratio.max(axis=0), strict=True)}
+    return {
+        n: (float(r) if np.isfinite(r) else None)
+        for n, r in zip(names, ratio.max(axis=0), strict=True)
+    }
 
 
-def preflight(*, t_s: np.ndarray, q: np.ndarray, qd: np.ndarray, counts_exact: np.ndarray,
-              dcounts: np.ndarray | None, joint_names: list[str], lower_rad: np.ndarray,
-              upper_rad: np.ndarray, velocity_rad_s: np.ndarray,
-              acceleration_rad_s2: np.ndarray | None, counts_per_rad: np.ndarray, cycle_s: float,
-              max_pulses_per_cycle: int | None, q_current: np.ndarray | None = None,
-              start_tolerance_counts: float = 1.0, speed_tolerance: float = 1e-6,
-              continuity_tolerance: float = 0.05) -> PreflightReport:
+def preflight(
+    *,
+    t_s: np.ndarray,
+    q: np.ndarray,
+    qd: np.ndarray,
+    counts_exact: np.ndarray,
+    dcounts: np.ndarray | None,
+    joint_names: list[str],
+    lower_rad: np.ndarray,
+    upper_rad: np.ndarray,
+    velocity_rad_s: np.ndarray,
+    acceleration_rad_s2: np.ndarray | None,
+    counts_per_rad: np.ndarray,
+    cycle_s: float,
+    max_pulses_per_cycle: int | None,
+    q_current: np.ndarray | None = None,
+    start_tolerance_counts: float = 1.0,
+    speed_tolerance: float = 1e-6,
+    continuity_tolerance: float = 0.05,
+) -> PreflightReport:
     """Run every check on every cycle (see the module docstring for the rules).
 
     Parameters
@@ -187,15 +215,36 @@ def preflight(*, t_s: np.ndarray, q: np.ndarray, qd: np.ndarray, counts_exact: n
         if hit is not None:
             k, j = hit
             value, limit, unit, detail = make(k, j)
-            found.append((k, j, CHECKS.index(check), PreflightFailure(
-                check, k, float(t_s[k]), joint_names[j], float(value), float(limit), unit,
-                detail)))
+            found.append(
+                (
+                    k,
+                    j,
+                    CHECKS.index(check),
+                    PreflightFailure(
+                        check,
+                        k,
+                        float(t_s[k]),
+                        joint_names[j],
+                        float(value),
+                        float(limit),
+                        unit,
+                        detail,
+                    ),
+                )
+            )
 
     report.checks.append("finite")
     finite = np.isfinite(q) & np.isfinite(qd)
-    add("finite", ~finite, lambda k, j: (q[k, j] if not np.isfinite(q[k, j]) else qd[k, j],
-                                         math.inf, "", f"q = {q[k, j]!r} rad, "
-                                         f"qd = {qd[k, j]!r} rad/s are not finite numbers"))
+    add(
+        "finite",
+        ~finite,
+        lambda k, j: (
+            q[k, j] if not np.isfinite(q[k, j]) else qd[k, j],
+            math.inf,
+            "",
+            f"q = {q[k, j]!r} rad, qd = {qd[k, j]!r} rad/s are not finite numbers",
+        ),
+    )
     qs = np.where(finite, q, 0.0)
     qds = np.where(finite, qd, 0.0)
 
@@ -204,23 +253,44 @@ def preflight(*, t_s: np.ndarray, q: np.ndarray, qd: np.ndarray, counts_exact: n
         off = np.abs(qs[0] - q_current) * counts_per_rad
         bad = np.zeros_like(qs, dtype=bool)
         bad[0] = ~(off <= start_tolerance_counts)
-        add("start pose", bad, lambda k, j: (
-            off[j], start_tolerance_counts, "counts",
-            f"the table starts at {qs[0, j]:.6g} rad, {off[j]:.4g} counts from the current pose "
-            f"{q_current[j]:.6g} rad (tolerance {start_tolerance_counts:g} counts)"))
+        add(
+            "start pose",
+            bad,
+            lambda k, j: (
+                off[j],
+                start_tolerance_counts,
+                "counts",
+                f"the table starts at {qs[0, j]:.6g} rad, {off[j]:.4g} counts from the current pose "
+                f"{q_current[j]:.6g} rad (tolerance {start_tolerance_counts:g} counts)",
+            ),
+        )
 
     report.checks.append("joint range")
     below, above = qs < lower_rad - RANGE_TOL_RAD, qs > upper_rad + RANGE_TOL_RAD
-    add("joint range", below | above, lambda k, j: (
-        qs[k, j], lower_rad[j] if below[k, j] else upper_rad[j], "rad",
-        f"position {qs[k, j]:.6g} rad is outside the range "
-        f"[{lower_rad[j]:.6g}, {upper_rad[j]:.6g}] rad"))
+    add(
+        "joint range",
+        below | above,
+        lambda k, j: (
+            qs[k, j],
+            lower_rad[j] if below[k, j] else upper_rad[j],
+            "rad",
+            f"position {qs[k, j]:.6g} rad is outside the range "
+            f"[{lower_rad[j]:.6g}, {upper_rad[j]:.6g}] rad",
+        ),
+    )
 
     report.checks.append("counter range")
     cs = np.where(finite, counts_exact, 0.0)
-    add("counter range", np.abs(cs) > INT32_MAX, lambda k, j: (
-        cs[k, j], INT32_MAX, "counts",
-        f"{cs[k, j]:.0f} counts do not fit a 32-bit counter (limit {INT32_MAX})"))
+    add(
+        "counter range",
+        np.abs(cs) > INT32_MAX,
+        lambda k, j: (
+            cs[k, j],
+            INT32_MAX,
+            "counts",
+            f"{cs[k, j]:.0f} counts do not fit a 32-bit counter (limit {INT32_MAX})",
+        ),
+    )
 
     report.checks.append("speed")
     mean_speed = np.zeros_like(qs)
@@ -228,19 +298,33 @@ def preflight(*, t_s: np.ndarray, q: np.ndarray, qd: np.ndarray, counts_exact: n
     speed = np.maximum(np.abs(qds), mean_speed)
     vlim = np.asarray(velocity_rad_s, dtype=float)
     report.peak_ratio["speed"] = _peak(speed / vlim, joint_names)
-    add("speed", speed > vlim * (1.0 + speed_tolerance), lambda k, j: (
-        speed[k, j], vlim[j], "rad/s",
-        f"speed {speed[k, j]:.6g} rad/s exceeds {vlim[j]:.6g} rad/s "
-        f"({100 * speed[k, j] / vlim[j]:.2f} % of the limit)"))
+    add(
+        "speed",
+        speed > vlim * (1.0 + speed_tolerance),
+        lambda k, j: (
+            speed[k, j],
+            vlim[j],
+            "rad/s",
+            f"speed {speed[k, j]:.6g} rad/s exceeds {vlim[j]:.6g} rad/s "
+            f"({100 * speed[k, j] / vlim[j]:.2f} % of the limit)",
+        ),
+    )
 
     if max_pulses_per_cycle is not None and dcounts is not None:
         report.checks.append("pulse rate")
         pulses = np.abs(dcounts)
         report.peak_ratio["pulse rate"] = _peak(pulses / max_pulses_per_cycle, joint_names)
-        add("pulse rate", pulses > max_pulses_per_cycle, lambda k, j: (
-            pulses[k, j], max_pulses_per_cycle, "pulses",
-            f"{pulses[k, j]} pulses in one {T:g} s cycle exceed the controller's "
-            f"{max_pulses_per_cycle} pulses per cycle"))
+        add(
+            "pulse rate",
+            pulses > max_pulses_per_cycle,
+            lambda k, j: (
+                pulses[k, j],
+                max_pulses_per_cycle,
+                "pulses",
+                f"{pulses[k, j]} pulses in one {T:g} s cycle exceed the controller's "
+                f"{max_pulses_per_cycle} pulses per cycle",
+            ),
+        )
 
     if acceleration_rad_s2 is not None and n > 0:
         report.checks.append("continuity")
@@ -253,11 +337,18 @@ def preflight(*, t_s: np.ndarray, q: np.ndarray, qd: np.ndarray, counts_exact: n
         dv[-1] = np.maximum(dv[-1], stop)
         allowed = np.asarray(acceleration_rad_s2, dtype=float) * T
         report.peak_ratio["continuity"] = _peak(dv / allowed, joint_names)
-        add("continuity", dv > allowed * (1.0 + continuity_tolerance) + 1e-12, lambda k, j: (
-            dv[k, j], allowed[j], "rad/s",
-            f"{'abrupt stop after the last cycle' if k == n - 1 and stops[j] else 'velocity jump'}"
-            f" of {dv[k, j]:.6g} rad/s in one cycle, more than the acceleration limit allows "
-            f"({allowed[j]:.6g} rad/s = a_max x {T:g} s)"))
+        add(
+            "continuity",
+            dv > allowed * (1.0 + continuity_tolerance) + 1e-12,
+            lambda k, j: (
+                dv[k, j],
+                allowed[j],
+                "rad/s",
+                f"{'abrupt stop after the last cycle' if k == n - 1 and stops[j] else 'velocity jump'}"
+                f" of {dv[k, j]:.6g} rad/s in one cycle, more than the acceleration limit allows "
+                f"({allowed[j]:.6g} rad/s = a_max x {T:g} s)",
+            ),
+        )
 
     found.sort(key=lambda x: (x[0], x[1], x[2]))
     report.failures = [f for *_, f in found]

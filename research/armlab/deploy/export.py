@@ -37,14 +37,27 @@ EXPORT_FORMATS = ("csv", "json", "npz", "c", "ros2")
 TRAJECTORY_FILE = "trajectory.npz"
 GAINS_FILE = "gains.json"
 
-_SETPOINT_FILE = {"csv": "setpoints.csv", "json": "setpoints.json", "npz": "setpoints.npz",
-                  "c": "setpoints.h"}
-_GAINS_FILE = {"json": ("gains.json", "json"), "c": ("gains.h", "c"),
-               "ros2": ("gains_ros2.yaml", "ros2")}
+_SETPOINT_FILE = {
+    "csv": "setpoints.csv",
+    "json": "setpoints.json",
+    "npz": "setpoints.npz",
+    "c": "setpoints.h",
+}
+_GAINS_FILE = {
+    "json": ("gains.json", "json"),
+    "c": ("gains.h", "c"),
+    "ros2": ("gains_ros2.yaml", "ros2"),
+}
 
 
-def export_study(study_dir: str | os.PathLike, fmt: str = "csv", profile=None,
-                 out_dir: str | os.PathLike | None = None, *, q_current=None) -> list[Path]:
+def export_study(
+    study_dir: str | os.PathLike,
+    fmt: str = "csv",
+    profile=None,
+    out_dir: str | os.PathLike | None = None,
+    *,
+    q_current=None,
+) -> list[Path]:
     """Export a finished study's set-points (and gains) for the real controller.
 
     Parameters
@@ -85,13 +98,19 @@ def export_study(study_dir: str | os.PathLike, fmt: str = "csv", profile=None,
     if fmt in _SETPOINT_FILE:
         tpath = study / TRAJECTORY_FILE
         if not tpath.is_file():
-            raise InputError(f"{study}: no {TRAJECTORY_FILE} (the study runner saves it with "
-                             "armlab.deploy.save_trajectory)")
+            raise InputError(
+                f"{study}: no {TRAJECTORY_FILE} (the study runner saves it with "
+                "armlab.deploy.save_trajectory)"
+            )
         traj = load_trajectory(tpath)
         robot = trajectory_robot(traj)
-        table = setpoint_table(robot, traj, prof, q_current=q_current,
-                               source={"file": TRAJECTORY_FILE,
-                                       "sha256": traj.meta["file_sha256"]})
+        table = setpoint_table(
+            robot,
+            traj,
+            prof,
+            q_current=q_current,
+            source={"file": TRAJECTORY_FILE, "sha256": traj.meta["file_sha256"]},
+        )
         outputs.append((out / _SETPOINT_FILE[fmt], table.render(fmt)))
 
     if fmt in _GAINS_FILE:
@@ -99,15 +118,22 @@ def export_study(study_dir: str | os.PathLike, fmt: str = "csv", profile=None,
         if gpath.is_file():
             gains = load_gains(gpath)
             name, gfmt = _GAINS_FILE[fmt]
-            outputs.append((out / name, render_gains(
-                gains, gfmt, source={"file": GAINS_FILE, "sha256": file_sha256(gpath)})))
+            outputs.append(
+                (
+                    out / name,
+                    render_gains(
+                        gains, gfmt, source={"file": GAINS_FILE, "sha256": file_sha256(gpath)}
+                    ),
+                )
+            )
         elif fmt == "ros2":
             raise InputError(f"{study}: no {GAINS_FILE} to export as ros2_control YAML")
 
     sources = {(study / TRAJECTORY_FILE).resolve(), (study / GAINS_FILE).resolve()}
     for path, _ in outputs:
         if path.resolve() in sources:
-            raise InputError(f"refusing to overwrite the study's own {path.name}: choose another "
-                             "--out folder")
+            raise InputError(
+                f"refusing to overwrite the study's own {path.name}: choose another --out folder"
+            )
     out.mkdir(parents=True, exist_ok=True)
     return atomic_write_many(outputs)

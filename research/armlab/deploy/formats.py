@@ -18,8 +18,14 @@ import numpy as np
 from armlab.deploy.numtext import format_list, format_rows
 from armlab.errors import InputError
 
-__all__ = ["SETPOINT_FORMATS", "setpoints_format", "render_setpoints", "read_setpoints_file",
-           "c_identifier", "c_string"]
+__all__ = [
+    "SETPOINT_FORMATS",
+    "setpoints_format",
+    "render_setpoints",
+    "read_setpoints_file",
+    "c_identifier",
+    "c_string",
+]
 
 SETPOINT_FORMATS = {"csv": ".csv", "json": ".json", "npz": ".npz", "c": ".h"}
 _SUFFIX_TO_FORMAT = {v: k for k, v in SETPOINT_FORMATS.items()}
@@ -31,8 +37,9 @@ def setpoints_format(path: Path, format: str | None) -> str:
         return _SUFFIX_TO_FORMAT.get(path.suffix.lower(), "csv")
     fmt = str(format).lower()
     if fmt not in SETPOINT_FORMATS:
-        raise InputError(f"unknown set-point format {format!r} (one of "
-                         f"{', '.join(SETPOINT_FORMATS)})")
+        raise InputError(
+            f"unknown set-point format {format!r} (one of {', '.join(SETPOINT_FORMATS)})"
+        )
     return fmt
 
 
@@ -87,7 +94,7 @@ def _read_csv(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
                 n_comment += 1
                 if s.startswith("# meta: "):
                     try:
-                        meta = json.loads(s[len("# meta: "):])
+                        meta = json.loads(s[len("# meta: ") :])
                     except json.JSONDecodeError:
                         raise InputError(f"{path}: unreadable '# meta:' line") from None
                 continue
@@ -109,12 +116,22 @@ def _read_csv(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
 # ---------------------------------------------------------------------- JSON
 def _json(table) -> bytes:
     meta = table.header_meta()
-    parts = [b'{"format": ', json.dumps(meta["format"]).encode(), b', "meta": ',
-             json.dumps(meta, allow_nan=False).encode(), b', "columns": {']
+    parts = [
+        b'{"format": ',
+        json.dumps(meta["format"]).encode(),
+        b', "meta": ',
+        json.dumps(meta, allow_nan=False).encode(),
+        b', "columns": {',
+    ]
     cols = table.columns()
     for i, ((name, values), d) in enumerate(zip(cols.items(), _decimals(table), strict=True)):
-        parts += [b"\n  " if i == 0 else b",\n  ", json.dumps(name).encode(), b": [",
-                  format_list(values, d, sep=", ", name=name), b"]"]
+        parts += [
+            b"\n  " if i == 0 else b",\n  ",
+            json.dumps(name).encode(),
+            b": [",
+            format_list(values, d, sep=", ", name=name),
+            b"]",
+        ]
     parts.append(b"\n}}\n")
     return b"".join(parts)
 
@@ -136,11 +153,19 @@ def _read_json(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
 # ---------------------------------------------------------------------- NPZ
 def _npz(table) -> bytes:
     buf = io.BytesIO()
-    np.savez(buf, meta_json=np.array(json.dumps(table.header_meta(), allow_nan=False)),
-             joint_names=np.array(table.joint_names), cycle=table.cycle, t_s=table.t_s,
-             q_rad=table.q_rad, qd_rad_s=table.qd_rad_s, counts=table.counts,
-             dcounts=table.dcounts, counts_per_rad=table.counts_per_rad,
-             axis_sign=table.axis_sign)
+    np.savez(
+        buf,
+        meta_json=np.array(json.dumps(table.header_meta(), allow_nan=False)),
+        joint_names=np.array(table.joint_names),
+        cycle=table.cycle,
+        t_s=table.t_s,
+        q_rad=table.q_rad,
+        qd_rad_s=table.qd_rad_s,
+        counts=table.counts,
+        dcounts=table.dcounts,
+        counts_per_rad=table.counts_per_rad,
+        axis_sign=table.axis_sign,
+    )
     return buf.getvalue()
 
 
@@ -179,8 +204,14 @@ def _c_array_2d(name: str, values: np.ndarray) -> bytes:
     head = f"static const int32_t {name}[ARMLAB_SP_N_CYCLES][ARMLAB_SP_N_AXES] = {{\n".encode()
     if values.size == 0:
         return head + b"    {0}\n};\n"
-    body = format_rows([values[:, a] for a in range(values.shape[1])], 0, sep=", ",
-                       prefix="    {", suffix="},\n", names=[name] * values.shape[1])
+    body = format_rows(
+        [values[:, a] for a in range(values.shape[1])],
+        0,
+        sep=", ",
+        prefix="    {",
+        suffix="},\n",
+        names=[name] * values.shape[1],
+    )
     return head + body[:-2] + b"\n};\n"
 
 
@@ -213,8 +244,10 @@ def _c_header(table) -> bytes:
     ]
     src = meta.get("source") or {}
     if src:
-        lines += [f"#define ARMLAB_SP_SOURCE_FILE {c_string(src.get('file', ''))}",
-                  f"#define ARMLAB_SP_SOURCE_SHA256 {c_string(src.get('sha256', ''))}"]
+        lines += [
+            f"#define ARMLAB_SP_SOURCE_FILE {c_string(src.get('file', ''))}",
+            f"#define ARMLAB_SP_SOURCE_SHA256 {c_string(src.get('sha256', ''))}",
+        ]
     lines += [
         f"#define ARMLAB_SP_N_CYCLES {table.n_cycles}",
         f"#define ARMLAB_SP_N_AXES {table.n_axes}",
@@ -225,13 +258,18 @@ def _c_header(table) -> bytes:
         "",
         f"static const char *const ARMLAB_SP_AXIS_JOINT[ARMLAB_SP_N_AXES] = {{{joints}}};",
         "static const int32_t ARMLAB_SP_AXIS_SIGN[ARMLAB_SP_N_AXES] = {"
-        + ", ".join(str(int(s)) for s in table.axis_sign) + "};",
+        + ", ".join(str(int(s)) for s in table.axis_sign)
+        + "};",
         "/* encoder counts per joint revolution (pulses x decoding x reducer ratio) */",
         "static const double ARMLAB_SP_COUNTS_PER_JOINT_REV[ARMLAB_SP_N_AXES] = {"
-        + ", ".join(repr(float(c)) for c in table.counts_per_joint_rev) + "};",
+        + ", ".join(repr(float(c)) for c in table.counts_per_joint_rev)
+        + "};",
         "static const int32_t ARMLAB_SP_START_COUNTS[ARMLAB_SP_N_AXES] = {"
-        + ", ".join(str(int(c)) for c in (table.counts[0] if table.n_cycles else
-                                          np.zeros(table.n_axes, int))) + "};",
+        + ", ".join(
+            str(int(c))
+            for c in (table.counts[0] if table.n_cycles else np.zeros(table.n_axes, int))
+        )
+        + "};",
         "",
     ]
     out = ("\n".join(lines) + "\n").encode()
@@ -251,8 +289,9 @@ def read_setpoints_file(path: Path):
     fmt = _SUFFIX_TO_FORMAT.get(path.suffix.lower())
     readers = {"csv": _read_csv, "json": _read_json, "npz": _read_npz}
     if fmt not in readers:
-        raise InputError(f"{path}: cannot read set-points from {path.suffix!r} files "
-                         "(.csv, .json, .npz)")
+        raise InputError(
+            f"{path}: cannot read set-points from {path.suffix!r} files (.csv, .json, .npz)"
+        )
     meta, cols = readers[fmt](path)
     if meta.get("format") != SETPOINTS_FORMAT:
         raise InputError(f"{path}: format {meta.get('format')!r} is not {SETPOINTS_FORMAT!r}")

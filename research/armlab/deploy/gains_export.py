@@ -29,8 +29,15 @@ from armlab.deploy.formats import c_identifier, c_string
 from armlab.deploy.provenance import armlab_version, atomic_write, gains_sha256
 from armlab.errors import InputError
 
-__all__ = ["GAINS_FORMATS", "gains_to_json", "gains_to_ros2_yaml", "gains_to_c_header",
-           "render_gains", "write_gains", "load_gains"]
+__all__ = [
+    "GAINS_FORMATS",
+    "gains_to_json",
+    "gains_to_ros2_yaml",
+    "gains_to_c_header",
+    "render_gains",
+    "write_gains",
+    "load_gains",
+]
 
 GAINS_FORMATS = {"json": ".json", "ros2": ".yaml", "yaml": ".yaml", "c": ".h"}
 _LOOPS = ("current", "speed", "position")
@@ -105,13 +112,18 @@ def _yaml_float(x: float) -> str:
 
 def _yaml_key(s: str) -> str:
     s = str(s)
-    plain = s and all(c.isalnum() or c in "_-/" for c in s) and not s[0].isdigit() \
+    plain = (
+        s
+        and all(c.isalnum() or c in "_-/" for c in s)
+        and not s[0].isdigit()
         and s.lower() not in ("true", "false", "yes", "no", "on", "off", "null", "y", "n")
+    )
     return s if plain else json.dumps(s)
 
 
-def gains_to_ros2_yaml(gains, *, controller: str = "joint_trajectory_controller",
-                       source: dict | None = None) -> str:
+def gains_to_ros2_yaml(
+    gains, *, controller: str = "joint_trajectory_controller", source: dict | None = None
+) -> str:
     """ros2_control ``joint_trajectory_controller`` parameters with the position-loop gains.
 
     Per joint: ``p`` [1/s] (rad/s per rad), ``i`` [1/s^2], ``d`` [1], ``i_clamp`` [rad/s]
@@ -137,19 +149,26 @@ def gains_to_ros2_yaml(gains, *, controller: str = "joint_trajectory_controller"
         "    joints:",
     ]
     lines += [f"      - {_yaml_key(j)}" for j in arm.joint_names]
-    lines += ["    command_interfaces:", "      - velocity",
-              "    state_interfaces:", "      - position", "      - velocity",
-              "    gains:"]
+    lines += [
+        "    command_interfaces:",
+        "      - velocity",
+        "    state_interfaces:",
+        "      - position",
+        "      - velocity",
+        "    gains:",
+    ]
     for name, cg in arm.joints.items():
         pos = cg.position
         ratio = cg.plant.ratio if cg.plant is not None and cg.plant.ratio > 0 else 1.0
         clamp = max(abs(pos.output_min), abs(pos.output_max)) / ratio
-        lines += [f"      {_yaml_key(name)}:",
-                  f"        p: {_yaml_float(pos.kp)}",
-                  f"        i: {_yaml_float(pos.ki)}",
-                  f"        d: {_yaml_float(pos.kd)}",
-                  f"        i_clamp: {_yaml_float(clamp)}",
-                  "        ff_velocity_scale: 1.0"]
+        lines += [
+            f"      {_yaml_key(name)}:",
+            f"        p: {_yaml_float(pos.kp)}",
+            f"        i: {_yaml_float(pos.ki)}",
+            f"        d: {_yaml_float(pos.kd)}",
+            f"        i_clamp: {_yaml_float(clamp)}",
+            "        ff_velocity_scale: 1.0",
+        ]
     return "\n".join(lines) + "\n"
 
 
@@ -163,8 +182,19 @@ def _c_double(x) -> str:
     return repr(x)
 
 
-_PID_FIELDS = ("kp", "ki", "kd", "q0", "q1", "q2", "sample_time_s", "output_min", "output_max",
-               "derivative_filter_s", "output_per_volt")
+_PID_FIELDS = (
+    "kp",
+    "ki",
+    "kd",
+    "q0",
+    "q1",
+    "q2",
+    "sample_time_s",
+    "output_min",
+    "output_max",
+    "derivative_filter_s",
+    "output_per_volt",
+)
 
 
 def gains_to_c_header(gains, *, prefix: str = "ARMLAB_GAINS", source: dict | None = None) -> str:
@@ -190,14 +220,16 @@ def gains_to_c_header(gains, *, prefix: str = "ARMLAB_GAINS", source: dict | Non
         "#include <math.h>",
         "#include <stdint.h>",
         "",
-        f"#define {P}_FORMAT \"armlab.gains.h/1\"",
+        f'#define {P}_FORMAT "armlab.gains.h/1"',
         f"#define {P}_ROBOT {c_string(arm.robot)}",
         f"#define {P}_SHA256 {c_string(prov['gains_sha256'])}",
         f"#define {P}_ARMLAB_VERSION {c_string(prov['armlab_version'])}",
     ]
     if prov.get("source"):
-        lines += [f"#define {P}_SOURCE_FILE {c_string(prov['source'].get('file', ''))}",
-                  f"#define {P}_SOURCE_SHA256 {c_string(prov['source'].get('sha256', ''))}"]
+        lines += [
+            f"#define {P}_SOURCE_FILE {c_string(prov['source'].get('file', ''))}",
+            f"#define {P}_SOURCE_SHA256 {c_string(prov['source'].get('sha256', ''))}",
+        ]
     lines += [
         f"#define {P}_N_JOINTS {n}",
         f"#define {P}_N_LOOPS 3",
@@ -205,11 +237,14 @@ def gains_to_c_header(gains, *, prefix: str = "ARMLAB_GAINS", source: dict | Non
         f"#define {P}_LOOP_SPEED 1",
         f"#define {P}_LOOP_POSITION 2",
     ]
-    da = next((lg for cg in arm for lg in cg.loops().values() if lg.output_per_volt is not None),
-              None)
+    da = next(
+        (lg for cg in arm for lg in cg.loops().values() if lg.output_per_volt is not None), None
+    )
     if da is not None:
-        lines += [f"#define {P}_DA_BITS {int(da.da_bits)}",
-                  f"#define {P}_DA_RANGE_V {_c_double(da.da_range_V)}"]
+        lines += [
+            f"#define {P}_DA_BITS {int(da.da_bits)}",
+            f"#define {P}_DA_RANGE_V {_c_double(da.da_range_V)}",
+        ]
     lines += [
         "",
         "#ifndef ARMLAB_PID_T_DEFINED",
@@ -225,21 +260,38 @@ def gains_to_c_header(gains, *, prefix: str = "ARMLAB_GAINS", source: dict | Non
         "#endif",
         "",
         f"static const char *const {P}_LOOP_NAME[3] = "
-        + "{" + ", ".join(c_string(lp) for lp in _LOOPS) + "};",
+        + "{"
+        + ", ".join(c_string(lp) for lp in _LOOPS)
+        + "};",
     ]
     for key in ("input", "output", "kp", "ki", "kd"):
-        lines.append(f"static const char *const {P}_UNIT_{key.upper()}[3] = "
-                     + "{" + ", ".join(c_string(LOOP_UNITS[lp][key]) for lp in _LOOPS) + "};")
-    lines.append(f"static const char *const {P}_JOINT[{P}_N_JOINTS] = "
-                 + "{" + ", ".join(c_string(j) for j in arm.joint_names) + "};")
+        lines.append(
+            f"static const char *const {P}_UNIT_{key.upper()}[3] = "
+            + "{"
+            + ", ".join(c_string(LOOP_UNITS[lp][key]) for lp in _LOOPS)
+            + "};"
+        )
+    lines.append(
+        f"static const char *const {P}_JOINT[{P}_N_JOINTS] = "
+        + "{"
+        + ", ".join(c_string(j) for j in arm.joint_names)
+        + "};"
+    )
     ratios = [cg.plant.ratio if cg.plant is not None else 1.0 for cg in arm]
-    lines.append(f"static const double {P}_REDUCER_RATIO[{P}_N_JOINTS] = "
-                 + "{" + ", ".join(_c_double(r) for r in ratios) + "};")
+    lines.append(
+        f"static const double {P}_REDUCER_RATIO[{P}_N_JOINTS] = "
+        + "{"
+        + ", ".join(_c_double(r) for r in ratios)
+        + "};"
+    )
     for key, attr in (("INPUT_SIGNAL", "input_signal"), ("OUTPUT_SIGNAL", "output_signal")):
-        rows = ["{" + ", ".join(c_string(getattr(cg.loops()[lp], attr)) for lp in _LOOPS) + "}"
-                for cg in arm]
-        lines.append(f"static const char *const {P}_{key}[{P}_N_JOINTS][3] = {{"
-                     + ", ".join(rows) + "};")
+        rows = [
+            "{" + ", ".join(c_string(getattr(cg.loops()[lp], attr)) for lp in _LOOPS) + "}"
+            for cg in arm
+        ]
+        lines.append(
+            f"static const char *const {P}_{key}[{P}_N_JOINTS][3] = {{" + ", ".join(rows) + "};"
+        )
     lines += ["", f"static const armlab_pid_t {P}[{P}_N_JOINTS][3] = {{"]
     for j, cg in enumerate(arm):
         lines.append(f"    {{ /* {cg.joint} */")
@@ -249,8 +301,10 @@ def gains_to_c_header(gains, *, prefix: str = "ARMLAB_GAINS", source: dict | Non
             for f in _PID_FIELDS:
                 v = getattr(lg, f)
                 vals.append(_c_double(0.0 if (f == "output_per_volt" and v is None) else v))
-            lines.append(f"        {{{', '.join(vals)}}}, /* {lp}: {lg.kind}, {lg.method}, "
-                         f"{lg.input_signal} -> {lg.output_signal} */")
+            lines.append(
+                f"        {{{', '.join(vals)}}}, /* {lp}: {lg.kind}, {lg.method}, "
+                f"{lg.input_signal} -> {lg.output_signal} */"
+            )
         lines[-1] = lines[-1].replace("}, /*", "}  /*", 1)
         lines.append("    }" + ("," if j < n - 1 else ""))
     lines += ["};", "", f"#endif /* {P}_H */", ""]
@@ -270,8 +324,9 @@ def render_gains(gains, fmt: str, *, source: dict | None = None) -> str:
     raise InputError(f"unknown gains format {fmt!r} (json, ros2, c)")
 
 
-def write_gains(path: str | os.PathLike, gains, format: str | None = None, *,
-                source: dict | None = None) -> Path:
+def write_gains(
+    path: str | os.PathLike, gains, format: str | None = None, *, source: dict | None = None
+) -> Path:
     """Write gains to ``path`` atomically (argument order as :func:`save_trajectory`).
 
     Parameters
@@ -286,5 +341,6 @@ def write_gains(path: str | os.PathLike, gains, format: str | None = None, *,
     path = Path(path)
     if format is None:
         format = {".json": "json", ".yaml": "ros2", ".yml": "ros2", ".h": "c"}.get(
-            path.suffix.lower(), "json")
+            path.suffix.lower(), "json"
+        )
     return atomic_write(path, render_gains(gains, format, source=source))

@@ -76,8 +76,9 @@ def _field(x: np.ndarray, decimals: int, name: str) -> np.ndarray:
     return buf
 
 
-def format_rows(columns, decimals, *, sep: str = ",", prefix: str = "", suffix: str = "\n",
-                names=None) -> bytes:
+def format_rows(
+    columns, decimals, *, sep: str = ",", prefix: str = "", suffix: str = "\n", names=None
+) -> bytes:
     """Text of a table, one line per row.
 
     Parameters
@@ -126,4 +127,5 @@ def format_list(values, decimals: int, *, sep: str = ",", name: str = "") -> byt
     if values.size == 0:
         return b""
     return format_rows([values.reshape(-1)], decimals, sep="", suffix=sep, names=[name])[
-        :-len(sep) or None]
+        : -len(sep) or None
+    ]

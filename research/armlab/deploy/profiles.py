@@ -18,8 +18,7 @@ import numpy as np
 from armlab.errors import InputError
 from armlab.tomlfile import read_toml
 
-__all__ = ["ControllerProfile", "DEFAULT_PROFILE", "load_profile", "list_profiles",
-           "profiles_dir"]
+__all__ = ["ControllerProfile", "DEFAULT_PROFILE", "load_profile", "list_profiles", "profiles_dir"]
 
 DEFAULT_PROFILE = "reference_dda"
 
@@ -99,8 +98,10 @@ class ControllerProfile:
             raise InputError(f"{where}: cycle_range_s must be 0 < min <= max, got {(lo, hi)}")
         c = float(self.cycle_s)
         if not (math.isfinite(c) and lo * (1 - 1e-12) <= c <= hi * (1 + 1e-12)):
-            raise InputError(f"{where}: cycle_s {self.cycle_s!r} s is outside the controller's "
-                             f"range {lo:g} .. {hi:g} s")
+            raise InputError(
+                f"{where}: cycle_s {self.cycle_s!r} s is outside the controller's "
+                f"range {lo:g} .. {hi:g} s"
+            )
         object.__setattr__(self, "cycle_s", c)
         if self.max_pulses_per_cycle is not None and int(self.max_pulses_per_cycle) < 1:
             raise InputError(f"{where}: max_pulses_per_cycle must be >= 1")
@@ -113,7 +114,8 @@ class ControllerProfile:
         if self.axis_sign is not None and any(s not in (1, -1) for s in self.axis_sign):
             raise InputError(f"{where}: axis_sign entries must be +1 or -1, got {self.axis_sign}")
         if self.counts_per_joint_rev is not None and not all(
-                math.isfinite(x) and x > 0 for x in self.counts_per_joint_rev):
+            math.isfinite(x) and x > 0 for x in self.counts_per_joint_rev
+        ):
             raise InputError(f"{where}: counts_per_joint_rev must be positive numbers")
         if self.axis_order is not None and len(set(self.axis_order)) != len(self.axis_order):
             raise InputError(f"{where}: axis_order repeats a joint: {self.axis_order}")
@@ -156,17 +158,22 @@ class ControllerProfile:
         else:
             index = np.array([robot.joint_index(j) for j in self.axis_order], dtype=int)
             if len(index) != robot.n_joints:
-                raise InputError(f"{where}: axis_order names {len(index)} joints, robot "
-                                 f"{robot.name} has {robot.n_joints}")
+                raise InputError(
+                    f"{where}: axis_order names {len(index)} joints, robot "
+                    f"{robot.name} has {robot.n_joints}"
+                )
         if self.max_axes is not None and len(index) > self.max_axes:
-            raise InputError(f"{where}: the controller drives {self.max_axes} axes, robot "
-                             f"{robot.name} has {len(index)} joints")
+            raise InputError(
+                f"{where}: the controller drives {self.max_axes} axes, robot "
+                f"{robot.name} has {len(index)} joints"
+            )
         if self.axis_sign is None:
             sign = np.ones(len(index), dtype=np.int64)
         else:
             if len(self.axis_sign) != len(index):
-                raise InputError(f"{where}: axis_sign has {len(self.axis_sign)} entries for "
-                                 f"{len(index)} axes")
+                raise InputError(
+                    f"{where}: axis_sign has {len(self.axis_sign)} entries for {len(index)} axes"
+                )
             sign = np.asarray(self.axis_sign, dtype=np.int64)
         return index, sign
 
@@ -184,8 +191,10 @@ def _profile_path(name_or_path: str | Path) -> Path:
         return path
     path = profiles_dir() / f"{s}.toml"
     if not path.is_file():
-        raise InputError(f"unknown controller profile {s!r} (built-in: "
-                         f"{', '.join(list_profiles())}; or give a .toml path)")
+        raise InputError(
+            f"unknown controller profile {s!r} (built-in: "
+            f"{', '.join(list_profiles())}; or give a .toml path)"
+        )
     return path
 
 

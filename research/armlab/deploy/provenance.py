@@ -16,8 +16,14 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["armlab_version", "trajectory_sha256", "gains_sha256", "file_sha256",
-           "atomic_write", "atomic_write_many"]
+__all__ = [
+    "armlab_version",
+    "trajectory_sha256",
+    "gains_sha256",
+    "file_sha256",
+    "atomic_write",
+    "atomic_write_many",
+]
 
 
 def armlab_version() -> str:
@@ -35,8 +41,12 @@ def trajectory_sha256(trajectory) -> str:
     how the trajectory was stored: :func:`armlab.deploy.load_trajectory` gives back the same value.
     """
     h = hashlib.sha256()
-    head = {"format": "armlab.trajectory/1", "joint_names": list(trajectory.joint_names),
-            "n_samples": int(trajectory.n_samples), "qddd": trajectory.qddd is not None}
+    head = {
+        "format": "armlab.trajectory/1",
+        "joint_names": list(trajectory.joint_names),
+        "n_samples": int(trajectory.n_samples),
+        "qddd": trajectory.qddd is not None,
+    }
     h.update(json.dumps(head, sort_keys=True).encode())
     arrays = [trajectory.t, trajectory.q, trajectory.qd, trajectory.qdd]
     if trajectory.qddd is not None:

@@ -32,8 +32,14 @@ from armlab.deploy.profiles import ControllerProfile, load_profile
 from armlab.deploy.provenance import armlab_version, atomic_write, trajectory_sha256
 from armlab.errors import InputError
 
-__all__ = ["SetpointTable", "setpoint_table", "read_setpoints", "SETPOINTS_FORMAT", "DECIMALS",
-           "counts_per_rad"]
+__all__ = [
+    "SetpointTable",
+    "setpoint_table",
+    "read_setpoints",
+    "SETPOINTS_FORMAT",
+    "DECIMALS",
+    "counts_per_rad",
+]
 
 SETPOINTS_FORMAT = "armlab.setpoints/1"
 DECIMALS = 9  # q, qd, t_s resolution in every format: 1e-9 rad, rad/s, s
@@ -108,8 +114,10 @@ class SetpointTable:
         return str(self.meta.get("trajectory_sha256", ""))
 
     def __repr__(self) -> str:
-        return (f"SetpointTable(robot={self.robot!r}, n_cycles={self.n_cycles}, "
-                f"cycle_s={self.cycle_s:g}, axes={self.joint_names})")
+        return (
+            f"SetpointTable(robot={self.robot!r}, n_cycles={self.n_cycles}, "
+            f"cycle_s={self.cycle_s:g}, axes={self.joint_names})"
+        )
 
     def column_names(self) -> list[str]:
         """``cycle, t_s`` then per joint ``q_<j>_rad, qd_<j>_rad_s, counts_<j>, dcounts_<j>``."""
@@ -134,21 +142,29 @@ class SetpointTable:
 
     def header_meta(self) -> dict:
         """The metadata every format carries (JSON-able)."""
-        m = {"format": SETPOINTS_FORMAT, "robot": self.robot, "joints": list(self.joint_names),
-             "axis_sign": [int(s) for s in self.axis_sign], "cycle_s": self.cycle_s,
-             "n_cycles": self.n_cycles, "decimals": DECIMALS,
-             "counts_per_joint_rev": dict(zip(self.joint_names,
-                                              map(float, self.counts_per_joint_rev),
-                                              strict=True)),
-             "counts_per_rad": [float(c) for c in self.counts_per_rad]}
+        m = {
+            "format": SETPOINTS_FORMAT,
+            "robot": self.robot,
+            "joints": list(self.joint_names),
+            "axis_sign": [int(s) for s in self.axis_sign],
+            "cycle_s": self.cycle_s,
+            "n_cycles": self.n_cycles,
+            "decimals": DECIMALS,
+            "counts_per_joint_rev": dict(
+                zip(self.joint_names, map(float, self.counts_per_joint_rev), strict=True)
+            ),
+            "counts_per_rad": [float(c) for c in self.counts_per_rad],
+        }
         m.update({k: v for k, v in self.meta.items() if k not in m})
         return m
 
     def to_dict(self) -> dict:
         """Summary for summary.json (no per-cycle data): metadata, peak pulses per cycle."""
         peak = np.abs(self.dcounts).max(axis=0) if self.n_cycles else np.zeros(self.n_axes)
-        return {**self.header_meta(),
-                "peak_pulses_per_cycle": dict(zip(self.joint_names, map(int, peak), strict=True))}
+        return {
+            **self.header_meta(),
+            "peak_pulses_per_cycle": dict(zip(self.joint_names, map(int, peak), strict=True)),
+        }
 
     # ------------------------------------------------------------------ files
     def render(self, format: str = "csv") -> bytes:
@@ -195,12 +211,16 @@ def counts_per_rad(robot, profile: ControllerProfile, index: np.ndarray) -> np.n
     """
     if profile.counts_per_joint_rev is not None:
         if len(profile.counts_per_joint_rev) != len(index):
-            raise InputError(f"controller profile {profile.name!r}: counts_per_joint_rev has "
-                             f"{len(profile.counts_per_joint_rev)} entries for {len(index)} axes")
+            raise InputError(
+                f"controller profile {profile.name!r}: counts_per_joint_rev has "
+                f"{len(profile.counts_per_joint_rev)} entries for {len(index)} axes"
+            )
         return np.asarray(profile.counts_per_joint_rev, dtype=float) / (2.0 * math.pi)
     if robot.drives is None:
-        raise InputError(f"robot {robot.name} has no drives.toml (encoder, reducer): the "
-                         f"controller profile must give counts_per_joint_rev")
+        raise InputError(
+            f"robot {robot.name} has no drives.toml (encoder, reducer): the "
+            f"controller profile must give counts_per_joint_rev"
+        )
     out = []
     for i in index:
         d = robot.drives[robot.joint_names[i]]
@@ -211,17 +231,20 @@ def counts_per_rad(robot, profile: ControllerProfile, index: np.ndarray) -> np.n
 
 def _check_names(robot, trajectory) -> None:
     if trajectory.n_joints != robot.n_joints:
-        raise InputError(f"trajectory has {trajectory.n_joints} joints, robot {robot.name} has "
-                         f"{robot.n_joints}")
+        raise InputError(
+            f"trajectory has {trajectory.n_joints} joints, robot {robot.name} has {robot.n_joints}"
+        )
     generic = [f"joint{i + 1}" for i in range(trajectory.n_joints)]
     names = list(trajectory.joint_names)
     if names != list(robot.joint_names) and names != generic:
-        raise InputError(f"trajectory joints {names} are not robot {robot.name}'s "
-                         f"{list(robot.joint_names)}")
+        raise InputError(
+            f"trajectory joints {names} are not robot {robot.name}'s {list(robot.joint_names)}"
+        )
 
 
-def setpoint_table(robot, trajectory, profile=None, *, q_current=None,
-                   source: dict | None = None) -> SetpointTable:
+def setpoint_table(
+    robot, trajectory, profile=None, *, q_current=None, source: dict | None = None
+) -> SetpointTable:
     """Sample a trajectory at the controller's cycle, convert to encoder counts, check it.
 
     Parameters
@@ -265,8 +288,10 @@ def setpoint_table(robot, trajectory, profile=None, *, q_current=None,
     if q_current is not None:
         qc = np.asarray(q_current, dtype=float).reshape(-1)
         if qc.shape != (robot.n_joints,):
-            raise InputError(f"q_current has shape {np.shape(q_current)}, expected "
-                             f"({robot.n_joints},) for {robot.name}")
+            raise InputError(
+                f"q_current has shape {np.shape(q_current)}, expected "
+                f"({robot.n_joints},) for {robot.name}"
+            )
         qc = qc[index]
     lim = robot.limits
     with np.errstate(invalid="ignore", over="ignore"):
@@ -279,12 +304,24 @@ def setpoint_table(robot, trajectory, profile=None, *, q_current=None,
         dcounts[1:] = np.diff(counts, axis=0)
     acc = None if lim.acceleration_rad_s2 is None else np.asarray(lim.acceleration_rad_s2)[index]
     report = preflight(
-        t_s=times, q=q, qd=qd, counts_exact=counts_exact, dcounts=dcounts, joint_names=names,
-        lower_rad=np.asarray(lim.lower_rad)[index], upper_rad=np.asarray(lim.upper_rad)[index],
-        velocity_rad_s=np.asarray(lim.velocity_rad_s)[index], acceleration_rad_s2=acc,
-        counts_per_rad=cpr, cycle_s=T, max_pulses_per_cycle=prof.max_pulses_per_cycle,
-        q_current=qc, start_tolerance_counts=prof.start_tolerance_counts,
-        speed_tolerance=prof.speed_tolerance, continuity_tolerance=prof.continuity_tolerance)
+        t_s=times,
+        q=q,
+        qd=qd,
+        counts_exact=counts_exact,
+        dcounts=dcounts,
+        joint_names=names,
+        lower_rad=np.asarray(lim.lower_rad)[index],
+        upper_rad=np.asarray(lim.upper_rad)[index],
+        velocity_rad_s=np.asarray(lim.velocity_rad_s)[index],
+        acceleration_rad_s2=acc,
+        counts_per_rad=cpr,
+        cycle_s=T,
+        max_pulses_per_cycle=prof.max_pulses_per_cycle,
+        q_current=qc,
+        start_tolerance_counts=prof.start_tolerance_counts,
+        speed_tolerance=prof.speed_tolerance,
+        continuity_tolerance=prof.continuity_tolerance,
+    )
     report.raise_if_failed()
     meta = {
         "profile": prof.name,
@@ -292,15 +329,25 @@ def setpoint_table(robot, trajectory, profile=None, *, q_current=None,
         "trajectory_sha256": trajectory_sha256(trajectory),
         "trajectory_method": trajectory.method,
         "armlab_version": armlab_version(),
-        "preflight": {"ok": True, "checks": list(report.checks),
-                      "peak_ratio": report.peak_ratio},
+        "preflight": {"ok": True, "checks": list(report.checks), "peak_ratio": report.peak_ratio},
     }
     if source is not None:
         meta["source"] = dict(source)
     return SetpointTable(
-        robot=robot.name, joint_names=names, cycle_s=T, cycle=cycle, t_s=_round(times),
-        q_rad=_round(q), qd_rad_s=_round(qd), counts=counts, dcounts=dcounts,
-        counts_per_rad=cpr, axis_sign=sign, meta=meta, preflight=report)
+        robot=robot.name,
+        joint_names=names,
+        cycle_s=T,
+        cycle=cycle,
+        t_s=_round(times),
+        q_rad=_round(q),
+        qd_rad_s=_round(qd),
+        counts=counts,
+        dcounts=dcounts,
+        counts_per_rad=cpr,
+        axis_sign=sign,
+        meta=meta,
+        preflight=report,
+    )
 
 
 def read_setpoints(path: str | os.PathLike) -> SetpointTable:
@@ -337,18 +384,45 @@ def _table_from_columns(meta: dict, cols: dict[str, np.ndarray], where: str) -> 
             return ai
         return a.astype(float)
 
-    per = lambda pat, integer: np.column_stack(  # noqa: E731
-        [col(pat.format(j), integer) for j in joints]) if joints else np.zeros((0, 0))
+    per = lambda pat, integer: (
+        np.column_stack(  # noqa: E731
+            [col(pat.format(j), integer) for j in joints]
+        )
+        if joints
+        else np.zeros((0, 0))
+    )
     table = SetpointTable(
-        robot=str(meta.get("robot", "")), joint_names=joints, cycle_s=cycle_s,
-        cycle=col("cycle", True), t_s=col("t_s", False), q_rad=per("q_{}_rad", False),
-        qd_rad_s=per("qd_{}_rad_s", False), counts=per("counts_{}", True),
-        dcounts=per("dcounts_{}", True), counts_per_rad=cpr, axis_sign=sign,
-        meta={k: v for k, v in meta.items() if k not in (
-            "format", "robot", "joints", "axis_sign", "cycle_s", "n_cycles", "decimals",
-            "counts_per_joint_rev", "counts_per_rad")})
+        robot=str(meta.get("robot", "")),
+        joint_names=joints,
+        cycle_s=cycle_s,
+        cycle=col("cycle", True),
+        t_s=col("t_s", False),
+        q_rad=per("q_{}_rad", False),
+        qd_rad_s=per("qd_{}_rad_s", False),
+        counts=per("counts_{}", True),
+        dcounts=per("dcounts_{}", True),
+        counts_per_rad=cpr,
+        axis_sign=sign,
+        meta={
+            k: v
+            for k, v in meta.items()
+            if k
+            not in (
+                "format",
+                "robot",
+                "joints",
+                "axis_sign",
+                "cycle_s",
+                "n_cycles",
+                "decimals",
+                "counts_per_joint_rev",
+                "counts_per_rad",
+            )
+        },
+    )
     if "n_cycles" in meta and int(meta["n_cycles"]) != table.n_cycles:
-        raise InputError(f"{where}: header says {meta['n_cycles']} cycles, file holds "
-                         f"{table.n_cycles} (truncated?)")
+        raise InputError(
+            f"{where}: header says {meta['n_cycles']} cycles, file holds "
+            f"{table.n_cycles} (truncated?)"
+        )
     return table
-

@@ -33,10 +33,13 @@ def _robot_info(robot) -> dict:
         "joint_names": list(robot.joint_names),
         "tool_frame": getattr(robot, "tool_frame", None),
         "payload_kg": float(robot.payload.mass_kg) if getattr(robot, "payload", None) else None,
-        "limits": {"lower_rad": arr(lim.lower_rad), "upper_rad": arr(lim.upper_rad),
-                   "velocity_rad_s": arr(lim.velocity_rad_s),
-                   "acceleration_rad_s2": arr(lim.acceleration_rad_s2),
-                   "jerk_rad_s3": arr(lim.jerk_rad_s3)},
+        "limits": {
+            "lower_rad": arr(lim.lower_rad),
+            "upper_rad": arr(lim.upper_rad),
+            "velocity_rad_s": arr(lim.velocity_rad_s),
+            "acceleration_rad_s2": arr(lim.acceleration_rad_s2),
+            "jerk_rad_s3": arr(lim.jerk_rad_s3),
+        },
     }
 
 
@@ -57,7 +60,10 @@ def save_trajectory(path: str | os.PathLike, trajectory, robot=None) -> Path:
     """
     arrays = {
         "format": np.array(TRAJECTORY_FORMAT),
-        "t": trajectory.t, "q": trajectory.q, "qd": trajectory.qd, "qdd": trajectory.qdd,
+        "t": trajectory.t,
+        "q": trajectory.q,
+        "qd": trajectory.qd,
+        "qdd": trajectory.qdd,
         "joint_names": np.array(list(trajectory.joint_names)),
         "method": np.array(trajectory.method or ""),
         "sha256": np.array(trajectory_sha256(trajectory)),
@@ -96,17 +102,34 @@ def load_trajectory(path: str | os.PathLike):
     except (OSError, ValueError) as exc:
         raise InputError(f"{path}: not a readable .npz ({exc})") from None
     if str(a.get("format", "")) != TRAJECTORY_FORMAT:
-        raise InputError(f"{path}: not an armlab trajectory file (format "
-                         f"{str(a.get('format', None))!r}, expected {TRAJECTORY_FORMAT!r})")
-    traj = Trajectory(a["t"], a["q"], a["qd"], a["qdd"], a.get("qddd"),
-                      joint_names=[str(n) for n in a["joint_names"]], method=str(a["method"]))
+        raise InputError(
+            f"{path}: not an armlab trajectory file (format "
+            f"{str(a.get('format', None))!r}, expected {TRAJECTORY_FORMAT!r})"
+        )
+    traj = Trajectory(
+        a["t"],
+        a["q"],
+        a["qd"],
+        a["qdd"],
+        a.get("qddd"),
+        joint_names=[str(n) for n in a["joint_names"]],
+        method=str(a["method"]),
+    )
     sha = trajectory_sha256(traj)
     if sha != str(a["sha256"]):
-        raise InputError(f"{path}: checksum mismatch (file says {str(a['sha256'])[:12]}..., "
-                         f"content is {sha[:12]}...): the file is corrupt or was edited")
-    traj.meta.update({"robot": json.loads(str(a["robot_json"])), "sha256": sha,
-                      "file": str(path), "file_sha256": file_sha256(path),
-                      "armlab_version": str(a["armlab_version"])})
+        raise InputError(
+            f"{path}: checksum mismatch (file says {str(a['sha256'])[:12]}..., "
+            f"content is {sha[:12]}...): the file is corrupt or was edited"
+        )
+    traj.meta.update(
+        {
+            "robot": json.loads(str(a["robot_json"])),
+            "sha256": sha,
+            "file": str(path),
+            "file_sha256": file_sha256(path),
+            "armlab_version": str(a["armlab_version"]),
+        }
+    )
     return traj
 
 
@@ -133,15 +156,17 @@ def trajectory_robot(trajectory):
     full = load_robot(source)
     extra = [j for j in full.joint_names if j not in names]
     if any(j not in full.joint_names for j in names):
-        raise InputError(f"robot {full.name} has no joint(s) "
-                         f"{[j for j in names if j not in full.joint_names]}")
+        raise InputError(
+            f"robot {full.name} has no joint(s) {[j for j in names if j not in full.joint_names]}"
+        )
     tool = info.get("tool_frame")
     if tool not in [f.name for f in full.model.frames]:
         tool = None
     robot = load_robot(source, info.get("payload_kg"), tool_frame=tool, lock_joints=tuple(extra))
     if list(robot.joint_names) != names:
-        raise InputError(f"robot {robot.name} joints {robot.joint_names} differ from the "
-                         f"trajectory's {names}")
+        raise InputError(
+            f"robot {robot.name} joints {robot.joint_names} differ from the trajectory's {names}"
+        )
     lim, stored = robot.limits, info.get("limits") or {}
 
     def tighter(key, fn):
@@ -152,7 +177,9 @@ def trajectory_robot(trajectory):
         return theirs if mine is None else fn(np.asarray(mine, dtype=float), theirs)
 
     return robot.with_limits(
-        lower_rad=tighter("lower_rad", np.maximum), upper_rad=tighter("upper_rad", np.minimum),
+        lower_rad=tighter("lower_rad", np.maximum),
+        upper_rad=tighter("upper_rad", np.minimum),
         velocity_rad_s=tighter("velocity_rad_s", np.minimum),
         acceleration_rad_s2=tighter("acceleration_rad_s2", np.minimum),
-        jerk_rad_s3=tighter("jerk_rad_s3", np.minimum))
+        jerk_rad_s3=tighter("jerk_rad_s3", np.minimum),
+    )

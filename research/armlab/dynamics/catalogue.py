@@ -92,7 +92,8 @@ def load_catalogue(path: str | Path | None = None) -> Catalogue:
             else:
                 if part.ratio <= 0 or not 0 < part.efficiency <= 1:
                     raise RobotDescriptionError(
-                        f"{where}: ratio must be > 0 and efficiency in (0, 1]")
+                        f"{where}: ratio must be > 0 and efficiency in (0, 1]"
+                    )
             for j in joints:
                 slot = thesis.setdefault(str(j), [None, None])
                 slot[0 if kind == "motor" else 1] = part.model
@@ -103,6 +104,11 @@ def load_catalogue(path: str | Path | None = None) -> Catalogue:
 
     motors = parts("motor", motor_from_dict)
     reducers = parts("reducer", reducer_from_dict)
-    return Catalogue(motors=motors, reducers=reducers, derating=derating,
-                     thesis_parts={j: (m, r) for j, (m, r) in thesis.items()},
-                     currency=str(data.get("currency", "")), path=str(path))
+    return Catalogue(
+        motors=motors,
+        reducers=reducers,
+        derating=derating,
+        thesis_parts={j: (m, r) for j, (m, r) in thesis.items()},
+        currency=str(data.get("currency", "")),
+        path=str(path),
+    )

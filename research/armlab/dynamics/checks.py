@@ -28,8 +28,16 @@ import numpy as np
 from armlab.robot.drives import RPM_TO_RAD_S, Drive, available_torque_Nm
 
 __all__ = [
-    "Check", "DriveArrays", "SizingOptions", "CHECK_NAMES", "motor_side", "evaluate_checks",
-    "checks_for_column", "binding", "Checked", "envelope_torque",
+    "Check",
+    "DriveArrays",
+    "SizingOptions",
+    "CHECK_NAMES",
+    "motor_side",
+    "evaluate_checks",
+    "checks_for_column",
+    "binding",
+    "Checked",
+    "envelope_torque",
 ]
 
 #: Check names, in report order, with their units.
@@ -66,8 +74,14 @@ class Check:
     unit: str = ""
 
     def to_dict(self) -> dict:
-        return {"name": self.name, "value": float(self.value), "limit": float(self.limit),
-                "margin": float(self.margin), "ok": bool(self.ok), "unit": self.unit}
+        return {
+            "name": self.name,
+            "value": float(self.value),
+            "limit": float(self.limit),
+            "margin": float(self.margin),
+            "ok": bool(self.ok),
+            "unit": self.unit,
+        }
 
 
 @dataclass(frozen=True)
@@ -131,7 +145,8 @@ class DriveArrays:
             efficiency=arr(lambda d: d.reducer.efficiency),
             derating=arr(lambda d: d.derating),
             inertia_motor_side_kg_m2=arr(
-                lambda d: d.motor.rotor_inertia_kg_m2 + d.reducer.inertia_kg_m2),
+                lambda d: d.motor.rotor_inertia_kg_m2 + d.reducer.inertia_kg_m2
+            ),
             viscous_Nm_s_rad=arr(lambda d: d.motor.viscous_friction_Nm_s_rad),
             stall_torque_Nm=arr(lambda d: d.motor.stall_torque_Nm),
             peak_torque_Nm=arr(peak),
@@ -144,7 +159,8 @@ class DriveArrays:
             reducer_rated_torque_Nm=arr(lambda d: d.reducer.rated_torque_Nm),
             reducer_peak_torque_Nm=arr(lambda d: d.reducer.peak_torque_Nm),
             reducer_max_input_speed_rad_s=arr(
-                lambda d: d.reducer.max_input_speed_rpm * RPM_TO_RAD_S),
+                lambda d: d.reducer.max_input_speed_rpm * RPM_TO_RAD_S
+            ),
             counts_per_motor_rev=arr(lambda d: d.encoder.pulses_per_rev * d.encoder.decoding),
         )
 
@@ -181,8 +197,12 @@ def envelope_torque(w_m, t_m, drives: DriveArrays) -> np.ndarray:
     (``T w >= 0``: the back-EMF eats the supply voltage), ``+`` while generating. The armature
     equation ``U = R i + Ke w`` with ``T = Kt i`` (thesis ch. 5, digest §1).
     """
-    kt, ke, r, u = (drives.torque_constant_Nm_A, drives.back_emf_V_s_rad, drives.resistance_ohm,
-                    drives.supply_voltage_V)
+    kt, ke, r, u = (
+        drives.torque_constant_Nm_A,
+        drives.back_emf_V_s_rad,
+        drives.resistance_ohm,
+        drives.supply_voltage_V,
+    )
     sign = np.where(t_m * w_m >= 0.0, -1.0, 1.0)
     volt = kt * (u + sign * ke * np.abs(w_m)) / r
     return drives.derating * np.minimum(drives.peak_torque_Nm, volt)
@@ -194,8 +214,9 @@ def _margin(value, limit):
     return (limit - value) / np.abs(safe)
 
 
-def evaluate_checks(tau, qd, qdd, weights, drives: DriveArrays, lever_m,
-                    options: SizingOptions) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def evaluate_checks(
+    tau, qd, qdd, weights, drives: DriveArrays, lever_m, options: SizingOptions
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Every sizing check for every column: ``{name: (value, limit)}``, arrays (n_columns,).
 
     Parameters
@@ -238,8 +259,9 @@ def evaluate_checks(tau, qd, qdd, weights, drives: DriveArrays, lever_m,
     out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     out["thesis_rule"] = (
         peak_tau,
-        available_torque_Nm(drives.stall_torque_Nm, drives.ratio, drives.efficiency,
-                            drives.derating),
+        available_torque_Nm(
+            drives.stall_torque_Nm, drives.ratio, drives.efficiency, drives.derating
+        ),
     )
     power_limit = np.where(np.isfinite(drives.power_W), drives.power_W, np.inf)
     out["thesis_power_rule"] = (peak_tau * abs_qd.max(axis=0), power_limit)
@@ -249,8 +271,10 @@ def evaluate_checks(tau, qd, qdd, weights, drives: DriveArrays, lever_m,
     cube = abs_tau**3
     by_speed = (wn * cube).sum(axis=0) / np.where(swn > 0, swn, 1.0)
     by_time = (w * cube).sum(axis=0) / max(float(w.sum()), _TINY)
-    out["reducer_average_torque"] = (np.cbrt(np.where(swn > 0, by_speed, by_time)),
-                                     drives.reducer_rated_torque_Nm)
+    out["reducer_average_torque"] = (
+        np.cbrt(np.where(swn > 0, by_speed, by_time)),
+        drives.reducer_rated_torque_Nm,
+    )
     peak_wm = np.abs(w_m).max(axis=0)
     out["reducer_input_speed"] = (peak_wm, drives.reducer_max_input_speed_rad_s)
     rms = np.sqrt((w * t_m**2).sum(axis=0) / max(float(w.sum()), _TINY))
@@ -269,13 +293,18 @@ def evaluate_checks(tau, qd, qdd, weights, drives: DriveArrays, lever_m,
     counts = peak_wm * drives.counts_per_motor_rev / (2.0 * np.pi) * options.cycle_s
     out["encoder_pulse_rate"] = (counts, options.max_counts_per_cycle)
     n_col = drives.ratio.size
-    return {name: (np.broadcast_to(np.asarray(v, float), (n_col,)),
-                   np.broadcast_to(np.asarray(lim, float), (n_col,)))
-            for name, (v, lim) in out.items()}
+    return {
+        name: (
+            np.broadcast_to(np.asarray(v, float), (n_col,)),
+            np.broadcast_to(np.asarray(lim, float), (n_col,)),
+        )
+        for name, (v, lim) in out.items()
+    }
 
 
-def checks_for_column(results: dict[str, tuple[np.ndarray, np.ndarray]], c: int,
-                      rtol: float = 1e-9) -> list[Check]:
+def checks_for_column(
+    results: dict[str, tuple[np.ndarray, np.ndarray]], c: int, rtol: float = 1e-9
+) -> list[Check]:
     """The :class:`Check` list of column ``c`` of :func:`evaluate_checks`'s output."""
     checks = []
     for name, (value, limit) in results.items():
@@ -283,8 +312,9 @@ def checks_for_column(results: dict[str, tuple[np.ndarray, np.ndarray]], c: int,
         if not math.isfinite(lim):  # no such rating: nothing to check
             continue
         margin = float(_margin(v, lim))
-        checks.append(Check(name, v, lim, margin, bool(v <= lim * (1.0 + rtol) + _TINY),
-                            CHECK_NAMES[name]))
+        checks.append(
+            Check(name, v, lim, margin, bool(v <= lim * (1.0 + rtol) + _TINY), CHECK_NAMES[name])
+        )
     return checks
 
 

@@ -73,15 +73,25 @@ class HoldReport:
                 "margin": m if np.isfinite(m) else None,
                 "at_sample": int(self.worst_sample[j]),
             }
-        return {"payload_kg": self.payload_kg, "n_samples": int(self.q.shape[0]),
-                "ok": self.ok, "all_in_range": bool(np.all(self.in_range)), "joints": out}
+        return {
+            "payload_kg": self.payload_kg,
+            "n_samples": int(self.q.shape[0]),
+            "ok": self.ok,
+            "all_in_range": bool(np.all(self.in_range)),
+            "joints": out,
+        }
 
     def to_markdown(self) -> str:
-        lines = [f"| joint | holding torque [N m] | limit [N m] | margin | (payload "
-                 f"{self.payload_kg:g} kg, {self.q.shape[0]} poses) |", "|---|---|---|---|---|"]
+        lines = [
+            f"| joint | holding torque [N m] | limit [N m] | margin | (payload "
+            f"{self.payload_kg:g} kg, {self.q.shape[0]} poses) |",
+            "|---|---|---|---|---|",
+        ]
         for j, name in enumerate(self.joint_names):
-            lines.append(f"| {name} | {self.peak_torque_Nm[j]:.4g} | {self.limit_Nm[j]:.4g} | "
-                         f"{100 * self.margin[j]:+.0f} % | sample {self.worst_sample[j]} |")
+            lines.append(
+                f"| {name} | {self.peak_torque_Nm[j]:.4g} | {self.limit_Nm[j]:.4g} | "
+                f"{100 * self.margin[j]:+.0f} % | sample {self.worst_sample[j]} |"
+            )
         return "\n".join(lines) + "\n"
 
 
@@ -112,5 +122,11 @@ def hold_check(robot, q_or_path, *, threads: int = 1) -> HoldReport:
     tau = joint_torques(robot, q, zeros, zeros, threads=threads)
     effort = np.asarray(robot.limits.effort_Nm, float)
     limit = np.where(effort > 0, effort, np.nan)
-    return HoldReport(joint_names=list(robot.joint_names), q=q, torque_Nm=tau, limit_Nm=limit,
-                      in_range=robot.within_limits(q), payload_kg=float(robot.payload.mass_kg))
+    return HoldReport(
+        joint_names=list(robot.joint_names),
+        q=q,
+        torque_Nm=tau,
+        limit_Nm=limit,
+        in_range=robot.within_limits(q),
+        payload_kg=float(robot.payload.mass_kg),
+    )

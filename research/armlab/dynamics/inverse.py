@@ -26,8 +26,14 @@ from armlab.errors import InputError, RobotDescriptionError
 from armlab.robot.drives import Drive
 from armlab.trajectory import Trajectory
 
-__all__ = ["JointLoads", "inverse_dynamics", "joint_torques", "dynamics_model",
-           "as_trajectories", "sample_weights"]
+__all__ = [
+    "JointLoads",
+    "inverse_dynamics",
+    "joint_torques",
+    "dynamics_model",
+    "as_trajectories",
+    "sample_weights",
+]
 
 RAD_S_TO_RPM = 60.0 / (2.0 * np.pi)
 
@@ -69,8 +75,9 @@ def joint_torques(robot, q, qd, qdd, *, threads: int = 1) -> np.ndarray:
         raise InputError("q, qd and qdd must have the same shape")
     model = dynamics_model(robot)
     pool = pin.ModelPool(model, max(1, int(threads)))
-    tau = np.asarray(pin.rneaInParallel(max(1, int(threads)), pool,
-                                        *(np.asfortranarray(a.T) for a in arrays)))
+    tau = np.asarray(
+        pin.rneaInParallel(max(1, int(threads)), pool, *(np.asfortranarray(a.T) for a in arrays))
+    )
     if tau.ndim == 1:  # a batch of one comes back as a vector
         tau = tau[:, None]
     return np.ascontiguousarray(tau.T)
@@ -89,15 +96,17 @@ def as_trajectories(trajectory_or_list, robot) -> list[Trajectory]:
         trajs = list(trajectory_or_list)
     else:
         raise InputError(
-            f"expected a Trajectory or a list of them, not {type(trajectory_or_list).__name__}")
+            f"expected a Trajectory or a list of them, not {type(trajectory_or_list).__name__}"
+        )
     if not trajs:
         raise InputError("no trajectory given")
     for k, tr in enumerate(trajs):
         if not isinstance(tr, Trajectory):
             raise InputError(f"item {k} is a {type(tr).__name__}, not a Trajectory")
         if tr.n_joints != robot.n_joints:
-            raise InputError(f"trajectory {k} has {tr.n_joints} joints, robot {robot.name} has "
-                             f"{robot.n_joints}")
+            raise InputError(
+                f"trajectory {k} has {tr.n_joints} joints, robot {robot.name} has {robot.n_joints}"
+            )
         for name in ("t", "q", "qd", "qdd"):
             a = getattr(tr, name)
             if not np.all(np.isfinite(a)):
@@ -225,8 +234,12 @@ class JointLoads:
                 d["motor_rms_torque_Nm"] = float(self.motor_rms_torque_Nm[j])
                 d["motor_peak_speed_rpm"] = float(self.motor_peak_speed_rpm[j])
             out[name] = d
-        return {"duration_s": self.duration, "n_samples": int(self.n_samples),
-                "payload_kg": float(self.payload_kg), "joints": out}
+        return {
+            "duration_s": self.duration,
+            "n_samples": int(self.n_samples),
+            "payload_kg": float(self.payload_kg),
+            "joints": out,
+        }
 
 
 def _drive_list(robot, drives) -> list[Drive] | None:
@@ -283,15 +296,23 @@ def inverse_dynamics(robot, trajectory, *, drives=None, threads: int = 1) -> Joi
     qdd = np.vstack([tr.qdd for tr in trajs])
     tau = joint_torques(robot, q, qd, qdd, threads=threads)
     loads = JointLoads(
-        joint_names=list(robot.joint_names), t=np.concatenate(ts), segment=np.concatenate(segs),
-        weights=np.concatenate(ws), q=q, qd=qd, qdd=qdd, torque_Nm=tau, power_W=tau * qd,
+        joint_names=list(robot.joint_names),
+        t=np.concatenate(ts),
+        segment=np.concatenate(segs),
+        weights=np.concatenate(ws),
+        q=q,
+        qd=qd,
+        qdd=qdd,
+        torque_Nm=tau,
+        power_W=tau * qd,
         payload_kg=float(robot.payload.mass_kg),
     )
     dl = _drive_list(robot, drives)
     if dl is not None:
         arrays = DriveArrays.from_drives(dl)
         loads.motor_torque_Nm, loads.motor_speed_rad_s, loads.motoring = motor_side(
-            tau, qd, qdd, arrays)
+            tau, qd, qdd, arrays
+        )
         loads.reflected_inertia_kg_m2 = arrays.inertia_motor_side_kg_m2 * arrays.ratio**2
     return loads
 
@@ -301,5 +322,6 @@ def require_drives(robot, drives=None) -> list[Drive]:
     dl = _drive_list(robot, drives)
     if dl is None:
         raise RobotDescriptionError(
-            f"{robot.name}: no drives file (drives.toml) — sizing needs motor and reducer data")
+            f"{robot.name}: no drives file (drives.toml) — sizing needs motor and reducer data"
+        )
     return dl

@@ -45,8 +45,11 @@ def plot_joint_loads(loads: JointLoads, robot=None, *, joints=None) -> Figure:
     fig = Figure(figsize=(11, 2.1 * len(idx) + 0.6), layout="constrained")
     axes = fig.subplots(len(idx), 3, squeeze=False, sharex=True)
     for row, j in enumerate(idx):
-        series = ((loads.torque_Nm[:, j], "torque [N m]"), (loads.qd[:, j], "speed [rad/s]"),
-                  (loads.power_W[:, j], "power [W]"))
+        series = (
+            (loads.torque_Nm[:, j], "torque [N m]"),
+            (loads.qd[:, j], "speed [rad/s]"),
+            (loads.power_W[:, j], "power [W]"),
+        )
         for col, (y, label) in enumerate(series):
             ax = axes[row, col]
             ax.plot(loads.t, y, lw=1.0)
@@ -56,15 +59,26 @@ def plot_joint_loads(loads: JointLoads, robot=None, *, joints=None) -> Figure:
             lim = robot.limits
             if lim.effort_Nm[j] > 0:
                 for s in (1, -1):
-                    axes[row, 0].axhline(s * lim.effort_Nm[j], color="C3", ls="--", lw=0.8,
-                                         label="available" if s == 1 else None)
+                    axes[row, 0].axhline(
+                        s * lim.effort_Nm[j],
+                        color="C3",
+                        ls="--",
+                        lw=0.8,
+                        label="available" if s == 1 else None,
+                    )
             if robot.drives is not None:
                 d = robot.drives[loads.joint_names[j]]
                 for s in (1, -1):
-                    axes[row, 0].axhline(s * d.reducer.peak_torque_Nm, color="C1", ls=":",
-                                         lw=0.8, label="reducer peak" if s == 1 else None)
-                axes[row, 2].axhline(d.motor.power_W, color="C3", ls="--", lw=0.8,
-                                     label="motor power")
+                    axes[row, 0].axhline(
+                        s * d.reducer.peak_torque_Nm,
+                        color="C1",
+                        ls=":",
+                        lw=0.8,
+                        label="reducer peak" if s == 1 else None,
+                    )
+                axes[row, 2].axhline(
+                    d.motor.power_W, color="C3", ls="--", lw=0.8, label="motor power"
+                )
             for s in (1, -1):
                 axes[row, 1].axhline(s * lim.velocity_rad_s[j], color="C3", ls="--", lw=0.8)
             if row == 0:
@@ -106,10 +120,14 @@ def plot_operating_points(loads: JointLoads, robot, *, drives=None, joints=None)
         t = loads.motor_torque_Nm[:, j]
         w_nl = float(arr.supply_voltage_V[0] / arr.back_emf_V_s_rad[0])
         ws = np.linspace(-w_nl, w_nl, 401)
-        kt, ke, r, u = (float(arr.torque_constant_Nm_A[0]), float(arr.back_emf_V_s_rad[0]),
-                        float(arr.resistance_ohm[0]), float(arr.supply_voltage_V[0]))
+        kt, ke, r, u = (
+            float(arr.torque_constant_Nm_A[0]),
+            float(arr.back_emf_V_s_rad[0]),
+            float(arr.resistance_ohm[0]),
+            float(arr.supply_voltage_V[0]),
+        )
         peak, der = float(arr.peak_torque_Nm[0]), float(arr.derating[0])
-        upper = der * np.minimum(peak, kt * (u - ke * ws) / r)   # T > 0: driving when w > 0
+        upper = der * np.minimum(peak, kt * (u - ke * ws) / r)  # T > 0: driving when w > 0
         lower = -der * np.minimum(peak, kt * (u + ke * ws) / r)  # T < 0: driving when w < 0
         ax.plot(ws * RAD_S_TO_RPM, upper, color="C3", lw=1.2, label="envelope")
         ax.plot(ws * RAD_S_TO_RPM, lower, color="C3", lw=1.2)
@@ -124,7 +142,7 @@ def plot_operating_points(loads: JointLoads, robot, *, drives=None, joints=None)
         ax.set_xlabel("motor speed [rpm]")
         ax.set_ylabel("motor torque [N m]")
         ax.grid(True, alpha=0.3)
-    for ax in axes[len(idx):]:
+    for ax in axes[len(idx) :]:
         ax.set_visible(False)
     axes[0].legend(fontsize=7, loc="lower left")
     return fig

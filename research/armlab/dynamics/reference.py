@@ -13,8 +13,14 @@ import math
 
 import numpy as np
 
-__all__ = ["THESIS_TABLE_4_2", "THESIS_TABLE_4_3", "is_thesis_robot", "static_load_markdown",
-           "sizing_markdown", "static_load_explanations"]
+__all__ = [
+    "THESIS_TABLE_4_2",
+    "THESIS_TABLE_4_3",
+    "is_thesis_robot",
+    "static_load_markdown",
+    "sizing_markdown",
+    "static_load_explanations",
+]
 
 #: Thesis table 4.2: limit torque [N m] and power = torque x max speed [W], joints 1..6.
 THESIS_TABLE_4_2 = {
@@ -24,18 +30,54 @@ THESIS_TABLE_4_2 = {
 
 #: Thesis table 4.3: the selected drives; available = stall x ratio x 0.6 (x 0.8 for joint 2).
 THESIS_TABLE_4_3 = (
-    {"motor": "55LY54", "stall_torque_Nm": 0.1274, "reducer": "XB1 harmonic", "ratio": 125,
-     "rated_torque_Nm": 33, "available_torque_Nm": 9.55},
-    {"motor": "55LYX04", "stall_torque_Nm": 0.28, "reducer": "XB3 harmonic", "ratio": 410,
-     "rated_torque_Nm": 35, "available_torque_Nm": 55},
-    {"motor": "45LYX04", "stall_torque_Nm": 0.13, "reducer": "XB3 harmonic", "ratio": 385,
-     "rated_torque_Nm": 15, "available_torque_Nm": 30},
-    {"motor": "36LYX04", "stall_torque_Nm": 0.0294, "reducer": "XB1 harmonic", "ratio": 80,
-     "rated_torque_Nm": 6.5, "available_torque_Nm": 1.4},
-    {"motor": "36LYX04", "stall_torque_Nm": 0.0294, "reducer": "XB3 harmonic", "ratio": 298,
-     "rated_torque_Nm": 2, "available_torque_Nm": 5.3},
-    {"motor": "small DC motor", "stall_torque_Nm": 0.0154, "reducer": "GP22C planetary",
-     "ratio": 128, "rated_torque_Nm": 1.3, "available_torque_Nm": 1.2},
+    {
+        "motor": "55LY54",
+        "stall_torque_Nm": 0.1274,
+        "reducer": "XB1 harmonic",
+        "ratio": 125,
+        "rated_torque_Nm": 33,
+        "available_torque_Nm": 9.55,
+    },
+    {
+        "motor": "55LYX04",
+        "stall_torque_Nm": 0.28,
+        "reducer": "XB3 harmonic",
+        "ratio": 410,
+        "rated_torque_Nm": 35,
+        "available_torque_Nm": 55,
+    },
+    {
+        "motor": "45LYX04",
+        "stall_torque_Nm": 0.13,
+        "reducer": "XB3 harmonic",
+        "ratio": 385,
+        "rated_torque_Nm": 15,
+        "available_torque_Nm": 30,
+    },
+    {
+        "motor": "36LYX04",
+        "stall_torque_Nm": 0.0294,
+        "reducer": "XB1 harmonic",
+        "ratio": 80,
+        "rated_torque_Nm": 6.5,
+        "available_torque_Nm": 1.4,
+    },
+    {
+        "motor": "36LYX04",
+        "stall_torque_Nm": 0.0294,
+        "reducer": "XB3 harmonic",
+        "ratio": 298,
+        "rated_torque_Nm": 2,
+        "available_torque_Nm": 5.3,
+    },
+    {
+        "motor": "small DC motor",
+        "stall_torque_Nm": 0.0154,
+        "reducer": "GP22C planetary",
+        "ratio": 128,
+        "rated_torque_Nm": 1.3,
+        "available_torque_Nm": 1.2,
+    },
 )
 
 _G = 9.81
@@ -80,7 +122,8 @@ def static_load_explanations(report) -> dict[int, str]:
                 f"(table 4.1 lumps at the places of mdh.toml, tool point 200 mm beyond the wrist "
                 f"centre, ASSUMED). The thesis figure implies "
                 f"{thesis_t[0] / alpha:.2f} kg m^2, or a friction allowance of "
-                f"{thesis_t[0] - x.torque_Nm:.1f} N m on top of our inertia.")
+                f"{thesis_t[0] - x.torque_Nm:.1f} N m on top of our inertia."
+            )
         elif j in (1, 2):
             lever = x.gravity_Nm / _G
             need = (thesis_t[j] - x.acceleration_Nm) / _G
@@ -92,7 +135,8 @@ def static_load_explanations(report) -> dict[int, str]:
                 f"axis 3, the joint-4 drive 80 mm out along x3, the 4-5 arm at mid-forearm and "
                 f"the payload at the ASSUMED 200 mm tool point (mdh.toml). The thesis figure "
                 f"implies sum(m l) = {need:.3f} kg m, lever arms about "
-                f"{100 * (need / lever - 1):.0f} % longer than our placements.")
+                f"{100 * (need / lever - 1):.0f} % longer than our placements."
+            )
         elif j == 3:
             out[j] = (
                 f"The thesis takes joint 4 with the wrist straight: a payload torsion allowance "
@@ -102,33 +146,43 @@ def static_load_explanations(report) -> dict[int, str]:
                 f"payload (0.5 kg at the ASSUMED tool point 200 mm from the wrist centre) and "
                 f"the joint-6 drive (0.63 kg, 80 mm) then hang off axis 4, a gravity torque of "
                 f"{x.gravity_Nm:.2f} N m (the same as joint 5's). With the payload at the "
-                f"flange (100 mm) it would be about half.")
+                f"flange (100 mm) it would be about half."
+            )
         elif j == 5:
             out[j] = (
                 f"Our payload's centre of mass lies on the joint-6 axis (tool point on z6, "
                 f"mdh.toml [payload]), so joint 6 only accelerates the payload's own inertia: "
                 f"{x.inertia_kg_m2:.2e} kg m^2 x {alpha:g} rad/s^2 = {x.torque_Nm:.4f} N m. "
                 f"The thesis' 0.33 N m is a payload torsion allowance (4.2.1 (1)) that an "
-                f"on-axis payload does not produce.")
+                f"on-axis payload does not produce."
+            )
         else:
             out[j] = (
                 f"From the lumped-mass model (mdh.toml placements, payload "
                 f"{report.payload_kg:g} kg at the ASSUMED tool point): worst pose {pose} deg, "
-                f"gravity {x.gravity_Nm:.3g} N m + acceleration {x.acceleration_Nm:.3g} N m.")
+                f"gravity {x.gravity_Nm:.3g} N m + acceleration {x.acceleration_Nm:.3g} N m."
+            )
     return out
 
 
 def static_load_markdown(report) -> str:
     """Markdown table of a :class:`StaticLoadReport` (with thesis table 4.2 for teachbot6)."""
     thesis = is_thesis_robot(report.robot_name, len(report.joints))
-    lines = [f"### Worst-case static load ({report.robot_name}, payload "
-             f"{report.payload_kg:g} kg)", ""]
-    worst = ("the pose of the largest gravity torque (the largest inertia term where a joint "
-             "carries no gravity)" if report.criterion == "gravity" else
-             "the pose of the largest sum")
-    lines.append("Torque = |gravity| + inertia about the axis x max acceleration (thesis eq. "
-                 f"4-2) at {worst} inside the joint ranges, found by multi-start bounded "
-                 "optimisation; power = torque x max speed (thesis 4.2.2).")
+    lines = [
+        f"### Worst-case static load ({report.robot_name}, payload {report.payload_kg:g} kg)",
+        "",
+    ]
+    worst = (
+        "the pose of the largest gravity torque (the largest inertia term where a joint "
+        "carries no gravity)"
+        if report.criterion == "gravity"
+        else "the pose of the largest sum"
+    )
+    lines.append(
+        "Torque = |gravity| + inertia about the axis x max acceleration (thesis eq. "
+        f"4-2) at {worst} inside the joint ranges, found by multi-start bounded "
+        "optimisation; power = torque x max speed (thesis 4.2.2)."
+    )
     lines.append("")
     if thesis:
         lines += [
@@ -141,18 +195,24 @@ def static_load_markdown(report) -> str:
             lines.append(
                 f"| {x.joint} | {tt:g} | {x.torque_Nm:.3g} | {_pct(x.torque_Nm, tt):+.0f} % | "
                 f"{_num(x.gravity_Nm)} | {_num(x.acceleration_Nm)} | {tp:g} | {x.power_W:.3g} | "
-                f"{_pct(x.power_W, tp):+.0f} % | {_deg(x.pose_rad)} |")
+                f"{_pct(x.power_W, tp):+.0f} % | {_deg(x.pose_rad)} |"
+            )
         expl = static_load_explanations(report)
         if expl:
             lines += ["", "Differences larger than 10 %:", ""]
             for j, text in expl.items():
                 lines.append(f"- **{report.joints[j].joint}**: {text}")
     else:
-        lines += ["| joint | torque [N m] | gravity [N m] | acceleration [N m] | power [W] | "
-                  "worst pose [deg] |", "|---|---|---|---|---|---|"]
+        lines += [
+            "| joint | torque [N m] | gravity [N m] | acceleration [N m] | power [W] | "
+            "worst pose [deg] |",
+            "|---|---|---|---|---|---|",
+        ]
         for x in report.joints:
-            lines.append(f"| {x.joint} | {x.torque_Nm:.4g} | {_num(x.gravity_Nm)} | "
-                         f"{_num(x.acceleration_Nm)} | {x.power_W:.4g} | {_deg(x.pose_rad)} |")
+            lines.append(
+                f"| {x.joint} | {x.torque_Nm:.4g} | {_num(x.gravity_Nm)} | "
+                f"{_num(x.acceleration_Nm)} | {x.power_W:.4g} | {_deg(x.pose_rad)} |"
+            )
     return "\n".join(lines) + "\n"
 
 
@@ -167,12 +227,17 @@ def _fmt(value: float, unit: str) -> str:
 def sizing_markdown(report) -> str:
     """Markdown of a :class:`SizingReport` (with thesis table 4.3 beside it for teachbot6)."""
     thesis = is_thesis_robot(report.robot_name, len(report.joints))
-    lines = [f"### Drive sizing ({report.robot_name}, payload {report.payload_kg:g} kg, "
-             f"{report.duration_s:.3g} s duty cycle, {report.n_samples} samples)", ""]
-    lines.append("Thesis rule (table 4.3): stall torque x ratio x efficiency x derating >= "
-                 "peak joint torque. Motor torque = joint torque / (ratio x efficiency) while "
-                 "driving or holding, x efficiency / ratio while back-driven, + reflected rotor "
-                 "and reducer inertia; derating multiplies every motor torque limit.")
+    lines = [
+        f"### Drive sizing ({report.robot_name}, payload {report.payload_kg:g} kg, "
+        f"{report.duration_s:.3g} s duty cycle, {report.n_samples} samples)",
+        "",
+    ]
+    lines.append(
+        "Thesis rule (table 4.3): stall torque x ratio x efficiency x derating >= "
+        "peak joint torque. Motor torque = joint torque / (ratio x efficiency) while "
+        "driving or holding, x efficiency / ratio while back-driven, + reflected rotor "
+        "and reducer inertia; derating multiplies every motor torque limit."
+    )
     lines.append("")
     if thesis:
         lines += [
@@ -192,21 +257,28 @@ def sizing_markdown(report) -> str:
                 f"{t['available_torque_Nm']:g} | {js.available_torque_Nm:.3g} | {req:g} | "
                 f"{verdict} | {js.peak_torque_Nm:.3g} | {'pass' if rule.ok else 'FAIL'} | "
                 f"{'pass' if js.ok else 'FAIL'} | "
-                f"{', '.join(failing) if failing else js.binding.name} |")
+                f"{', '.join(failing) if failing else js.binding.name} |"
+            )
     else:
-        lines += ["| joint | motor | reducer | peak torque [N m] | all checks | binding or "
-                  "failing |", "|---|---|---|---|---|---|"]
+        lines += [
+            "| joint | motor | reducer | peak torque [N m] | all checks | binding or failing |",
+            "|---|---|---|---|---|---|",
+        ]
         for js in report.joints:
             failing = [c.name for c in js.checks if not c.ok]
-            lines.append(f"| {js.joint} | {js.drive.motor.model} | {js.drive.reducer.model} | "
-                         f"{js.peak_torque_Nm:.3g} | {'pass' if js.ok else 'FAIL'} | "
-                         f"{', '.join(failing) if failing else js.binding.name} |")
+            lines.append(
+                f"| {js.joint} | {js.drive.motor.model} | {js.drive.reducer.model} | "
+                f"{js.peak_torque_Nm:.3g} | {'pass' if js.ok else 'FAIL'} | "
+                f"{', '.join(failing) if failing else js.binding.name} |"
+            )
     lines += ["", "| joint | check | value | limit | margin | ok |", "|---|---|---|---|---|---|"]
     for js in report.joints:
         for c in js.checks:
-            lines.append(f"| {js.joint} | {c.name} | {_fmt(c.value, c.unit)} | "
-                         f"{_fmt(c.limit, c.unit)} | {100 * c.margin:+.0f} % | "
-                         f"{'yes' if c.ok else '**NO**'} |")
+            lines.append(
+                f"| {js.joint} | {c.name} | {_fmt(c.value, c.unit)} | "
+                f"{_fmt(c.limit, c.unit)} | {100 * c.margin:+.0f} % | "
+                f"{'yes' if c.ok else '**NO**'} |"
+            )
     fails = report.failures()
     if fails:
         lines += ["", "Failing checks:", ""]

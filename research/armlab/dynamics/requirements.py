@@ -26,8 +26,16 @@ from armlab.trajectory import Trajectory
 __all__ = ["requirement_moves", "trapezoid_move"]
 
 
-def trapezoid_move(q_start, joint: int, direction: float, speed: float, acceleration: float,
-                   cruise_s: float, dt: float, joint_names=None) -> Trajectory:
+def trapezoid_move(
+    q_start,
+    joint: int,
+    direction: float,
+    speed: float,
+    acceleration: float,
+    cruise_s: float,
+    dt: float,
+    joint_names=None,
+) -> Trajectory:
     """One joint's trapezoidal move from rest to rest, sampled every ``dt`` [s].
 
     Phases: ``+a`` for ``v/a`` s, ``0`` for ``cruise_s`` s, ``-a`` for ``v/a`` s (signs times
@@ -62,8 +70,15 @@ def trapezoid_move(q_start, joint: int, direction: float, speed: float, accelera
     return Trajectory(t, q, qd, qdd, joint_names=joint_names, method="requirement move")
 
 
-def requirement_moves(robot, static=None, *, velocity_rad_s=None, acceleration_rad_s2=None,
-                      cruise_s: float = 0.5, dt: float = 1e-3) -> list[Trajectory]:
+def requirement_moves(
+    robot,
+    static=None,
+    *,
+    velocity_rad_s=None,
+    acceleration_rad_s2=None,
+    cruise_s: float = 0.5,
+    dt: float = 1e-3,
+) -> list[Trajectory]:
     """One trapezoidal move per joint at its maximum speed and acceleration (module docstring).
 
     Parameters

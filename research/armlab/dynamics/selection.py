@@ -52,17 +52,21 @@ class Candidate(Checked):
 
     @property
     def available_torque_Nm(self) -> float:
-        return available_torque_Nm(self.motor.stall_torque_Nm, self.reducer.ratio,
-                                   self.reducer.efficiency, self.derating)
+        return available_torque_Nm(
+            self.motor.stall_torque_Nm, self.reducer.ratio, self.reducer.efficiency, self.derating
+        )
 
     def to_dict(self) -> dict:
         return {
-            "motor": self.motor.model, "reducer": self.reducer.model,
+            "motor": self.motor.model,
+            "reducer": self.reducer.model,
             "ratio": float(self.reducer.ratio),
             "mass_kg": self.mass_kg if math.isfinite(self.mass_kg) else None,
             "price": self.price if math.isfinite(self.price) else None,
-            "available_torque_Nm": self.available_torque_Nm, "ok": self.ok,
-            "binding_check": self.binding.name, "binding_margin": float(self.binding.margin),
+            "available_torque_Nm": self.available_torque_Nm,
+            "ok": self.ok,
+            "binding_check": self.binding.name,
+            "binding_margin": float(self.binding.margin),
             "failing_checks": [c.name for c in self.checks if not c.ok],
             "checks": [c.to_dict() for c in self.checks],
         }
@@ -95,7 +99,8 @@ class JointSelection:
             "chosen": None if self.chosen is None else self.chosen.to_dict(),
             "closest": None if self.closest is None else self.closest.to_dict(),
             "current": None if self.current is None else self.current.to_dict(),
-            "n_candidates": self.n_candidates, "n_passing": self.n_passing,
+            "n_candidates": self.n_candidates,
+            "n_passing": self.n_passing,
         }
 
 
@@ -127,36 +132,50 @@ class Selection:
             if js.chosen is None:
                 out[js.joint] = robot.drive(js.joint)
             else:
-                out[js.joint] = _drive(robot, j, js.chosen.motor, js.chosen.reducer,
-                                       js.chosen.derating)
+                out[js.joint] = _drive(
+                    robot, j, js.chosen.motor, js.chosen.reducer, js.chosen.derating
+                )
         return out
 
     def to_dict(self) -> dict:
-        return {"objective": self.objective, "payload_kg": self.payload_kg,
-                "currency": self.currency, "ok": self.ok,
-                "joints": {j.joint: j.to_dict() for j in self.joints}}
+        return {
+            "objective": self.objective,
+            "payload_kg": self.payload_kg,
+            "currency": self.currency,
+            "ok": self.ok,
+            "joints": {j.joint: j.to_dict() for j in self.joints},
+        }
 
     def to_markdown(self) -> str:
         cur = f" [{self.currency}]" if self.currency else ""
-        lines = [f"### Drive selection ({self.robot_name}, payload {self.payload_kg:g} kg, "
-                 f"lightest by {self.objective})", "",
-                 "One pass: link masses are those of the description (not updated for the "
-                 "chosen parts).", "",
-                 f"| joint | chosen motor + reducer | mass [kg] | price{cur} | available [N m] |"
-                 f" binding check (margin) | passing | current parts: ok? mass [kg] |",
-                 "|---|---|---|---|---|---|---|---|"]
+        lines = [
+            f"### Drive selection ({self.robot_name}, payload {self.payload_kg:g} kg, "
+            f"lightest by {self.objective})",
+            "",
+            "One pass: link masses are those of the description (not updated for the "
+            "chosen parts).",
+            "",
+            f"| joint | chosen motor + reducer | mass [kg] | price{cur} | available [N m] |"
+            f" binding check (margin) | passing | current parts: ok? mass [kg] |",
+            "|---|---|---|---|---|---|---|---|",
+        ]
         for js in self.joints:
             c = js.chosen
             if c is None:
                 near = js.closest
-                text = ("none passes" if near is None else
-                        f"none passes; closest {near.motor.model} + {near.reducer.model} "
-                        f"fails {', '.join(x.name for x in near.checks if not x.ok)}")
+                text = (
+                    "none passes"
+                    if near is None
+                    else f"none passes; closest {near.motor.model} + {near.reducer.model} "
+                    f"fails {', '.join(x.name for x in near.checks if not x.ok)}"
+                )
                 row = f"| {js.joint} | {text} | - | - | - | - |"
             else:
-                row = (f"| {js.joint} | {c.motor.model} + {c.reducer.model} | {c.mass_kg:.3g} |"
-                       f" {c.price:.0f} | {c.available_torque_Nm:.3g} | {c.binding.name} "
-                       f"({100 * c.binding.margin:+.0f} %) |")
+                row = (
+                    f"| {js.joint} | {c.motor.model} + {c.reducer.model} | {c.mass_kg:.3g} |"
+                    f" {c.price:.0f} | {c.available_torque_Nm:.3g} | {c.binding.name} "
+                    f"({100 * c.binding.margin:+.0f} %) |"
+                )
             now = js.current
             if now is None:
                 tail = "-"
@@ -171,17 +190,34 @@ class Selection:
 def _drive(robot, j: int, motor: Motor, reducer: Reducer, derating: float) -> Drive:
     name = robot.joint_names[j]
     lim = robot.limits
-    encoder = (robot.drives[name].encoder if robot.drives is not None
-               else Encoder(pulses_per_rev=1000, decoding=4))
+    encoder = (
+        robot.drives[name].encoder
+        if robot.drives is not None
+        else Encoder(pulses_per_rev=1000, decoding=4)
+    )
     acc = math.inf if lim.acceleration_rad_s2 is None else float(lim.acceleration_rad_s2[j])
     jerk = math.inf if lim.jerk_rad_s3 is None else float(lim.jerk_rad_s3[j])
-    return Drive(joint=name, motor=motor, reducer=reducer, encoder=encoder,
-                 acceleration_rad_s2=acc, jerk_rad_s3=jerk, derating=derating)
+    return Drive(
+        joint=name,
+        motor=motor,
+        reducer=reducer,
+        encoder=encoder,
+        acceleration_rad_s2=acc,
+        jerk_rad_s3=jerk,
+        derating=derating,
+    )
 
 
-def select_drives(robot, trajectories, catalogue: Catalogue | str | None = None, *,
-                  objective: str = "mass", options: SizingOptions | None = None,
-                  dt: float | None = None, threads: int = 1) -> Selection:
+def select_drives(
+    robot,
+    trajectories,
+    catalogue: Catalogue | str | None = None,
+    *,
+    objective: str = "mass",
+    options: SizingOptions | None = None,
+    dt: float | None = None,
+    threads: int = 1,
+) -> Selection:
     """Choose each joint's lightest (or cheapest) catalogue motor + reducer passing every check.
 
     Parameters
@@ -224,30 +260,57 @@ def select_drives(robot, trajectories, catalogue: Catalogue | str | None = None,
     for j, name in enumerate(robot.joint_names):
         drives = [_drive(robot, j, m, r, catalogue.derating.get(m.model, 1.0)) for m, r in combos]
         columns = slice(j, j + 1)
-        results = evaluate_checks(loads.torque_Nm[:, columns], loads.qd[:, columns],
-                                  loads.qdd[:, columns], loads.weights,
-                                  DriveArrays.from_drives(drives), levers[j], options)
-        cands = [Candidate(m, r, drives[c].derating, checks_for_column(results, c))
-                 for c, (m, r) in enumerate(combos)]
+        results = evaluate_checks(
+            loads.torque_Nm[:, columns],
+            loads.qd[:, columns],
+            loads.qdd[:, columns],
+            loads.weights,
+            DriveArrays.from_drives(drives),
+            levers[j],
+            options,
+        )
+        cands = [
+            Candidate(m, r, drives[c].derating, checks_for_column(results, c))
+            for c, (m, r) in enumerate(combos)
+        ]
         passing = sorted((c for c in cands if c.ok), key=key)
         closest = None if passing else max(cands, key=lambda c: c.binding.margin)
         current = None
         if robot.drives is not None:
             d = robot.drives[name]
-            res = evaluate_checks(loads.torque_Nm[:, columns], loads.qd[:, columns],
-                                  loads.qdd[:, columns], loads.weights,
-                                  DriveArrays.from_drives([d]), levers[j], options)
+            res = evaluate_checks(
+                loads.torque_Nm[:, columns],
+                loads.qd[:, columns],
+                loads.qdd[:, columns],
+                loads.weights,
+                DriveArrays.from_drives([d]),
+                levers[j],
+                options,
+            )
             motor, reducer = d.motor, d.reducer
             tagged = catalogue.thesis_parts.get(name)
             if tagged and tagged[0] and tagged[1]:  # catalogue mass and price of the same parts
                 cm, cr = catalogue.motor(tagged[0]), catalogue.reducer(tagged[1])
                 if math.isclose(cr.ratio, reducer.ratio) and math.isclose(
-                        cm.stall_torque_Nm, motor.stall_torque_Nm):
+                    cm.stall_torque_Nm, motor.stall_torque_Nm
+                ):
                     motor = replace(motor, mass_kg=cm.mass_kg, price=cm.price)
                     reducer = replace(reducer, mass_kg=cr.mass_kg, price=cr.price)
             current = Candidate(motor, reducer, d.derating, checks_for_column(res, 0))
-        joints.append(JointSelection(joint=name, chosen=passing[0] if passing else None,
-                                     closest=closest, current=current,
-                                     n_candidates=len(cands), n_passing=len(passing)))
-    return Selection(robot_name=robot.name, payload_kg=float(robot.payload.mass_kg),
-                     objective=objective, joints=joints, currency=catalogue.currency)
+        joints.append(
+            JointSelection(
+                joint=name,
+                chosen=passing[0] if passing else None,
+                closest=closest,
+                current=current,
+                n_candidates=len(cands),
+                n_passing=len(passing),
+            )
+        )
+    return Selection(
+        robot_name=robot.name,
+        payload_kg=float(robot.payload.mass_kg),
+        objective=objective,
+        joints=joints,
+        currency=catalogue.currency,
+    )

@@ -42,8 +42,9 @@ def lever_arms_m(robot) -> np.ndarray:
     frame's offset from the last joint (exact for the stretched arm).
     """
     model = robot.model
-    lengths = np.array([np.linalg.norm(model.jointPlacements[k].translation)
-                        for k in range(1, model.njoints)])
+    lengths = np.array(
+        [np.linalg.norm(model.jointPlacements[k].translation) for k in range(1, model.njoints)]
+    )
     tool = np.linalg.norm(model.frames[robot.tool_frame_id].placement.translation)
     # joint k's lever: links k+1.. plus the tool
     tail = np.concatenate([np.cumsum(lengths[::-1])[::-1][1:], [0.0]])
@@ -121,8 +122,9 @@ class SizingReport:
         for j in self.joints:
             if j.joint == name:
                 return j
-        raise InputError(f"no joint {name!r} in the sizing report "
-                         f"(joints: {', '.join(self.joint_names)})")
+        raise InputError(
+            f"no joint {name!r} in the sizing report (joints: {', '.join(self.joint_names)})"
+        )
 
     def to_dict(self) -> dict:
         return {j.joint: j.to_dict() for j in self.joints}
@@ -133,8 +135,15 @@ class SizingReport:
         return sizing_markdown(self)
 
 
-def size(robot, trajectory, *, drives=None, options: SizingOptions | None = None,
-         dt: float | None = None, threads: int = 1) -> SizingReport:
+def size(
+    robot,
+    trajectory,
+    *,
+    drives=None,
+    options: SizingOptions | None = None,
+    dt: float | None = None,
+    threads: int = 1,
+) -> SizingReport:
     """Check every joint's drive train along a trajectory or a duty cycle of trajectories.
 
     Parameters
@@ -170,22 +179,37 @@ def size(robot, trajectory, *, drives=None, options: SizingOptions | None = None
         trajs = [tr.sample(dt) for tr in trajs]
     loads = inverse_dynamics(robot, trajs, drives=drive_list, threads=threads)
     arrays = DriveArrays.from_drives(drive_list)
-    results = evaluate_checks(loads.torque_Nm, loads.qd, loads.qdd, loads.weights, arrays,
-                              lever_arms_m(robot), options)
+    results = evaluate_checks(
+        loads.torque_Nm, loads.qd, loads.qdd, loads.weights, arrays, lever_arms_m(robot), options
+    )
     peak_t, rms_t, peak_v = loads.peak_torque_Nm, loads.rms_torque_Nm, loads.peak_speed_rad_s
     m_peak, m_rms = loads.motor_peak_torque_Nm, loads.motor_rms_torque_Nm
     m_speed = np.abs(loads.motor_speed_rad_s).max(axis=0) * RAD_S_TO_RPM
     joints = []
     for j, name in enumerate(robot.joint_names):
         d = drive_list[j]
-        joints.append(JointSizing(
-            joint=name, drive=d, checks=checks_for_column(results, j),
-            peak_torque_Nm=float(peak_t[j]), rms_torque_Nm=float(rms_t[j]),
-            peak_speed_rad_s=float(peak_v[j]), motor_peak_speed_rpm=float(m_speed[j]),
-            motor_peak_torque_Nm=float(m_peak[j]), motor_rms_torque_Nm=float(m_rms[j]),
-            available_torque_Nm=float(d.available_torque_Nm),
-            counts_per_joint_rev=float(d.encoder.counts_per_joint_rev(d.reducer.ratio)),
-        ))
-    return SizingReport(robot_name=robot.name, joint_names=list(robot.joint_names),
-                        payload_kg=float(robot.payload.mass_kg), duration_s=loads.duration,
-                        n_samples=loads.n_samples, joints=joints, options=options, loads=loads)
+        joints.append(
+            JointSizing(
+                joint=name,
+                drive=d,
+                checks=checks_for_column(results, j),
+                peak_torque_Nm=float(peak_t[j]),
+                rms_torque_Nm=float(rms_t[j]),
+                peak_speed_rad_s=float(peak_v[j]),
+                motor_peak_speed_rpm=float(m_speed[j]),
+                motor_peak_torque_Nm=float(m_peak[j]),
+                motor_rms_torque_Nm=float(m_rms[j]),
+                available_torque_Nm=float(d.available_torque_Nm),
+                counts_per_joint_rev=float(d.encoder.counts_per_joint_rev(d.reducer.ratio)),
+            )
+        )
+    return SizingReport(
+        robot_name=robot.name,
+        joint_names=list(robot.joint_names),
+        payload_kg=float(robot.payload.mass_kg),
+        duration_s=loads.duration,
+        n_samples=loads.n_samples,
+        joints=joints,
+        options=options,
+        loads=loads,
+    )

@@ -35,8 +35,13 @@ from scipy.optimize import minimize
 from armlab.dynamics.inverse import dynamics_model, joint_torques
 from armlab.errors import InputError
 
-__all__ = ["JointStaticLoad", "StaticLoadReport", "StaticLoadProblem", "build_static_load",
-           "static_load"]
+__all__ = [
+    "JointStaticLoad",
+    "StaticLoadReport",
+    "StaticLoadProblem",
+    "build_static_load",
+    "static_load",
+]
 
 
 MODES = ("gravity", "inertia", "total")
@@ -85,8 +90,9 @@ class StaticLoadProblem:
         return float(pin.rnea(self.model, self.data, np.asarray(q, float), self._v0, a)[self.joint])
 
     def _dtau(self, q, a) -> np.ndarray:
-        dq, _, _ = pin.computeRNEADerivatives(self.model, self.data, np.asarray(q, float),
-                                              self._v0, a)
+        dq, _, _ = pin.computeRNEADerivatives(
+            self.model, self.data, np.asarray(q, float), self._v0, a
+        )
         return np.asarray(dq)[self.joint].copy()
 
     def objective(self, q, s: float = 1.0) -> float:
@@ -116,9 +122,11 @@ class StaticLoadProblem:
         best = (self.starts[0].copy(), -math.inf, 1.0)
         for q0, s in zip(self.starts, self.start_signs, strict=True):
             res = minimize(
-                lambda q, s=s: -self.objective(q, s), q0,
+                lambda q, s=s: -self.objective(q, s),
+                q0,
                 jac=lambda q, s=s: -self.gradient(q, s),
-                method="L-BFGS-B", bounds=self.bounds,
+                method="L-BFGS-B",
+                bounds=self.bounds,
                 options={"ftol": tol, "gtol": 1e-10, "maxiter": max_iter},
             )
             q = np.clip(res.x, self.lower_rad, self.upper_rad)
@@ -128,10 +136,16 @@ class StaticLoadProblem:
         return best
 
 
-def build_static_load(robot, joint, *, mode: str = "total",
-                      acceleration_rad_s2: float | None = None, n_samples: int = 256,
-                      n_starts: int = 4,
-                      rng: np.random.Generator | None = None) -> StaticLoadProblem:
+def build_static_load(
+    robot,
+    joint,
+    *,
+    mode: str = "total",
+    acceleration_rad_s2: float | None = None,
+    n_samples: int = 256,
+    n_starts: int = 4,
+    rng: np.random.Generator | None = None,
+) -> StaticLoadProblem:
     """Build the worst-case load search of one joint.
 
     Parameters
@@ -155,8 +169,10 @@ def build_static_load(robot, joint, *, mode: str = "total",
         lim = robot.limits.acceleration_rad_s2
         acceleration_rad_s2 = 0.0 if lim is None else float(lim[j])
     if not math.isfinite(acceleration_rad_s2) or acceleration_rad_s2 < 0:
-        raise InputError(f"acceleration of {robot.joint_names[j]} must be finite and >= 0, "
-                         f"not {acceleration_rad_s2!r}")
+        raise InputError(
+            f"acceleration of {robot.joint_names[j]} must be finite and >= 0, "
+            f"not {acceleration_rad_s2!r}"
+        )
     if n_samples < 1 or n_starts < 1:
         raise InputError("n_samples and n_starts must be >= 1")
     if mode not in MODES:
@@ -172,15 +188,22 @@ def build_static_load(robot, joint, *, mode: str = "total",
     tau_acc = joint_torques(robot, q, zeros, acc)[:, j] if mode != "gravity" else g
     inertia_term = tau_acc - g
     starts, signs = [], []
-    for s in ((1.0,) if mode == "inertia" else (1.0, -1.0)):
+    for s in (1.0,) if mode == "inertia" else (1.0, -1.0):
         f = {"gravity": s * g, "inertia": inertia_term, "total": s * g + inertia_term}[mode]
         for k in np.argsort(-f)[:n_starts]:
             starts.append(q[k])
             signs.append(s)
-    return StaticLoadProblem(robot=robot, joint=j, mode=mode,
-                             acceleration_rad_s2=float(acceleration_rad_s2), lower_rad=lo,
-                             upper_rad=hi, starts=np.array(starts), start_signs=np.array(signs),
-                             sample_max_gravity_Nm=float(np.max(np.abs(g))))
+    return StaticLoadProblem(
+        robot=robot,
+        joint=j,
+        mode=mode,
+        acceleration_rad_s2=float(acceleration_rad_s2),
+        lower_rad=lo,
+        upper_rad=hi,
+        starts=np.array(starts),
+        start_signs=np.array(signs),
+        sample_max_gravity_Nm=float(np.max(np.abs(g))),
+    )
 
 
 @dataclass
@@ -204,9 +227,13 @@ class JointStaticLoad:
     direction: float
 
     def to_dict(self) -> dict:
-        return {"torque_Nm": self.torque_Nm, "gravity_Nm": self.gravity_Nm,
-                "acceleration_Nm": self.acceleration_Nm,
-                "pose": [float(x) for x in self.pose_rad], "power_W": self.power_W}
+        return {
+            "torque_Nm": self.torque_Nm,
+            "gravity_Nm": self.gravity_Nm,
+            "acceleration_Nm": self.acceleration_Nm,
+            "pose": [float(x) for x in self.pose_rad],
+            "power_W": self.power_W,
+        }
 
 
 @dataclass
@@ -266,9 +293,16 @@ class StaticLoadReport:
         return static_load_markdown(self)
 
 
-def static_load(robot, *, criterion: str = "gravity", acceleration_rad_s2=None,
-                n_samples: int = 256, n_starts: int = 4, seed: int = 0,
-                gravity_tol_Nm: float = 1e-9) -> StaticLoadReport:
+def static_load(
+    robot,
+    *,
+    criterion: str = "gravity",
+    acceleration_rad_s2=None,
+    n_samples: int = 256,
+    n_starts: int = 4,
+    seed: int = 0,
+    gravity_tol_Nm: float = 1e-9,
+) -> StaticLoadReport:
     """Worst-case holding + accelerating torque of every joint, with the pose that causes it.
 
     Parameters
@@ -301,30 +335,55 @@ def static_load(robot, *, criterion: str = "gravity", acceleration_rad_s2=None,
         acc = robot.limits.acceleration_rad_s2
     acc = np.zeros(robot.n_joints) if acc is None else np.asarray(acc, float).reshape(-1)
     if acc.shape != (robot.n_joints,):
-        raise InputError(f"acceleration_rad_s2 has shape {acc.shape}, expected "
-                         f"({robot.n_joints},)")
+        raise InputError(f"acceleration_rad_s2 has shape {acc.shape}, expected ({robot.n_joints},)")
     speed = robot.limits.velocity_rad_s
     joints, n_eval = [], 0
     for j, name in enumerate(robot.joint_names):
-        problem = build_static_load(robot, j + 1, mode=criterion,
-                                    acceleration_rad_s2=float(acc[j]), n_samples=n_samples,
-                                    n_starts=n_starts, rng=rng)
+        problem = build_static_load(
+            robot,
+            j + 1,
+            mode=criterion,
+            acceleration_rad_s2=float(acc[j]),
+            n_samples=n_samples,
+            n_starts=n_starts,
+            rng=rng,
+        )
         if criterion == "gravity" and problem.sample_max_gravity_Nm < gravity_tol_Nm:
             n_eval += problem.n_evaluations
-            problem = build_static_load(robot, j + 1, mode="inertia",
-                                        acceleration_rad_s2=float(acc[j]), n_samples=n_samples,
-                                        n_starts=n_starts, rng=rng)
+            problem = build_static_load(
+                robot,
+                j + 1,
+                mode="inertia",
+                acceleration_rad_s2=float(acc[j]),
+                n_samples=n_samples,
+                n_starts=n_starts,
+                rng=rng,
+            )
         q, _, s = problem.solve()
         g, m_jj = problem.gravity_and_inertia(q)
         n_eval += problem.n_evaluations
         grav, acc_term = abs(g), m_jj * float(acc[j])
         torque = grav + acc_term
         direction = float(np.sign(g)) if abs(g) > 1e-12 else s
-        joints.append(JointStaticLoad(
-            joint=name, torque_Nm=torque, gravity_Nm=grav, acceleration_Nm=acc_term,
-            inertia_kg_m2=m_jj, pose_rad=q, acceleration_rad_s2=float(acc[j]),
-            speed_rad_s=float(speed[j]), power_W=torque * float(speed[j]), direction=direction,
-        ))
-    return StaticLoadReport(robot_name=robot.name, joint_names=list(robot.joint_names),
-                            payload_kg=float(robot.payload.mass_kg), joints=joints,
-                            n_evaluations=n_eval, criterion=criterion)
+        joints.append(
+            JointStaticLoad(
+                joint=name,
+                torque_Nm=torque,
+                gravity_Nm=grav,
+                acceleration_Nm=acc_term,
+                inertia_kg_m2=m_jj,
+                pose_rad=q,
+                acceleration_rad_s2=float(acc[j]),
+                speed_rad_s=float(speed[j]),
+                power_W=torque * float(speed[j]),
+                direction=direction,
+            )
+        )
+    return StaticLoadReport(
+        robot_name=robot.name,
+        joint_names=list(robot.joint_names),
+        payload_kg=float(robot.payload.mass_kg),
+        joints=joints,
+        n_evaluations=n_eval,
+        criterion=criterion,
+    )

@@ -116,8 +116,11 @@ class AccuracyResult:
         """Errors (n_samples, 3) in [m] of one source: ``angle``, ``length`` or ``combined``."""
         if source not in _SOURCES:
             raise InputError(f"unknown error source {source!r} (use {', '.join(_SOURCES)})")
-        return {"angle": self.error_angle_m, "length": self.error_length_m,
-                "combined": self.error_combined_m}[source]
+        return {
+            "angle": self.error_angle_m,
+            "length": self.error_length_m,
+            "combined": self.error_combined_m,
+        }[source]
 
     def total_m(self, source: str = "combined") -> np.ndarray:
         """Total position error ``|dp|`` (n_samples,) in [m]."""
@@ -259,8 +262,16 @@ def accuracy_study(
     err_length = _positions(a_err, alpha, d_err, theta, upto, T_end) - p0
     err_both = _positions(a_err, alpha, d_err, theta + dtheta, upto, T_end) - p0
     return AccuracyResult(
-        robot=robot.name, n_samples=n, seed=int(seed), point=point, angle_error_rad=e,
-        length_tolerances_m={k: float(v) for k, v in tolerances.items()}, q=q,
-        error_angle_m=err_angle, error_length_m=err_length, error_combined_m=err_both,
-        dtheta_rad=dtheta, dlength_m=dlength,
+        robot=robot.name,
+        n_samples=n,
+        seed=int(seed),
+        point=point,
+        angle_error_rad=e,
+        length_tolerances_m={k: float(v) for k, v in tolerances.items()},
+        q=q,
+        error_angle_m=err_angle,
+        error_length_m=err_length,
+        error_combined_m=err_both,
+        dtheta_rad=dtheta,
+        dlength_m=dlength,
     )

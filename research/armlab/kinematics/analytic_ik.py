@@ -185,7 +185,8 @@ def _arm(robot) -> _WristArm:
         template,
         lower=np.asarray(robot.limits.lower_rad, float),
         upper=np.asarray(robot.limits.upper_rad, float),
-        transform_pre=transform_pre, transform_post=transform_post,
+        transform_pre=transform_pre,
+        transform_post=transform_post,
     )
 
 
@@ -198,9 +199,7 @@ def _check_structure(robot) -> _WristArm:
     name = getattr(robot, "name", "robot")
     dh = robot.dh
     if dh.n_joints != 6 or robot.n_joints != 6:
-        raise ArmlabError(
-            f"no analytic IK for {name}: {robot.n_joints} joints, the solver needs 6"
-        )
+        raise ArmlabError(f"no analytic IK for {name}: {robot.n_joints} joints, the solver needs 6")
     for j in range(1, 7):
         short = robot.model.joints[j].shortname()
         if not short.startswith("JointModelR") or "Unbounded" in short:
@@ -230,8 +229,11 @@ def _check_structure(robot) -> _WristArm:
     # the Pinocchio model must be the DH chain (joint frame i == DH frame i)
     for i in range(6):
         c, s = math.cos(dh.offset_rad[i]), math.sin(dh.offset_rad[i])
-        T = (_homogeneous(_rotx(alpha[i])) @ _homogeneous(None, (a[i], 0.0, d[i]))
-             @ _homogeneous(np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])))
+        T = (
+            _homogeneous(_rotx(alpha[i]))
+            @ _homogeneous(None, (a[i], 0.0, d[i]))
+            @ _homogeneous(np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]))
+        )
         M = robot.model.jointPlacements[i + 1].homogeneous
         if np.abs(M - T).max() > 1e-9:
             raise ArmlabError(
@@ -243,12 +245,24 @@ def _check_structure(robot) -> _WristArm:
     transform_pre = np.linalg.inv(_homogeneous(_rotx(alpha[0])) @ _homogeneous(None, (a[0], 0, 0)))
     transform_post = _homogeneous(None, (0, 0, -d[5]))
     return _WristArm(
-        d1=float(d[0]), a1=float(a[1]), s1=s1, e=-s1 * float(d[1] + d[2]), a2=float(a[2]),
-        a3=float(a[3]), d4=float(d[3]), s3=s3, s4=s4, flip6=flip6,
-        alpha1=float(alpha[1]), alpha3=float(alpha[3]), alpha45=alpha45,
+        d1=float(d[0]),
+        a1=float(a[1]),
+        s1=s1,
+        e=-s1 * float(d[1] + d[2]),
+        a2=float(a[2]),
+        a3=float(a[3]),
+        d4=float(d[3]),
+        s3=s3,
+        s4=s4,
+        flip6=flip6,
+        alpha1=float(alpha[1]),
+        alpha3=float(alpha[3]),
+        alpha45=alpha45,
         offset=np.asarray(dh.offset_rad, float).copy(),
-        lower=np.asarray(dh.lower_rad, float).copy(), upper=np.asarray(dh.upper_rad, float).copy(),
-        transform_pre=transform_pre, transform_post=transform_post,
+        lower=np.asarray(dh.lower_rad, float).copy(),
+        upper=np.asarray(dh.upper_rad, float).copy(),
+        transform_pre=transform_pre,
+        transform_post=transform_post,
     )
 
 
@@ -279,8 +293,13 @@ def check_poses(poses, *, name: str = "pose", allow_nan: bool = True) -> tuple[n
     bad = np.flatnonzero(bottom | ortho | det)
     if bad.size:
         k = int(bad[0])
-        what = ("bottom row is not [0, 0, 0, 1]" if bottom[k]
-                else "rotation is not orthonormal" if ortho[k] else "rotation is a reflection")
+        what = (
+            "bottom row is not [0, 0, 0, 1]"
+            if bottom[k]
+            else "rotation is not orthonormal"
+            if ortho[k]
+            else "rotation is a reflection"
+        )
         where = name if single else f"{name}[{k}]"
         raise InputError(f"{where}: {what}")
     return T, single
@@ -293,8 +312,11 @@ def _solve(arm: _WristArm, T_world: np.ndarray, q4_ref: np.ndarray):
     """
     n = T_world.shape[0]
     finite_pose = np.all(np.isfinite(T_world), axis=(1, 2))
-    T = arm.transform_pre @ np.where(finite_pose[:, None, None], T_world, np.eye(4)) \
+    T = (
+        arm.transform_pre
+        @ np.where(finite_pose[:, None, None], T_world, np.eye(4))
         @ arm.transform_post
+    )
     px, py, pz = T[:, 0, 3], T[:, 1, 3], T[:, 2, 3]
     R06 = T[:, :3, :3]
     reason = np.zeros(n, dtype=np.int8)
@@ -403,7 +425,7 @@ def _range_variants(arm: _WristArm, q: np.ndarray, ok: np.ndarray):
     out = np.empty(q.shape[:1] + (q.shape[1] * len(combos), 6))
     for c, idx in enumerate(combos):
         for j in range(6):
-            out[:, c * q.shape[1]:(c + 1) * q.shape[1], j] = per_joint[j][idx[j]]
+            out[:, c * q.shape[1] : (c + 1) * q.shape[1], j] = per_joint[j][idx[j]]
     blocking = (out < lo - _RANGE_TOL) | (out > hi + _RANGE_TOL)
     valid = np.tile(ok, (1, len(combos))) & ~blocking.any(axis=2)
     np.clip(out, lo, hi, out=out)
@@ -463,7 +485,7 @@ def _solve_in_chunks(arm: _WristArm, T: np.ndarray, q4: np.ndarray):
     """Range-filtered solutions, validity and reasons of (n, 4, 4) poses, chunk by chunk."""
     parts = []
     for i in range(0, max(T.shape[0], 1), _CHUNK):
-        q, ok, reason = _solve(arm, T[i:i + _CHUNK], q4[i:i + _CHUNK])
+        q, ok, reason = _solve(arm, T[i : i + _CHUNK], q4[i : i + _CHUNK])
         sol, valid, _ = _range_variants(arm, q, ok)
         reason[(reason == 0) & ~valid.any(axis=1)] = 4
         parts.append((sol, valid, reason))
@@ -492,28 +514,40 @@ def _unreachable_message(robot, arm: _WristArm, T: np.ndarray, code: int, where:
     Tw = arm.transform_pre @ T[0] @ arm.transform_post
     pw = Tw[:3, 3]
     if code == 2:
-        return (f"{where}: {IK_REASONS[2]} (wrist centre {np.round(pw, 6).tolist()} m in the "
-                "base): joint 1 is undefined")
+        return (
+            f"{where}: {IK_REASONS[2]} (wrist centre {np.round(pw, 6).tolist()} m in the "
+            "base): joint 1 is undefined"
+        )
     if code == 3:
         r = math.hypot(pw[0], pw[1])
         if r * r < arm.e * arm.e:
-            return (f"{where}: outside reach: wrist centre {r:.4f} m from the joint-1 axis, "
-                    f"closer than the shoulder offset {abs(arm.e):.4f} m")
+            return (
+                f"{where}: outside reach: wrist centre {r:.4f} m from the joint-1 axis, "
+                f"closer than the shoulder offset {abs(arm.e):.4f} m"
+            )
         rho = math.sqrt(max(r * r - arm.e * arm.e, 0.0))
         dist = math.hypot(rho - arm.a1, pw[2] - arm.d1)
         R = math.hypot(arm.a3, arm.d4)
-        return (f"{where}: outside reach: wrist centre {dist:.4f} m from the shoulder (joint 2) "
-                f"axis, reachable {abs(arm.a2 - R):.4f}..{arm.a2 + R:.4f} m")
+        return (
+            f"{where}: outside reach: wrist centre {dist:.4f} m from the shoulder (joint 2) "
+            f"axis, reachable {abs(arm.a2 - R):.4f}..{arm.a2 + R:.4f} m"
+        )
     # code 4: every candidate violates some range
     q, ok, _ = _solve(arm, T, np.zeros(1))
     _, _, blocking = _range_variants(arm, q, ok)
     m = ok.shape[1]
     blk = blocking[0, :m][ok[0]]
     counts = blk.sum(axis=0)
-    parts = [f"{robot.joint_names[j]} blocks {int(counts[j])}" for j in np.argsort(-counts)
-             if counts[j] > 0]
-    return (f"{where}: all {int(ok[0].sum())} solutions lie outside the joint ranges ("
-            + ", ".join(parts) + ")")
+    parts = [
+        f"{robot.joint_names[j]} blocks {int(counts[j])}"
+        for j in np.argsort(-counts)
+        if counts[j] > 0
+    ]
+    return (
+        f"{where}: all {int(ok[0].sum())} solutions lie outside the joint ranges ("
+        + ", ".join(parts)
+        + ")"
+    )
 
 
 def ik_all(robot, pose, *, q_ref=None, unique_tol_rad: float = 1e-10) -> np.ndarray:
@@ -549,8 +583,10 @@ def ik_all(robot, pose, *, q_ref=None, unique_tol_rad: float = 1e-10) -> np.ndar
     """
     T, single = check_poses(pose, allow_nan=False)
     if not single:
-        raise InputError(f"pose has shape {np.shape(pose)}; ik_all takes one (4, 4) pose "
-                         "(use ik_all_batch for many)")
+        raise InputError(
+            f"pose has shape {np.shape(pose)}; ik_all takes one (4, 4) pose "
+            "(use ik_all_batch for many)"
+        )
     arm = _arm(robot)
     q4 = _q4_ref(robot, q_ref, 1)
     q, ok, reason = _solve(arm, T, q4)
@@ -626,7 +662,9 @@ def ik_nearest(robot, poses, q_ref, weights=None, *, sequential: bool = False) -
     if bad.size:
         k = int(bad[0])
         where = f"{robot.name} pose" if single else f"{robot.name} pose {k} (of {n})"
-        raise UnreachableError(_unreachable_message(robot, arm, T[k:k + 1], int(reason[k]), where))
+        raise UnreachableError(
+            _unreachable_message(robot, arm, T[k : k + 1], int(reason[k]), where)
+        )
     if not sequential:
         cost = np.einsum("nmj,j->nm", (sol - qr[:, None, :]) ** 2, w)
         cost = np.where(valid, cost, np.inf)
@@ -637,7 +675,7 @@ def ik_nearest(robot, poses, q_ref, weights=None, *, sequential: bool = False) -
     for k in range(n):
         cand = sol[k][valid[k]]
         if np.any(np.abs(np.sin(cand[:, 4])) < 1e-6):  # wrist singular: re-solve with prev q4
-            qk, okk, _ = _solve(arm, T[k:k + 1], np.array([prev[3]]))
+            qk, okk, _ = _solve(arm, T[k : k + 1], np.array([prev[3]]))
             s2, v2, _ = _range_variants(arm, qk, okk)
             cand = s2[0][v2[0]]
         cost = ((cand - prev) ** 2) @ w

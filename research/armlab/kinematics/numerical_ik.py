@@ -118,21 +118,32 @@ class _StepQP:
         self._rows, self._cols = self._rows[order], self._cols[order]
         A = sparse.identity(n, format="csc")
         self.solver = osqp.OSQP()
-        self.solver.setup(P, np.zeros(n), A, -np.ones(n), np.ones(n), verbose=False,
-                          eps_abs=1e-9, eps_rel=1e-9, max_iter=4000,
-                          check_termination=10)
+        self.solver.setup(
+            P,
+            np.zeros(n),
+            A,
+            -np.ones(n),
+            np.ones(n),
+            verbose=False,
+            eps_abs=1e-9,
+            eps_rel=1e-9,
+            max_iter=4000,
+            check_termination=10,
+        )
         if "raise_error" in inspect.signature(self.solver.solve).parameters:
             self._solve_kwargs = {"raise_error": False}
 
-    def step(self, H: np.ndarray, g: np.ndarray, lower: np.ndarray,
-             upper: np.ndarray) -> np.ndarray:
+    def step(
+        self, H: np.ndarray, g: np.ndarray, lower: np.ndarray, upper: np.ndarray
+    ) -> np.ndarray:
         """argmin 1/2 x^T H x + g^T x, lower <= x <= upper (H dense symmetric (n, n)).
 
         Solved in ``x / s`` with ``s = ||g||`` so OSQP's absolute tolerances scale with the step.
         """
         scale = max(float(np.linalg.norm(g)), 1e-300)
-        self.solver.update(Px=H[self._rows, self._cols], q=g / scale, l=lower / scale,
-                           u=upper / scale)
+        self.solver.update(
+            Px=H[self._rows, self._cols], q=g / scale, l=lower / scale, u=upper / scale
+        )
         res = self.solver.solve(**self._solve_kwargs)
         x = np.asarray(res.x, dtype=float)
         if x.shape != (self.n,) or not np.all(np.isfinite(x)):  # solver failure: safe fallback
@@ -296,8 +307,18 @@ def ik(
         No configuration inside the joint ranges meets the tolerances after all restarts; the
         message gives the best errors reached.
     """
-    res = ik_solve(robot, pose, q_seed, tol_pos_m=tol_pos_m, tol_rot_rad=tol_rot_rad,
-                   max_iter=max_iter, restarts=restarts, rng=rng, frame=frame, settings=settings)
+    res = ik_solve(
+        robot,
+        pose,
+        q_seed,
+        tol_pos_m=tol_pos_m,
+        tol_rot_rad=tol_rot_rad,
+        max_iter=max_iter,
+        restarts=restarts,
+        rng=rng,
+        frame=frame,
+        settings=settings,
+    )
     if not res.success:
         raise UnreachableError(
             f"{robot.name}: numerical IK failed after {res.restarts} restarts and "

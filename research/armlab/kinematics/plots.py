@@ -15,8 +15,9 @@ from armlab.kinematics.workspace import WorkspaceResult
 __all__ = ["plot_workspace", "plot_accuracy", "plot_accuracy_scatter"]
 
 
-def plot_workspace(result: WorkspaceResult, *, max_points: int = 20000,
-                   required_reach_m: float | None = 0.7) -> Figure:
+def plot_workspace(
+    result: WorkspaceResult, *, max_points: int = 20000, required_reach_m: float | None = 0.7
+) -> Figure:
     """Side view (radius from the base axis vs height) and top view (x-y) of the reach cloud.
 
     Parameters
@@ -32,11 +33,20 @@ def plot_workspace(result: WorkspaceResult, *, max_points: int = 20000,
     fig = Figure(figsize=(11, 5), layout="constrained")
     side, top = fig.subplots(1, 2)
     side.scatter(r, p[:, 2], s=1, alpha=0.25, color="tab:blue", rasterized=True)
-    side.axvline(result.max_reach_m * 1000, color="tab:red", lw=1,
-                 label=f"max reach {result.max_reach_m * 1000:.1f} mm")
+    side.axvline(
+        result.max_reach_m * 1000,
+        color="tab:red",
+        lw=1,
+        label=f"max reach {result.max_reach_m * 1000:.1f} mm",
+    )
     if required_reach_m is not None:
-        side.axvline(required_reach_m * 1000, color="k", ls="--", lw=1,
-                     label=f"required {required_reach_m * 1000:.0f} mm")
+        side.axvline(
+            required_reach_m * 1000,
+            color="k",
+            ls="--",
+            lw=1,
+            label=f"required {required_reach_m * 1000:.0f} mm",
+        )
     side.set_xlabel("radius from base axis [mm]")
     side.set_ylabel("height z [mm]")
     side.set_title("side view (r-z)")
@@ -44,19 +54,24 @@ def plot_workspace(result: WorkspaceResult, *, max_points: int = 20000,
     side.legend(loc="lower left", fontsize=8)
     top.scatter(p[:, 0], p[:, 1], s=1, alpha=0.25, color="tab:blue", rasterized=True)
     t = np.linspace(0, 2 * np.pi, 361)
-    top.plot(result.max_reach_m * 1000 * np.cos(t), result.max_reach_m * 1000 * np.sin(t),
-             color="tab:red", lw=1)
+    top.plot(
+        result.max_reach_m * 1000 * np.cos(t),
+        result.max_reach_m * 1000 * np.sin(t),
+        color="tab:red",
+        lw=1,
+    )
     top.set_xlabel("x [mm]")
     top.set_ylabel("y [mm]")
     top.set_title("top view (x-y)")
     top.set_aspect("equal", adjustable="datalim")
-    fig.suptitle(f"{result.robot}: tool-point workspace, {result.n_samples} random "
-                 f"configurations (seed {result.seed})")
+    fig.suptitle(
+        f"{result.robot}: tool-point workspace, {result.n_samples} random "
+        f"configurations (seed {result.seed})"
+    )
     return fig
 
 
-_TITLES = {"angle": "reducer angle errors", "length": "link-length tolerances",
-           "combined": "both"}
+_TITLES = {"angle": "reducer angle errors", "length": "link-length tolerances", "combined": "both"}
 
 
 def plot_accuracy(result: AccuracyResult, *, bins: int = 60) -> Figure:
@@ -71,16 +86,17 @@ def plot_accuracy(result: AccuracyResult, *, bins: int = 60) -> Figure:
             ax = axes[row, c]
             ax.hist(data, bins=bins, color="tab:blue" if c < 3 else "tab:orange")
             p95 = np.percentile(np.abs(data), 95)
-            for s in ((1,) if c == 3 else (-1, 1)):
+            for s in (1,) if c == 3 else (-1, 1):
                 ax.axvline(s * p95, color="k", ls="--", lw=0.8)
             ax.set_title(f"{label}: {_TITLES[source]} (p95 {p95:.3f} mm)", fontsize=9)
             ax.set_xlabel(f"{label} [mm]")
     e_arcmin = np.degrees(result.angle_error_rad.max()) * 60
-    fig.suptitle(f"{result.robot}: position error at the {result.point.replace('_', ' ')}, "
-                 f"{result.n_samples} samples (seed {result.seed})\nreducer error "
-                 f"+-{e_arcmin:.1f}'; tolerances "
-                 + ", ".join(f"{k} +-{v * 1000:g} mm" for k, v in
-                             result.length_tolerances_m.items()))
+    fig.suptitle(
+        f"{result.robot}: position error at the {result.point.replace('_', ' ')}, "
+        f"{result.n_samples} samples (seed {result.seed})\nreducer error "
+        f"+-{e_arcmin:.1f}'; tolerances "
+        + ", ".join(f"{k} +-{v * 1000:g} mm" for k, v in result.length_tolerances_m.items())
+    )
     return fig
 
 

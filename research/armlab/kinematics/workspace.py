@@ -113,8 +113,9 @@ class WorkspaceResult:
         }
 
 
-def workspace_cloud(robot, n_samples: int = 20000, seed: int = 0, *,
-                    refine: bool = True) -> WorkspaceResult:
+def workspace_cloud(
+    robot, n_samples: int = 20000, seed: int = 0, *, refine: bool = True
+) -> WorkspaceResult:
     """Monte-Carlo reach cloud of the tool point (thesis 3.6 workspace analysis).
 
     Parameters
@@ -150,8 +151,15 @@ def workspace_cloud(robot, n_samples: int = 20000, seed: int = 0, *,
         for k in np.argsort(p[:, 2])[:3]:
             bottom = min(bottom, -_refine(robot, q[k], lambda x: -x[2])[0])
     return WorkspaceResult(
-        robot=robot.name, n_samples=int(n_samples), seed=int(seed), q=q, points_m=p,
-        max_reach_m=best_r, q_max_reach=q_r, max_height_m=top, min_height_m=bottom,
+        robot=robot.name,
+        n_samples=int(n_samples),
+        seed=int(seed),
+        q=q,
+        points_m=p,
+        max_reach_m=best_r,
+        q_max_reach=q_r,
+        max_height_m=top,
+        min_height_m=bottom,
         cloud_max_radius_m=float(radius.max()),
         max_distance_m=float(np.linalg.norm(p, axis=1).max()),
     )

@@ -12,7 +12,20 @@ from armlab.robot.model import (
 )
 
 __all__ = [
-    "DHTable", "LumpedMass", "mdh_transforms", "read_dh_table", "urdf_from_dh",
-    "Drive", "Encoder", "Motor", "Reducer", "read_drives",
-    "JointLimits", "Payload", "Robot", "list_robots", "load_robot", "robot_desc_dir",
+    "DHTable",
+    "LumpedMass",
+    "mdh_transforms",
+    "read_dh_table",
+    "urdf_from_dh",
+    "Drive",
+    "Encoder",
+    "Motor",
+    "Reducer",
+    "read_drives",
+    "JointLimits",
+    "Payload",
+    "Robot",
+    "list_robots",
+    "load_robot",
+    "robot_desc_dir",
 ]

@@ -217,8 +217,15 @@ def read_dh_table(path: str | Path) -> DHTable:
     names, labels = [], []
     for i, row in enumerate(rows, start=1):
         where = f"joint {i} ({row.get('name', '?')})"
-        for key in ("name", "a_mm", "alpha_deg", "theta_offset_deg", "d_mm", "lower_deg",
-                    "upper_deg"):
+        for key in (
+            "name",
+            "a_mm",
+            "alpha_deg",
+            "theta_offset_deg",
+            "d_mm",
+            "lower_deg",
+            "upper_deg",
+        ):
             if key not in row:
                 raise RobotDescriptionError(f"{path}: {where} has no {key!r}")
         names.append(str(row["name"]))
@@ -235,8 +242,11 @@ def read_dh_table(path: str | Path) -> DHTable:
             raise RobotDescriptionError(f"{path}: {where} lower_deg must be below upper_deg")
         cols["lo"].append(lo)
         cols["hi"].append(hi)
-        cols["v"].append(_finite(row.get("velocity_rad_s", "nan"), "v", path)
-                         if "velocity_rad_s" in row else math.nan)
+        cols["v"].append(
+            _finite(row.get("velocity_rad_s", "nan"), "v", path)
+            if "velocity_rad_s" in row
+            else math.nan
+        )
     if len(set(names)) != len(names):
         raise RobotDescriptionError(f"{path}: joint names are not unique: {names}")
     a, alpha = np.array(cols["a"]), np.array(cols["alpha"])
@@ -251,8 +261,10 @@ def read_dh_table(path: str | Path) -> DHTable:
     def fixed(key: str) -> np.ndarray:
         spec = data.get(key, {})
         xyz = [_finite(x, f"[{key}] xyz_mm", path) / 1000.0 for x in spec.get("xyz_mm", [0, 0, 0])]
-        rpy = [math.radians(_finite(x, f"[{key}] rpy_deg", path))
-               for x in spec.get("rpy_deg", [0, 0, 0])]
+        rpy = [
+            math.radians(_finite(x, f"[{key}] rpy_deg", path))
+            for x in spec.get("rpy_deg", [0, 0, 0])
+        ]
         return last_extra @ _transform(xyz, rpy)
 
     def lump(spec: dict, link: int | None = None) -> LumpedMass:
@@ -265,7 +277,10 @@ def read_dh_table(path: str | Path) -> DHTable:
         if not 0 <= link_index <= len(names):
             raise RobotDescriptionError(f"{path}: mass {name} on unknown link {link_index}")
         return LumpedMass(
-            name=name, link=link_index, mass_kg=mass, xyz_m=xyz,  # type: ignore[arg-type]
+            name=name,
+            link=link_index,
+            mass_kg=mass,
+            xyz_m=xyz,  # type: ignore[arg-type]
             shape=spec.get("shape", "sphere"),
             size_m=_finite(spec.get("size_mm", 20), f"mass {name} size_mm", path) / 1000.0,
             axis=spec.get("axis", "x"),
@@ -278,12 +293,18 @@ def read_dh_table(path: str | Path) -> DHTable:
         name=str(data.get("name", path.stem)),
         joint_names=tuple(names),
         labels=tuple(labels),
-        a_m=a, alpha_rad=alpha, offset_rad=off, d_m=d,
-        lower_rad=np.array(cols["lo"]), upper_rad=np.array(cols["hi"]),
+        a_m=a,
+        alpha_rad=alpha,
+        offset_rad=off,
+        d_m=d,
+        lower_rad=np.array(cols["lo"]),
+        upper_rad=np.array(cols["hi"]),
         velocity_rad_s=None if np.isnan(v).all() else v,
         transform_flange_to_last=fixed("flange"),
         transform_tool_to_last=fixed("tool"),
-        masses=masses, payload=payload, source=str(path),
+        masses=masses,
+        payload=payload,
+        source=str(path),
     )
 
 
@@ -311,8 +332,10 @@ def _inertial_xml(lumps: list[LumpedMass], indent: str) -> str:
 def _origin_xml(T: np.ndarray) -> str:
     r, p, y = _rpy(T[:3, :3])
     x = T[:3, 3]
-    return (f'<origin xyz="{_num(x[0])} {_num(x[1])} {_num(x[2])}" '
-            f'rpy="{_num(r)} {_num(p)} {_num(y)}"/>')
+    return (
+        f'<origin xyz="{_num(x[0])} {_num(x[1])} {_num(x[2])}" '
+        f'rpy="{_num(r)} {_num(p)} {_num(y)}"/>'
+    )
 
 
 def urdf_from_dh(
@@ -361,9 +384,11 @@ def urdf_from_dh(
             out.append(inertial.rstrip("\n"))
         out.append("  </link>")
     for i in range(n):
-        T = _transform((0, 0, 0), (table.alpha_rad[i], 0, 0)) @ _transform(
-            (table.a_m[i], 0, table.d_m[i]), (0, 0, 0)
-        ) @ _transform((0, 0, 0), (0, 0, table.offset_rad[i]))
+        T = (
+            _transform((0, 0, 0), (table.alpha_rad[i], 0, 0))
+            @ _transform((table.a_m[i], 0, table.d_m[i]), (0, 0, 0))
+            @ _transform((0, 0, 0), (0, 0, table.offset_rad[i]))
+        )
         out += [
             f'  <joint name="{escape(table.joint_names[i])}" type="revolute">',
             f'    <parent link="{links[i]}"/>',
@@ -385,13 +410,15 @@ def urdf_from_dh(
             "  </joint>",
         ]
     if table.payload is not None:
-        out += ['  <link name="payload">',
-                _inertial_xml([table.payload], "    ").rstrip("\n"),
-                "  </link>",
-                '  <joint name="payload_joint" type="fixed">',
-                f'    <parent link="{tool_frame}"/>',
-                '    <child link="payload"/>',
-                '    <origin xyz="0 0 0" rpy="0 0 0"/>',
-                "  </joint>"]
+        out += [
+            '  <link name="payload">',
+            _inertial_xml([table.payload], "    ").rstrip("\n"),
+            "  </link>",
+            '  <joint name="payload_joint" type="fixed">',
+            f'    <parent link="{tool_frame}"/>',
+            '    <child link="payload"/>',
+            '    <origin xyz="0 0 0" rpy="0 0 0"/>',
+            "  </joint>",
+        ]
     out.append("</robot>")
     return "\n".join(out) + "\n"

@@ -12,8 +12,15 @@ from pathlib import Path
 from armlab.errors import RobotDescriptionError
 from armlab.tomlfile import read_toml
 
-__all__ = ["Motor", "Reducer", "Encoder", "Drive", "read_drives", "RPM_TO_RAD_S",
-           "available_torque_Nm"]
+__all__ = [
+    "Motor",
+    "Reducer",
+    "Encoder",
+    "Drive",
+    "read_drives",
+    "RPM_TO_RAD_S",
+    "available_torque_Nm",
+]
 
 RPM_TO_RAD_S = 2.0 * math.pi / 60.0
 
@@ -138,8 +145,9 @@ class Drive:
     @property
     def available_torque_Nm(self) -> float:
         """Thesis rule: stall torque x ratio x efficiency x derating, in [N m] (table 4.3)."""
-        return available_torque_Nm(self.motor.stall_torque_Nm, self.reducer.ratio,
-                                   self.reducer.efficiency, self.derating)
+        return available_torque_Nm(
+            self.motor.stall_torque_Nm, self.reducer.ratio, self.reducer.efficiency, self.derating
+        )
 
     @property
     def reflected_inertia_kg_m2(self) -> float:
@@ -160,8 +168,11 @@ def _build(cls, data: dict, where: str):
     unknown = set(data) - names
     if unknown:
         raise RobotDescriptionError(f"{where}: unknown field(s) {sorted(unknown)}")
-    missing = [f.name for f in fields(cls)
-               if f.default is MISSING and f.default_factory is MISSING and f.name not in data]
+    missing = [
+        f.name
+        for f in fields(cls)
+        if f.default is MISSING and f.default_factory is MISSING and f.name not in data
+    ]
     if missing:
         raise RobotDescriptionError(f"{where}: missing field(s) {missing}")
     for k, v in data.items():
@@ -214,7 +225,10 @@ def read_drives(path: str | Path, joint_names: list[str] | tuple[str, ...]) -> d
         if reducer.ratio <= 0:
             raise RobotDescriptionError(f"{where}: reducer ratio must be positive")
         drives[name] = Drive(
-            joint=name, motor=motor, reducer=reducer, encoder=encoder,
+            joint=name,
+            motor=motor,
+            reducer=reducer,
+            encoder=encoder,
             acceleration_rad_s2=float(row["acceleration_rad_s2"]),
             jerk_rad_s3=float(row["jerk_rad_s3"]),
             derating=float(row.get("derating", 1.0)),

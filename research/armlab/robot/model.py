@@ -69,8 +69,11 @@ class Payload:
     inertia_kg_m2: np.ndarray
 
     def spatial_inertia(self) -> pin.Inertia:
-        return pin.Inertia(float(self.mass_kg), np.asarray(self.com_m, float),
-                           np.asarray(self.inertia_kg_m2, float))
+        return pin.Inertia(
+            float(self.mass_kg),
+            np.asarray(self.com_m, float),
+            np.asarray(self.inertia_kg_m2, float),
+        )
 
 
 def _sub_inertia(a: pin.Inertia, b: pin.Inertia) -> pin.Inertia:
@@ -151,9 +154,12 @@ class Robot:
             acc = np.array([drives[n].acceleration_rad_s2 for n in self.joint_names])
             jerk = np.array([drives[n].jerk_rad_s3 for n in self.joint_names])
         self.limits = JointLimits(
-            lower_rad=lower, upper_rad=upper,
-            velocity_rad_s=model.velocityLimit.copy(), effort_Nm=model.effortLimit.copy(),
-            acceleration_rad_s2=acc, jerk_rad_s3=jerk,
+            lower_rad=lower,
+            upper_rad=upper,
+            velocity_rad_s=model.velocityLimit.copy(),
+            effort_Nm=model.effortLimit.copy(),
+            acceleration_rad_s2=acc,
+            jerk_rad_s3=jerk,
         )
         self.data = model.createData()
 
@@ -163,8 +169,10 @@ class Robot:
         return self.model.nq
 
     def __repr__(self) -> str:
-        return (f"Robot({self.name!r}, n_joints={self.n_joints}, tool={self.tool_frame!r}, "
-                f"payload={self.payload.mass_kg:g} kg)")
+        return (
+            f"Robot({self.name!r}, n_joints={self.n_joints}, tool={self.tool_frame!r}, "
+            f"payload={self.payload.mass_kg:g} kg)"
+        )
 
     @property
     def total_mass_kg(self) -> float:
@@ -206,8 +214,9 @@ class Robot:
     def within_limits(self, q, tol: float = 1e-9) -> np.ndarray:
         """True where every joint of ``q`` (..., n_joints) lies in its range (+- tol)."""
         q = np.asarray(q)
-        return np.all((q >= self.limits.lower_rad - tol) & (q <= self.limits.upper_rad + tol),
-                      axis=-1)
+        return np.all(
+            (q >= self.limits.lower_rad - tol) & (q <= self.limits.upper_rad + tol), axis=-1
+        )
 
     def random_q(self, rng: np.random.Generator, n: int | None = None) -> np.ndarray:
         """Uniform random configurations inside the joint ranges: (n_joints,) or (n, n_joints)."""
@@ -375,8 +384,14 @@ def load_robot(
     if tool_frame is None:
         tool_frame = "tool0" if "tool0" in frame_names else model.frames[len(model.frames) - 1].name
     # pinocchio keeps a fixed link's inertia on the frame of the fixed joint that carries it
-    payload_frame = next((f.name for f in model.frames
-                          if f.name in ("payload_joint", "payload") and f.inertia.mass > 0), None)
+    payload_frame = next(
+        (
+            f.name
+            for f in model.frames
+            if f.name in ("payload_joint", "payload") and f.inertia.mass > 0
+        ),
+        None,
+    )
     drives = dh = None
     if folder is not None:
         joint_names = list(model.names[1:])
@@ -389,8 +404,16 @@ def load_robot(
                     f"{folder / 'mdh.toml'}: joints {list(dh.joint_names)} differ from the URDF's "
                     f"{joint_names}"
                 )
-    robot = Robot(name, model, urdf_path=urdf, tool_frame=tool_frame, drives=drives, dh=dh,
-                  payload_frame=payload_frame, transform_base_to_world=transform_base_to_world)
+    robot = Robot(
+        name,
+        model,
+        urdf_path=urdf,
+        tool_frame=tool_frame,
+        drives=drives,
+        dh=dh,
+        payload_frame=payload_frame,
+        transform_base_to_world=transform_base_to_world,
+    )
     if payload_kg is not None:
         p = robot.payload
         scale = float(payload_kg) / p.mass_kg if p.mass_kg > 0 else 0.0

@@ -26,7 +26,19 @@ from armlab.study.spec import (
 )
 
 __all__ = [
-    "KEY_FIGURES", "PLANNERS", "STAGES", "StudySpec", "StudyResult", "apply_overrides", "check_key",
-    "demo_study_path", "key_figures", "load_study", "parse_study", "read_study_document",
-    "run_spec", "run_study", "write_json",
+    "KEY_FIGURES",
+    "PLANNERS",
+    "STAGES",
+    "StudySpec",
+    "StudyResult",
+    "apply_overrides",
+    "check_key",
+    "demo_study_path",
+    "key_figures",
+    "load_study",
+    "parse_study",
+    "read_study_document",
+    "run_spec",
+    "run_study",
+    "write_json",
 ]

@@ -30,12 +30,14 @@ def _weakest_joint(gains) -> str | None:
 
 def _plant(ctx, joint):
     """A factory of the joint's plant with the inertia range the tuning used."""
+
     def make():
         from armlab.control import joint_plant
 
         n = ctx.spec.control.n_inertia_samples
         kw = {} if n is None else {"n_samples": n}
         return joint_plant(ctx.robot, joint, seed=ctx.spec.study.seed, **kw)
+
     return make
 
 
@@ -54,46 +56,90 @@ def _figures(ctx) -> list[tuple[str, str, Any]]:
 
     out = []
     traj, robot = ctx.trajectory, ctx.robot
-    for kind, plot, caption in (("workspace", plot_workspace, "Monte-Carlo workspace"),
-                                ("accuracy", plot_accuracy, "Monte-Carlo positioning error")):
+    for kind, plot, caption in (
+        ("workspace", plot_workspace, "Monte-Carlo workspace"),
+        ("accuracy", plot_accuracy, "Monte-Carlo positioning error"),
+    ):
         res = ctx.figures.get(kind)
         if res is not None:
             out.append((f"kinematics_{kind}.png", caption, lambda p=plot, r=res: p(r)))
     if traj is not None:
         optimised = ctx.spec.plan.planner in ("optimal", "path")
         joints = plot_limit_profiles if optimised else plot_joints
-        out.append(("plan_profiles.png", "Joint profiles with the limits (dashed)",
-                    lambda: joints(traj, robot)))
+        out.append(
+            (
+                "plan_profiles.png",
+                "Joint profiles with the limits (dashed)",
+                lambda: joints(traj, robot),
+            )
+        )
         if ctx.spec.plan.planner == "path":
-            out.append(("plan_phase_plane.png", "Path parameterisation: phase plane with its "
-                        "limit curves", lambda: plot_phase_plane(traj)))
+            out.append(
+                (
+                    "plan_phase_plane.png",
+                    "Path parameterisation: phase plane with its limit curves",
+                    lambda: plot_phase_plane(traj),
+                )
+            )
         points = tool_positions(robot, ctx.waypoints_q)
-        out.append(("plan_tool_path.png", "Tool path and waypoints",
-                    lambda: plot_tcp_path(robot, traj, points)))
+        out.append(
+            (
+                "plan_tool_path.png",
+                "Tool path and waypoints",
+                lambda: plot_tcp_path(robot, traj, points),
+            )
+        )
         if np.all(robot.limits.effort_Nm > 0):
             dt = max(traj.duration / 2000, 1e-3)
-            out.append(("plan_torque_ratio.png", "Torque / effort limit along the plan",
-                        lambda: plot_torque_ratio(traj, robot, dt=dt)))
+            out.append(
+                (
+                    "plan_torque_ratio.png",
+                    "Torque / effort limit along the plan",
+                    lambda: plot_torque_ratio(traj, robot, dt=dt),
+                )
+            )
     if ctx.gains is not None:
         joint = _weakest_joint(ctx.gains)
         if joint is not None:
             plant = _plant(ctx, joint)
             g = ctx.gains[joint]
-            out.append((f"control_bode_{joint}.png",
-                        f"Speed-loop Bode plot of {joint} (smallest phase margin) over its "
-                        "inertia range", lambda: bode_figure(plant(), g, "speed")))
-            out.append((f"control_steps_{joint}.png",
-                        f"Step responses of the {joint} loops", lambda: step_figure(plant(), g)))
+            out.append(
+                (
+                    f"control_bode_{joint}.png",
+                    f"Speed-loop Bode plot of {joint} (smallest phase margin) over its "
+                    "inertia range",
+                    lambda: bode_figure(plant(), g, "speed"),
+                )
+            )
+            out.append(
+                (
+                    f"control_steps_{joint}.png",
+                    f"Step responses of the {joint} loops",
+                    lambda: step_figure(plant(), g),
+                )
+            )
     if ctx.tracking is not None and hasattr(ctx.tracking, "tcp_error_m"):
-        out.append(("tracking_error.png", "Closed-loop tracking error (joints and TCP)",
-                    lambda: tracking_figure(ctx.tracking)))
+        out.append(
+            (
+                "tracking_error.png",
+                "Closed-loop tracking error (joints and TCP)",
+                lambda: tracking_figure(ctx.tracking),
+            )
+        )
     loads = getattr(ctx.sizing, "loads", None)
     if loads is not None:
         for plot, name, caption in (
-                (plot_joint_loads, "sizing_loads.png",
-                 "Joint torque, speed and power along the plan, with the limits"),
-                (plot_operating_points, "sizing_operating_points.png",
-                 "Motor operating points on the speed-torque plane")):
+            (
+                plot_joint_loads,
+                "sizing_loads.png",
+                "Joint torque, speed and power along the plan, with the limits",
+            ),
+            (
+                plot_operating_points,
+                "sizing_operating_points.png",
+                "Motor operating points on the speed-torque plane",
+            ),
+        ):
             out.append((name, caption, lambda p=plot: p(loads, robot)))
     return out
 
@@ -127,42 +173,78 @@ def write_report(ctx, summary: dict, out_dir: Path) -> list[Path]:
     out_dir = Path(out_dir)
     files: list[Path] = []
     spec = ctx.spec
-    lines = [f"# Study: {spec.study.name}", "",
-             f"Source `{spec.source}` (sha256 `{spec.hash[:12]}`), seed {spec.study.seed}, "
-             f"armlab {summary['study']['armlab_version']}.", "", "## Stages", ""]
-    lines += _table(["stage", "status", "time [s]", "note"],
-                    [[s, info["status"], info["time_s"],
-                      _note(summary.get(_key(s), {}))]
-                     for s, info in summary["study"]["stages"].items()])
+    lines = [
+        f"# Study: {spec.study.name}",
+        "",
+        f"Source `{spec.source}` (sha256 `{spec.hash[:12]}`), seed {spec.study.seed}, "
+        f"armlab {summary['study']['armlab_version']}.",
+        "",
+        "## Stages",
+        "",
+    ]
+    lines += _table(
+        ["stage", "status", "time [s]", "note"],
+        [
+            [s, info["status"], info["time_s"], _note(summary.get(_key(s), {}))]
+            for s, info in summary["study"]["stages"].items()
+        ],
+    )
     r = summary["robot"]
-    lines += ["## Robot", "", f"{r.get('name')}: {r.get('n_joints')} joints, payload "
-              f"{_fmt(r.get('payload_kg'))} kg, moving mass {_fmt(r.get('total_mass_kg'))} kg.",
-              ""]
+    lines += [
+        "## Robot",
+        "",
+        f"{r.get('name')}: {r.get('n_joints')} joints, payload "
+        f"{_fmt(r.get('payload_kg'))} kg, moving mass {_fmt(r.get('total_mass_kg'))} kg.",
+        "",
+    ]
     if "drives" in r:
-        lines += _table(["joint", "motor", "reducer", "ratio", "available torque [N m]"],
-                        [[j, d["motor"], d["reducer"], d["ratio"], d["available_torque_Nm"]]
-                         for j, d in r["drives"].items()])
+        lines += _table(
+            ["joint", "motor", "reducer", "ratio", "available torque [N m]"],
+            [
+                [j, d["motor"], d["reducer"], d["ratio"], d["available_torque_Nm"]]
+                for j, d in r["drives"].items()
+            ],
+        )
     kin = summary.get("kinematics", {})
     if kin.get("status") == "ok":
-        lines += ["## Kinematics", "", f"{kin['n_waypoints']} waypoints ({kin['waypoints_from']}),"
-                  f" all inside the joint ranges; max reach {kin['max_reach_m'] * 1000:.1f} mm.",
-                  ""]
-        lines += _table(["waypoint", "x [mm]", "y [mm]", "z [mm]"],
-                        [[k, *(f"{x:.1f}" for x in 1000 * np.asarray(p) + 0.0)] for k, p in
-                         enumerate(kin["tcp_positions_m"])])
+        lines += [
+            "## Kinematics",
+            "",
+            f"{kin['n_waypoints']} waypoints ({kin['waypoints_from']}),"
+            f" all inside the joint ranges; max reach {kin['max_reach_m'] * 1000:.1f} mm.",
+            "",
+        ]
+        lines += _table(
+            ["waypoint", "x [mm]", "y [mm]", "z [mm]"],
+            [
+                [k, *(f"{x:.1f}" for x in 1000 * np.asarray(p) + 0.0)]
+                for k, p in enumerate(kin["tcp_positions_m"])
+            ],
+        )
     tr = summary.get("trajectory", {})
     if tr.get("status") == "ok":
-        lines += ["## Trajectory", "", f"Planner `{tr['planner']}` ({tr['method']}): "
-                  f"{tr['duration_s']:.4f} s through {tr['n_waypoints']} waypoints, speed scale "
-                  f"{tr['speed_scale']:g}; checked every {tr['check_dt_s'] * 1000:g} ms.", "",
-                  "Peak ratio to each limit (<= 1 is feasible):", ""]
+        lines += [
+            "## Trajectory",
+            "",
+            f"Planner `{tr['planner']}` ({tr['method']}): "
+            f"{tr['duration_s']:.4f} s through {tr['n_waypoints']} waypoints, speed scale "
+            f"{tr['speed_scale']:g}; checked every {tr['check_dt_s'] * 1000:g} ms.",
+            "",
+            "Peak ratio to each limit (<= 1 is feasible):",
+            "",
+        ]
         kinds = list(tr["ratios"])
         joints = list(next(iter(tr["ratios"].values()), {}))
-        lines += _table(["joint", *kinds], [[j, *(tr["ratios"][k][j] for k in kinds)]
-                                            for j in joints])
-    for key, title in (("static_load", "Static load"), ("sizing", "Drive sizing"),
-                       ("control", "Servo tuning"), ("tracking", "Closed-loop tracking"),
-                       ("export", "Export")):
+        lines += _table(
+            ["joint", *kinds], [[j, *(tr["ratios"][k][j] for k in kinds)] for j in joints]
+        )
+    for key, title in (
+        ("static_load", "Static load"),
+        ("sizing", "Drive sizing"),
+        ("control", "Servo tuning"),
+        ("tracking", "Closed-loop tracking"),
+        ("export", "Export"),
+    ):
         block = summary.get(key, {})
         lines += [f"## {title}", ""]
         if block.get("status") != "ok":
@@ -175,18 +257,23 @@ def write_report(ctx, summary: dict, out_dir: Path) -> list[Path]:
         else:
             lines += _section_lines(key, block)
         if key == "sizing" and ctx.requirement_sizing is not None:
-            lines += ["**Against each joint's worst case (the thesis' requirements).**", "",
-                      "Each joint alone from its worst static pose, accelerating at its maximum "
-                      "acceleration to its maximum speed and back (`armlab.dynamics."
-                      "requirement_moves`): the load case of thesis tables 4.2 and 4.3.", "",
-                      ctx.requirement_sizing.to_markdown(), ""]
-        if key == "sizing" and ctx.selection is not None and hasattr(ctx.selection,
-                                                                      "to_markdown"):
+            lines += [
+                "**Against each joint's worst case (the thesis' requirements).**",
+                "",
+                "Each joint alone from its worst static pose, accelerating at its maximum "
+                "acceleration to its maximum speed and back (`armlab.dynamics."
+                "requirement_moves`): the load case of thesis tables 4.2 and 4.3.",
+                "",
+                ctx.requirement_sizing.to_markdown(),
+                "",
+            ]
+        if key == "sizing" and ctx.selection is not None and hasattr(ctx.selection, "to_markdown"):
             lines += [ctx.selection.to_markdown(), ""]
     kf = summary.get("key_figures", {})
     lines += ["## Key figures", ""]
-    lines += _table(["figure", "value"], [[k, v] for k, v in kf.items()
-                                          if not k.startswith("stage_")])
+    lines += _table(
+        ["figure", "value"], [[k, v] for k, v in kf.items() if not k.startswith("stage_")]
+    )
     if _figures(ctx):
         lines += ["## Plots", ""]
     for name, caption, make in _figures(ctx):
@@ -222,27 +309,36 @@ def _section_lines(key: str, block: dict) -> list[str]:
     items = _joint_items(block)
     if key == "tracking":
         tcp = block.get("tcp", {})
-        lines = [f"Feed-forward {', '.join(block.get('feedforward', [])) or 'none'}; "
-                 f"{_fmt(block.get('duration_s'))} s simulated at "
-                 f"{_fmt(1e3 * block.get('sample_time_s', math.nan))} ms"
-                 f"{' with D/A and encoder quantisation' if block.get('quantise') else ''}.", ""]
+        lines = [
+            f"Feed-forward {', '.join(block.get('feedforward', [])) or 'none'}; "
+            f"{_fmt(block.get('duration_s'))} s simulated at "
+            f"{_fmt(1e3 * block.get('sample_time_s', math.nan))} ms"
+            f"{' with D/A and encoder quantisation' if block.get('quantise') else ''}.",
+            "",
+        ]
         if tcp:
             ok = tcp.get("within_accuracy")
-            lines += [f"TCP error: max {_fmt(1e3 * tcp.get('max_error_m', math.nan))} mm, final "
-                      f"{_fmt(1e3 * tcp.get('final_error_m', math.nan))} mm; servo budget "
-                      f"{_fmt(1e3 * tcp.get('accuracy_m', math.nan))} mm -> "
-                      f"{'within' if ok else 'OUTSIDE'} the budget.", ""]
-        return lines + _table(["joint", "max error [rad]", "final error [rad]"],
-                              [[j, b.get("max_error_rad"), b.get("final_error_rad")]
-                               for j, b in items])
+            lines += [
+                f"TCP error: max {_fmt(1e3 * tcp.get('max_error_m', math.nan))} mm, final "
+                f"{_fmt(1e3 * tcp.get('final_error_m', math.nan))} mm; servo budget "
+                f"{_fmt(1e3 * tcp.get('accuracy_m', math.nan))} mm -> "
+                f"{'within' if ok else 'OUTSIDE'} the budget.",
+                "",
+            ]
+        return lines + _table(
+            ["joint", "max error [rad]", "final error [rad]"],
+            [[j, b.get("max_error_rad"), b.get("final_error_rad")] for j, b in items],
+        )
     if key == "export":
-        lines = [f"{_fmt(block.get('n_cycles'))} cycles of {_fmt(1e3 * block.get('cycle_s'))} ms "
-                 f"for controller profile `{block.get('profile')}`; every cycle passed the "
-                 "pre-flight checks (range, speed, pulses per cycle, continuity).", ""]
+        lines = [
+            f"{_fmt(block.get('n_cycles'))} cycles of {_fmt(1e3 * block.get('cycle_s'))} ms "
+            f"for controller profile `{block.get('profile')}`; every cycle passed the "
+            "pre-flight checks (range, speed, pulses per cycle, continuity).",
+            "",
+        ]
         files = block.get("files", {})
         if files:
-            lines += _table(["file", "sha256"], [[n, f"`{f['sha256']}`"]
-                                                 for n, f in files.items()])
+            lines += _table(["file", "sha256"], [[n, f"`{f['sha256']}`"] for n, f in files.items()])
         return lines
     if key == "control":
         rows = []
@@ -252,25 +348,60 @@ def _section_lines(key: str, block: dict) -> list[str]:
             for loop, f in loops.items():
                 if isinstance(f, dict) and "phase_margin_deg" in f:
                     g = f.get("gains", {})
-                    rows.append([joint, loop, g.get("kp"), g.get("ki"), f.get("crossover_rad_s"),
-                                 f.get("phase_margin_deg"), f.get("gain_margin_dB"),
-                                 f.get("phase_margin_discrete_deg"), f.get("overshoot_pct"),
-                                 f.get("sample_time_s")])
-        return _table(["joint", "loop", "kp", "ki", "crossover [rad/s]", "PM [deg]", "GM [dB]",
-                       "PM discrete [deg]", "overshoot [%]", "T [s]"], rows)
+                    rows.append(
+                        [
+                            joint,
+                            loop,
+                            g.get("kp"),
+                            g.get("ki"),
+                            f.get("crossover_rad_s"),
+                            f.get("phase_margin_deg"),
+                            f.get("gain_margin_dB"),
+                            f.get("phase_margin_discrete_deg"),
+                            f.get("overshoot_pct"),
+                            f.get("sample_time_s"),
+                        ]
+                    )
+        return _table(
+            [
+                "joint",
+                "loop",
+                "kp",
+                "ki",
+                "crossover [rad/s]",
+                "PM [deg]",
+                "GM [dB]",
+                "PM discrete [deg]",
+                "overshoot [%]",
+                "T [s]",
+            ],
+            rows,
+        )
     if items:
-        scalars = sorted({k for _, b in items for k, v in b.items()
-                          if isinstance(v, (int, float, str, bool)) or v is None})
+        scalars = sorted(
+            {
+                k
+                for _, b in items
+                for k, v in b.items()
+                if isinstance(v, (int, float, str, bool)) or v is None
+            }
+        )
         scalars = [s for s in scalars if s != "joint"][:8]
         rows = [[j, *(b.get(s) for s in scalars)] for j, b in items]
         lines = _table(["joint", *scalars], rows)
-        failed = [f"{j}: {c.get('name')}" for j, b in items for c in b.get("checks", [])
-                  if isinstance(c, dict) and not c.get("ok", True)]
+        failed = [
+            f"{j}: {c.get('name')}"
+            for j, b in items
+            for c in b.get("checks", [])
+            if isinstance(c, dict) and not c.get("ok", True)
+        ]
         if failed:
             lines += ["Failing checks: " + "; ".join(failed), ""]
         return lines
-    return _table(["item", "value"], [[k, v] for k, v in block.items()
-                                      if isinstance(v, (int, float, str, bool))])
+    return _table(
+        ["item", "value"],
+        [[k, v] for k, v in block.items() if isinstance(v, (int, float, str, bool))],
+    )
 
 
 # ---------------------------------------------------------------------------- text
@@ -281,24 +412,43 @@ def _stage_line(stage: str, summary: dict) -> str:
     kf = summary.get("key_figures", {})
     if status == "ok":
         note = {
-            "kinematics": lambda: f"{block['n_waypoints']} waypoints in range; reach "
-                                  f"{block['max_reach_m'] * 1000:.0f} mm",
-            "plan": lambda: f"{block['method'] or block['planner']} {block['duration_s']:.3f} s;"
-                            f" worst {block['worst']['kind']} {block['worst']['ratio']:.3f}"
-                            f" ({block['worst']['joint']})",
-            "static_load": lambda: "max {1:.4g} N m ({0})".format(*max(
-                ((j, b["torque_Nm"]) for j, b in block.items() if isinstance(b, dict)
-                 and "torque_Nm" in b), key=lambda x: x[1])),
-            "sizing": lambda: ("all checks pass" if kf.get("sizing_ok") else "CHECKS FAIL")
-                              + f"; min margin {_fmt(kf.get('sizing_min_margin'), 3)}"
-                              + f" ({kf.get('sizing_binding')})",
-            "tuning": lambda: f"min PM {_fmt(kf.get('min_phase_margin_deg'), 3)} deg, min GM "
-                              f"{_fmt(kf.get('min_gain_margin_dB'), 3)} dB",
-            "tracking": lambda: f"max joint error {_fmt(1e3 * kf['tracking_max_error_rad'], 3)} "
-                                f"mrad; TCP {_fmt(1e3 * kf['tcp_max_error_m'], 3)} mm (budget "
-                                f"{_fmt(1e3 * block['tcp']['accuracy_m'], 3)} mm)",
-            "export": lambda: f"{_fmt(block.get('n_cycles'))} cycles of "
-                              f"{block.get('cycle_s', 0) * 1000:g} ms ({block.get('profile')})",
+            "kinematics": lambda: (
+                f"{block['n_waypoints']} waypoints in range; reach "
+                f"{block['max_reach_m'] * 1000:.0f} mm"
+            ),
+            "plan": lambda: (
+                f"{block['method'] or block['planner']} {block['duration_s']:.3f} s;"
+                f" worst {block['worst']['kind']} {block['worst']['ratio']:.3f}"
+                f" ({block['worst']['joint']})"
+            ),
+            "static_load": lambda: "max {1:.4g} N m ({0})".format(
+                *max(
+                    (
+                        (j, b["torque_Nm"])
+                        for j, b in block.items()
+                        if isinstance(b, dict) and "torque_Nm" in b
+                    ),
+                    key=lambda x: x[1],
+                )
+            ),
+            "sizing": lambda: (
+                ("all checks pass" if kf.get("sizing_ok") else "CHECKS FAIL")
+                + f"; min margin {_fmt(kf.get('sizing_min_margin'), 3)}"
+                + f" ({kf.get('sizing_binding')})"
+            ),
+            "tuning": lambda: (
+                f"min PM {_fmt(kf.get('min_phase_margin_deg'), 3)} deg, min GM "
+                f"{_fmt(kf.get('min_gain_margin_dB'), 3)} dB"
+            ),
+            "tracking": lambda: (
+                f"max joint error {_fmt(1e3 * kf['tracking_max_error_rad'], 3)} "
+                f"mrad; TCP {_fmt(1e3 * kf['tcp_max_error_m'], 3)} mm (budget "
+                f"{_fmt(1e3 * block['tcp']['accuracy_m'], 3)} mm)"
+            ),
+            "export": lambda: (
+                f"{_fmt(block.get('n_cycles'))} cycles of "
+                f"{block.get('cycle_s', 0) * 1000:g} ms ({block.get('profile')})"
+            ),
         }[stage]
         try:
             text = note()
@@ -311,14 +461,17 @@ def _stage_line(stage: str, summary: dict) -> str:
     return f"  {stage:<12}{status:<15}{text}"
 
 
-def summary_text(summary: dict, files: list[Path] | None = None,
-                 out_dir: Path | None = None) -> str:
+def summary_text(
+    summary: dict, files: list[Path] | None = None, out_dir: Path | None = None
+) -> str:
     """The one-screen summary ``armlab run`` prints: each stage, its key figures, the files."""
     r = summary.get("robot", {})
     st = summary.get("study", {})
-    lines = [f"armlab study {st.get('name')!r}: robot {r.get('name')} ({r.get('n_joints')} "
-             f"joints), payload {_fmt(r.get('payload_kg'))} kg",
-             f"  {'stage':<12}{'status':<15}key figures"]
+    lines = [
+        f"armlab study {st.get('name')!r}: robot {r.get('name')} ({r.get('n_joints')} "
+        f"joints), payload {_fmt(r.get('payload_kg'))} kg",
+        f"  {'stage':<12}{'status':<15}key figures",
+    ]
     from armlab.study.spec import STAGES
 
     lines += [_stage_line(s, summary) for s in STAGES]

@@ -107,12 +107,24 @@ def _progress(total: int, enabled: bool | None, desc: str):
     from tqdm import tqdm
 
     # disable=None: tqdm switches itself off when stderr is not a terminal (CI)
-    return tqdm(total=total, desc=desc, unit="stage", disable=None if enabled is None
-                else not enabled, leave=False, file=sys.stderr)
+    return tqdm(
+        total=total,
+        desc=desc,
+        unit="stage",
+        disable=None if enabled is None else not enabled,
+        leave=False,
+        file=sys.stderr,
+    )
 
 
-def run_spec(spec: StudySpec, out_dir: str | Path | None = None, *, workers: int | None = None,
-             progress: bool | None = False, report: bool | None = None) -> StudyResult:
+def run_spec(
+    spec: StudySpec,
+    out_dir: str | Path | None = None,
+    *,
+    workers: int | None = None,
+    progress: bool | None = False,
+    report: bool | None = None,
+) -> StudyResult:
     """Run every stage of a study.
 
     Parameters
@@ -139,16 +151,24 @@ def run_spec(spec: StudySpec, out_dir: str | Path | None = None, *, workers: int
         out.mkdir(parents=True, exist_ok=True)
     ctx = StudyContext(spec=spec, out_dir=out, workers=workers)
     summary: dict[str, Any] = {
-        "study": {"name": spec.study.name, "source": spec.source, "hash": spec.hash,
-                  "seed": spec.study.seed, "armlab_version": _version(), "stages": {}},
+        "study": {
+            "name": spec.study.name,
+            "source": spec.source,
+            "hash": spec.hash,
+            "seed": spec.study.seed,
+            "armlab_version": _version(),
+            "stages": {},
+        },
     }
     files: list[Path] = []
     bar = _progress(len(STAGES) + 1, progress, spec.study.name)
 
     def record(stage: str, key: str, block: dict, t0: float) -> None:
         summary[key] = block
-        summary["study"]["stages"][stage] = {"status": block["status"],
-                                             "time_s": round(time.perf_counter() - t0, 6)}
+        summary["study"]["stages"][stage] = {
+            "status": block["status"],
+            "time_s": round(time.perf_counter() - t0, 6),
+        }
 
     def fail(stage: str, exc: ArmlabError):
         if out is not None:
@@ -170,13 +190,17 @@ def run_spec(spec: StudySpec, out_dir: str | Path | None = None, *, workers: int
             t0 = time.perf_counter()
             bar.set_postfix_str(stage)
             key = SUMMARY_KEY[stage]
-            missing = [n for n in NEEDS.get(stage, ())
-                       if summary["study"]["stages"].get(n, {}).get("status") != "ok"]
+            missing = [
+                n
+                for n in NEEDS.get(stage, ())
+                if summary["study"]["stages"].get(n, {}).get("status") != "ok"
+            ]
             if stage not in spec.study.stages:
                 block = {"status": "skipped", "reason": "not in study.stages"}
             elif missing:
-                why = ", ".join(f"{n}: {summary['study']['stages'].get(n, {}).get('status')}"
-                                for n in missing)
+                why = ", ".join(
+                    f"{n}: {summary['study']['stages'].get(n, {}).get('status')}" for n in missing
+                )
                 block = {"status": "skipped", "reason": f"needs {', '.join(missing)} ({why})"}
             else:
                 try:
@@ -186,8 +210,12 @@ def run_spec(spec: StudySpec, out_dir: str | Path | None = None, *, workers: int
                 except NotApplicable as exc:
                     block = {"status": "skipped", "reason": str(exc)}
                 except ArmlabError as exc:
-                    record(stage, key, {"status": "error", "error": str(exc),
-                                        "error_type": type(exc).__name__}, t0)
+                    record(
+                        stage,
+                        key,
+                        {"status": "error", "error": str(exc), "error_type": type(exc).__name__},
+                        t0,
+                    )
                     raise fail(stage, exc) from None
             record(stage, key, block, t0)
             bar.update()
@@ -211,9 +239,15 @@ def _version() -> str:
     return armlab.__version__
 
 
-def run_study(study: str | Path | None, out_dir: str | Path, workers: int | None = None, *,
-              overrides: dict[str, Any] | None = None, progress: bool | None = None,
-              quiet: bool = False) -> dict[str, Any]:
+def run_study(
+    study: str | Path | None,
+    out_dir: str | Path,
+    workers: int | None = None,
+    *,
+    overrides: dict[str, Any] | None = None,
+    progress: bool | None = None,
+    quiet: bool = False,
+) -> dict[str, Any]:
     """Run a study file into ``out_dir`` and print a one-screen summary (``armlab run``).
 
     Parameters
@@ -275,10 +309,21 @@ def _walk_loops(control: dict):
 
 #: Names of the numeric key figures (the sweep's figures of merit).
 KEY_FIGURES = (
-    "max_reach_m", "duration_s", "peak_velocity_ratio", "peak_acceleration_ratio",
-    "peak_jerk_ratio", "peak_torque_ratio", "max_static_torque_Nm", "sizing_ok",
-    "sizing_min_margin", "min_phase_margin_deg", "min_gain_margin_dB",
-    "position_crossover_min_rad_s", "tracking_max_error_rad", "tcp_max_error_m", "n_cycles",
+    "max_reach_m",
+    "duration_s",
+    "peak_velocity_ratio",
+    "peak_acceleration_ratio",
+    "peak_jerk_ratio",
+    "peak_torque_ratio",
+    "max_static_torque_Nm",
+    "sizing_ok",
+    "sizing_min_margin",
+    "min_phase_margin_deg",
+    "min_gain_margin_dB",
+    "position_crossover_min_rad_s",
+    "tracking_max_error_rad",
+    "tcp_max_error_m",
+    "n_cycles",
 )
 
 

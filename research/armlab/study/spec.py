@@ -43,10 +43,28 @@ from armlab.errors import SpecError
 from armlab.tomlfile import read_toml
 
 __all__ = [
-    "STAGES", "PLANNERS", "StudySpec", "StudyOptions", "RobotSpec", "PayloadSpec",
-    "WaypointSpec", "LimitsSpec", "PlanSpec", "DriveOverride", "KinematicsSpec", "SizingSpec",
-    "ControlSpec", "TrackingSpec", "ControllerSpec", "load_study", "parse_study",
-    "read_study_document", "apply_overrides", "check_key", "demo_study_path", "document_hash",
+    "STAGES",
+    "PLANNERS",
+    "StudySpec",
+    "StudyOptions",
+    "RobotSpec",
+    "PayloadSpec",
+    "WaypointSpec",
+    "LimitsSpec",
+    "PlanSpec",
+    "DriveOverride",
+    "KinematicsSpec",
+    "SizingSpec",
+    "ControlSpec",
+    "TrackingSpec",
+    "ControllerSpec",
+    "load_study",
+    "parse_study",
+    "read_study_document",
+    "apply_overrides",
+    "check_key",
+    "demo_study_path",
+    "document_hash",
 ]
 
 #: The stages of a study, in chain order (DESIGN.md "The flow").
@@ -70,6 +88,7 @@ def _str(choices: tuple[str, ...] | None = None):
         if choices is not None and v not in choices:
             raise _fail(where, f"expected one of {', '.join(choices)}", v)
         return v
+
     return check
 
 
@@ -84,9 +103,11 @@ def _int(lo: int | None = None, hi: int | None = None):
         if isinstance(v, bool) or not isinstance(v, int):
             raise _fail(where, "expected an integer", v)
         if (lo is not None and v < lo) or (hi is not None and v > hi):
-            raise _fail(where, f"expected an integer in [{lo}, {hi if hi is not None else 'inf'}]",
-                        v)
+            raise _fail(
+                where, f"expected an integer in [{lo}, {hi if hi is not None else 'inf'}]", v
+            )
         return v
+
     return check
 
 
@@ -101,18 +122,22 @@ def _float(lo: float | None = None, hi: float | None = None, *, lo_open: bool = 
             top = hi if hi is not None else "inf"
             raise _fail(where, f"expected a number in {left}{lo}, {top}]", v)
         return v
+
     return check
 
 
 def _number_or_list(lo_open_zero: bool = True):
     """A positive number for every joint, or a list of positive numbers (one per joint)."""
+
     def check(v, where):
         if isinstance(v, list):
             if not v:
                 raise _fail(where, "expected a positive number or a non-empty list of them", v)
-            return tuple(_float(0.0, lo_open=lo_open_zero)(x, f"{where}[{i}]")
-                         for i, x in enumerate(v))
+            return tuple(
+                _float(0.0, lo_open=lo_open_zero)(x, f"{where}[{i}]") for i, x in enumerate(v)
+            )
         return _float(0.0, lo_open=lo_open_zero)(v, where)
+
     return check
 
 
@@ -121,6 +146,7 @@ def _vector(n: int | None = None):
         if not isinstance(v, list) or (n is not None and len(v) != n) or not v:
             raise _fail(where, f"expected a list of {n if n is not None else 'some'} numbers", v)
         return tuple(_float()(x, f"{where}[{i}]") for i, x in enumerate(v))
+
     return check
 
 
@@ -132,6 +158,7 @@ def _matrix(width: int | None = None):
         if len({len(r) for r in rows}) != 1:
             raise SpecError(f"{where}: every row must have the same length")
         return rows
+
     return check
 
 
@@ -140,6 +167,7 @@ def _str_list(choices: tuple[str, ...] | None = None):
         if not isinstance(v, list):
             raise _fail(where, "expected a list of strings", v)
         return tuple(_str(choices)(x, f"{where}[{i}]") for i, x in enumerate(v))
+
     return check
 
 
@@ -185,7 +213,8 @@ class WaypointSpec:
     unit: str = _key(_str(("deg", "rad")), "deg", "unit of every angle in this table")
     joint: tuple[tuple[float, ...], ...] | None = _key(_matrix(), None, "joint waypoints")
     cartesian: tuple[tuple[float, ...], ...] | None = _key(
-        _matrix(6), None, "tool poses x, y, z [m], roll, pitch, yaw [unit]")
+        _matrix(6), None, "tool poses x, y, z [m], roll, pitch, yaw [unit]"
+    )
     ik_seed: tuple[float, ...] | None = _key(_vector(), None, "IK seed configuration [unit]")
 
 
@@ -194,8 +223,7 @@ class LimitsSpec:
     """``[limits]``: replace the robot's limits (a number for all joints or one per joint)."""
 
     velocity_rad_s: float | tuple[float, ...] | None = _key(_number_or_list(), None, "rad/s")
-    acceleration_rad_s2: float | tuple[float, ...] | None = _key(_number_or_list(), None,
-                                                                  "rad/s^2")
+    acceleration_rad_s2: float | tuple[float, ...] | None = _key(_number_or_list(), None, "rad/s^2")
     jerk_rad_s3: float | tuple[float, ...] | None = _key(_number_or_list(), None, "rad/s^3")
     effort_Nm: float | tuple[float, ...] | None = _key(_number_or_list(), None, "N m")
 
@@ -210,15 +238,16 @@ class PlanSpec:
     """
 
     planner: str = _key(_str(PLANNERS), "optimal", "planner")
-    profile: str = _key(_str(("trapezoid", "scurve", "velocity")), "trapezoid",
-                        "ptp profile")
+    profile: str = _key(_str(("trapezoid", "scurve", "velocity")), "trapezoid", "ptp profile")
     objective: str = _key(_str(), "time", "optimal: objective (time, jerk, energy, ...)")
-    duration_s: float | None = _key(_float(0.0, lo_open=True), None,
-                                    "fixed duration for fixed-time objectives / cubic")
+    duration_s: float | None = _key(
+        _float(0.0, lo_open=True), None, "fixed duration for fixed-time objectives / cubic"
+    )
     speed_scale: float = _key(_float(0.0, 1.0, lo_open=True), 1.0, "time scaling in (0, 1]")
     torque_limits: bool = _key(_bool, True, "optimal/path: honour torque limits")
-    jerk_limits: bool | None = _key(_bool, None, "optimal/path: honour the jerk limits "
-                                    "(default: the planner's own default)")
+    jerk_limits: bool | None = _key(
+        _bool, None, "optimal/path: honour the jerk limits (default: the planner's own default)"
+    )
     check_dt_s: float = _key(_float(0.0, 1.0, lo_open=True), 0.001, "limit-check grid")
     speed_m_s: float | None = _key(_float(0.0, lo_open=True), None, "Cartesian planners: speed")
     blend_radius_m: float | None = _key(_float(0.0, lo_open=True), None, "blend: corner radius")
@@ -261,19 +290,24 @@ class ControlSpec:
     position loops' sample time (the card's servo period).
     """
 
-    position_bandwidth_rad_s: float | None = _key(_float(0.0, lo_open=True), None,
-                                                  "position-loop crossover target, rad/s")
-    rise_time_s: float | None = _key(_float(0.0, lo_open=True), None,
-                                     "position-loop rise time (instead of the bandwidth)")
+    position_bandwidth_rad_s: float | None = _key(
+        _float(0.0, lo_open=True), None, "position-loop crossover target, rad/s"
+    )
+    rise_time_s: float | None = _key(
+        _float(0.0, lo_open=True), None, "position-loop rise time (instead of the bandwidth)"
+    )
     phase_margin_deg: float | None = _key(_float(0.0, 90.0, lo_open=True), None, "deg")
     gain_margin_dB: float | None = _key(_float(0.0, lo_open=True), None, "dB")
     overshoot_pct: float | None = _key(_float(0.0, 100.0), None, "position-loop step, %")
-    method: str | None = _key(_str(("tustin", "backward", "zoh")), None,
-                              "integral discretisation of the incremental PID")
-    servo_period_s: float | None = _key(_float(0.0, 0.1, lo_open=True), None,
-                                        "speed/position loop sample time, s")
-    current_sample_time_s: float | None = _key(_float(0.0, 0.01, lo_open=True), None,
-                                               "current loop sample time, s")
+    method: str | None = _key(
+        _str(("tustin", "backward", "zoh")), None, "integral discretisation of the incremental PID"
+    )
+    servo_period_s: float | None = _key(
+        _float(0.0, 0.1, lo_open=True), None, "speed/position loop sample time, s"
+    )
+    current_sample_time_s: float | None = _key(
+        _float(0.0, 0.01, lo_open=True), None, "current loop sample time, s"
+    )
     n_inertia_samples: int | None = _key(_int(1), None, "workspace samples of the inertia range")
 
 
@@ -288,8 +322,10 @@ class TrackingSpec:
     """``[tracking]``: options of the closed-loop simulation."""
 
     feedforward: tuple[str, ...] | str | None = _key(
-        _feedforward, None, "list of velocity, acceleration, gravity, friction, "
-        "computed_torque; or \"none\"")
+        _feedforward,
+        None,
+        'list of velocity, acceleration, gravity, friction, computed_torque; or "none"',
+    )
     quantise: bool = _key(_bool, True, "12-bit D/A and encoder quantisation")
     t_after_s: float | None = _key(_float(0.0), None, "time simulated after the end, s")
     accuracy_m: float | None = _key(_float(0.0, lo_open=True), None, "TCP tolerance, m")
@@ -305,10 +341,17 @@ class ControllerSpec:
 
 
 _SECTIONS: dict[str, type] = {
-    "study": StudyOptions, "robot": RobotSpec, "payload": PayloadSpec,
-    "waypoints": WaypointSpec, "limits": LimitsSpec, "plan": PlanSpec,
-    "kinematics": KinematicsSpec, "sizing": SizingSpec, "control": ControlSpec,
-    "tracking": TrackingSpec, "controller": ControllerSpec,
+    "study": StudyOptions,
+    "robot": RobotSpec,
+    "payload": PayloadSpec,
+    "waypoints": WaypointSpec,
+    "limits": LimitsSpec,
+    "plan": PlanSpec,
+    "kinematics": KinematicsSpec,
+    "sizing": SizingSpec,
+    "control": ControlSpec,
+    "tracking": TrackingSpec,
+    "controller": ControllerSpec,
 }
 
 
@@ -341,8 +384,9 @@ class StudySpec:
     def resolve(self, name_or_path: str) -> str:
         """A path relative to the study file made absolute; a bare name stays as it is."""
         p = Path(name_or_path)
-        if p.is_absolute() or ("/" not in name_or_path and "\\" not in name_or_path
-                               and not p.suffix):
+        if p.is_absolute() or (
+            "/" not in name_or_path and "\\" not in name_or_path and not p.suffix
+        ):
             return name_or_path
         return str((self.base_dir / p).resolve())
 
@@ -385,8 +429,9 @@ def document_hash(document: dict[str, Any]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def parse_study(document: dict[str, Any], *, base_dir: str | Path = ".",
-                source: str = "<dict>") -> StudySpec:
+def parse_study(
+    document: dict[str, Any], *, base_dir: str | Path = ".", source: str = "<dict>"
+) -> StudySpec:
     """Validate a parsed study document (a dict as ``tomllib`` returns it).
 
     Raises
@@ -410,8 +455,9 @@ def parse_study(document: dict[str, Any], *, base_dir: str | Path = ".",
     drives = {j: _build(DriveOverride, t, f"drives.{j}") for j, t in drives_doc.items()}
     wp: WaypointSpec = parts["waypoints"]
     if (wp.joint is None) == (wp.cartesian is None):
-        raise SpecError("waypoints.joint: give exactly one of waypoints.joint and "
-                        "waypoints.cartesian")
+        raise SpecError(
+            "waypoints.joint: give exactly one of waypoints.joint and waypoints.cartesian"
+        )
     n_wp = len(wp.joint if wp.joint is not None else wp.cartesian)
     if n_wp < 2 and "plan" in parts["study"].stages:
         raise SpecError(f"waypoints: at least 2 waypoints needed to plan, got {n_wp}")
@@ -426,8 +472,14 @@ def parse_study(document: dict[str, Any], *, base_dir: str | Path = ".",
     order = [s for s in STAGES if s in stages]
     if list(stages) != order or len(set(stages)) != len(stages):
         raise SpecError(f"study.stages: list each stage once, in chain order ({', '.join(STAGES)})")
-    return StudySpec(**parts, drives=drives, base_dir=Path(base_dir).resolve(), source=source,
-                     document=copy.deepcopy(document), hash=document_hash(document))
+    return StudySpec(
+        **parts,
+        drives=drives,
+        base_dir=Path(base_dir).resolve(),
+        source=source,
+        document=copy.deepcopy(document),
+        hash=document_hash(document),
+    )
 
 
 def demo_study_path() -> Path:
@@ -446,8 +498,9 @@ def read_study_document(path: str | Path | None) -> tuple[dict[str, Any], Path, 
     return document, path.resolve().parent, source
 
 
-def load_study(path: str | Path | None = None,
-               overrides: dict[str, Any] | None = None) -> StudySpec:
+def load_study(
+    path: str | Path | None = None, overrides: dict[str, Any] | None = None
+) -> StudySpec:
     """Read and validate a study file (None: the built-in teachbot6 demo study).
 
     Parameters
@@ -471,8 +524,10 @@ def check_key(dotted: str) -> None:
     if parts[0] == "drives":
         names = [f.name for f in fields(DriveOverride)]
         if len(parts) != 3 or parts[2] not in names:
-            raise SpecError(f"{dotted}: not a study key (drives keys are drives.<joint>.<key>, "
-                            f"key one of {', '.join(names)})")
+            raise SpecError(
+                f"{dotted}: not a study key (drives keys are drives.<joint>.<key>, "
+                f"key one of {', '.join(names)})"
+            )
         return
     if len(parts) != 2 or parts[0] not in _SECTIONS:
         raise SpecError(f"{dotted}: not a study key (tables: {', '.join(_SECTIONS)}, drives)")

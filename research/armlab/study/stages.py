@@ -24,13 +24,26 @@ import numpy as np
 from armlab.errors import LimitViolation, SpecError, UnreachableError
 from armlab.study.spec import StudySpec
 
-__all__ = ["StudyContext", "NotAvailable", "NotApplicable", "STAGE_FUNCTIONS", "SUMMARY_KEY",
-           "build_robot", "api"]
+__all__ = [
+    "StudyContext",
+    "NotAvailable",
+    "NotApplicable",
+    "STAGE_FUNCTIONS",
+    "SUMMARY_KEY",
+    "build_robot",
+    "api",
+]
 
 #: summary.json block written by each stage.
-SUMMARY_KEY = {"kinematics": "kinematics", "plan": "trajectory", "static_load": "static_load",
-               "sizing": "sizing", "tuning": "control", "tracking": "tracking",
-               "export": "export"}
+SUMMARY_KEY = {
+    "kinematics": "kinematics",
+    "plan": "trajectory",
+    "static_load": "static_load",
+    "sizing": "sizing",
+    "tuning": "control",
+    "tracking": "tracking",
+    "export": "export",
+}
 
 #: Limit kinds a planner must honour exactly (the plan stage refuses a plan that breaks them).
 _KINEMATIC = ("position", "velocity", "acceleration", "jerk")
@@ -55,8 +68,9 @@ def _call(fn, where: str, *args, **options):
         if value is None:
             continue
         if not takes_any and param not in sig.parameters:
-            raise SpecError(f"{where}.{key.rstrip('_')}: not supported by "
-                            f"{fn.__module__}.{fn.__name__}")
+            raise SpecError(
+                f"{where}.{key.rstrip('_')}: not supported by {fn.__module__}.{fn.__name__}"
+            )
         kw[param] = value
     return fn(*args, **kw)
 
@@ -118,8 +132,10 @@ def _find_part(kind: str, model: str, robot, spec: StudySpec, where: str):
     cat = _catalogue(spec)
     if cat is not None:
         for part in getattr(cat, f"{kind}s"):
-            found[part.model] = (part, cat.derating.get(part.model, 1.0) if kind == "motor"
-                                 else 1.0)
+            found[part.model] = (
+                part,
+                cat.derating.get(part.model, 1.0) if kind == "motor" else 1.0,
+            )
     for d in robot.drives.values():
         found.setdefault(getattr(d, kind).model, (getattr(d, kind), d.derating))
     if model not in found:
@@ -136,8 +152,9 @@ def build_robot(spec: StudySpec):
     """
     from armlab.robot.drives import Drive
 
-    base = _load_cached(spec.resolve(spec.robot.name), spec.robot.tool_frame,
-                        tuple(spec.robot.lock_joints))
+    base = _load_cached(
+        spec.resolve(spec.robot.name), spec.robot.tool_frame, tuple(spec.robot.lock_joints)
+    )
     robot = base.copy()
     p = spec.payload
     if p.mass_kg is not None or p.com_m is not None:
@@ -153,24 +170,30 @@ def build_robot(spec: StudySpec):
         for joint, change in spec.drives.items():
             where = f"drives.{joint}"
             if joint not in drives:
-                raise SpecError(f"{where}: no joint {joint!r} in {robot.name} "
-                                f"(joints: {', '.join(robot.joint_names)})")
+                raise SpecError(
+                    f"{where}: no joint {joint!r} in {robot.name} "
+                    f"(joints: {', '.join(robot.joint_names)})"
+                )
             old: Drive = drives[joint]
             new = old
             if change.motor is not None:
-                motor, derating = _find_part("motor", change.motor, robot, spec,
-                                             f"{where}.motor")
+                motor, derating = _find_part("motor", change.motor, robot, spec, f"{where}.motor")
                 new = replace(new, motor=motor, derating=derating)
             if change.reducer is not None:
-                reducer, _ = _find_part("reducer", change.reducer, robot, spec,
-                                        f"{where}.reducer")
+                reducer, _ = _find_part("reducer", change.reducer, robot, spec, f"{where}.reducer")
                 new = replace(new, reducer=reducer)
-            red = {k: getattr(change, k) for k in ("ratio", "efficiency")
-                   if getattr(change, k) is not None}
+            red = {
+                k: getattr(change, k)
+                for k in ("ratio", "efficiency")
+                if getattr(change, k) is not None
+            }
             if red:
                 new = replace(new, reducer=replace(new.reducer, **red))
-            enc = {k: getattr(change, k) for k in ("pulses_per_rev", "decoding")
-                   if getattr(change, k) is not None}
+            enc = {
+                k: getattr(change, k)
+                for k in ("pulses_per_rev", "decoding")
+                if getattr(change, k) is not None
+            }
             if enc:
                 new = replace(new, encoder=replace(new.encoder, **enc))
             if change.derating is not None:
@@ -182,8 +205,9 @@ def build_robot(spec: StudySpec):
         robot.drives = drives
         lim = replace(lim, effort_Nm=effort)
     n = robot.n_joints
-    changes = {k: _per_joint(v, n, f"limits.{k}")
-               for k, v in vars(spec.limits).items() if v is not None}
+    changes = {
+        k: _per_joint(v, n, f"limits.{k}") for k, v in vars(spec.limits).items() if v is not None
+    }
     robot.limits = replace(lim, **changes)
     return robot
 
@@ -191,28 +215,51 @@ def build_robot(spec: StudySpec):
 def robot_block(ctx: StudyContext) -> dict:
     """summary.json "robot": name, joints, payload, mass, drives."""
     r = ctx.robot
-    block = {"status": "ok", "name": r.name, "n_joints": r.n_joints,
-             "joint_names": list(r.joint_names), "urdf": str(r.urdf_path),
-             "tool_frame": r.tool_frame, "payload_kg": r.payload.mass_kg,
-             "total_mass_kg": r.total_mass_kg,
-             "limits": {"velocity_rad_s": r.limits.velocity_rad_s.tolist(),
-                        "effort_Nm": r.limits.effort_Nm.tolist()}}
+    block = {
+        "status": "ok",
+        "name": r.name,
+        "n_joints": r.n_joints,
+        "joint_names": list(r.joint_names),
+        "urdf": str(r.urdf_path),
+        "tool_frame": r.tool_frame,
+        "payload_kg": r.payload.mass_kg,
+        "total_mass_kg": r.total_mass_kg,
+        "limits": {
+            "velocity_rad_s": r.limits.velocity_rad_s.tolist(),
+            "effort_Nm": r.limits.effort_Nm.tolist(),
+        },
+    }
     if r.drives is not None:
-        block["drives"] = {j: {"motor": d.motor.model, "reducer": d.reducer.model,
-                               "ratio": d.reducer.ratio,
-                               "available_torque_Nm": d.available_torque_Nm}
-                           for j, d in r.drives.items()}
+        block["drives"] = {
+            j: {
+                "motor": d.motor.model,
+                "reducer": d.reducer.model,
+                "ratio": d.reducer.ratio,
+                "available_torque_Nm": d.available_torque_Nm,
+            }
+            for j, d in r.drives.items()
+        }
     return block
 
 
 # ---------------------------------------------------------------------------- kinematics
 def _rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """R = Rz(yaw) Ry(pitch) Rx(roll) (URDF / ROS fixed-axis convention)."""
-    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch),
-                              math.cos(yaw), math.sin(yaw))
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
+    cr, sr, cp, sp, cy, sy = (
+        math.cos(roll),
+        math.sin(roll),
+        math.cos(pitch),
+        math.sin(pitch),
+        math.cos(yaw),
+        math.sin(yaw),
+    )
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
 
 
 def _angles(values, unit: str) -> np.ndarray:
@@ -241,9 +288,11 @@ def _solve_ik(ctx: StudyContext, poses: np.ndarray) -> np.ndarray:
     (default: the middle of the joint ranges)."""
     robot, wp = ctx.robot, ctx.spec.waypoints
     lim = robot.limits
-    seed = (0.5 * (lim.lower_rad + lim.upper_rad) if wp.ik_seed is None
-            else _per_joint(list(_angles(wp.ik_seed, wp.unit)), robot.n_joints,
-                            "waypoints.ik_seed"))
+    seed = (
+        0.5 * (lim.lower_rad + lim.upper_rad)
+        if wp.ik_seed is None
+        else _per_joint(list(_angles(wp.ik_seed, wp.unit)), robot.n_joints, "waypoints.ik_seed")
+    )
     if api("armlab.kinematics", "has_analytic_ik")(robot):
         ik_nearest = api("armlab.kinematics", "ik_nearest")
         try:
@@ -274,8 +323,10 @@ def stage_kinematics(ctx: StudyContext) -> dict:
     if wp.joint is not None:
         q = _angles(wp.joint, wp.unit)
         if q.shape[1] != robot.n_joints:
-            raise SpecError(f"waypoints.joint: rows of {q.shape[1]} values, robot {robot.name} "
-                            f"has {robot.n_joints} joints")
+            raise SpecError(
+                f"waypoints.joint: rows of {q.shape[1]} values, robot {robot.name} "
+                f"has {robot.n_joints} joints"
+            )
         source = "joint"
     else:
         q = _solve_ik(ctx, ctx.waypoint_poses)
@@ -288,12 +339,18 @@ def stage_kinematics(ctx: StudyContext) -> dict:
             raise UnreachableError(
                 f"waypoints.{'joint' if wp.joint is not None else 'cartesian'}[{k}]: "
                 f"{robot.joint_names[j]} = {conv(row[j]):.6g} {wp.unit} is outside its range "
-                f"{conv(lim.lower_rad[j]):.6g} .. {conv(lim.upper_rad[j]):.6g} {wp.unit}")
+                f"{conv(lim.lower_rad[j]):.6g} .. {conv(lim.upper_rad[j]):.6g} {wp.unit}"
+            )
     ctx.waypoints_q = q
     tcp = np.array([fk(robot, row)[:3, 3] for row in q])
-    block = {"status": "ok", "waypoints_from": source, "n_waypoints": int(len(q)),
-             "waypoints_rad": q.tolist(), "tcp_positions_m": tcp.tolist(),
-             "max_reach_m": max_reach_m(robot, seed=spec.study.seed)}
+    block = {
+        "status": "ok",
+        "waypoints_from": source,
+        "n_waypoints": int(len(q)),
+        "waypoints_rad": q.tolist(),
+        "tcp_positions_m": tcp.tolist(),
+        "max_reach_m": max_reach_m(robot, seed=spec.study.seed),
+    }
     ks = spec.kinematics
     if ks.workspace_samples:
         block["workspace"] = _optional_study(ctx, "workspace", ks.workspace_samples)
@@ -352,31 +409,55 @@ def plan_trajectory(ctx: StudyContext):
     if plan.planner in ("optimal", "path"):
         fn = api(T, "optimal" if plan.planner == "optimal" else "time_optimal_path")
         ctx.jerk_limited = _jerk_on(fn, plan.jerk_limits)
-        limits = {"tau_max": None if plan.torque_limits else False,
-                  "j_max": None if ctx.jerk_limited else False}
+        limits = {
+            "tau_max": None if plan.torque_limits else False,
+            "j_max": None if ctx.jerk_limited else False,
+        }
         if plan.planner == "path":  # the cubic spline through the waypoints, time-optimally
             return fn(robot, Q, **limits)
-        return _call(fn, "plan", robot, Q, objective=("objective", plan.objective),
-                     duration_s=("duration", plan.duration_s), **{
-                         k: (k, v) for k, v in limits.items() if v is not None})
+        return _call(
+            fn,
+            "plan",
+            robot,
+            Q,
+            objective=("objective", plan.objective),
+            duration_s=("duration", plan.duration_s),
+            **{k: (k, v) for k, v in limits.items() if v is not None},
+        )
     # classical planners sample at the check step (the controller cycle by default), so the
     # set-point table hits their samples and never interpolates across a profile corner
     if plan.planner == "ptp":
         fn = api(T, "ptp_sync")
-        return _concat([_call(fn, "plan", robot, Q[i], Q[i + 1],
-                              profile=("profile", plan.profile),
-                              check_dt_s=("dt", plan.check_dt_s),
-                              torque_limits=("torque", plan.torque_limits))
-                        for i in range(len(Q) - 1)])
+        return _concat(
+            [
+                _call(
+                    fn,
+                    "plan",
+                    robot,
+                    Q[i],
+                    Q[i + 1],
+                    profile=("profile", plan.profile),
+                    check_dt_s=("dt", plan.check_dt_s),
+                    torque_limits=("torque", plan.torque_limits),
+                )
+                for i in range(len(Q) - 1)
+            ]
+        )
     if plan.planner == "cubic":
         fn = api(T, "cubic_via")
         durations = None
         if plan.duration_s is not None:
             d = np.linalg.norm(np.diff(Q, axis=0), axis=1)
             durations = plan.duration_s * d / d.sum()
-        return _call(fn, "plan", robot, Q, duration_s=("durations", durations),
-                     check_dt_s=("dt", plan.check_dt_s),
-                     torque_limits=("torque", plan.torque_limits))
+        return _call(
+            fn,
+            "plan",
+            robot,
+            Q,
+            duration_s=("durations", durations),
+            check_dt_s=("dt", plan.check_dt_s),
+            torque_limits=("torque", plan.torque_limits),
+        )
     poses = ctx.waypoint_poses
     speed = plan.speed_m_s
     if speed is None:
@@ -416,19 +497,25 @@ def stage_plan(ctx: StudyContext) -> dict:
     enforced = [k for k in _KINEMATIC if k != "jerk" or ctx.jerk_limited]
     for kind, joint, ratio, at in report.violations(tol=1e-6):
         if kind in enforced:
-            raise LimitViolation(f"the {traj.method or spec.plan.planner} plan breaks the "
-                                 f"{kind} limit of {joint} ({ratio:.4g} x the limit at "
-                                 f"t = {at:.4g} s)")
+            raise LimitViolation(
+                f"the {traj.method or spec.plan.planner} plan breaks the "
+                f"{kind} limit of {joint} ({ratio:.4g} x the limit at "
+                f"t = {at:.4g} s)"
+            )
     kind, joint, ratio = report.worst()
     return {
-        "status": "ok", "planner": spec.plan.planner, "method": traj.method,
-        "duration_s": traj.duration, "n_waypoints": int(len(ctx.waypoints_q)),
-        "n_samples": traj.n_samples, "speed_scale": spec.plan.speed_scale,
+        "status": "ok",
+        "planner": spec.plan.planner,
+        "method": traj.method,
+        "duration_s": traj.duration,
+        "n_waypoints": int(len(ctx.waypoints_q)),
+        "n_samples": traj.n_samples,
+        "speed_scale": spec.plan.speed_scale,
         "check_dt_s": spec.plan.check_dt_s,
         "peak_ratio": {k: float(np.max(r)) for k, r in report.ratios.items()},
-        "peak_joint": {k: report.joint_names[int(np.argmax(r))]
-                       for k, r in report.ratios.items()},
-        "ratios": report.to_dict(), "feasible": report.ok(tol=1e-6),
+        "peak_joint": {k: report.joint_names[int(np.argmax(r))] for k, r in report.ratios.items()},
+        "ratios": report.to_dict(),
+        "feasible": report.ok(tol=1e-6),
         "worst": {"kind": kind, "joint": joint, "ratio": ratio},
         "stats": _jsonable(getattr(traj, "stats", {})),
     }
@@ -460,8 +547,12 @@ def _jsonable(x):
 
 def stage_static_load(ctx: StudyContext) -> dict:
     """Worst-case static holding torque per joint (thesis 4.2.1) with the payload."""
-    res = _call(api("armlab.dynamics", "static_load"), "study", ctx.robot,
-                seed=("seed", ctx.spec.study.seed))
+    res = _call(
+        api("armlab.dynamics", "static_load"),
+        "study",
+        ctx.robot,
+        seed=("seed", ctx.spec.study.seed),
+    )
     ctx.static_load = res
     return {"status": "ok", **_to_dict(res)}
 
@@ -481,8 +572,9 @@ def stage_sizing(ctx: StudyContext) -> dict:
     if ctx.trajectory is None:
         raise NotAvailable("needs a trajectory")
     size = api("armlab.dynamics", "size")
-    res = _call(size, "plan", ctx.robot, ctx.trajectory,
-                check_dt_s=("dt", ctx.spec.plan.check_dt_s))
+    res = _call(
+        size, "plan", ctx.robot, ctx.trajectory, check_dt_s=("dt", ctx.spec.plan.check_dt_s)
+    )
     ctx.sizing = res
     block = {"status": "ok", **_to_dict(res)}
     if ctx.static_load is not None:
@@ -496,9 +588,14 @@ def stage_sizing(ctx: StudyContext) -> dict:
         }
     if ctx.spec.sizing.select:
         select = api("armlab.dynamics", "select_drives")
-        sel = _call(select, "sizing", ctx.robot, [ctx.trajectory],
-                    catalogue=("catalogue", _catalogue(ctx.spec)),
-                    check_dt_s=("dt", ctx.spec.plan.check_dt_s))
+        sel = _call(
+            select,
+            "sizing",
+            ctx.robot,
+            [ctx.trajectory],
+            catalogue=("catalogue", _catalogue(ctx.spec)),
+            check_dt_s=("dt", ctx.spec.plan.check_dt_s),
+        )
         ctx.selection = sel
         block["selection"] = {"status": "ok", **_to_dict(sel)}
     return block
@@ -511,19 +608,22 @@ def stage_tuning(ctx: StudyContext) -> dict:
     _needs_drives(ctx)
     c = ctx.spec.control
     tune_arm = api("armlab.control", "tune_arm")
-    gains = _call(tune_arm, "control", ctx.robot,
-                  position_bandwidth_rad_s=("position_bandwidth_rad_s",
-                                            c.position_bandwidth_rad_s),
-                  rise_time_s=("rise_time_s", c.rise_time_s),
-                  phase_margin_deg=("phase_margin_deg", c.phase_margin_deg),
-                  gain_margin_dB=("gain_margin_dB", c.gain_margin_dB),
-                  overshoot_pct=("overshoot_pct", c.overshoot_pct),
-                  method=("method", c.method),
-                  servo_period_s=("speed_sample_time_s", c.servo_period_s),
-                  servo_period_s_=("position_sample_time_s", c.servo_period_s),
-                  current_sample_time_s=("current_sample_time_s", c.current_sample_time_s),
-                  n_inertia_samples=("n_inertia_samples", c.n_inertia_samples),
-                  seed=("seed", ctx.spec.study.seed))
+    gains = _call(
+        tune_arm,
+        "control",
+        ctx.robot,
+        position_bandwidth_rad_s=("position_bandwidth_rad_s", c.position_bandwidth_rad_s),
+        rise_time_s=("rise_time_s", c.rise_time_s),
+        phase_margin_deg=("phase_margin_deg", c.phase_margin_deg),
+        gain_margin_dB=("gain_margin_dB", c.gain_margin_dB),
+        overshoot_pct=("overshoot_pct", c.overshoot_pct),
+        method=("method", c.method),
+        servo_period_s=("speed_sample_time_s", c.servo_period_s),
+        servo_period_s_=("position_sample_time_s", c.servo_period_s),
+        current_sample_time_s=("current_sample_time_s", c.current_sample_time_s),
+        n_inertia_samples=("n_inertia_samples", c.n_inertia_samples),
+        seed=("seed", ctx.spec.study.seed),
+    )
     ctx.gains = gains
     return {"status": "ok", **_jsonable(gains.summary())}
 
@@ -535,13 +635,18 @@ def stage_tracking(ctx: StudyContext) -> dict:
         raise NotAvailable("needs a trajectory and gains")
     t = ctx.spec.tracking
     sim = api("armlab.control", "simulate_tracking")
-    ff = t.feedforward if t.feedforward is None or t.feedforward == "none" \
-        else tuple(t.feedforward)
-    res = _call(sim, "tracking", ctx.robot, ctx.trajectory, ctx.gains,
-                feedforward=("feedforward", ff),
-                quantise=("quantise", None if t.quantise else False),
-                t_after_s=("t_after_s", t.t_after_s),
-                accuracy_m=("accuracy_m", t.accuracy_m))
+    ff = t.feedforward if t.feedforward is None or t.feedforward == "none" else tuple(t.feedforward)
+    res = _call(
+        sim,
+        "tracking",
+        ctx.robot,
+        ctx.trajectory,
+        ctx.gains,
+        feedforward=("feedforward", ff),
+        quantise=("quantise", None if t.quantise else False),
+        t_after_s=("t_after_s", t.t_after_s),
+        accuracy_m=("accuracy_m", t.accuracy_m),
+    )
     ctx.tracking = res
     return {"status": "ok", **_to_dict(res)}
 
@@ -571,14 +676,26 @@ def stage_export(ctx: StudyContext) -> dict:
 
     prof = controller_profile(ctx)
     if ctx.robot.drives is None and prof.counts_per_joint_rev is None:
-        raise NotApplicable(f"{ctx.robot.name} has no drives.toml and controller profile "
-                            f"{prof.name!r} gives no counts_per_joint_rev")
-    table = _call(api("armlab.deploy", "setpoint_table"), "export", ctx.robot, ctx.trajectory,
-                  prof, source=("source", {"study": ctx.spec.source,
-                                           "study_sha256": ctx.spec.hash}))
+        raise NotApplicable(
+            f"{ctx.robot.name} has no drives.toml and controller profile "
+            f"{prof.name!r} gives no counts_per_joint_rev"
+        )
+    table = _call(
+        api("armlab.deploy", "setpoint_table"),
+        "export",
+        ctx.robot,
+        ctx.trajectory,
+        prof,
+        source=("source", {"study": ctx.spec.source, "study_sha256": ctx.spec.hash}),
+    )
     ctx.setpoints = table
-    block: dict[str, Any] = {"status": "ok", "profile": prof.name, "cycle_s": prof.cycle_s,
-                             "n_cycles": _n_rows(table), "files": {}}
+    block: dict[str, Any] = {
+        "status": "ok",
+        "profile": prof.name,
+        "cycle_s": prof.cycle_s,
+        "n_cycles": _n_rows(table),
+        "files": {},
+    }
     preflight = getattr(table, "meta", {}).get("preflight")
     if preflight is not None:
         block["preflight"] = _jsonable(preflight)
@@ -611,11 +728,19 @@ def _n_rows(table) -> int | None:
 
 
 STAGE_FUNCTIONS = {
-    "kinematics": stage_kinematics, "plan": stage_plan, "static_load": stage_static_load,
-    "sizing": stage_sizing, "tuning": stage_tuning, "tracking": stage_tracking,
+    "kinematics": stage_kinematics,
+    "plan": stage_plan,
+    "static_load": stage_static_load,
+    "sizing": stage_sizing,
+    "tuning": stage_tuning,
+    "tracking": stage_tracking,
     "export": stage_export,
 }
 
 #: What a stage needs from the stages before it.
-NEEDS = {"plan": ("kinematics",), "sizing": ("plan",), "tracking": ("plan", "tuning"),
-         "export": ("plan",)}
+NEEDS = {
+    "plan": ("kinematics",),
+    "sizing": ("plan",),
+    "tracking": ("plan", "tuning"),
+    "export": ("plan",),
+}

@@ -22,9 +22,20 @@ from armlab.sweep.store import ResultStore
 from armlab.sweep.task import run_parameter_set
 
 __all__ = [
-    "MODES", "Parameter", "ResultStore", "SweepSpec", "by_parameter", "demo_sweep_path",
+    "MODES",
+    "Parameter",
+    "ResultStore",
+    "SweepSpec",
+    "by_parameter",
+    "demo_sweep_path",
     "load_sweep",
-    "open_client", "parameter_key", "parameter_sets", "parse_sweep",
-    "plot_figure_vs_parameter", "run_parameter_set", "run_sweep", "run_sweep_spec",
+    "open_client",
+    "parameter_key",
+    "parameter_sets",
+    "parse_sweep",
+    "plot_figure_vs_parameter",
+    "run_parameter_set",
+    "run_sweep",
+    "run_sweep_spec",
     "sweep_summary_text",
 ]

@@ -10,8 +10,7 @@ import pandas as pd
 
 from armlab.sweep.spec import SweepSpec
 
-__all__ = ["plot_figure_vs_parameter", "write_sweep_plots", "sweep_summary_text",
-           "by_parameter"]
+__all__ = ["plot_figure_vs_parameter", "write_sweep_plots", "sweep_summary_text", "by_parameter"]
 
 
 def _is_numeric(series: pd.Series) -> bool:
@@ -43,8 +42,15 @@ def plot_figure_vs_parameter(frame: pd.DataFrame, figure: str, parameter: str):
             ax.plot(mean.index, mean.values, "-", color="C0", lw=1, label="mean")
     if len(err):
         bottom = float(np.nanmin(y)) if y.notna().any() else 0.0
-        ax.plot(pos(err[parameter]), np.full(len(err), bottom), "x", color="C3", ms=8, mew=2,
-                label=f"error ({len(err)})")
+        ax.plot(
+            pos(err[parameter]),
+            np.full(len(err), bottom),
+            "x",
+            color="C3",
+            ms=8,
+            mew=2,
+            label=f"error ({len(err)})",
+        )
     if ticks is not None:
         ax.set_xticks(range(len(ticks)))
         ax.set_xticklabels(ticks, rotation=20, fontsize=8)
@@ -90,20 +96,31 @@ def by_parameter(frame: pd.DataFrame, parameter: str, figures: list[str]) -> pd.
     for f in figures:
         g[f] = pd.to_numeric(frame[f], errors="coerce").where(ok)
     out = g.groupby(parameter, observed=True, sort=True).agg(
-        n=("error", "size"), errors=("error", "sum"), **{f: (f, "mean") for f in figures})
+        n=("error", "size"), errors=("error", "sum"), **{f: (f, "mean") for f in figures}
+    )
     return out
 
 
-def sweep_summary_text(frame: pd.DataFrame, spec: SweepSpec, *, ran: int, before: int,
-                       elapsed_s: float, plots: list[Path], out_dir: Path) -> str:
+def sweep_summary_text(
+    frame: pd.DataFrame,
+    spec: SweepSpec,
+    *,
+    ran: int,
+    before: int,
+    elapsed_s: float,
+    plots: list[Path],
+    out_dir: Path,
+) -> str:
     """The table ``armlab sweep`` prints at the end."""
     n = len(frame)
     counts = frame["status"].value_counts().to_dict() if n else {}
     rate = f" ({ran / elapsed_s:.2f} studies/s)" if ran and elapsed_s > 0 else ""
-    lines = [f"armlab sweep {spec.name!r}: {n} parameter sets over "
-             f"{', '.join(spec.parameter_keys)} ({spec.mode}); base study {spec.study_source}",
-             f"  {counts.get('done', 0)} done, {counts.get('error', 0)} error; {ran} run now in "
-             f"{elapsed_s:.1f} s{rate}, {before} already in {out_dir}"]
+    lines = [
+        f"armlab sweep {spec.name!r}: {n} parameter sets over "
+        f"{', '.join(spec.parameter_keys)} ({spec.mode}); base study {spec.study_source}",
+        f"  {counts.get('done', 0)} done, {counts.get('error', 0)} error; {ran} run now in "
+        f"{elapsed_s:.1f} s{rate}, {before} already in {out_dir}",
+    ]
     errors = frame[frame["status"] == "error"] if n else frame
     if len(errors):
         lines.append("errors:")
@@ -113,12 +130,16 @@ def sweep_summary_text(frame: pd.DataFrame, spec: SweepSpec, *, ran: int, before
             lines.append(f"  {ps}: {msg[:110] + '...' if len(msg) > 110 else msg}")
         if len(errors) > 5:
             lines.append(f"  ... and {len(errors) - 5} more (column 'error' of results.parquet)")
-    figures = [f for f in spec.figures if f in frame
-               and pd.to_numeric(frame[f], errors="coerce").notna().any()]
+    figures = [
+        f
+        for f in spec.figures
+        if f in frame and pd.to_numeric(frame[f], errors="coerce").notna().any()
+    ]
     missing = [f for f in spec.figures if f not in figures]
     if missing:
-        lines.append(f"figures without values (stage not run or not available): "
-                     f"{', '.join(missing)}")
+        lines.append(
+            f"figures without values (stage not run or not available): {', '.join(missing)}"
+        )
     done = frame[frame["status"] == "done"] if n else frame
     for f in figures:
         y = pd.to_numeric(done[f], errors="coerce")
@@ -128,17 +149,26 @@ def sweep_summary_text(frame: pd.DataFrame, spec: SweepSpec, *, ran: int, before
                 f"{f}: min {_short(y.min())} at "
                 + ", ".join(f"{p}={_short(lo[p])}" for p in spec.parameter_keys)
                 + f"; max {_short(y.max())} at "
-                + ", ".join(f"{p}={_short(hi[p])}" for p in spec.parameter_keys))
+                + ", ".join(f"{p}={_short(hi[p])}" for p in spec.parameter_keys)
+            )
     if n and figures:
-        with pd.option_context("display.width", 110, "display.max_columns", 12,
-                               "display.float_format", lambda v: f"{v:.4g}"):
+        with pd.option_context(
+            "display.width",
+            110,
+            "display.max_columns",
+            12,
+            "display.float_format",
+            lambda v: f"{v:.4g}",
+        ):
             for p in spec.parameter_keys:
                 lines.append("")
                 lines += by_parameter(frame, p, figures).to_string().splitlines()
     if plots:
         lines.append("")
-        lines.append(f"plots: {len(plots)} in {Path(out_dir) / 'plots'}; table: "
-                     f"{Path(out_dir) / 'results.parquet'}")
+        lines.append(
+            f"plots: {len(plots)} in {Path(out_dir) / 'plots'}; table: "
+            f"{Path(out_dir) / 'results.parquet'}"
+        )
     return "\n".join(lines)
 
 

@@ -60,13 +60,19 @@ def open_client(workers: int | None = None, scheduler: str | None = None):
         try:
             return Client(scheduler, timeout="10s"), None
         except (OSError, TimeoutError, ValueError) as exc:
-            raise InputError(f"cannot reach the Dask scheduler at {scheduler!r} "
-                             f"({type(exc).__name__}: {exc})") from None
+            raise InputError(
+                f"cannot reach the Dask scheduler at {scheduler!r} ({type(exc).__name__}: {exc})"
+            ) from None
     n = _cpu_count() if workers is None else int(workers)
     if n < 1:
         raise InputError(f"--workers must be >= 1, not {workers}")
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                           dashboard_address=":0", silence_logs=logging.ERROR)
+    cluster = LocalCluster(
+        n_workers=n,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",
+        silence_logs=logging.ERROR,
+    )
     return Client(cluster), cluster
 
 
@@ -74,13 +80,27 @@ def _progress(total: int, initial: int, enabled: bool | None, desc: str):
     from tqdm import tqdm
 
     # rate and ETA are in tqdm's default format; disable=None: silent without a terminal
-    return tqdm(total=total, initial=initial, desc=desc, unit="study", smoothing=0.05,
-                disable=None if enabled is None else not enabled, file=sys.stderr)
+    return tqdm(
+        total=total,
+        initial=initial,
+        desc=desc,
+        unit="study",
+        smoothing=0.05,
+        disable=None if enabled is None else not enabled,
+        file=sys.stderr,
+    )
 
 
-def run_sweep_spec(spec: SweepSpec, out_dir: str | Path, *, workers: int | None = None,
-                   scheduler: str | None = None, progress: bool | None = None,
-                   quiet: bool = False, client=None) -> pd.DataFrame:
+def run_sweep_spec(
+    spec: SweepSpec,
+    out_dir: str | Path,
+    *,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: bool | None = None,
+    quiet: bool = False,
+    client=None,
+) -> pd.DataFrame:
     """Run a validated sweep into ``out_dir``; see :func:`run_sweep`.
 
     ``client`` (a ``distributed.Client``) reuses an open cluster instead of starting one.
@@ -89,10 +109,20 @@ def run_sweep_spec(spec: SweepSpec, out_dir: str | Path, *, workers: int | None 
     out.mkdir(parents=True, exist_ok=True)
     sets = parameter_sets(spec)
     keys = [parameter_key(s) for s in sets]
-    store = ResultStore(out, {"study_hash": spec.study_hash, "study": spec.study_source,
-                              "parameters": spec.parameter_keys, "name": spec.name})
-    todo = [(k, s) for k, s in zip(keys, sets, strict=True)
-            if k not in store or (spec.rerun_errors and store.status(k) == "error")]
+    store = ResultStore(
+        out,
+        {
+            "study_hash": spec.study_hash,
+            "study": spec.study_source,
+            "parameters": spec.parameter_keys,
+            "name": spec.name,
+        },
+    )
+    todo = [
+        (k, s)
+        for k, s in zip(keys, sets, strict=True)
+        if k not in store or (spec.rerun_errors and store.status(k) == "error")
+    ]
     n_before = len(sets) - len(todo)
     t_start = time.perf_counter()
     ran = 0
@@ -119,8 +149,15 @@ def run_sweep_spec(spec: SweepSpec, out_dir: str | Path, *, workers: int | None 
     from armlab.sweep.report import sweep_summary_text, write_sweep_plots
 
     plots = write_sweep_plots(frame, spec, out)
-    text = sweep_summary_text(frame, spec, ran=ran, before=n_before,
-                              elapsed_s=time.perf_counter() - t_start, plots=plots, out_dir=out)
+    text = sweep_summary_text(
+        frame,
+        spec,
+        ran=ran,
+        before=n_before,
+        elapsed_s=time.perf_counter() - t_start,
+        plots=plots,
+        out_dir=out,
+    )
     (out / "summary.txt").write_text(text + "\n")
     if not quiet:
         print(text)
@@ -140,8 +177,16 @@ def _execute(client, spec: SweepSpec, todo, store: ResultStore, bar) -> int:
 
     def submit(key: str, params: dict[str, Any]):
         n = attempts.get(key, 0)
-        return client.submit(run_parameter_set, doc, study_dir, source, params, key,
-                             key=f"armlab-study-{key}-{token}-{n}", pure=False)
+        return client.submit(
+            run_parameter_set,
+            doc,
+            study_dir,
+            source,
+            params,
+            key,
+            key=f"armlab-study-{key}-{token}-{n}",
+            pure=False,
+        )
 
     futures = {}
     for key, params in todo:
@@ -160,8 +205,11 @@ def _execute(client, spec: SweepSpec, todo, store: ResultStore, bar) -> int:
                 futures[new] = key
                 queue.add(new)
                 continue
-            row = nan_row(key, params_of[key], f"KilledWorker: the workers running this set "
-                          f"died {attempts[key]} times ({exc})")
+            row = nan_row(
+                key,
+                params_of[key],
+                f"KilledWorker: the workers running this set died {attempts[key]} times ({exc})",
+            )
         except (FutureCancelledError, Exception) as exc:  # noqa: BLE001 - any task failure is a row
             row = nan_row(key, params_of[key], f"{type(exc).__name__}: {exc}")
         finally:
@@ -172,9 +220,15 @@ def _execute(client, spec: SweepSpec, todo, store: ResultStore, bar) -> int:
     return done
 
 
-def run_sweep(sweep: str | Path, out_dir: str | Path, workers: int | None = None,
-              scheduler: str | None = None, *, progress: bool | None = None,
-              quiet: bool = False) -> pd.DataFrame:
+def run_sweep(
+    sweep: str | Path,
+    out_dir: str | Path,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    *,
+    progress: bool | None = None,
+    quiet: bool = False,
+) -> pd.DataFrame:
     """Run a SWEEP.toml into ``out_dir`` (``armlab sweep``); returns one row per parameter set.
 
     Parameters
@@ -201,5 +255,11 @@ def run_sweep(sweep: str | Path, out_dir: str | Path, workers: int | None = None
         Columns ``key``, the parameter keys, ``status``, ``error``, ``elapsed_s``, ``worker``,
         ``finished_at`` and the key figures of :func:`armlab.study.key_figures`.
     """
-    return run_sweep_spec(load_sweep(sweep), out_dir, workers=workers, scheduler=scheduler,
-                          progress=progress, quiet=quiet)
+    return run_sweep_spec(
+        load_sweep(sweep),
+        out_dir,
+        workers=workers,
+        scheduler=scheduler,
+        progress=progress,
+        quiet=quiet,
+    )

@@ -48,9 +48,16 @@ from armlab.errors import SpecError
 from armlab.study.spec import apply_overrides, check_key, document_hash, read_study_document
 from armlab.tomlfile import read_toml
 
-__all__ = ["Parameter", "SweepSpec", "demo_sweep_path", "load_sweep", "parse_sweep",
-           "parameter_sets",
-           "parameter_key", "MODES"]
+__all__ = [
+    "Parameter",
+    "SweepSpec",
+    "demo_sweep_path",
+    "load_sweep",
+    "parse_sweep",
+    "parameter_sets",
+    "parameter_key",
+    "MODES",
+]
 
 MODES = ("grid", "random", "lhs")
 
@@ -171,12 +178,14 @@ def _parse_parameter(t: Any, where: str, mode: str) -> Parameter:
     if mode == "grid":
         if isinstance(num, bool) or not isinstance(num, int) or num < 2:
             raise SpecError(f"{where}.num: a grid range needs num >= 2 values, not {num!r}")
-    return Parameter(key=key, low=low, high=high, num=num, log=log,
-                     integer=bool(t.get("integer", False)))
+    return Parameter(
+        key=key, low=low, high=high, num=num, log=log, integer=bool(t.get("integer", False))
+    )
 
 
-def parse_sweep(document: dict[str, Any], *, base_dir: str | Path = ".",
-                source: str = "<dict>") -> SweepSpec:
+def parse_sweep(
+    document: dict[str, Any], *, base_dir: str | Path = ".", source: str = "<dict>"
+) -> SweepSpec:
     """Validate a sweep document (as ``tomllib`` returns it); the base study is read too.
 
     Raises
@@ -199,8 +208,9 @@ def parse_sweep(document: dict[str, Any], *, base_dir: str | Path = ".",
     if mode not in MODES:
         raise SpecError(f"sweep.mode: expected one of {', '.join(MODES)}, not {mode!r}")
     samples = sw.get("samples")
-    if mode != "grid" and (isinstance(samples, bool) or not isinstance(samples, int)
-                           or samples < 1):
+    if mode != "grid" and (
+        isinstance(samples, bool) or not isinstance(samples, int) or samples < 1
+    ):
         raise SpecError(f"sweep.samples: mode {mode!r} needs samples >= 1, not {samples!r}")
     seed = sw.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
@@ -212,15 +222,15 @@ def parse_sweep(document: dict[str, Any], *, base_dir: str | Path = ".",
     if not isinstance(rerun, bool):
         raise SpecError(f"sweep.rerun_errors: expected true or false, not {rerun!r}")
     figures = sw.get("figures", ["duration_s"])
-    if (not isinstance(figures, list) or not figures
-            or not all(isinstance(f, str) for f in figures)):
+    if not isinstance(figures, list) or not figures or not all(isinstance(f, str) for f in figures):
         raise SpecError(f"sweep.figures: expected a list of key-figure names, not {figures!r}")
     from armlab.study.runner import KEY_FIGURES
 
     unknown = [f for f in figures if f not in KEY_FIGURES]
     if unknown:
-        raise SpecError(f"sweep.figures: unknown figure {unknown[0]!r} (known: "
-                        f"{', '.join(KEY_FIGURES)})")
+        raise SpecError(
+            f"sweep.figures: unknown figure {unknown[0]!r} (known: {', '.join(KEY_FIGURES)})"
+        )
     name = sw.get("name", Path(source).stem if source != "<dict>" else "sweep")
     if not isinstance(name, str):
         raise SpecError(f"sweep.name: expected a string, not {name!r}")
@@ -241,7 +251,7 @@ def parse_sweep(document: dict[str, Any], *, base_dir: str | Path = ".",
         raise SpecError(f"set.{clash[0]}: also a varied parameter")
     study = sw.get("study", "demo")
     if not isinstance(study, str):
-        raise SpecError(f"sweep.study: expected \"demo\" or a study file path, not {study!r}")
+        raise SpecError(f'sweep.study: expected "demo" or a study file path, not {study!r}')
     study_path = None if study == "demo" else (Path(base_dir) / study)
     try:
         base_doc, study_dir, study_source = read_study_document(study_path)
@@ -253,10 +263,22 @@ def parse_sweep(document: dict[str, Any], *, base_dir: str | Path = ".",
     from armlab.study.spec import parse_study
 
     parse_study(base_doc, base_dir=study_dir, source=study_source)
-    return SweepSpec(name=name, mode=mode, parameters=params, samples=samples, seed=seed,
-                     figures=tuple(figures), retries=retries, rerun_errors=rerun,
-                     study_document=base_doc, study_dir=study_dir, study_source=study_source,
-                     study_hash=document_hash(base_doc), fixed=fixed, source=source)
+    return SweepSpec(
+        name=name,
+        mode=mode,
+        parameters=params,
+        samples=samples,
+        seed=seed,
+        figures=tuple(figures),
+        retries=retries,
+        rerun_errors=rerun,
+        study_document=base_doc,
+        study_dir=study_dir,
+        study_source=study_source,
+        study_hash=document_hash(base_doc),
+        fixed=fixed,
+        source=source,
+    )
 
 
 def _flatten(table: dict[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -300,8 +322,10 @@ def parameter_sets(spec: SweepSpec) -> list[dict[str, Any]]:
     """
     params = spec.parameters
     if spec.mode == "grid":
-        sets = [dict(zip(spec.parameter_keys, combo, strict=True))
-                for combo in itertools.product(*(p.grid() for p in params))]
+        sets = [
+            dict(zip(spec.parameter_keys, combo, strict=True))
+            for combo in itertools.product(*(p.grid() for p in params))
+        ]
     else:
         if spec.mode == "random":
             u = np.random.default_rng(spec.seed).random((spec.samples, len(params)))
@@ -309,8 +333,9 @@ def parameter_sets(spec: SweepSpec) -> list[dict[str, Any]]:
             from scipy.stats import qmc
 
             u = qmc.LatinHypercube(d=len(params), seed=spec.seed).random(spec.samples)
-        sets = [{p.key: p.from_unit(float(x)) for p, x in zip(params, row, strict=True)}
-                for row in u]
+        sets = [
+            {p.key: p.from_unit(float(x)) for p, x in zip(params, row, strict=True)} for row in u
+        ]
     seen, out = set(), []
     for s in sets:
         k = parameter_key(s)
@@ -325,7 +350,9 @@ def parameter_key(params: dict[str, Any]) -> str:
 
     Integral floats hash like integers (``300.0`` and ``300`` are the same set).
     """
-    canon = {k: (int(v) if isinstance(v, float) and v.is_integer() else v)
-             for k, v in copy.deepcopy(params).items()}
+    canon = {
+        k: (int(v) if isinstance(v, float) and v.is_integer() else v)
+        for k, v in copy.deepcopy(params).items()
+    }
     text = json.dumps(canon, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:16]

@@ -35,13 +35,17 @@ def _parquet_safe(frame: pd.DataFrame) -> pd.DataFrame:
     for col in frame.columns:
         s = frame[col]
         if s.dtype == object:
-            kinds = {type(v) for v in s if v is not None and not (isinstance(v, float)
-                                                                   and v != v)}
+            kinds = {type(v) for v in s if v is not None and not (isinstance(v, float) and v != v)}
             if str in kinds and len(kinds) > 1:
                 if out is frame:
                     out = frame.copy()
-                out[col] = s.map(lambda v: v if v is None or isinstance(v, str)
-                                 or (isinstance(v, float) and v != v) else str(v))
+                out[col] = s.map(
+                    lambda v: (
+                        v
+                        if v is None or isinstance(v, str) or (isinstance(v, float) and v != v)
+                        else str(v)
+                    )
+                )
     return out
 
 
@@ -93,11 +97,13 @@ class ResultStore:
                 raise SpecError(
                     f"{self.dir}: holds the results of another base study (sha256 "
                     f"{old.get('study_hash', '?')[:12]}, this sweep's is "
-                    f"{meta['study_hash'][:12]}); choose another --out or delete it")
+                    f"{meta['study_hash'][:12]}); choose another --out or delete it"
+                )
             if sorted(old.get("parameters", [])) != sorted(meta["parameters"]):
                 raise SpecError(
                     f"{self.dir}: holds a sweep over {old.get('parameters')}, not "
-                    f"{meta['parameters']}; choose another --out or delete it")
+                    f"{meta['parameters']}; choose another --out or delete it"
+                )
             return
         fd, tmp = tempfile.mkstemp(dir=self.dir, prefix=".sweep.json.", suffix=".tmp")
         with os.fdopen(fd, "w") as f:

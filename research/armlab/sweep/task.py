@@ -22,8 +22,9 @@ __all__ = ["run_parameter_set", "ROW_FIELDS"]
 ROW_FIELDS = ("key", "status", "error", "elapsed_s", "worker", "finished_at")
 
 
-def run_parameter_set(document: dict[str, Any], study_dir: str, source: str,
-                      params: dict[str, Any], key: str) -> dict[str, Any]:
+def run_parameter_set(
+    document: dict[str, Any], study_dir: str, source: str, params: dict[str, Any], key: str
+) -> dict[str, Any]:
     """Run one study and return its row.
 
     Returns
@@ -65,5 +66,12 @@ def _one_line(text: str, limit: int = 500) -> str:
 
 def nan_row(key: str, params: dict[str, Any], error: str) -> dict[str, Any]:
     """The row of a parameter set that could not be run (its workers kept dying)."""
-    return {"key": key, **params, "status": "error", "error": _one_line(error),
-            "elapsed_s": math.nan, "worker": "", "finished_at": time.time()}
+    return {
+        "key": key,
+        **params,
+        "status": "error",
+        "error": _one_line(error),
+        "elapsed_s": math.nan,
+        "worker": "",
+        "finished_at": time.time(),
+    }

@@ -44,8 +44,9 @@ def _where(path, s: float) -> str:
     return f"s = {s:.6g} m, p = [{p[0]:.4f}, {p[1]:.4f}, {p[2]:.4f}] m"
 
 
-def _newton(robot, pose: np.ndarray, q: np.ndarray, iters: int = 30,
-            tol: float = 1e-12) -> tuple[np.ndarray, bool]:
+def _newton(
+    robot, pose: np.ndarray, q: np.ndarray, iters: int = 30, tol: float = 1e-12
+) -> tuple[np.ndarray, bool]:
     """Newton corrector on SE(3) from a nearby seed (any URDF)."""
     model, data, fid = robot.model, robot.data, robot.tool_frame_id
     Tb = robot.transform_base_to_world
@@ -103,8 +104,9 @@ def track_path(robot, path: CartesianPath, s, q_ref, *, guide=None) -> np.ndarra
                 q = ik_nearest(robot, poses, guide)
         except UnreachableError as exc:
             k = _failed_index(robot, poses)
-            raise UnreachableError(f"{path.kind}: the point at {_where(path, s[k])} is "
-                                   f"unreachable ({exc})") from None
+            raise UnreachableError(
+                f"{path.kind}: the point at {_where(path, s[k])} is unreachable ({exc})"
+            ) from None
         q = np.atleast_2d(q)
     else:
         q = np.empty((n, robot.n_joints))
@@ -114,14 +116,15 @@ def track_path(robot, path: CartesianPath, s, q_ref, *, guide=None) -> np.ndarra
             qk, ok = _newton(robot, poses[k], seed.copy())
             if not ok:
                 try:
-                    qk = ik(robot, poses[k], seed, tol_pos_m=1e-10, tol_rot_rad=1e-10,
-                            restarts=0)
+                    qk = ik(robot, poses[k], seed, tol_pos_m=1e-10, tol_rot_rad=1e-10, restarts=0)
                     qk, ok = _newton(robot, poses[k], qk)
                 except ArmlabError:
                     ok = False
             if not ok:
-                raise UnreachableError(f"{path.kind}: the point at {_where(path, s[k])} is "
-                                       f"unreachable inside the joint ranges of {robot.name}")
+                raise UnreachableError(
+                    f"{path.kind}: the point at {_where(path, s[k])} is "
+                    f"unreachable inside the joint ranges of {robot.name}"
+                )
             q[k] = prev = qk
     if guide is None:  # step into sample k from the one before (q_ref before sample 0)
         steps = np.abs(np.diff(np.vstack([q_ref[None], q]), axis=0))
@@ -132,7 +135,8 @@ def track_path(robot, path: CartesianPath, s, q_ref, *, guide=None) -> np.ndarra
         raise UnreachableError(
             f"{path.kind}: no continuous IK branch near {_where(path, s[k])}: "
             f"{robot.joint_names[j]} jumps {steps[k, j]:.3g} rad (a singularity, a joint range "
-            "end, or the end of the reachable part of this branch)")
+            "end, or the end of the reachable part of this branch)"
+        )
     return q
 
 
@@ -191,8 +195,9 @@ def _choose_rates(G, H, K, lim, speed, accel, jerk, scurve: bool):
                 break
             v, a = 0.8 * v, 0.64 * a
         with np.errstate(divide="ignore", invalid="ignore"):
-            j_bound = 0.98 * float(np.min(np.where(G > 0, (jlim - 3 * H * v * a - K * v**3) / G,
-                                                   np.inf)))
+            j_bound = 0.98 * float(
+                np.min(np.where(G > 0, (jlim - 3 * H * v * a - K * v**3) / G, np.inf))
+            )
         j = j_bound if jerk is None else min(jerk, j_bound)
     return v, a, j, {"v_bound": v_bound, "v_curvature": v_curv, "a_bound": a_bound}
 
@@ -213,8 +218,10 @@ def _start_configuration(robot, pose, q_start) -> np.ndarray:
         err_p = np.linalg.norm(T[:3, 3] - pose[:3, 3])
         err_r = np.linalg.norm(pin.log3(T[:3, :3].T @ pose[:3, :3]))
         if err_p > 1e-6 or err_r > 1e-6:
-            raise InputError(f"q_start puts the tool {err_p:.3g} m / {err_r:.3g} rad away from "
-                             "the path's start pose")
+            raise InputError(
+                f"q_start puts the tool {err_p:.3g} m / {err_r:.3g} rad away from "
+                "the path's start pose"
+            )
         return q0
     ref = np.clip(np.zeros(robot.n_joints), robot.limits.lower_rad, robot.limits.upper_rad)
     try:
@@ -225,11 +232,24 @@ def _start_configuration(robot, pose, q_start) -> np.ndarray:
         raise UnreachableError(f"the path's start pose is unreachable ({exc})") from None
 
 
-def follow_path(robot, path: CartesianPath, speed: float, *, accel: float | None = None,
-                jerk: float | None = None, profile: str = "trapezoid", q_start=None,
-                dt: float = 0.01, on_limit: str = "slow", v_max=None, a_max=None, j_max=None,
-                torque: bool = True, probe_step_m: float = 1e-3,
-                method: str | None = None) -> Trajectory:
+def follow_path(
+    robot,
+    path: CartesianPath,
+    speed: float,
+    *,
+    accel: float | None = None,
+    jerk: float | None = None,
+    profile: str = "trapezoid",
+    q_start=None,
+    dt: float = 0.01,
+    on_limit: str = "slow",
+    v_max=None,
+    a_max=None,
+    j_max=None,
+    torque: bool = True,
+    probe_step_m: float = 1e-3,
+    method: str | None = None,
+) -> Trajectory:
     """Time a Cartesian path with a trapezoid (or double S) in arc length and map it to joints.
 
     Parameters
@@ -284,15 +304,27 @@ def follow_path(robot, path: CartesianPath, speed: float, *, accel: float | None
     dt = _positive_or_none(dt, "dt")
     scurve = profile == "scurve"
     method = method or path.kind
-    lim = planner_limits(robot, v_max, a_max, j_max,
-                         need=("velocity", "acceleration") + (("jerk",) if scurve else ()))
+    lim = planner_limits(
+        robot,
+        v_max,
+        a_max,
+        j_max,
+        need=("velocity", "acceleration") + (("jerk",) if scurve else ()),
+    )
     pose0 = path.point(0.0)
     q0 = _start_configuration(robot, pose0, q_start)
     L = path.length
     if L <= 1e-12:
         z = np.zeros((1, robot.n_joints))
-        traj = Trajectory([0.0], q0[None], z, z.copy(), z.copy() if scurve else None,
-                          joint_names=robot.joint_names, method=method)
+        traj = Trajectory(
+            [0.0],
+            q0[None],
+            z,
+            z.copy(),
+            z.copy() if scurve else None,
+            joint_names=robot.joint_names,
+            method=method,
+        )
         traj.meta.update(path_kind=path.kind, length_m=0.0, zero_length=True, s=[0.0])
         return finish(traj, robot, lim, torque=torque, what=method)
 
@@ -312,7 +344,8 @@ def follow_path(robot, path: CartesianPath, speed: float, *, accel: float | None
         kk = int(np.argmax(G[:, jj]))
         raise UnreachableError(
             f"{method}: near {_where(path, s_probe[kk])} {robot.joint_names[jj]} would turn "
-            f"{G[kk, jj]:.3g} rad per m of path: the path passes (too) close to a singularity")
+            f"{G[kk, jj]:.3g} rad per m of path: the path passes (too) close to a singularity"
+        )
 
     def build(v, a, j):
         prof = double_s_profile(L, v, a, j) if scurve else trapezoid_profile(L, v, a)
@@ -321,12 +354,14 @@ def follow_path(robot, path: CartesianPath, speed: float, *, accel: float | None
         corners = prof.time_at(path.junctions)
         if not scurve:
             corners = np.concatenate([prof.corners, corners])
-        t = time_grid(prof.duration, dt, corners, ends=not scurve,
-                      knots=prof.corners if scurve else ())
+        t = time_grid(
+            prof.duration, dt, corners, ends=not scurve, knots=prof.corners if scurve else ()
+        )
         s, sd, sdd, sddd = prof.evaluate(t)
         s[-1] = L
-        guide = np.column_stack([np.interp(s, s_probe, q_probe[:, i])
-                                 for i in range(robot.n_joints)])
+        guide = np.column_stack(
+            [np.interp(s, s_probe, q_probe[:, i]) for i in range(robot.n_joints)]
+        )
         q = track_path(robot, path, s, q0, guide=guide)
         smp = path.evaluate(s)
         gs, hs = path_derivatives(robot, q, smp)
@@ -360,18 +395,31 @@ def follow_path(robot, path: CartesianPath, speed: float, *, accel: float | None
     slowdown = None
     if lowered:
         binding = _binding(G, H, lim, v, a, bounds, robot) if not kind else (kind, joint)
-        slowdown = {"requested": {n: r for n, r, _ in lowered},
-                    "achieved": {n: x for n, _, x in lowered},
-                    "kind": binding[0], "joint": binding[1]}
+        slowdown = {
+            "requested": {n: r for n, r, _ in lowered},
+            "achieved": {n: x for n, _, x in lowered},
+            "kind": binding[0],
+            "joint": binding[1],
+        }
         if on_limit == "raise":
             what = ", ".join(f"{n} {r:.4g} -> {x:.4g}" for n, r, x in lowered)
-            raise LimitViolation(f"{method}: the {binding[0]} limit of {binding[1]} needs a "
-                                 f"slower motion ({what})")
+            raise LimitViolation(
+                f"{method}: the {binding[0]} limit of {binding[1]} needs a slower motion ({what})"
+            )
     traj.meta.update(
-        path_kind=path.kind, length_m=float(L), profile=prof.to_dict(),
-        speed_requested=speed, speed=float(v), accel_requested=accel, accel=float(a),
-        jerk_requested=jerk, jerk=float(j) if scurve else None, slowdown=slowdown,
-        s=s.tolist(), dt_s=dt, q_start=q0.tolist(),
+        path_kind=path.kind,
+        length_m=float(L),
+        profile=prof.to_dict(),
+        speed_requested=speed,
+        speed=float(v),
+        accel_requested=accel,
+        accel=float(a),
+        jerk_requested=jerk,
+        jerk=float(j) if scurve else None,
+        slowdown=slowdown,
+        s=s.tolist(),
+        dt_s=dt,
+        q_start=q0.tolist(),
     )
     return finish(traj, robot, lim, torque=torque, what=method)
 
@@ -392,13 +440,11 @@ def _as_pose(robot, x, name: str, rotation=None) -> np.ndarray:
         return a
     if a.shape == (3,):
         if rotation is None:
-            raise InputError(f"{name} is a position: give q_start (or a pose) for the "
-                             "orientation")
+            raise InputError(f"{name} is a position: give q_start (or a pose) for the orientation")
         T = np.eye(4)
         T[:3, :3], T[:3, 3] = rotation, a
         return T
-    raise InputError(f"{name} must be a (4, 4) pose or a (3,) position in [m], "
-                     f"got shape {a.shape}")
+    raise InputError(f"{name} must be a (4, 4) pose or a (3,) position in [m], got shape {a.shape}")
 
 
 def _start_rotation(robot, first, q_start, rotation):
@@ -411,8 +457,17 @@ def _start_rotation(robot, first, q_start, rotation):
     return None
 
 
-def line(robot, pose_start, pose_goal, speed: float, *, orientation: str = "slerp",
-         rotation_radius_m: float = 0.1, q_start=None, **kwargs) -> Trajectory:
+def line(
+    robot,
+    pose_start,
+    pose_goal,
+    speed: float,
+    *,
+    orientation: str = "slerp",
+    rotation_radius_m: float = 0.1,
+    q_start=None,
+    **kwargs,
+) -> Trajectory:
     """Straight line of the tool centre point (seed 000 eq. 6-9, thesis 6.3.3).
 
     Parameters
@@ -455,30 +510,50 @@ def line(robot, pose_start, pose_goal, speed: float, *, orientation: str = "sler
         traj.meta["orientation"] = orientation
         return traj
     if orientation not in ("first", "last"):
-        raise InputError(f"line orientation must be 'slerp', 'hold', 'first' or 'last', "
-                         f"not {orientation!r}")
+        raise InputError(
+            f"line orientation must be 'slerp', 'hold', 'first' or 'last', not {orientation!r}"
+        )
     Tm = T0.copy()
     if orientation == "first":
         Tm[:3, :3] = T1[:3, :3]
     else:
         Tm[:3, 3] = T1[:3, 3]
-    first = follow_path(robot, LinePath(T0, Tm, "slerp", rotation_radius_m), speed,
-                        q_start=q_start, **kwargs)
-    second = follow_path(robot, LinePath(Tm, T1, "slerp", rotation_radius_m), speed,
-                         q_start=first.q[-1], **kwargs)
+    first = follow_path(
+        robot, LinePath(T0, Tm, "slerp", rotation_radius_m), speed, q_start=q_start, **kwargs
+    )
+    second = follow_path(
+        robot, LinePath(Tm, T1, "slerp", rotation_radius_m), speed, q_start=first.q[-1], **kwargs
+    )
     traj = first.concat(second) if second.n_samples > 1 else first
     traj.method = "line"
     traj.meta.update(first.meta)
-    traj.meta.update(orientation=orientation, parts=[first.meta, second.meta],
-                     taught_points=[T0[:3, 3].tolist(), T1[:3, 3].tolist()],
-                     s=None, length_m=first.meta["length_m"] + second.meta["length_m"])
-    lim = planner_limits(robot, kwargs.get("v_max"), kwargs.get("a_max"), kwargs.get("j_max"),
-                         need=())
+    traj.meta.update(
+        orientation=orientation,
+        parts=[first.meta, second.meta],
+        taught_points=[T0[:3, 3].tolist(), T1[:3, 3].tolist()],
+        s=None,
+        length_m=first.meta["length_m"] + second.meta["length_m"],
+    )
+    lim = planner_limits(
+        robot, kwargs.get("v_max"), kwargs.get("a_max"), kwargs.get("j_max"), need=()
+    )
     return finish(traj, robot, lim, torque=kwargs.get("torque", True), what="line")
 
 
-def arc3(robot, p1, p2, p3, speed: float, *, orientation: str = "hold", rotation=None,
-         rotation_end=None, full_circle: bool = False, q_start=None, **kwargs) -> Trajectory:
+def arc3(
+    robot,
+    p1,
+    p2,
+    p3,
+    speed: float,
+    *,
+    orientation: str = "hold",
+    rotation=None,
+    rotation_end=None,
+    full_circle: bool = False,
+    q_start=None,
+    **kwargs,
+) -> Trajectory:
     """Arc (or full circle) of the tool centre point through three points (seed 000
     eq. 10-24, thesis 6.3.4-6.3.5); planar arcs are the special case of a plane parallel to
     a base plane.
@@ -514,21 +589,47 @@ def arc3(robot, p1, p2, p3, speed: float, *, orientation: str = "hold", rotation
     R0 = _start_rotation(robot, p1, q_start, rotation)
     if R0 is None:
         raise InputError("arc3: give the start orientation (p1 as a pose, rotation= or q_start)")
-    path = ArcPath(p1, p2, p3, rotation=R0, orientation=orientation,
-                   rotation_end=rotation_end, full_circle=full_circle)
+    path = ArcPath(
+        p1,
+        p2,
+        p3,
+        rotation=R0,
+        orientation=orientation,
+        rotation_end=rotation_end,
+        full_circle=full_circle,
+    )
     kwargs.setdefault("method", "arc3")
     traj = follow_path(robot, path, speed, q_start=q_start, **kwargs)
     c = path.circle
-    traj.meta.update(centre_m=c.centre.tolist(), radius_m=c.radius, normal=c.normal.tolist(),
-                     s_points=path.s_points.tolist(), full_circle=full_circle,
-                     orientation=orientation,
-                     taught_points=[np.asarray(p, float)[:3, 3].tolist() if np.shape(p) == (4, 4)
-                                    else np.asarray(p, float).tolist() for p in (p1, p2, p3)])
+    traj.meta.update(
+        centre_m=c.centre.tolist(),
+        radius_m=c.radius,
+        normal=c.normal.tolist(),
+        s_points=path.s_points.tolist(),
+        full_circle=full_circle,
+        orientation=orientation,
+        taught_points=[
+            np.asarray(p, float)[:3, 3].tolist()
+            if np.shape(p) == (4, 4)
+            else np.asarray(p, float).tolist()
+            for p in (p1, p2, p3)
+        ],
+    )
     return traj
 
 
-def blend(robot, points, radius, speed: float, *, orientation: str = "hold", rotation=None,
-          rotation_end=None, q_start=None, **kwargs) -> Trajectory:
+def blend(
+    robot,
+    points,
+    radius,
+    speed: float,
+    *,
+    orientation: str = "hold",
+    rotation=None,
+    rotation_end=None,
+    q_start=None,
+    **kwargs,
+) -> Trajectory:
     """Lines through a chain of points, each corner rounded by a tangent arc (seed 002
     2.2(2)); the whole chain is one FlyBy motion (seed 001) timed by one profile.
 
@@ -584,13 +685,17 @@ def blend(robot, points, radius, speed: float, *, orientation: str = "hold", rot
             traj = part if traj is None else traj.concat(part)
         traj.method = "blend"
         traj.meta.update(radius_m=0.0, stops=True, taught_points=taught.tolist(), s=None)
-        lim = planner_limits(robot, kwargs.get("v_max"), kwargs.get("a_max"),
-                             kwargs.get("j_max"), need=())
+        lim = planner_limits(
+            robot, kwargs.get("v_max"), kwargs.get("a_max"), kwargs.get("j_max"), need=()
+        )
         return finish(traj, robot, lim, torque=kwargs.get("torque", True), what="blend")
-    path = BlendPath(points, radius, rotation=R0, orientation=orientation,
-                     rotation_end=rotation_end)
+    path = BlendPath(
+        points, radius, rotation=R0, orientation=orientation, rotation_end=rotation_end
+    )
     traj = follow_path(robot, path, speed, q_start=q_start, **kwargs)
-    traj.meta.update(radius_m=path.radius.tolist(),
-                     tangent_lengths_m=path.tangent_lengths.tolist(),
-                     taught_points=taught.tolist())
+    traj.meta.update(
+        radius_m=path.radius.tolist(),
+        tangent_lengths_m=path.tangent_lengths.tolist(),
+        taught_points=taught.tolist(),
+    )
     return traj

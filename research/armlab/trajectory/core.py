@@ -58,8 +58,10 @@ class LimitReport:
 
     def to_dict(self) -> dict[str, dict[str, float]]:
         """``{kind: {joint: ratio}}`` for JSON."""
-        return {k: dict(zip(self.joint_names, map(float, r), strict=True))
-                for k, r in self.ratios.items()}
+        return {
+            k: dict(zip(self.joint_names, map(float, r), strict=True))
+            for k, r in self.ratios.items()
+        }
 
 
 def _as_series(x, n: int, name: str, n_joints: int | None) -> np.ndarray:
@@ -115,8 +117,9 @@ class Trajectory:
         self.qddd = None if qddd is None else _as_series(qddd, n, "qddd", nj)
         if joint_names is not None and len(joint_names) != nj:
             raise InputError(f"Trajectory has {nj} joints but {len(joint_names)} joint names")
-        self.joint_names = (list(joint_names) if joint_names is not None
-                            else [f"joint{i + 1}" for i in range(nj)])
+        self.joint_names = (
+            list(joint_names) if joint_names is not None else [f"joint{i + 1}" for i in range(nj)]
+        )
         self.method = method
         self.report: LimitReport | None = None
         self.stats: dict[str, Any] = {}
@@ -137,8 +140,10 @@ class Trajectory:
         return float(self.t[-1] - self.t[0])
 
     def __repr__(self) -> str:
-        return (f"Trajectory(method={self.method!r}, duration={self.duration:.4g} s, "
-                f"n_samples={self.n_samples}, n_joints={self.n_joints})")
+        return (
+            f"Trajectory(method={self.method!r}, duration={self.duration:.4g} s, "
+            f"n_samples={self.n_samples}, n_joints={self.n_joints})"
+        )
 
     # ------------------------------------------------------------------ evaluation
     def at(self, times) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -226,8 +231,9 @@ class Trajectory:
                 f"trajectory has {self.n_joints} joints, robot {robot.name} has {robot.n_joints}"
             )
 
-    def check_limits(self, robot, *, dt: float | None = None, torque: bool = True,
-                     limits=None) -> LimitReport:
+    def check_limits(
+        self, robot, *, dt: float | None = None, torque: bool = True, limits=None
+    ) -> LimitReport:
         """Peak ratio to each of the robot's limits per joint.
 
         Parameters

@@ -53,10 +53,12 @@ class LimitSet:
     def joint_limits(self) -> JointLimits:
         """As a :class:`JointLimits` for :meth:`Trajectory.check_limits` (off limits are None)."""
         return JointLimits(
-            lower_rad=self.lower_rad, upper_rad=self.upper_rad,
+            lower_rad=self.lower_rad,
+            upper_rad=self.upper_rad,
             velocity_rad_s=self.velocity,
             effort_Nm=self.torque if self.torque is not None else np.full(self.n_joints, np.inf),
-            acceleration_rad_s2=self.acceleration, jerk_rad_s3=self.jerk,
+            acceleration_rad_s2=self.acceleration,
+            jerk_rad_s3=self.jerk,
         )
 
     def scaled(self, kind: str, factor) -> LimitSet:
@@ -69,9 +71,15 @@ class LimitSet:
     def to_dict(self) -> dict:
         def arr(x):
             return None if x is None else dict(zip(self.joint_names, map(float, x), strict=True))
-        return {"lower_rad": arr(self.lower_rad), "upper_rad": arr(self.upper_rad),
-                "velocity_rad_s": arr(self.velocity), "acceleration_rad_s2": arr(self.acceleration),
-                "jerk_rad_s3": arr(self.jerk), "torque_Nm": arr(self.torque)}
+
+        return {
+            "lower_rad": arr(self.lower_rad),
+            "upper_rad": arr(self.upper_rad),
+            "velocity_rad_s": arr(self.velocity),
+            "acceleration_rad_s2": arr(self.acceleration),
+            "jerk_rad_s3": arr(self.jerk),
+            "torque_Nm": arr(self.torque),
+        }
 
 
 def _one(robot, keyword: str, value) -> np.ndarray | None:

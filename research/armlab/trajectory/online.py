@@ -92,8 +92,9 @@ def _length_of(path) -> float:
     try:
         return float(path)
     except (TypeError, ValueError):
-        raise InputError(f"target must be a path with a .length or a length, not {path!r}") \
-            from None
+        raise InputError(
+            f"target must be a path with a .length or a length, not {path!r}"
+        ) from None
 
 
 class OnlineInterpolator:
@@ -117,8 +118,9 @@ class OnlineInterpolator:
         ``v_end`` cannot be reached from ``v_start`` within the length at ``a_max``.
     """
 
-    def __init__(self, path, v_cruise: float, a_max: float, v_start: float = 0.0,
-                 v_end: float = 0.0) -> None:
+    def __init__(
+        self, path, v_cruise: float, a_max: float, v_start: float = 0.0, v_end: float = 0.0
+    ) -> None:
         for name, x, low in (("v_cruise", v_cruise, 0.0), ("a_max", a_max, 0.0)):
             if not (math.isfinite(float(x)) and float(x) > low):
                 raise InputError(f"OnlineInterpolator: {name} must be a finite number > 0")
@@ -142,15 +144,18 @@ class OnlineInterpolator:
         d = length - self.s
         a = self.a_max
         if d < -1e-12 * max(1.0, length):
-            raise InfeasibleError(f"OnlineInterpolator {what}: target at {length:.6g} lies "
-                                  f"behind the current point s = {self.s:.6g}")
+            raise InfeasibleError(
+                f"OnlineInterpolator {what}: target at {length:.6g} lies "
+                f"behind the current point s = {self.s:.6g}"
+            )
         need = abs(self.v**2 - v_end**2) / (2 * a)
         if need > max(d, 0.0) * (1 + 1e-12) + 1e-15:
             verb = "stop at" if self.v > v_end else "reach"
             raise InfeasibleError(
                 f"OnlineInterpolator {what}: from {self.v:.6g}/s to {v_end:.6g}/s at the "
                 f"acceleration limit {a:.6g}/s^2 needs {need:.6g}, only {max(d, 0):.6g} left: "
-                f"cannot {verb} the target")
+                f"cannot {verb} the target"
+            )
 
     def set_target(self, path, *, v_end: float | None = None, tol: float = 1e-9) -> None:
         """Move the target between cycles (seed 001: FlyBy, tracking corrections).
@@ -179,8 +184,10 @@ class OnlineInterpolator:
             here_old = np.asarray(self.path.point(self.s))
             here_new = np.asarray(path.point(self.s))
             if here_old.shape != here_new.shape or np.abs(here_old - here_new).max() > tol:
-                raise InputError("OnlineInterpolator: the new path does not pass through the "
-                                 f"current point at s = {self.s:.6g}")
+                raise InputError(
+                    "OnlineInterpolator: the new path does not pass through the "
+                    f"current point at s = {self.s:.6g}"
+                )
             self.path = path
         elif hasattr(path, "length"):
             self.path = path
@@ -212,8 +219,7 @@ class OnlineInterpolator:
                 t_end = used
         self.t += T
         point = self.path.point(self.s) if hasattr(self.path, "point") else None
-        return OnlineSample(self.t, self.s, self.v, (self.v - v_prev) / T, point, self.done,
-                            t_end)
+        return OnlineSample(self.t, self.s, self.v, (self.v - v_prev) / T, point, self.done, t_end)
 
     def _advance(self, T: float, vc: float) -> float:
         """Integrate ``T`` seconds exactly; returns the time used when the end is reached."""
@@ -304,8 +310,14 @@ class OnlineInterpolator:
         return T - tau
 
     # ------------------------------------------------------------------ whole runs
-    def run(self, period: float, override: float | Callable[[float], float] = 1.0, *,
-            max_steps: int = 1_000_000, keep_points: bool = False) -> OnlineRun:
+    def run(
+        self,
+        period: float,
+        override: float | Callable[[float], float] = 1.0,
+        *,
+        max_steps: int = 1_000_000,
+        keep_points: bool = False,
+    ) -> OnlineRun:
         """Step until the end. ``override`` may be a function of the time [s] (called before
         each period)."""
         ts, ss, vs, ovs, pts = [self.t], [self.s], [self.v], [np.nan], []
@@ -321,6 +333,7 @@ class OnlineInterpolator:
             if keep_points:
                 pts.append(smp.point)
         else:
-            raise InfeasibleError(f"OnlineInterpolator: not at the end after {max_steps} periods "
-                                  "(zero override?)")
+            raise InfeasibleError(
+                f"OnlineInterpolator: not at the end after {max_steps} periods (zero override?)"
+            )
         return OnlineRun(np.array(ts), np.array(ss), np.array(vs), np.array(ovs), pts)

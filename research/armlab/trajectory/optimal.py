@@ -191,9 +191,17 @@ def _ipopt_options(max_iter: int) -> dict:
     }
 
 
-def _build_structure(rnea_p, n_pi: int, n: int, seg_n: tuple[int, ...], mode: str,
-                     objective: str, torque_rows: bool, fixed_duration: bool,
-                     max_iter: int) -> _Structure:
+def _build_structure(
+    rnea_p,
+    n_pi: int,
+    n: int,
+    seg_n: tuple[int, ...],
+    mode: str,
+    objective: str,
+    torque_rows: bool,
+    fixed_duration: bool,
+    max_iter: int,
+) -> _Structure:
     t0 = _time.perf_counter()
     X = ca.MX if SYMBOLIC == "MX" else ca.SX
     N = int(sum(seg_n))
@@ -204,8 +212,9 @@ def _build_structure(rnea_p, n_pi: int, n: int, seg_n: tuple[int, ...], mode: st
     Us = X.sym("u", n, N)
     nseg = len(seg_n)
     Ts = X.sym("T", nseg)  # segment durations / their warm-start values
-    blocks = [("q", Q), ("v", Vs)] + ([("a", As)] if As is not None else []) + [("u", Us),
-                                                                                ("T", Ts)]
+    blocks = (
+        [("q", Q), ("v", Vs)] + ([("a", As)] if As is not None else []) + [("u", Us), ("T", Ts)]
+    )
     slices, start = {}, 0
     for name, m in blocks:
         slices[name] = slice(start, start + m.numel())
@@ -304,25 +313,47 @@ def _build_structure(rnea_p, n_pi: int, n: int, seg_n: tuple[int, ...], mode: st
     nlp = {"x": x, "p": p, "f": f, "g": g}
     solver = ca.nlpsol("armlab_optimal", "ipopt", nlp, _ipopt_options(max_iter))
     g_fun = ca.Function("g", [x, p], [g])
-    return _Structure(solver=solver, g_fun=g_fun, n=n, seg_n=seg_n, mode=mode,
-                      torque_rows=torque_rows, g_kind=np.array(kinds), g_joint=np.array(joints),
-                      n_pi=n_pi,
-                      nx=int(x.numel()), slices=slices,
-                      build_time_s=_time.perf_counter() - t0)
+    return _Structure(
+        solver=solver,
+        g_fun=g_fun,
+        n=n,
+        seg_n=seg_n,
+        mode=mode,
+        torque_rows=torque_rows,
+        g_kind=np.array(kinds),
+        g_joint=np.array(joints),
+        n_pi=n_pi,
+        nx=int(x.numel()),
+        slices=slices,
+        build_time_s=_time.perf_counter() - t0,
+    )
 
 
-def _structure(robot, n, seg_n, mode, objective, torque_rows, fixed_duration,
-               max_iter) -> _Structure:
+def _structure(
+    robot, n, seg_n, mode, objective, torque_rows, fixed_duration, max_iter
+) -> _Structure:
     need_tau = torque_rows or objective == "energy"
     kkey = kinematics_key(robot) if need_tau else None
-    key = (kkey, n, seg_n, mode, objective, torque_rows, fixed_duration, max_iter, HESSIAN,
-           TORQUE_INTERIOR_POINTS, SYMBOLIC)
+    key = (
+        kkey,
+        n,
+        seg_n,
+        mode,
+        objective,
+        torque_rows,
+        fixed_duration,
+        max_iter,
+        HESSIAN,
+        TORQUE_INTERIOR_POINTS,
+        SYMBOLIC,
+    )
     st = _STRUCTURES.get(key)
     if st is None:
         rnea_p = parametric_inverse_dynamics_function(robot) if need_tau else None
         n_pi = rnea_p.size1_in(3) if need_tau else 0
-        st = _build_structure(rnea_p, n_pi, n, seg_n, mode, objective, torque_rows,
-                              fixed_duration, max_iter)
+        st = _build_structure(
+            rnea_p, n_pi, n, seg_n, mode, objective, torque_rows, fixed_duration, max_iter
+        )
         if len(_STRUCTURES) >= _STRUCTURES_MAX:
             _STRUCTURES.pop(next(iter(_STRUCTURES)))
         _STRUCTURES[key] = st
@@ -490,9 +521,16 @@ class OptimalProblem:
         return np.concatenate([[0], np.cumsum(self.segment_intervals)]).astype(int)
 
     def _structure(self, limits: LimitSet) -> _Structure:
-        return _structure(self.robot, self.n, self.segment_intervals, self.mode,
-                          self.objective,
-                          limits.torque is not None, self.duration is not None, self.max_iter)
+        return _structure(
+            self.robot,
+            self.n,
+            self.segment_intervals,
+            self.mode,
+            self.objective,
+            limits.torque is not None,
+            self.duration is not None,
+            self.max_iter,
+        )
 
     @property
     def segment_of_interval(self) -> np.ndarray:
@@ -510,8 +548,9 @@ class OptimalProblem:
         """Per-variable scale: physical x = scaled x * this (same layout as :meth:`_pack`)."""
         sc, n, N = self.scales, self.n, self.N
         a = np.tile(sc["a"], (N + 1, 1)) if self.mode == "jerk" else None
-        return self._pack(np.ones((N + 1, n)), np.tile(sc["v"], (N + 1, 1)), a,
-                          np.tile(sc["u"], (N, 1)), sc["T"])
+        return self._pack(
+            np.ones((N + 1, n)), np.tile(sc["v"], (N + 1, 1)), a, np.tile(sc["u"], (N, 1)), sc["T"]
+        )
 
     def _unpack(self, st: _Structure, x: np.ndarray):
         n, N = self.n, self.N
@@ -530,8 +569,9 @@ class OptimalProblem:
         acc = _surrogate_acc(self.robot, w[0], ls)
         qs, vs, as_, us, hs, Ts = [w[:1]], [np.zeros((1, n))], [None], [], [], []
         for s, ns in enumerate(self.segment_intervals):
-            T, t, q, qd, qdd, u = _classical_segment(self.robot, w[s], w[s + 1], ls, acc, ns,
-                                                     self.mode)
+            T, t, q, qd, qdd, u = _classical_segment(
+                self.robot, w[s], w[s + 1], ls, acc, ns, self.mode
+            )
             # slow down uniformly until the torques fit: t*alpha, qd/alpha, qdd/alpha^2, ...
             alpha = _timescale_for_torque(self.robot, q, qd, qdd, ls.torque)
             order = 3 if self.mode == "jerk" else 2
@@ -560,10 +600,12 @@ class OptimalProblem:
                 return lim.copy()
             return np.maximum(np.max(np.abs(warm), axis=0), 1e-3)
 
-        self.scales = {"v": scale(ls.velocity, v),
-                       "a": scale(ls.acceleration, a if a is not None else u),
-                       "u": scale(ls.jerk if self.mode == "jerk" else ls.acceleration, u),
-                       "T": Ts.copy()}
+        self.scales = {
+            "v": scale(ls.velocity, v),
+            "a": scale(ls.acceleration, a if a is not None else u),
+            "u": scale(ls.jerk if self.mode == "jerk" else ls.acceleration, u),
+            "T": Ts.copy(),
+        }
         self.x0 = self._pack(q, v, a, u, Ts)
         return self.x0
 
@@ -634,8 +676,9 @@ class OptimalProblem:
         sc = self.scales
         st = self._structure(limits)
         pi = dynamic_parameters(self.robot) if st.n_pi else np.zeros(0)
-        return np.concatenate([tau, [w], ref, ew, sc["v"], sc["a"], sc["u"], sc["T"],
-                               self.fractions, pi])
+        return np.concatenate(
+            [tau, [w], ref, ew, sc["v"], sc["a"], sc["u"], sc["T"], self.fractions, pi]
+        )
 
     # ------------------------------------------------------------------ trajectory
     def _trajectory(self, st: _Structure, x: np.ndarray) -> Trajectory:
@@ -682,9 +725,13 @@ class OptimalProblem:
         s = st.solver.stats()
         xs = np.asarray(res["x"]).ravel()
         x = xs * sv
-        info = {"return_status": s.get("return_status", ""), "success": bool(s.get("success")),
-                "iterations": int(s.get("iter_count", 0)), "solve_time_s": wall,
-                "build_time_s": st.build_time_s}
+        info = {
+            "return_status": s.get("return_status", ""),
+            "success": bool(s.get("success")),
+            "iterations": int(s.get("iter_count", 0)),
+            "solve_time_s": wall,
+            "build_time_s": st.build_time_s,
+        }
         if not info["success"] and info["return_status"] in ("Solved_To_Acceptable_Level",):
             info["success"] = True
         if info["success"]:  # accept only if the constraints really hold
@@ -738,9 +785,12 @@ class OptimalProblem:
         traj = self._trajectory(st, x)
         dt = self._check_dt(traj)
         traj.report = traj.check_limits(self.robot, dt=dt, limits=jl, torque=torque_on)
-        binding = [(k, traj.joint_names[i], float(r[i]))
-                   for k, r in traj.report.ratios.items() for i in range(len(r))
-                   if r[i] >= 1 - 2e-3 and k != "position"]
+        binding = [
+            (k, traj.joint_names[i], float(r[i]))
+            for k, r in traj.report.ratios.items()
+            for i in range(len(r))
+            if r[i] >= 1 - 2e-3 and k != "position"
+        ]
         q, v, a, u, h = self._unpack(st, x)
         stats = {
             "solver": f"ipopt (casadi {ca.__version__})",
@@ -766,13 +816,15 @@ class OptimalProblem:
         self.stats = stats
         traj.stats = stats
         refuse_violation(traj, "optimal", rounds)
-        traj.meta.update({
-            "waypoints": self.waypoints.copy(),
-            "waypoint_times_s": traj.meta["knot_times_s"][self.waypoint_nodes]
-            + (JUMP_RAMP_S / 2 if self.mode != "jerk" else 0.0),
-            "limits": self.limits.to_dict(),
-            "backed_off_torque_Nm": None if limits.torque is None else limits.torque.copy(),
-        })
+        traj.meta.update(
+            {
+                "waypoints": self.waypoints.copy(),
+                "waypoint_times_s": traj.meta["knot_times_s"][self.waypoint_nodes]
+                + (JUMP_RAMP_S / 2 if self.mode != "jerk" else 0.0),
+                "limits": self.limits.to_dict(),
+                "backed_off_torque_Nm": None if limits.torque is None else limits.torque.copy(),
+            }
+        )
         return traj
 
     # ------------------------------------------------------------------ diagnosis
@@ -780,10 +832,16 @@ class OptimalProblem:
         lbx, ubx, lbg, ubg, p, xs = data
         status = info["return_status"]
         if self.duration is not None:
-            fastest = optimal(self.robot, self.waypoints, v_max=_kw(self.limits.velocity),
-                              a_max=_kw(self.limits.acceleration), j_max=_kw(self.limits.jerk),
-                              tau_max=_kw(self.limits.torque), via_tolerance=self.via_tolerance,
-                              n_intervals=self.segment_intervals)
+            fastest = optimal(
+                self.robot,
+                self.waypoints,
+                v_max=_kw(self.limits.velocity),
+                a_max=_kw(self.limits.acceleration),
+                j_max=_kw(self.limits.jerk),
+                tau_max=_kw(self.limits.torque),
+                via_tolerance=self.via_tolerance,
+                n_intervals=self.segment_intervals,
+            )
             tmin = fastest.stats["duration_s"]
             if self.duration < tmin * (1 + 1e-6):
                 kind, joint, _ = _binding_of(fastest)
@@ -858,17 +916,30 @@ def _ramped_trajectory(t, Q, V, U, names) -> Trajectory:
             qs.append(qk + a_side * d**2 / 24)
             vs.append(vk)
             as_.append(a_side)
-    return Trajectory(np.array(ts), np.array(qs), np.array(vs), np.array(as_),
-                      joint_names=names, method="optimal")
+    return Trajectory(
+        np.array(ts), np.array(qs), np.array(vs), np.array(as_), joint_names=names, method="optimal"
+    )
 
 
 # ----------------------------------------------------------------------------- public
-def build_optimal(robot, waypoints, *, v_max=None, a_max=None, j_max=None, tau_max=None,
-                  objective: str = "time", duration: float | None = None,
-                  payload_kg: float | None = None, via_tolerance=0.0,
-                  n_intervals: int | tuple[int, ...] | None = None,
-                  smooth_weight: float = 0.5, check_dt: float | None = None,
-                  max_backoff: int = 4, max_iter: int = 1000) -> OptimalProblem:
+def build_optimal(
+    robot,
+    waypoints,
+    *,
+    v_max=None,
+    a_max=None,
+    j_max=None,
+    tau_max=None,
+    objective: str = "time",
+    duration: float | None = None,
+    payload_kg: float | None = None,
+    via_tolerance=0.0,
+    n_intervals: int | tuple[int, ...] | None = None,
+    smooth_weight: float = 0.5,
+    check_dt: float | None = None,
+    max_backoff: int = 4,
+    max_iter: int = 1000,
+) -> OptimalProblem:
     """Build (do not solve) the problem of :func:`optimal`; same parameters."""
     if payload_kg is not None:
         robot = robot.with_payload(payload_kg)
@@ -877,8 +948,9 @@ def build_optimal(robot, waypoints, *, v_max=None, a_max=None, j_max=None, tau_m
     w = _check_waypoints(robot, waypoints)
     ls = resolve_limits(robot, v_max=v_max, a_max=a_max, j_max=j_max, tau_max=tau_max)
     if ls.acceleration is None and ls.jerk is None and ls.torque is None:
-        raise InputError("velocity limits alone have no minimum-time solution: give a_max, "
-                         "j_max or tau_max")
+        raise InputError(
+            "velocity limits alone have no minimum-time solution: give a_max, j_max or tau_max"
+        )
     fixed = objective in ("jerk", "energy")
     if fixed:
         if duration is None:
@@ -887,8 +959,10 @@ def build_optimal(robot, waypoints, *, v_max=None, a_max=None, j_max=None, tau_m
         if not np.isfinite(duration) or duration <= 0:
             raise InputError(f"duration must be a positive number of seconds, not {duration!r}")
     elif duration is not None:
-        raise InputError(f"objective {objective!r} minimises the duration; duration= is only "
-                         "for the fixed-duration objectives 'jerk' and 'energy'")
+        raise InputError(
+            f"objective {objective!r} minimises the duration; duration= is only "
+            "for the fixed-duration objectives 'jerk' and 'energy'"
+        )
     tol = np.asarray(via_tolerance, float)
     tol = np.full(robot.n_joints, float(tol)) if tol.ndim == 0 else tol
     if tol.shape != (robot.n_joints,) or np.any(tol < 0) or not np.all(np.isfinite(tol)):
@@ -901,24 +975,46 @@ def build_optimal(robot, waypoints, *, v_max=None, a_max=None, j_max=None, tau_m
     nseg = w.shape[0] - 1
     if n_intervals is None:
         n_intervals = max(16, 48 // nseg) if nseg > 1 else 32
-    seg_n = (tuple(int(x) for x in n_intervals) if np.ndim(n_intervals)
-             else (int(n_intervals),) * nseg)
+    seg_n = (
+        tuple(int(x) for x in n_intervals) if np.ndim(n_intervals) else (int(n_intervals),) * nseg
+    )
     if len(seg_n) != nseg or min(seg_n) < 2:
         raise InputError(f"n_intervals must be >= 2 per segment ({nseg} segments)")
     mode = "jerk" if (ls.jerk is not None or objective == "jerk") else "acceleration"
-    return OptimalProblem(robot=robot, waypoints=w, limits=ls, objective=objective,
-                          duration=duration, via_tolerance=tol, segment_intervals=seg_n,
-                          mode=mode, smooth_weight=float(smooth_weight),
-                          check_dt=check_dt, max_backoff=int(max_backoff),
-                          max_iter=int(max_iter))
+    return OptimalProblem(
+        robot=robot,
+        waypoints=w,
+        limits=ls,
+        objective=objective,
+        duration=duration,
+        via_tolerance=tol,
+        segment_intervals=seg_n,
+        mode=mode,
+        smooth_weight=float(smooth_weight),
+        check_dt=check_dt,
+        max_backoff=int(max_backoff),
+        max_iter=int(max_iter),
+    )
 
 
-def optimal(robot, waypoints, *, v_max=None, a_max=None, j_max=None, tau_max=None,
-            objective: str = "time", duration: float | None = None,
-            payload_kg: float | None = None, via_tolerance=0.0,
-            n_intervals: int | tuple[int, ...] | None = None,
-            smooth_weight: float = 0.5, check_dt: float | None = None,
-            max_backoff: int = 4, max_iter: int = 1000) -> Trajectory:
+def optimal(
+    robot,
+    waypoints,
+    *,
+    v_max=None,
+    a_max=None,
+    j_max=None,
+    tau_max=None,
+    objective: str = "time",
+    duration: float | None = None,
+    payload_kg: float | None = None,
+    via_tolerance=0.0,
+    n_intervals: int | tuple[int, ...] | None = None,
+    smooth_weight: float = 0.5,
+    check_dt: float | None = None,
+    max_backoff: int = 4,
+    max_iter: int = 1000,
+) -> Trajectory:
     """Time-synchronised optimal trajectory through joint waypoints.
 
     Parameters
@@ -963,9 +1059,21 @@ def optimal(robot, waypoints, *, v_max=None, a_max=None, j_max=None, tau_max=Non
     InputError
         Bad shapes, values or keyword combinations.
     """
-    prob = build_optimal(robot, waypoints, v_max=v_max, a_max=a_max, j_max=j_max,
-                         tau_max=tau_max, objective=objective, duration=duration,
-                         payload_kg=payload_kg, via_tolerance=via_tolerance,
-                         n_intervals=n_intervals, smooth_weight=smooth_weight,
-                         check_dt=check_dt, max_backoff=max_backoff, max_iter=max_iter)
+    prob = build_optimal(
+        robot,
+        waypoints,
+        v_max=v_max,
+        a_max=a_max,
+        j_max=j_max,
+        tau_max=tau_max,
+        objective=objective,
+        duration=duration,
+        payload_kg=payload_kg,
+        via_tolerance=via_tolerance,
+        n_intervals=n_intervals,
+        smooth_weight=smooth_weight,
+        check_dt=check_dt,
+        max_backoff=max_backoff,
+        max_iter=max_iter,
+    )
     return prob.solve()

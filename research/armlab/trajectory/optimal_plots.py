@@ -13,9 +13,12 @@ from armlab.errors import InputError
 
 __all__ = ["plot_limit_profiles", "plot_torque_ratio", "plot_phase_plane"]
 
-_ROWS = (("q", "position [rad]", None), ("qd", "velocity [rad/s]", "velocity_rad_s"),
-         ("qdd", "acceleration [rad/s$^2$]", "acceleration_rad_s2"),
-         ("qddd", "jerk [rad/s$^3$]", "jerk_rad_s3"))
+_ROWS = (
+    ("q", "position [rad]", None),
+    ("qd", "velocity [rad/s]", "velocity_rad_s"),
+    ("qdd", "acceleration [rad/s$^2$]", "acceleration_rad_s2"),
+    ("qddd", "jerk [rad/s$^3$]", "jerk_rad_s3"),
+)
 
 
 def _limits_of(traj, robot) -> dict:
@@ -33,8 +36,9 @@ def _limits_of(traj, robot) -> dict:
     return out
 
 
-def plot_limit_profiles(traj, robot=None, *, dt: float | None = None,
-                        title: str | None = None) -> Figure:
+def plot_limit_profiles(
+    traj, robot=None, *, dt: float | None = None, title: str | None = None
+) -> Figure:
     """Joint position, velocity, acceleration and jerk over time with their limits (dashed).
 
     Parameters
@@ -75,8 +79,9 @@ def plot_limit_profiles(traj, robot=None, *, dt: float | None = None,
     return fig
 
 
-def plot_torque_ratio(traj, robot, *, dt: float | None = None, tau_max=None,
-                      title: str | None = None) -> Figure:
+def plot_torque_ratio(
+    traj, robot, *, dt: float | None = None, tau_max=None, title: str | None = None
+) -> Figure:
     """``|tau_i(t)| / tau_max,i`` for every joint (inverse dynamics, payload included).
 
     Parameters
@@ -91,8 +96,7 @@ def plot_torque_ratio(traj, robot, *, dt: float | None = None, tau_max=None,
     tau = fine.torques(robot)
     if tau_max is None:
         lim = _limits_of(traj, robot).get("torque_Nm")
-        tau_max = (np.array([lim[n] for n in traj.joint_names]) if lim
-                   else robot.limits.effort_Nm)
+        tau_max = np.array([lim[n] for n in traj.joint_names]) if lim else robot.limits.effort_Nm
     tau_max = np.asarray(tau_max, float)
     if tau_max.shape != (traj.n_joints,):
         raise InputError(f"tau_max has shape {tau_max.shape}, expected ({traj.n_joints},)")
@@ -100,8 +104,13 @@ def plot_torque_ratio(traj, robot, *, dt: float | None = None, tau_max=None,
     fig = Figure(figsize=(9, 4), constrained_layout=True)
     ax = fig.subplots()
     for j, name in enumerate(traj.joint_names):
-        ax.plot(fine.t, ratio[:, j], color=f"C{j % 10}", lw=1.2,
-                label=f"{name} (peak {ratio[:, j].max():.3f})")
+        ax.plot(
+            fine.t,
+            ratio[:, j],
+            color=f"C{j % 10}",
+            lw=1.2,
+            label=f"{name} (peak {ratio[:, j].max():.3f})",
+        )
     ax.axhline(1.0, color="k", ls="--", lw=1.0)
     ax.set_xlabel("time [s]")
     ax.set_ylabel(r"$|\tau| / \tau_{max}$")
@@ -132,12 +141,18 @@ def plot_phase_plane(traj_or_problem, *, title: str | None = None) -> Figure:
     ax = fig.subplots()
     s = curves["s"]
     ax.plot(s, curves["velocity"], color="C1", ls="--", lw=1.2, label="velocity limit curve")
-    ax.plot(s, curves["all"], color="C3", ls=":", lw=1.5,
-            label="maximum velocity curve (all limits)")
+    ax.plot(
+        s, curves["all"], color="C3", ls=":", lw=1.5, label="maximum velocity curve (all limits)"
+    )
     traj = traj_or_problem if hasattr(traj_or_problem, "meta") else None
     if traj is not None and "s" in traj.meta:
-        ax.plot(traj.meta["s"], traj.meta["sd"], color="C0", lw=1.6,
-                label=rf"solution ($T$ = {traj.duration:.3f} s)")
+        ax.plot(
+            traj.meta["s"],
+            traj.meta["sd"],
+            color="C0",
+            lw=1.6,
+            label=rf"solution ($T$ = {traj.duration:.3f} s)",
+        )
     elif "b" in getattr(prob, "stats", {}):
         ax.plot(s, np.sqrt(prob.stats["b"]), color="C0", lw=1.6, label="solution")
     top = np.nanmax(np.where(np.isfinite(curves["velocity"]), curves["velocity"], np.nan))

@@ -36,8 +36,15 @@ import pinocchio as pin
 from armlab.errors import InputError
 
 __all__ = [
-    "JointPath", "CartesianPath", "LinePath", "ArcPath", "BlendPath", "PathSample", "Circle",
-    "circle_through", "OrientationLaw",
+    "JointPath",
+    "CartesianPath",
+    "LinePath",
+    "ArcPath",
+    "BlendPath",
+    "PathSample",
+    "Circle",
+    "circle_through",
+    "OrientationLaw",
 ]
 
 
@@ -57,7 +64,8 @@ class JointPath:
         self.q_start = np.asarray(q_start, float).reshape(-1)
         self.q_goal = np.asarray(q_goal, float).reshape(-1)
         if self.q_start.shape != self.q_goal.shape or not (
-                np.all(np.isfinite(self.q_start)) and np.all(np.isfinite(self.q_goal))):
+            np.all(np.isfinite(self.q_start)) and np.all(np.isfinite(self.q_goal))
+        ):
             raise InputError("JointPath: q_start and q_goal must be finite and of equal shape")
         delta = self.q_goal - self.q_start
         self.length = float(np.linalg.norm(delta))
@@ -80,8 +88,10 @@ class JointPath:
         m = u > 0
         if not np.any(m):
             return math.inf, math.inf
-        return (float(np.min(np.asarray(v_max)[m] / u[m])),
-                float(np.min(np.asarray(a_max)[m] / u[m])))
+        return (
+            float(np.min(np.asarray(v_max)[m] / u[m])),
+            float(np.min(np.asarray(a_max)[m] / u[m])),
+        )
 
 
 # ---------------------------------------------------------------------- orientation
@@ -167,8 +177,9 @@ class Circle:
 
     def point(self, phi):
         phi = np.asarray(phi, float)
-        return (self.centre + self.radius * (np.multiply.outer(np.cos(phi), self.e1)
-                                             + np.multiply.outer(np.sin(phi), self.e2)))
+        return self.centre + self.radius * (
+            np.multiply.outer(np.cos(phi), self.e1) + np.multiply.outer(np.sin(phi), self.e2)
+        )
 
 
 def _point3(p, name: str) -> np.ndarray:
@@ -176,8 +187,10 @@ def _point3(p, name: str) -> np.ndarray:
     if a.shape == (4, 4):
         a = a[:3, 3]
     if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise InputError(f"{name} must be a finite (3,) position in [m] or a (4, 4) pose, "
-                         f"got shape {np.shape(p)}")
+        raise InputError(
+            f"{name} must be a finite (3,) position in [m] or a (4, 4) pose, "
+            f"got shape {np.shape(p)}"
+        )
     return a
 
 
@@ -201,7 +214,8 @@ def circle_through(p1, p2, p3, *, tol: float = 1e-9) -> Circle:
     if scale == 0 or np.linalg.norm(cross) <= tol * scale * scale:
         raise InputError(
             f"arc points {P1.tolist()}, {P2.tolist()}, {P3.tolist()} coincide or are collinear:"
-            " no unique circle through them")
+            " no unique circle through them"
+        )
     x = a / np.linalg.norm(a)
     z = cross / np.linalg.norm(cross)
     y = np.cross(z, x)
@@ -269,8 +283,9 @@ class CartesianPath:
 
     is_cartesian = True
 
-    def __init__(self, pieces, orientation: OrientationLaw, length: float | None = None,
-                 kind: str = "path") -> None:
+    def __init__(
+        self, pieces, orientation: OrientationLaw, length: float | None = None, kind: str = "path"
+    ) -> None:
         self.pieces = [p for p in pieces if p.length > 0] or list(pieces[:1])
         self.cum = np.concatenate([[0.0], np.cumsum([p.length for p in self.pieces])])
         self.piece_length = float(self.cum[-1])
@@ -290,8 +305,7 @@ class CartesianPath:
         for i, piece in enumerate(self.pieces):
             m = k == i
             if np.any(m):
-                p[m], dp[m], ddp[m] = piece.evaluate(np.clip(u[m] - self.cum[i], 0,
-                                                             piece.length))
+                p[m], dp[m], ddp[m] = piece.evaluate(np.clip(u[m] - self.cum[i], 0, piece.length))
         dp *= self._scale
         ddp *= self._scale**2
         R, w, dw = self.orientation.evaluate(s)
@@ -344,8 +358,9 @@ class LinePath(CartesianPath):
         docstring) so that a large rotation over a short distance is not infinitely fast.
     """
 
-    def __init__(self, pose_start, pose_goal, orientation: str = "slerp",
-                 rotation_radius_m: float = 0.1) -> None:
+    def __init__(
+        self, pose_start, pose_goal, orientation: str = "slerp", rotation_radius_m: float = 0.1
+    ) -> None:
         T0, T1 = _pose(pose_start, "pose_start"), _pose(pose_goal, "pose_goal")
         if orientation not in ("slerp", "hold"):
             raise InputError(f"line orientation must be 'slerp' or 'hold', not {orientation!r}")
@@ -360,8 +375,11 @@ class LinePath(CartesianPath):
         length = piece.length
         if orientation == "slerp":
             length = max(length, rotation_radius_m * theta)
-        law = (OrientationLaw.slerp(T0[:3, :3], T1[:3, :3], length) if orientation == "slerp"
-               else OrientationLaw.hold(T0[:3, :3]))
+        law = (
+            OrientationLaw.slerp(T0[:3, :3], T1[:3, :3], length)
+            if orientation == "slerp"
+            else OrientationLaw.hold(T0[:3, :3])
+        )
         super().__init__([piece], law, length, kind="line")
         self.pose_start, self.pose_goal = T0, T1
         self.rotation_angle = theta
@@ -386,36 +404,58 @@ class ArcPath(CartesianPath):
         Go on past P3 back to P1 (angle ``2 pi``).
     """
 
-    def __init__(self, p1, p2, p3, *, rotation=None, orientation: str = "hold",
-                 rotation_end=None, full_circle: bool = False) -> None:
+    def __init__(
+        self,
+        p1,
+        p2,
+        p3,
+        *,
+        rotation=None,
+        orientation: str = "hold",
+        rotation_end=None,
+        full_circle: bool = False,
+    ) -> None:
         circle = circle_through(p1, p2, p3)
         self.circle = circle
         self.angle_p2 = circle.angle_of(_point3(p2, "p2"))
         self.angle_p3 = circle.angle_of(_point3(p3, "p3"))
         angle = 2 * math.pi if full_circle else self.angle_p3
         piece = _ArcPiece(circle, angle)
-        R0 = rotation if rotation is not None else (
-            np.asarray(p1, float)[:3, :3] if np.shape(p1) == (4, 4) else None)
+        R0 = (
+            rotation
+            if rotation is not None
+            else (np.asarray(p1, float)[:3, :3] if np.shape(p1) == (4, 4) else None)
+        )
         if R0 is None:
             raise InputError("arc: give the start orientation (rotation=..., or p1 as a pose)")
-        R0 = _pose(np.block([[np.asarray(R0, float), np.zeros((3, 1))],
-                             [np.zeros((1, 3)), np.ones((1, 1))]]), "rotation")[:3, :3]
+        R0 = _pose(
+            np.block(
+                [[np.asarray(R0, float), np.zeros((3, 1))], [np.zeros((1, 3)), np.ones((1, 1))]]
+            ),
+            "rotation",
+        )[:3, :3]
         if orientation == "hold":
             law = OrientationLaw.hold(R0)
         elif orientation == "rotate":
             law = OrientationLaw.about(R0, circle.normal, 1.0 / circle.radius)
         elif orientation == "slerp":
             if full_circle:
-                raise InputError("arc: orientation 'slerp' needs an end orientation; a full "
-                                 "circle ends where it starts (use 'hold' or 'rotate')")
-            R1 = rotation_end if rotation_end is not None else (
-                np.asarray(p3, float)[:3, :3] if np.shape(p3) == (4, 4) else None)
+                raise InputError(
+                    "arc: orientation 'slerp' needs an end orientation; a full "
+                    "circle ends where it starts (use 'hold' or 'rotate')"
+                )
+            R1 = (
+                rotation_end
+                if rotation_end is not None
+                else (np.asarray(p3, float)[:3, :3] if np.shape(p3) == (4, 4) else None)
+            )
             if R1 is None:
                 raise InputError("arc: orientation 'slerp' needs rotation_end or p3 as a pose")
             law = OrientationLaw.slerp(R0, R1, piece.length)
         else:
-            raise InputError(f"arc orientation must be 'hold', 'rotate' or 'slerp', "
-                             f"not {orientation!r}")
+            raise InputError(
+                f"arc orientation must be 'hold', 'rotate' or 'slerp', not {orientation!r}"
+            )
         super().__init__([piece], law, kind="circle" if full_circle else "arc")
         self.full_circle = full_circle
         self.orientation_mode = orientation
@@ -456,8 +496,9 @@ class BlendPath(CartesianPath):
         and the room it has).
     """
 
-    def __init__(self, points, radius, *, rotation=None, orientation: str = "hold",
-                 rotation_end=None) -> None:
+    def __init__(
+        self, points, radius, *, rotation=None, orientation: str = "hold", rotation_end=None
+    ) -> None:
         pts_in = np.asarray(points, float)
         if pts_in.ndim == 3 and pts_in.shape[1:] == (4, 4):
             P = pts_in[:, :3, 3]
@@ -468,8 +509,9 @@ class BlendPath(CartesianPath):
         elif pts_in.ndim == 2 and pts_in.shape[1] == 3:
             P = pts_in
         else:
-            raise InputError(f"blend points have shape {pts_in.shape}, expected (n, 3) or "
-                             "(n, 4, 4)")
+            raise InputError(
+                f"blend points have shape {pts_in.shape}, expected (n, 3) or (n, 4, 4)"
+            )
         n = P.shape[0]
         if n < 2 or not np.all(np.isfinite(P)):
             raise InputError("blend needs at least two finite points")
@@ -479,8 +521,11 @@ class BlendPath(CartesianPath):
             k = int(np.argmin(seg_len))
             raise InputError(f"blend points {k} and {k + 1} coincide")
         u = seg / seg_len[:, None]
-        r = np.broadcast_to(np.asarray(radius, float), (max(n - 2, 0),)).copy() \
-            if n > 2 else np.zeros(0)
+        r = (
+            np.broadcast_to(np.asarray(radius, float), (max(n - 2, 0),)).copy()
+            if n > 2
+            else np.zeros(0)
+        )
         if r.size and (not np.all(np.isfinite(r)) or np.any(r < 0)):
             raise InputError(f"blend radius must be >= 0 [m], got {np.asarray(radius).tolist()}")
         tangent = np.zeros(max(n - 2, 0))
@@ -492,11 +537,15 @@ class BlendPath(CartesianPath):
                 arcs.append(None)
                 continue
             if beta > math.pi - 1e-9:
-                raise InputError(f"blend corner at point {c + 1} turns back on itself (180 deg):"
-                                 " no tangent arc exists")
+                raise InputError(
+                    f"blend corner at point {c + 1} turns back on itself (180 deg):"
+                    " no tangent arc exists"
+                )
             if r[c] <= 0:
-                raise InputError(f"blend radius at point {c + 1} must be > 0 for a corner of "
-                                 f"{math.degrees(beta):.3g} deg (a sharp corner needs a stop)")
+                raise InputError(
+                    f"blend radius at point {c + 1} must be > 0 for a corner of "
+                    f"{math.degrees(beta):.3g} deg (a sharp corner needs a stop)"
+                )
             t = r[c] * math.tan(beta / 2)
             tangent[c] = t
             bis = u[c + 1] - u[c]
@@ -506,8 +555,9 @@ class BlendPath(CartesianPath):
             normal = np.cross(u[c], u[c + 1])
             normal /= np.linalg.norm(normal)
             e1 = (q1 - centre) / np.linalg.norm(q1 - centre)
-            arcs.append(_ArcPiece(Circle(centre, float(r[c]), normal, e1, np.cross(normal, e1)),
-                                  beta))
+            arcs.append(
+                _ArcPiece(Circle(centre, float(r[c]), normal, e1, np.cross(normal, e1)), beta)
+            )
         pieces = []
         for k in range(n - 1):
             t_in = tangent[k - 1] if k >= 1 else 0.0
@@ -516,7 +566,8 @@ class BlendPath(CartesianPath):
             if room < -1e-12 * seg_len[k]:
                 raise InputError(
                     f"blend radius too large for segment {k} (points {k} -> {k + 1}, "
-                    f"{seg_len[k]:.6g} m long): its tangent points need {t_in + t_out:.6g} m")
+                    f"{seg_len[k]:.6g} m long): its tangent points need {t_in + t_out:.6g} m"
+                )
             a = P[k] + t_in * u[k]
             b = P[k + 1] - t_out * u[k]
             pieces.append(_LinePiece(a, b))

@@ -22,9 +22,11 @@ def plot_joints(traj, robot=None, *, limits: bool = True, title: str | None = No
     """
     fig = Figure(figsize=(9, 7.5), constrained_layout=True)
     axes = fig.subplots(3, 1, sharex=True)
-    rows = [("q", traj.q, "position [rad]", None),
-            ("qd", traj.qd, "velocity [rad/s]", "velocity_rad_s"),
-            ("qdd", traj.qdd, "acceleration [rad/s$^2$]", "acceleration_rad_s2")]
+    rows = [
+        ("q", traj.q, "position [rad]", None),
+        ("qd", traj.qd, "velocity [rad/s]", "velocity_rad_s"),
+        ("qdd", traj.qdd, "acceleration [rad/s$^2$]", "acceleration_rad_s2"),
+    ]
     colors = [f"C{i}" for i in range(traj.n_joints)]
     for ax, (_, y, label, lim_name) in zip(axes, rows, strict=True):
         for j in range(traj.n_joints):

@@ -120,8 +120,11 @@ class _PiecewisePoly:
                     dp = poly.deriv(der)
                     if dp.degree() < 1 or not np.any(dp.coef):
                         continue
-                    out += [self.knots[s] + r.real for r in dp.roots()
-                            if abs(r.imag) < 1e-12 and 0 < r.real < T]
+                    out += [
+                        self.knots[s] + r.real
+                        for r in dp.roots()
+                        if abs(r.imag) < 1e-12 and 0 < r.real < T
+                    ]
         return np.array(out)
 
     def extremes(self) -> tuple[np.ndarray, np.ndarray]:
@@ -134,8 +137,9 @@ class _PiecewisePoly:
             for j in range(nj):
                 c = self.coeffs[s, :, j]
                 poly = np.polynomial.Polynomial(c)
-                ts = [0.0, T] + [r.real for r in poly.deriv().roots()
-                                 if abs(r.imag) < 1e-12 and 0 < r.real < T]
+                ts = [0.0, T] + [
+                    r.real for r in poly.deriv().roots() if abs(r.imag) < 1e-12 and 0 < r.real < T
+                ]
                 vals = poly(np.array(ts))
                 lo[j], hi[j] = min(lo[j], vals.min()), max(hi[j], vals.max())
         return lo, hi
@@ -151,8 +155,7 @@ def _check_waypoints(robot, waypoints) -> np.ndarray:
     return W
 
 
-def _sample_times(knots: np.ndarray, dt: float, extra: np.ndarray,
-                  corners: bool) -> np.ndarray:
+def _sample_times(knots: np.ndarray, dt: float, extra: np.ndarray, corners: bool) -> np.ndarray:
     """Uniform grid of step ``dt`` plus every knot (the via points are samples) plus the
     ``extra`` times (velocity and acceleration peaks); times closer than ``1e-6 dt`` merge.
     With ``corners`` (the acceleration steps at the via points) a knot pair brackets each via
@@ -169,8 +172,20 @@ def _sample_times(knots: np.ndarray, dt: float, extra: np.ndarray,
     return np.union1d(grid[~near], fixed)
 
 
-def _via_plan(robot, waypoints, durations, velocities, accelerations, *, degree: int, dt: float,
-              v_max, a_max, j_max, torque: bool) -> Trajectory:
+def _via_plan(
+    robot,
+    waypoints,
+    durations,
+    velocities,
+    accelerations,
+    *,
+    degree: int,
+    dt: float,
+    v_max,
+    a_max,
+    j_max,
+    torque: bool,
+) -> Trajectory:
     method = "cubic_via" if degree == 3 else "quintic_via"
     W = _check_waypoints(robot, waypoints)
     dt = float(dt)
@@ -187,8 +202,13 @@ def _via_plan(robot, waypoints, durations, velocities, accelerations, *, degree:
         A_given = np.asarray(accelerations, float)
         if A_given.shape != W.shape or not np.all(np.isfinite(A_given)):
             raise InputError(f"accelerations have shape {A_given.shape}, expected {W.shape}")
-    lim = planner_limits(robot, v_max, a_max, j_max, need=("velocity",)
-                         if durations is not None else ("velocity", "acceleration"))
+    lim = planner_limits(
+        robot,
+        v_max,
+        a_max,
+        j_max,
+        need=("velocity",) if durations is not None else ("velocity", "acceleration"),
+    )
     merged = 0
     if durations is None:
         # merge repeated waypoints (a zero-length segment has no natural duration)
@@ -201,28 +221,46 @@ def _via_plan(robot, waypoints, durations, velocities, accelerations, *, degree:
             A_given = A_given[keep]
         if W.shape[0] == 1:
             z = np.zeros((1, robot.n_joints))
-            traj = Trajectory([0.0], W, z, z.copy(), z.copy() if degree == 5 else None,
-                              joint_names=robot.joint_names, method=method)
+            traj = Trajectory(
+                [0.0],
+                W,
+                z,
+                z.copy(),
+                z.copy() if degree == 5 else None,
+                joint_names=robot.joint_names,
+                method=method,
+            )
             traj.meta.update(zero_length=True, waypoints=W.tolist(), merged_waypoints=merged)
             return finish(traj, robot, lim, torque=torque, what=method)
         D = np.abs(np.diff(W, axis=0))
-        T = np.array([max(trapezoid_min_time(d, v, a)
-                          for d, v, a in zip(row, lim.velocity_rad_s, lim.acceleration_rad_s2,
-                                             strict=True)) for row in D])
+        T = np.array(
+            [
+                max(
+                    trapezoid_min_time(d, v, a)
+                    for d, v, a in zip(
+                        row, lim.velocity_rad_s, lim.acceleration_rad_s2, strict=True
+                    )
+                )
+                for row in D
+            ]
+        )
         fixed = False
     else:
         T = np.asarray(durations, float).reshape(-1)
         if T.shape != (W.shape[0] - 1,) or not np.all(np.isfinite(T)) or np.any(T <= 0):
-            raise InputError(f"durations must be {W.shape[0] - 1} finite values > 0 [s], "
-                             f"got {np.asarray(durations).tolist()}")
+            raise InputError(
+                f"durations must be {W.shape[0] - 1} finite values > 0 [s], "
+                f"got {np.asarray(durations).tolist()}"
+            )
         fixed = True
 
     def build(T):
         knots = np.concatenate([[0.0], np.cumsum(T)])
         V = V_given if given_v else via_velocities(W, T, rule)
         if degree == 3:
-            coeffs = np.stack([_cubic_coeffs(W[k], W[k + 1], V[k], V[k + 1], T[k])
-                               for k in range(T.size)])
+            coeffs = np.stack(
+                [_cubic_coeffs(W[k], W[k + 1], V[k], V[k + 1], T[k]) for k in range(T.size)]
+            )
         else:
             if A_given is not None:
                 A = A_given
@@ -230,15 +268,20 @@ def _via_plan(robot, waypoints, durations, velocities, accelerations, *, degree:
                 A = np.zeros_like(W)
                 if W.shape[0] > 2:
                     A[1:-1] = (V[2:] - V[:-2]) / (T[:-1] + T[1:])[:, None]
-            coeffs = np.stack([_quintic_coeffs(W[k], W[k + 1], V[k], V[k + 1], A[k], A[k + 1],
-                                               T[k]) for k in range(T.size)])
+            coeffs = np.stack(
+                [
+                    _quintic_coeffs(W[k], W[k + 1], V[k], V[k + 1], A[k], A[k + 1], T[k])
+                    for k in range(T.size)
+                ]
+            )
         pp = _PiecewisePoly(knots, coeffs)
         smooth = degree == 5 or (not given_v and rule == "spline")
         t = _sample_times(knots, dt, pp.critical_times(), corners=not smooth)
         q, qd, qdd, qddd = pp.evaluate(t)
         q[np.searchsorted(t, knots)] = W  # the via points exactly
-        traj = Trajectory(t, q, qd, qdd, qddd if smooth else None,
-                          joint_names=robot.joint_names, method=method)
+        traj = Trajectory(
+            t, q, qd, qdd, qddd if smooth else None, joint_names=robot.joint_names, method=method
+        )
         return traj, pp, V
 
     traj, pp, V = build(T)
@@ -249,7 +292,8 @@ def _via_plan(robot, waypoints, durations, velocities, accelerations, *, degree:
             raise LimitViolation(
                 f"{method}: with the given durations {joint} {kind} reaches "
                 f"{traj.check_limits(robot, torque=torque, limits=lim).worst()[2]:.4g} x its "
-                f"limit; the segments need about {k:.3g} x longer")
+                f"limit; the segments need about {k:.3g} x longer"
+            )
         T0 = T.sum()
         first = (kind, joint)
         for _ in range(60):  # scale-invariant rules converge in one pass; given velocities not
@@ -259,21 +303,38 @@ def _via_plan(robot, waypoints, durations, velocities, accelerations, *, degree:
             if k <= 1 + 1e-12:
                 break
         else:
-            raise LimitViolation(f"{method}: cannot meet the {kind} limit of {joint} by slowing "
-                                 "down (are the given via velocities above the limit?)")
+            raise LimitViolation(
+                f"{method}: cannot meet the {kind} limit of {joint} by slowing "
+                "down (are the given via velocities above the limit?)"
+            )
         slowdown = {"factor": float(T.sum() / T0), "kind": first[0], "joint": first[1]}
     lo, hi = pp.extremes()
     check_in_range(robot, np.vstack([lo, hi]), f"{method} (overshoot between via points)")
     traj.meta.update(
-        waypoints=W.tolist(), durations_s=T.tolist(), knot_times_s=pp.knots.tolist(),
-        via_velocities=V.tolist(), velocity_rule="given" if given_v else rule,
-        merged_waypoints=merged, slowdown=slowdown, dt_s=dt,
+        waypoints=W.tolist(),
+        durations_s=T.tolist(),
+        knot_times_s=pp.knots.tolist(),
+        via_velocities=V.tolist(),
+        velocity_rule="given" if given_v else rule,
+        merged_waypoints=merged,
+        slowdown=slowdown,
+        dt_s=dt,
     )
     return finish(traj, robot, lim, torque=torque, what=method)
 
 
-def cubic_via(robot, waypoints, durations=None, velocities=None, *, dt: float = 0.01,
-              v_max=None, a_max=None, j_max=None, torque: bool = True) -> Trajectory:
+def cubic_via(
+    robot,
+    waypoints,
+    durations=None,
+    velocities=None,
+    *,
+    dt: float = 0.01,
+    v_max=None,
+    a_max=None,
+    j_max=None,
+    torque: bool = True,
+) -> Trajectory:
     """Cubic polynomials through via points in joint space (thesis 6.3.2).
 
     Parameters
@@ -308,16 +369,48 @@ def cubic_via(robot, waypoints, durations=None, velocities=None, *, dt: float = 
         A waypoint or the overshoot between via points leaves a joint range, or the given
         durations break a limit (the message names joint and limit).
     """
-    return _via_plan(robot, waypoints, durations, velocities, None, degree=3, dt=dt,
-                     v_max=v_max, a_max=a_max, j_max=j_max, torque=torque)
+    return _via_plan(
+        robot,
+        waypoints,
+        durations,
+        velocities,
+        None,
+        degree=3,
+        dt=dt,
+        v_max=v_max,
+        a_max=a_max,
+        j_max=j_max,
+        torque=torque,
+    )
 
 
-def quintic_via(robot, waypoints, durations=None, velocities=None, accelerations=None, *,
-                dt: float = 0.01, v_max=None, a_max=None, j_max=None,
-                torque: bool = True) -> Trajectory:
+def quintic_via(
+    robot,
+    waypoints,
+    durations=None,
+    velocities=None,
+    accelerations=None,
+    *,
+    dt: float = 0.01,
+    v_max=None,
+    a_max=None,
+    j_max=None,
+    torque: bool = True,
+) -> Trajectory:
     """Quintic polynomials through via points: as :func:`cubic_via`, with continuous
     acceleration (``accelerations`` (m, n_joints) in [rad/s^2] optional; default zero at the
     ends and the central difference of the via velocities between). ``qddd`` is given and the
     jerk limit is met too."""
-    return _via_plan(robot, waypoints, durations, velocities, accelerations, degree=5, dt=dt,
-                     v_max=v_max, a_max=a_max, j_max=j_max, torque=torque)
+    return _via_plan(
+        robot,
+        waypoints,
+        durations,
+        velocities,
+        accelerations,
+        degree=5,
+        dt=dt,
+        v_max=v_max,
+        a_max=a_max,
+        j_max=j_max,
+        torque=torque,
+    )

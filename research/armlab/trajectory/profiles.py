@@ -58,8 +58,9 @@ def _positive(x, name: str) -> float:
 CORNER_GAP = 1e-4  # width of the knot pair at a corner, as a fraction of dt
 
 
-def time_grid(duration: float, dt: float, corners=(), *, ends: bool = False,
-              knots=()) -> np.ndarray:
+def time_grid(
+    duration: float, dt: float, corners=(), *, ends: bool = False, knots=()
+) -> np.ndarray:
     """Sample times ``0, dt, 2 dt, ..., duration`` in [s]; the last step may be shorter.
 
     ``corners`` are interior times where the acceleration steps (trapezoid phases, a path's
@@ -90,8 +91,7 @@ def time_grid(duration: float, dt: float, corners=(), *, ends: bool = False,
         c = c[np.concatenate([[True], np.diff(c) > 3 * delta])]
     k = np.asarray(knots, float).reshape(-1)
     k = k[(k > 3 * delta) & (k < duration - 3 * delta)]
-    added = np.unique(np.concatenate([[delta, duration - delta] if ends else [], c - delta, c,
-                                      k]))
+    added = np.unique(np.concatenate([[delta, duration - delta] if ends else [], c - delta, c, k]))
     if added.size == 0:
         return t
     added = added[np.concatenate([[True], np.diff(added) >= 0.5 * delta])]
@@ -186,8 +186,12 @@ class MotionProfile:
 
     def to_dict(self) -> dict:
         """Kind, duration and parameters, JSON-able."""
-        return {"kind": self.kind, "duration_s": self.duration, "length": self.length,
-                **{k: float(v) for k, v in self.params.items()}}
+        return {
+            "kind": self.kind,
+            "duration_s": self.duration,
+            "length": self.length,
+            **{k: float(v) for k, v in self.params.items()},
+        }
 
     # ------------------------------------------------------------------ evaluation
     def evaluate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -221,15 +225,17 @@ class MotionProfile:
         for name, p in (("v", 1), ("a", 2), ("a_acc", 2), ("a_dec", 2), ("j", 3)):
             if name in params:
                 params[name] = params[name] / k**p
-        return MotionProfile(self.durations * k, self.accels / k**2, self.jerks / k**3,
-                             kind=self.kind, params=params)
+        return MotionProfile(
+            self.durations * k, self.accels / k**2, self.jerks / k**3, kind=self.kind, params=params
+        )
 
 
 # ---------------------------------------------------------------------- trapezoid
 def rest_profile(duration: float = 0.0) -> MotionProfile:
     """Stand still for ``duration`` [s] (a zero-length move)."""
-    return MotionProfile(np.array([max(duration, 0.0)]), np.zeros(1), np.zeros(1), kind="rest",
-                         params={"v": 0.0})
+    return MotionProfile(
+        np.array([max(duration, 0.0)]), np.zeros(1), np.zeros(1), kind="rest", params={"v": 0.0}
+    )
 
 
 def trapezoid_min_time(length: float, v: float, a_acc: float, a_dec: float | None = None) -> float:
@@ -246,13 +252,18 @@ def trapezoid_min_time(length: float, v: float, a_acc: float, a_dec: float | Non
 def _trapezoid_phases(length: float, v: float, a1: float, a2: float) -> MotionProfile:
     t1, t2 = v / a1, v / a2
     t3 = max(length - v * v / (2 * a1) - v * v / (2 * a2), 0.0) / v
-    return MotionProfile(np.array([t1, t3, t2]), np.array([a1, 0.0, -a2]), np.zeros(3),
-                         kind="trapezoid",
-                         params={"v": v, "a_acc": a1, "a_dec": a2, "length": length})
+    return MotionProfile(
+        np.array([t1, t3, t2]),
+        np.array([a1, 0.0, -a2]),
+        np.zeros(3),
+        kind="trapezoid",
+        params={"v": v, "a_acc": a1, "a_dec": a2, "length": length},
+    )
 
 
-def trapezoid_profile(length: float, v_max: float, a_acc: float,
-                      a_dec: float | None = None) -> MotionProfile:
+def trapezoid_profile(
+    length: float, v_max: float, a_acc: float, a_dec: float | None = None
+) -> MotionProfile:
     """Shortest rest-to-rest trapezoid (triangle if the cruise speed is not reached).
 
     Parameters
@@ -278,9 +289,13 @@ def trapezoid_profile(length: float, v_max: float, a_acc: float,
     return _trapezoid_phases(length, v, a1, a2)
 
 
-def trapezoid_profile_for_duration(length: float, duration: float, a_acc: float,
-                                   a_dec: float | None = None,
-                                   v_max: float = math.inf) -> MotionProfile:
+def trapezoid_profile_for_duration(
+    length: float,
+    duration: float,
+    a_acc: float,
+    a_dec: float | None = None,
+    v_max: float = math.inf,
+) -> MotionProfile:
     """The trapezoid with the given accelerations that takes exactly ``duration`` [s].
 
     The cruise speed solves ``L = v T - v^2 / 2 (1/a1 + 1/a2)`` (the smaller root):
@@ -295,11 +310,15 @@ def trapezoid_profile_for_duration(length: float, duration: float, a_acc: float,
     a2 = a1 if a_dec is None else _positive(a_dec, "a_dec")
     if length <= 0:
         return rest_profile(duration)
-    t_min = trapezoid_min_time(length, v_max, a1, a2) if math.isfinite(v_max) else \
-        math.sqrt(2 * length * (1 / a1 + 1 / a2))
+    t_min = (
+        trapezoid_min_time(length, v_max, a1, a2)
+        if math.isfinite(v_max)
+        else math.sqrt(2 * length * (1 / a1 + 1 / a2))
+    )
     if duration < t_min * (1 - 1e-12):
         raise InfeasibleError(
-            f"a trapezoid over {length:.6g} takes at least {t_min:.6g} s, not {duration:.6g} s")
+            f"a trapezoid over {length:.6g} takes at least {t_min:.6g} s, not {duration:.6g} s"
+        )
     h = 1 / a1 + 1 / a2
     disc = max(duration * duration - 2 * length * h, 0.0)
     v = (duration - math.sqrt(disc)) / h
@@ -308,9 +327,13 @@ def trapezoid_profile_for_duration(length: float, duration: float, a_acc: float,
     # absorb rounding in the cruise phase so the duration is exact
     cruise = duration - v / a1 - v / a2
     if cruise > 0:
-        prof = MotionProfile(np.array([v / a1, cruise, v / a2]), np.array([a1, 0.0, -a2]),
-                             np.zeros(3), kind="trapezoid",
-                             params={"v": v, "a_acc": a1, "a_dec": a2, "length": length})
+        prof = MotionProfile(
+            np.array([v / a1, cruise, v / a2]),
+            np.array([a1, 0.0, -a2]),
+            np.zeros(3),
+            kind="trapezoid",
+            params={"v": v, "a_acc": a1, "a_dec": a2, "length": length},
+        )
     return prof
 
 
@@ -341,8 +364,9 @@ def _double_s_from_v(length: float, v: float, a: float, j: float) -> MotionProfi
     d = np.array([tj, tc, tj, tv, tj, tc, tj])
     acc = np.array([0.0, ap, ap, 0.0, 0.0, -ap, -ap])
     jerk = np.array([j, 0.0, -j, 0.0, -j, 0.0, j])
-    return MotionProfile(d, acc, jerk, kind="double_s",
-                         params={"v": v, "a": ap, "j": j, "length": length})
+    return MotionProfile(
+        d, acc, jerk, kind="double_s", params={"v": v, "a": ap, "j": j, "length": length}
+    )
 
 
 def double_s_min_time(length: float, v_max: float, a_max: float, j_max: float) -> float:
@@ -367,15 +391,19 @@ def double_s_profile(length: float, v_max: float, a_max: float, j_max: float) ->
     length = float(length)
     if not math.isfinite(length) or length < 0:
         raise InputError(f"profile length must be finite and >= 0, not {length!r}")
-    v_max, a_max, j_max = (_positive(v_max, "v_max"), _positive(a_max, "a_max"),
-                           _positive(j_max, "j_max"))
+    v_max, a_max, j_max = (
+        _positive(v_max, "v_max"),
+        _positive(a_max, "a_max"),
+        _positive(j_max, "j_max"),
+    )
     if length == 0:
         return rest_profile(0.0)
     return _double_s_from_v(length, _double_s_vlim(length, v_max, a_max, j_max), a_max, j_max)
 
 
-def double_s_profile_for_duration(length: float, duration: float, a_max: float, j_max: float,
-                                  v_max: float = math.inf) -> MotionProfile:
+def double_s_profile_for_duration(
+    length: float, duration: float, a_max: float, j_max: float, v_max: float = math.inf
+) -> MotionProfile:
     """The double S with limits ``(a_max, j_max)`` that takes exactly ``duration`` [s].
 
     The duration ``L / v + Ta(v)`` decreases monotonically with the peak speed ``v`` while a
@@ -393,7 +421,8 @@ def double_s_profile_for_duration(length: float, duration: float, a_max: float, 
     t_min = length / v_hi + _double_s_ta(v_hi, a_max, j_max)[1]
     if duration < t_min * (1 - 1e-12):
         raise InfeasibleError(
-            f"a double S over {length:.6g} takes at least {t_min:.6g} s, not {duration:.6g} s")
+            f"a double S over {length:.6g} takes at least {t_min:.6g} s, not {duration:.6g} s"
+        )
     if duration <= t_min:
         return _double_s_from_v(length, v_hi, a_max, j_max)
     lo, hi = 0.0, v_hi

@@ -62,9 +62,15 @@ def _velocity_profiles(D, v, a, dt):
             profs.append(rest_profile(T + dt))
             continue
         w = d / T  # eq. 4
-        profs.append(MotionProfile(np.array([dt, T - dt, dt]), np.array([w / dt, 0.0, -w / dt]),
-                                   np.zeros(3), kind="velocity",
-                                   params={"v": w, "a_acc": w / dt, "a_dec": w / dt}))
+        profs.append(
+            MotionProfile(
+                np.array([dt, T - dt, dt]),
+                np.array([w / dt, 0.0, -w / dt]),
+                np.zeros(3),
+                kind="velocity",
+                params={"v": w, "a_acc": w / dt, "a_dec": w / dt},
+            )
+        )
     return profs, T + dt, binding
 
 
@@ -90,9 +96,19 @@ def _for_duration(profile, d, T, v, a, j):
     return double_s_profile_for_duration(d, T, a, j, v_max=v)
 
 
-def ptp_sync(robot, q_start, q_goal, profile: str = "trapezoid", *, v_max=None, a_max=None,
-             j_max=None, dt: float | None = None, sync: str = "time",
-             torque: bool = True) -> Trajectory:
+def ptp_sync(
+    robot,
+    q_start,
+    q_goal,
+    profile: str = "trapezoid",
+    *,
+    v_max=None,
+    a_max=None,
+    j_max=None,
+    dt: float | None = None,
+    sync: str = "time",
+    torque: bool = True,
+) -> Trajectory:
     """Joint-space point-to-point motion in which every joint arrives at the same instant.
 
     Parameters
@@ -140,9 +156,11 @@ def ptp_sync(robot, q_start, q_goal, profile: str = "trapezoid", *, v_max=None, 
     dt = _DEFAULT_DT[profile] if dt is None else float(dt)
     if not math.isfinite(dt) or dt <= 0:
         raise InputError(f"dt must be a positive number of seconds, not {dt!r}")
-    need = {"trapezoid": ("velocity", "acceleration"), "scurve": ("velocity", "acceleration",
-                                                                  "jerk"),
-            "velocity": ("velocity",)}[profile]
+    need = {
+        "trapezoid": ("velocity", "acceleration"),
+        "scurve": ("velocity", "acceleration", "jerk"),
+        "velocity": ("velocity",),
+    }[profile]
     lim = planner_limits(robot, v_max, a_max, j_max, need=need)
     v, a, j = lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3
     delta = q1 - q0
@@ -150,12 +168,23 @@ def ptp_sync(robot, q_start, q_goal, profile: str = "trapezoid", *, v_max=None, 
     D[D < 1e-12] = 0.0
     method = f"ptp_{profile}"
     if not np.any(D > 0):
-        traj = Trajectory([0.0], q0[None], np.zeros((1, robot.n_joints)),
-                          np.zeros((1, robot.n_joints)),
-                          np.zeros((1, robot.n_joints)) if profile == "scurve" else None,
-                          joint_names=robot.joint_names, method=method)
-        traj.meta.update(profile=profile, sync=sync, duration_s=0.0, zero_length=True,
-                         q_start=q0.tolist(), q_goal=q1.tolist())
+        traj = Trajectory(
+            [0.0],
+            q0[None],
+            np.zeros((1, robot.n_joints)),
+            np.zeros((1, robot.n_joints)),
+            np.zeros((1, robot.n_joints)) if profile == "scurve" else None,
+            joint_names=robot.joint_names,
+            method=method,
+        )
+        traj.meta.update(
+            profile=profile,
+            sync=sync,
+            duration_s=0.0,
+            zero_length=True,
+            q_start=q0.tolist(),
+            q_goal=q1.tolist(),
+        )
         return finish(traj, robot, lim, torque=torque, what=method)
 
     if profile == "velocity":
@@ -163,8 +192,9 @@ def ptp_sync(robot, q_start, q_goal, profile: str = "trapezoid", *, v_max=None, 
         sync_used = "phase"
     else:
         jj = j if j is not None else np.full(robot.n_joints, np.inf)
-        t_i = np.array([_min_time(profile, d, vv, aa, jv)
-                        for d, vv, aa, jv in zip(D, v, a, jj, strict=True)])
+        t_i = np.array(
+            [_min_time(profile, d, vv, aa, jv) for d, vv, aa, jv in zip(D, v, a, jj, strict=True)]
+        )
         bj = int(np.argmax(t_i))
         bkind = _binding_kind(profile, D[bj], v[bj], a[bj], jj[bj])
         if sync == "phase":
@@ -179,8 +209,10 @@ def ptp_sync(robot, q_start, q_goal, profile: str = "trapezoid", *, v_max=None, 
             profs = [base] * robot.n_joints
         else:
             T = float(t_i.max())
-            profs = [_for_duration(profile, d, T, vv, aa, jv) if d > 0 else rest_profile(T)
-                     for d, vv, aa, jv in zip(D, v, a, jj, strict=True)]
+            profs = [
+                _for_duration(profile, d, T, vv, aa, jv) if d > 0 else rest_profile(T)
+                for d, vv, aa, jv in zip(D, v, a, jj, strict=True)
+            ]
         sync_used = sync
 
     normalised = profile != "velocity" and sync_used == "phase"
@@ -189,8 +221,9 @@ def ptp_sync(robot, q_start, q_goal, profile: str = "trapezoid", *, v_max=None, 
         # knot pairs where the acceleration steps, plain knots where only the jerk does
         corners = np.concatenate([p.corners for p in profiles])
         steps = profile != "scurve"
-        t = time_grid(duration, dt, corners if steps else (), ends=steps,
-                      knots=() if steps else corners)
+        t = time_grid(
+            duration, dt, corners if steps else (), ends=steps, knots=() if steps else corners
+        )
         n = t.size
         q = np.empty((n, robot.n_joints))
         qd = np.empty_like(q)
@@ -203,8 +236,15 @@ def ptp_sync(robot, q_start, q_goal, profile: str = "trapezoid", *, v_max=None, 
             q[:, i] = q0[i] + scale * s
             qd[:, i], qdd[:, i], qddd[:, i] = scale * sd, scale * sdd, scale * sddd
         q[-1] = q1  # exact arrival of every joint at the last sample
-        return Trajectory(t, q, qd, qdd, qddd if profile == "scurve" else None,
-                          joint_names=robot.joint_names, method=method)
+        return Trajectory(
+            t,
+            q,
+            qd,
+            qdd,
+            qddd if profile == "scurve" else None,
+            joint_names=robot.joint_names,
+            method=method,
+        )
 
     traj = build(profs, T)
     slowdown = None
@@ -221,9 +261,13 @@ def ptp_sync(robot, q_start, q_goal, profile: str = "trapezoid", *, v_max=None, 
             slowdown = {"kind": kind, "joint": joint}
         slowdown["factor"] = T / T0
     traj.meta.update(
-        profile=profile, sync=sync_used, duration_s=float(T), dt_s=dt,
+        profile=profile,
+        sync=sync_used,
+        duration_s=float(T),
+        dt_s=dt,
         binding={"joint": robot.joint_names[bj], "limit": bkind},
-        q_start=q0.tolist(), q_goal=q1.tolist(),
+        q_start=q0.tolist(),
+        q_goal=q1.tolist(),
         joint_profiles=None if normalised else [p.to_dict() for p in profs],
         normalised_profile=profs[0].to_dict() if normalised else None,
         slowdown=slowdown,

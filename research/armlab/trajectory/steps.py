@@ -102,10 +102,17 @@ class StepPlan:
 
     def to_dict(self) -> dict:
         return {
-            "length": self.length, "period_s": self.period_s, "v_peak": self.v_peak,
-            "a_acc": self.a_acc, "a_dec": self.a_dec, "n_acc": self.n_acc,
-            "n_cruise": self.n_cruise, "n_dec": self.n_dec, "leftover": self.leftover,
-            "leftover_index": self.leftover_index, "cruise": self.cruise,
+            "length": self.length,
+            "period_s": self.period_s,
+            "v_peak": self.v_peak,
+            "a_acc": self.a_acc,
+            "a_dec": self.a_dec,
+            "n_acc": self.n_acc,
+            "n_cruise": self.n_cruise,
+            "n_dec": self.n_dec,
+            "leftover": self.leftover,
+            "leftover_index": self.leftover_index,
+            "cruise": self.cruise,
             "n_steps": self.n_steps,
         }
 
@@ -117,8 +124,7 @@ def _positive(x, name: str) -> float:
     return x
 
 
-def trapezoid_steps(length: float, v: float, a_acc: float, a_dec: float,
-                    period: float) -> StepPlan:
+def trapezoid_steps(length: float, v: float, a_acc: float, a_dec: float, period: float) -> StepPlan:
     """Per-step lengths of a trapezoidal move, seed 002 table 1.
 
     Parameters
@@ -154,8 +160,9 @@ def trapezoid_steps(length: float, v: float, a_acc: float, a_dec: float,
     T = _positive(period, "period")
     if L == 0:
         empty = np.zeros(0)
-        return StepPlan(empty, np.zeros(0, dtype="<U6"), 0.0, T, 0.0, a1, a2, 0, 0, 0, 0.0,
-                        None, False)
+        return StepPlan(
+            empty, np.zeros(0, dtype="<U6"), 0.0, T, 0.0, a1, a2, 0, 0, 0, 0.0, None, False
+        )
     S1, S2 = V * V / (2 * a1), V * V / (2 * a2)
     cruise = L >= S1 + S2
     vp = V if cruise else math.sqrt(2 * L * a1 * a2 / (a1 + a2))
@@ -194,5 +201,6 @@ def trapezoid_steps(length: float, v: float, a_acc: float, a_dec: float,
         lengths.append(dec)
         phases += ["dec"] * n2
     out = np.concatenate(lengths)
-    return StepPlan(out, np.array(phases), L, T, vp, a1e, a2e, n1, n3, n2, float(dL),
-                    leftover_index, cruise)
+    return StepPlan(
+        out, np.array(phases), L, T, vp, a1e, a2e, n1, n3, n2, float(dL), leftover_index, cruise
+    )

@@ -32,15 +32,24 @@ import pinocchio as pin
 
 from armlab.errors import RobotDescriptionError
 
-__all__ = ["inverse_dynamics_function", "parametric_inverse_dynamics_function",
-           "dynamic_parameters", "dynamics_key", "kinematics_key", "joint_kinds"]
+__all__ = [
+    "inverse_dynamics_function",
+    "parametric_inverse_dynamics_function",
+    "dynamic_parameters",
+    "dynamics_key",
+    "kinematics_key",
+    "joint_kinds",
+]
 
 _CACHE: dict[str, ca.Function] = {}
 _PCACHE: dict[str, ca.Function] = {}
 _CACHE_MAX = 64
 
-_AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]),
-         "Z": np.array([0.0, 0.0, 1.0])}
+_AXES = {
+    "X": np.array([1.0, 0.0, 0.0]),
+    "Y": np.array([0.0, 1.0, 0.0]),
+    "Z": np.array([0.0, 0.0, 1.0]),
+}
 
 
 def _model_of(robot_or_model) -> pin.Model:
@@ -102,7 +111,6 @@ def _hash(model, inertias: bool) -> str:
     return h.hexdigest()
 
 
-
 def _rotation(axis: np.ndarray, angle):
     """Rodrigues: R = I + sin(q) K + (1 - cos(q)) K^2 (exact 0/1 entries for axis-aligned)."""
     k = np.asarray(axis, float)
@@ -128,7 +136,7 @@ def _build(model: pin.Model) -> ca.Function:
     v_ang[0] = ca.SX.zeros(3)
     a_lin[0] = ca.SX(-g[:3])
     a_ang[0] = ca.SX(-g[3:])
-    armature = pi[10 * (nj - 1):]
+    armature = pi[10 * (nj - 1) :]
     for i in range(1, nj):
         par = model.parents[i]
         idx = model.joints[i].idx_q
@@ -158,10 +166,11 @@ def _build(model: pin.Model) -> ca.Function:
         v_lin[i], v_ang[i], a_lin[i], a_ang[i] = vl, va, al, aa
         # body inertia from its dynamic parameters [m, h = m c, I about the joint origin]
         # (Pinocchio's toDynamicParameters order: m, hx, hy, hz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz)
-        d = pi[10 * (i - 1): 10 * i]
+        d = pi[10 * (i - 1) : 10 * i]
         m, h = d[0], d[1:4]
-        I_o = ca.vertcat(ca.horzcat(d[4], d[5], d[7]), ca.horzcat(d[5], d[6], d[8]),
-                         ca.horzcat(d[7], d[8], d[9]))
+        I_o = ca.vertcat(
+            ca.horzcat(d[4], d[5], d[7]), ca.horzcat(d[5], d[6], d[8]), ca.horzcat(d[7], d[8], d[9])
+        )
 
         def inertia_times(lin, ang, m=m, h=h, I_o=I_o):
             # f_lin = m lin - h x ang ; f_ang = I_o ang + h x lin
@@ -186,8 +195,9 @@ def _build(model: pin.Model) -> ca.Function:
             fa = ca.mtimes(R[i], f_ang[i]) + ca.cross(p[i], fl)
             f_lin[par] = f_lin[par] + fl
             f_ang[par] = f_ang[par] + fa
-    return ca.Function("rnea_p", [q, qd, qdd, pi], [ca.vertcat(*tau)],
-                       ["q", "qd", "qdd", "pi"], ["tau"])
+    return ca.Function(
+        "rnea_p", [q, qd, qdd, pi], [ca.vertcat(*tau)], ["q", "qd", "qdd", "pi"], ["tau"]
+    )
 
 
 def dynamic_parameters(robot_or_model) -> np.ndarray:

@@ -21,7 +21,6 @@ from armlab.errors import InputError, LimitViolation
 __all__ = ["planner_limits", "stretch_needed", "finish", "check_in_range"]
 
 
-
 def _per_joint(robot, value, name: str) -> np.ndarray:
     a = np.asarray(value, dtype=float)
     if a.ndim == 0:
@@ -33,8 +32,14 @@ def _per_joint(robot, value, name: str) -> np.ndarray:
     return a
 
 
-def planner_limits(robot, v_max=None, a_max=None, j_max=None, *,
-                   need: tuple[str, ...] = ("velocity", "acceleration")):
+def planner_limits(
+    robot,
+    v_max=None,
+    a_max=None,
+    j_max=None,
+    *,
+    need: tuple[str, ...] = ("velocity", "acceleration"),
+):
     """The robot's :class:`JointLimits` with per-call overrides.
 
     Parameters
@@ -56,14 +61,21 @@ def planner_limits(robot, v_max=None, a_max=None, j_max=None, *,
     v = lim.velocity_rad_s if v_max is None else _per_joint(robot, v_max, "v_max")
     a = lim.acceleration_rad_s2 if a_max is None else _per_joint(robot, a_max, "a_max")
     j = lim.jerk_rad_s3 if j_max is None else _per_joint(robot, j_max, "j_max")
-    for kind, arr, arg in (("velocity", v, "v_max"), ("acceleration", a, "a_max"),
-                           ("jerk", j, "j_max")):
+    for kind, arr, arg in (
+        ("velocity", v, "v_max"),
+        ("acceleration", a, "a_max"),
+        ("jerk", j, "j_max"),
+    ):
         if kind in need and (arr is None or np.any(~(np.asarray(arr) > 0))):
-            raise InputError(f"{robot.name} has no {kind} limit for every joint (no drives.toml?):"
-                             f" pass {arg}")
-    return replace(lim, velocity_rad_s=np.asarray(v, float),
-                   acceleration_rad_s2=None if a is None else np.asarray(a, float),
-                   jerk_rad_s3=None if j is None else np.asarray(j, float))
+            raise InputError(
+                f"{robot.name} has no {kind} limit for every joint (no drives.toml?): pass {arg}"
+            )
+    return replace(
+        lim,
+        velocity_rad_s=np.asarray(v, float),
+        acceleration_rad_s2=None if a is None else np.asarray(a, float),
+        jerk_rad_s3=None if j is None else np.asarray(j, float),
+    )
 
 
 def check_in_range(robot, q, what: str) -> None:
@@ -76,7 +88,8 @@ def check_in_range(robot, q, what: str) -> None:
         k, j = np.argwhere(bad)[0]
         raise LimitViolation(
             f"{what}: {robot.joint_names[j]} = {q2[k, j]:.6g} rad is outside its range "
-            f"[{lo[j]:.6g}, {hi[j]:.6g}] rad" + (f" (sample {k})" if q2.shape[0] > 1 else ""))
+            f"[{lo[j]:.6g}, {hi[j]:.6g}] rad" + (f" (sample {k})" if q2.shape[0] > 1 else "")
+        )
 
 
 def _ratio(signal, limit) -> np.ndarray:
@@ -128,7 +141,8 @@ def stretch_needed(traj, robot, limits, *, torque: bool = True) -> tuple[float, 
             raise LimitViolation(
                 f"{robot.name}: gravity alone needs {abs(g[k, j]):.4g} N m at "
                 f"{robot.joint_names[j]} (t = {traj.t[k]:.4g} s), above its torque limit "
-                f"{eff[j]:.4g} N m: no slower motion can meet it")
+                f"{eff[j]:.4g} N m: no slower motion can meet it"
+            )
         d = tau - g
         with np.errstate(divide="ignore", invalid="ignore"):
             xmax = np.where(d > 0, (eff - g) / d, np.where(d < 0, (-eff - g) / d, np.inf))
@@ -149,5 +163,6 @@ def finish(traj, robot, limits, *, torque: bool, what: str):
     if bad:
         kind, joint, ratio, at = max(bad, key=lambda b: b[2])
         raise LimitViolation(
-            f"{what}: {joint} {kind} reaches {ratio:.4g} x its limit at t = {at:.4g} s")
+            f"{what}: {joint} {kind} reaches {ratio:.4g} x its limit at t = {at:.4g} s"
+        )
     return traj

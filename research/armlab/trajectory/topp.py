@@ -68,8 +68,14 @@ from armlab.trajectory.optimal import (
     refuse_violation,
 )
 
-__all__ = ["time_optimal_path", "build_topp", "ToppProblem", "GeometricPath", "path_dynamics",
-           "path_grid"]
+__all__ = [
+    "time_optimal_path",
+    "build_topp",
+    "ToppProblem",
+    "GeometricPath",
+    "path_dynamics",
+    "path_grid",
+]
 
 #: geometric refinement levels of the first and last path intervals
 END_REFINEMENT = 8
@@ -100,8 +106,7 @@ class GeometricPath:
             # its geometry, re-parameterised by chord length: a timed trajectory starts and
             # ends at rest, so q'(t) vanishes there and a time parameter is singular for TOPP
             self.trajectory = path
-            t = np.unique(np.concatenate([np.linspace(path.t[0], path.t[-1], n_resample),
-                                          path.t]))
+            t = np.unique(np.concatenate([np.linspace(path.t[0], path.t[-1], n_resample), path.t]))
             pts = path.at(t)[0]
             keep = np.concatenate([[True], np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-9])
             keep[-1] = True
@@ -112,7 +117,8 @@ class GeometricPath:
             pts = np.asarray(path, dtype=float)
             if pts.ndim != 2 or pts.shape[1] != n_joints or pts.shape[0] < 2:
                 raise InputError(
-                    f"path has shape {pts.shape}, expected (n_points >= 2, {n_joints})")
+                    f"path has shape {pts.shape}, expected (n_points >= 2, {n_joints})"
+                )
             if not np.all(np.isfinite(pts)):
                 raise InputError("path contains NaN or infinite values")
         step = np.linalg.norm(np.diff(pts, axis=0), axis=1)
@@ -224,8 +230,9 @@ class ToppProblem:
         if ls.velocity is not None:  # q'(s)^2 b(s) at 1/4, 1/2, 3/4 of each interval
             sc = scale["velocity"]
             for frac, d1 in zip(VELOCITY_POINTS, self.coeffs["vel_d1"], strict=True):
-                add(np.zeros((K, n)), d1**2, np.full((K, n), -np.inf), (ls.velocity * sc) ** 2,
-                    frac)
+                add(
+                    np.zeros((K, n)), d1**2, np.full((K, n), -np.inf), (ls.velocity * sc) ** 2, frac
+                )
                 kinds.append("velocity")
         for where, C in (("left", Cl), ("mid", Cm), ("right", Cr)):
             if ls.acceleration is not None:
@@ -240,8 +247,9 @@ class ToppProblem:
         rows = np.arange(nb * K * n)
         rr = np.concatenate([rows, rows])
         cc = np.concatenate([np.tile(k_idx, nb), np.tile(k_idx + 1, nb)])
-        vv = np.concatenate([np.concatenate([b0 for b0, _ in blocks]),
-                             np.concatenate([b1 for _, b1 in blocks])])
+        vv = np.concatenate(
+            [np.concatenate([b0 for b0, _ in blocks]), np.concatenate([b1 for _, b1 in blocks])]
+        )
         A = ca.DM(sparse.csc_matrix((vv, (rr, cc)), shape=(nb * K * n, K + 1)))
         ub = np.full(K + 1, np.inf)
         if ls.velocity is not None:  # node velocity: b_k <= (v scale / q')^2
@@ -250,8 +258,9 @@ class ToppProblem:
             ub = np.min((ls.velocity * scn) ** 2 / np.maximum(Cn["d1"] ** 2, 1e-300), axis=1)
         return A, np.concatenate(lo), np.concatenate(hi), ub, kinds
 
-    def solve_convex(self, ls: LimitSet, scale: dict[str, np.ndarray] | None = None,
-                     b0: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
+    def solve_convex(
+        self, ls: LimitSet, scale: dict[str, np.ndarray] | None = None, b0: np.ndarray | None = None
+    ) -> tuple[np.ndarray, dict]:
         """Square path velocities ``b_k`` (K+1,) of the convex pass, and solver info."""
         s, K = self.s, self.s.size - 1
         ds = np.diff(s)
@@ -266,9 +275,15 @@ class ToppProblem:
             root = ca.sqrt(x + eps)
             f = ca.sum1(2 * ca.DM(ds) / (root[:-1] + root[1:]))
             nlp = {"x": x, "f": f, "g": ca.mtimes(A, x)}
-            opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
-                    "ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10,
-                    "ipopt.max_iter": self.max_iter, "ipopt.mu_strategy": "adaptive"}
+            opts = {
+                "print_time": False,
+                "ipopt.print_level": 0,
+                "ipopt.sb": "yes",
+                "ipopt.tol": 1e-10,
+                "ipopt.constr_viol_tol": 1e-10,
+                "ipopt.max_iter": self.max_iter,
+                "ipopt.mu_strategy": "adaptive",
+            }
             self._convex_solver = (key, ca.nlpsol("armlab_topp", "ipopt", nlp, opts))
         solver = self._convex_solver[1]
         lbx = np.zeros(K + 1)
@@ -286,8 +301,12 @@ class ToppProblem:
         st = solver.stats()
         b = np.maximum(np.asarray(res["x"]).ravel(), 0.0)
         b[0] = b[-1] = 0.0
-        info = {"success": bool(st.get("success")), "iterations": int(st.get("iter_count", 0)),
-                "solve_time_s": wall, "return_status": st.get("return_status", "")}
+        info = {
+            "success": bool(st.get("success")),
+            "iterations": int(st.get("iter_count", 0)),
+            "solve_time_s": wall,
+            "return_status": st.get("return_status", ""),
+        }
         return b, info
 
     def interval_ratios(self, traj: Trajectory, ls: LimitSet, dt: float) -> dict:
@@ -354,11 +373,17 @@ class ToppProblem:
         qddd = None
         if SDDD is not None:
             SDDD = SDDD[order][keep]
-            qddd = (d1 * SDDD[:, None] + 3 * d2 * (SD * SDD)[:, None]
-                    + d3 * SD[:, None] ** 3)
+            qddd = d1 * SDDD[:, None] + 3 * d2 * (SD * SDD)[:, None] + d3 * SD[:, None] ** 3
         qd[[0, -1]] = 0.0
-        tr = Trajectory(t - t[0], q, qd, qdd, qddd, joint_names=self.robot.joint_names,
-                        method="time_optimal_path")
+        tr = Trajectory(
+            t - t[0],
+            q,
+            qd,
+            qdd,
+            qddd,
+            joint_names=self.robot.joint_names,
+            method="time_optimal_path",
+        )
         tr.meta["s"] = S
         tr.meta["sd"] = SD
         return tr
@@ -395,8 +420,11 @@ class ToppProblem:
         if ls.velocity is not None:
             rows(ca.vec(d1 * C), -np.repeat(ls.velocity, K + 1), np.repeat(ls.velocity, K + 1))
         if ls.acceleration is not None:
-            rows(ca.vec(d1 * Aa + d2 * C**2), -np.repeat(ls.acceleration, K + 1),
-                 np.repeat(ls.acceleration, K + 1))
+            rows(
+                ca.vec(d1 * Aa + d2 * C**2),
+                -np.repeat(ls.acceleration, K + 1),
+                np.repeat(ls.acceleration, K + 1),
+            )
         if ls.torque is not None:
             tq = m * Aa + cc * C**2 + gg
             rows(ca.vec(tq), -np.repeat(ls.torque, K + 1), np.repeat(ls.torque, K + 1))
@@ -408,18 +436,28 @@ class ToppProblem:
                 rows(ca.vec(jk), -np.repeat(ls.jerk, K), np.repeat(ls.jerk, K))
         G = ca.vertcat(*g)
         nlp = {"x": x, "f": ca.sum1(h), "g": G}
-        opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
-                "ipopt.tol": 1e-9, "ipopt.constr_viol_tol": 1e-9,
-                "ipopt.acceptable_tol": 1e-4, "ipopt.acceptable_obj_change_tol": 1e-9,
-                "ipopt.acceptable_iter": 5, "ipopt.acceptable_constr_viol_tol": 1e-9,
-                "ipopt.max_iter": self.max_iter, "ipopt.mu_strategy": "adaptive"}
+        opts = {
+            "print_time": False,
+            "ipopt.print_level": 0,
+            "ipopt.sb": "yes",
+            "ipopt.tol": 1e-9,
+            "ipopt.constr_viol_tol": 1e-9,
+            "ipopt.acceptable_tol": 1e-4,
+            "ipopt.acceptable_obj_change_tol": 1e-9,
+            "ipopt.acceptable_iter": 5,
+            "ipopt.acceptable_constr_viol_tol": 1e-9,
+            "ipopt.max_iter": self.max_iter,
+            "ipopt.mu_strategy": "adaptive",
+        }
         solver = ca.nlpsol("armlab_topp_jerk", "ipopt", nlp, opts)
         # warm start: the convex solution, slowed down (sd * beta) until its jerk fits
         x0 = self._jerk_warm_start(ls, b)
-        lbx = np.concatenate([np.zeros(K + 1), np.full(K + 1, -np.inf), np.full(K, -np.inf),
-                              np.full(K, 1e-6)])
-        ubx = np.concatenate([np.full(K + 1, np.inf), np.full(K + 1, np.inf),
-                              np.full(K, np.inf), np.full(K, np.inf)])
+        lbx = np.concatenate(
+            [np.zeros(K + 1), np.full(K + 1, -np.inf), np.full(K, -np.inf), np.full(K, 1e-6)]
+        )
+        ubx = np.concatenate(
+            [np.full(K + 1, np.inf), np.full(K + 1, np.inf), np.full(K, np.inf), np.full(K, np.inf)]
+        )
         for blk in (0, K + 1):  # rest at both ends: sd = sdd = 0
             lbx[blk] = ubx[blk] = 0.0
             lbx[blk + K] = ubx[blk + K] = 0.0
@@ -428,12 +466,19 @@ class ToppProblem:
         wall = _time.perf_counter() - t0
         st = solver.stats()
         xs = np.asarray(res["x"]).ravel()
-        sol = {"sd": xs[:K + 1], "sdd": xs[K + 1:2 * K + 2], "sddd": xs[2 * K + 2:3 * K + 2],
-               "dt": xs[3 * K + 2:]}
-        info = {"success": bool(st.get("success"))
-                or st.get("return_status") == "Solved_To_Acceptable_Level",
-                "iterations": int(st.get("iter_count", 0)), "solve_time_s": wall,
-                "return_status": st.get("return_status", "")}
+        sol = {
+            "sd": xs[: K + 1],
+            "sdd": xs[K + 1 : 2 * K + 2],
+            "sddd": xs[2 * K + 2 : 3 * K + 2],
+            "dt": xs[3 * K + 2 :],
+        }
+        info = {
+            "success": bool(st.get("success"))
+            or st.get("return_status") == "Solved_To_Acceptable_Level",
+            "iterations": int(st.get("iter_count", 0)),
+            "solve_time_s": wall,
+            "return_status": st.get("return_status", ""),
+        }
         return sol, info
 
     def _jerk_warm_start(self, ls: LimitSet, b: np.ndarray) -> np.ndarray:
@@ -455,8 +500,11 @@ class ToppProblem:
             # fit a C2 cubic s(t) through (t_k, s_k) with zero end velocity/acceleration
             spl = CubicSpline(t, s, bc_type="clamped")
             cd, cdd, cddd = spl(t, 1), spl(t, 2), spl(t, 3)
-            jerk = (np.abs(Cn["d1"] * cddd[:, None]) + 3 * np.abs(Cn["d2"] * (cd * cdd)[:, None])
-                    + np.abs(Cn["d3"]) * np.abs(cd[:, None]) ** 3)
+            jerk = (
+                np.abs(Cn["d1"] * cddd[:, None])
+                + 3 * np.abs(Cn["d2"] * (cd * cdd)[:, None])
+                + np.abs(Cn["d3"]) * np.abs(cd[:, None]) ** 3
+            )
             ratio = np.max(jerk / ls.jerk) if ls.jerk is not None else 0.0
             if ls.acceleration is not None:
                 acc = np.abs(Cn["d1"] * cdd[:, None]) + np.abs(Cn["d2"]) * cd[:, None] ** 2
@@ -486,8 +534,7 @@ class ToppProblem:
         SD.append(0.0)
         SDD.append(0.0)
         SDDD.append(u[-1])
-        return self._map(np.array(times), np.array(S), np.array(SD), np.array(SDD),
-                         np.array(SDDD))
+        return self._map(np.array(times), np.array(S), np.array(SD), np.array(SDD), np.array(SDDD))
 
     # ------------------------------------------------------------------ solve
     def solve(self) -> Trajectory:
@@ -497,14 +544,22 @@ class ToppProblem:
         self._static_check(self.limits)
         ls0 = self.limits
         jl = ls0.joint_limits()
-        convex_ls = LimitSet(ls0.joint_names, ls0.lower_rad, ls0.upper_rad, ls0.velocity,
-                             ls0.acceleration, None, ls0.torque)
+        convex_ls = LimitSet(
+            ls0.joint_names,
+            ls0.lower_rad,
+            ls0.upper_rad,
+            ls0.velocity,
+            ls0.acceleration,
+            None,
+            ls0.torque,
+        )
         ls = convex_ls
         total_it, total_t, rounds = 0, 0.0, 0
         b = None
         K, n = self.s.size - 1, ls.n_joints
-        scale = {k: np.full((K, n), 1 - LIMIT_MARGIN)
-                 for k in ("velocity", "acceleration", "torque")}
+        scale = {
+            k: np.full((K, n), 1 - LIMIT_MARGIN) for k in ("velocity", "acceleration", "torque")
+        }
         last_b = None
         while True:  # convex pass with local back-off
             b, info = self.solve_convex(ls, scale, last_b)
@@ -526,8 +581,7 @@ class ToppProblem:
                 break
             for kind, r in over.items():
                 if rounds == 0:  # first: tighten only the intervals that overshoot
-                    f = np.where(r > 1 + CHECK_TOL, (1 - BACKOFF_MARGIN) / np.maximum(r, 1.0),
-                                 1.0)
+                    f = np.where(r > 1 + CHECK_TOL, (1 - BACKOFF_MARGIN) / np.maximum(r, 1.0), 1.0)
                 else:  # then the residue moves around: tighten the whole kind a little
                     f = (1 - 10 * CHECK_TOL) / float(np.max(r))
                 scale[kind] = scale[kind] * f
@@ -535,8 +589,15 @@ class ToppProblem:
         passes = ["convex"]
         b_convex = b
         if ls0.jerk is not None:
-            ls = LimitSet(ls0.joint_names, ls0.lower_rad, ls0.upper_rad, ls0.velocity,
-                          ls0.acceleration, ls0.jerk, ls0.torque)
+            ls = LimitSet(
+                ls0.joint_names,
+                ls0.lower_rad,
+                ls0.upper_rad,
+                ls0.velocity,
+                ls0.acceleration,
+                ls0.jerk,
+                ls0.torque,
+            )
             jrounds = 0
             while True:
                 sol, info = self.solve_jerk(ls, b_convex)
@@ -546,10 +607,12 @@ class ToppProblem:
                     if jrounds > 0:
                         break
                     raise ArmlabError(
-                        f"time_optimal_path: the jerk pass failed ({info['return_status']})")
+                        f"time_optimal_path: the jerk pass failed ({info['return_status']})"
+                    )
                 traj = self.trajectory_from_jerk(sol)
-                rep = traj.check_limits(self.robot, dt=self._dt(traj), limits=jl,
-                                        torque=ls.torque is not None)
+                rep = traj.check_limits(
+                    self.robot, dt=self._dt(traj), limits=jl, torque=ls.torque is not None
+                )
                 if not self._backoff(rep, jrounds):
                     break
                 ls = self._scaled(ls, rep)
@@ -557,21 +620,37 @@ class ToppProblem:
             rounds += jrounds
             passes.append("jerk")
         dt = self._dt(traj)
-        traj.report = traj.check_limits(self.robot, dt=dt, limits=jl,
-                                        torque=ls0.torque is not None)
-        binding = [(k, traj.joint_names[i], float(r[i]))
-                   for k, r in traj.report.ratios.items() for i in range(len(r))
-                   if r[i] >= 1 - 2e-3 and k != "position"]
-        stats = {"solver": f"ipopt (casadi {ca.__version__})", "iterations": total_it,
-                 "solve_time_s": total_t, "n_intervals": int(self.s.size - 1),
-                 "success": traj.report.ok(CHECK_TOL),
-                 "passes": passes, "backoff_rounds": rounds, "duration_s": traj.duration,
-                 "binding": binding, "report_dt_s": dt, "ok": traj.report.ok(CHECK_TOL)}
+        traj.report = traj.check_limits(self.robot, dt=dt, limits=jl, torque=ls0.torque is not None)
+        binding = [
+            (k, traj.joint_names[i], float(r[i]))
+            for k, r in traj.report.ratios.items()
+            for i in range(len(r))
+            if r[i] >= 1 - 2e-3 and k != "position"
+        ]
+        stats = {
+            "solver": f"ipopt (casadi {ca.__version__})",
+            "iterations": total_it,
+            "solve_time_s": total_t,
+            "n_intervals": int(self.s.size - 1),
+            "success": traj.report.ok(CHECK_TOL),
+            "passes": passes,
+            "backoff_rounds": rounds,
+            "duration_s": traj.duration,
+            "binding": binding,
+            "report_dt_s": dt,
+            "ok": traj.report.ok(CHECK_TOL),
+        }
         self.stats = stats
         traj.stats = stats
         refuse_violation(traj, "time_optimal_path", rounds)
-        traj.meta.update({"path_s_grid": self.s.copy(), "b": b_convex,
-                          "limits": ls0.to_dict(), "path_points": self.path.points.copy()})
+        traj.meta.update(
+            {
+                "path_s_grid": self.s.copy(),
+                "b": b_convex,
+                "limits": ls0.to_dict(),
+                "path_points": self.path.points.copy(),
+            }
+        )
         traj.meta["topp"] = self
         return traj
 
@@ -611,12 +690,19 @@ class ToppProblem:
             lo_a = []  # constraints alpha * a + beta * b in [lo, hi]
             if ls.acceleration is not None:
                 for i in range(ls.n_joints):
-                    lo_a.append((C["d1"][k, i], C["d2"][k, i], -ls.acceleration[i],
-                                 ls.acceleration[i]))
+                    lo_a.append(
+                        (C["d1"][k, i], C["d2"][k, i], -ls.acceleration[i], ls.acceleration[i])
+                    )
             if ls.torque is not None:
                 for i in range(ls.n_joints):
-                    lo_a.append((C["m"][k, i], C["c"][k, i], -ls.torque[i] - C["g"][k, i],
-                                 ls.torque[i] - C["g"][k, i]))
+                    lo_a.append(
+                        (
+                            C["m"][k, i],
+                            C["c"][k, i],
+                            -ls.torque[i] - C["g"][k, i],
+                            ls.torque[i] - C["g"][k, i],
+                        )
+                    )
             bmax[k] = _max_b(lo_a, bv[k])
         out["all"] = np.sqrt(bmax)
         return out
@@ -668,10 +754,20 @@ def path_grid(n_intervals: int, end_levels: int = END_REFINEMENT) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- public
-def build_topp(robot, path, *, v_max=None, a_max=None, j_max=None, tau_max=None,
-               payload_kg: float | None = None, n_grid: int | None = None,
-               check_dt: float | None = None, max_backoff: int = 4,
-               max_iter: int = 3000) -> ToppProblem:
+def build_topp(
+    robot,
+    path,
+    *,
+    v_max=None,
+    a_max=None,
+    j_max=None,
+    tau_max=None,
+    payload_kg: float | None = None,
+    n_grid: int | None = None,
+    check_dt: float | None = None,
+    max_backoff: int = 4,
+    max_iter: int = 3000,
+) -> ToppProblem:
     """Build (do not solve) the problem of :func:`time_optimal_path`; same parameters."""
     if payload_kg is not None:
         robot = robot.with_payload(payload_kg)
@@ -704,14 +800,31 @@ def build_topp(robot, path, *, v_max=None, a_max=None, j_max=None, tau_max=None,
     if int(n_grid) < 4:
         raise InputError("n_grid must be >= 4")
     s = path_grid(int(n_grid))
-    return ToppProblem(robot=robot, path=gp, limits=ls, s=s, check_dt=check_dt,
-                       max_backoff=int(max_backoff), max_iter=int(max_iter))
+    return ToppProblem(
+        robot=robot,
+        path=gp,
+        limits=ls,
+        s=s,
+        check_dt=check_dt,
+        max_backoff=int(max_backoff),
+        max_iter=int(max_iter),
+    )
 
 
-def time_optimal_path(robot, path, *, v_max=None, a_max=None, j_max=None, tau_max=None,
-                      payload_kg: float | None = None, n_grid: int | None = None,
-                      check_dt: float | None = None, max_backoff: int = 4,
-                      max_iter: int = 3000) -> Trajectory:
+def time_optimal_path(
+    robot,
+    path,
+    *,
+    v_max=None,
+    a_max=None,
+    j_max=None,
+    tau_max=None,
+    payload_kg: float | None = None,
+    n_grid: int | None = None,
+    check_dt: float | None = None,
+    max_backoff: int = 4,
+    max_iter: int = 3000,
+) -> Trajectory:
     """Fastest rest-to-rest motion along a fixed joint path (TOPP).
 
     Parameters
@@ -746,7 +859,17 @@ def time_optimal_path(robot, path, *, v_max=None, a_max=None, j_max=None, tau_ma
         A path point outside a joint range, gravity alone above a torque limit somewhere on
         the path (named joint and ``s``), or no feasible parameterisation.
     """
-    prob = build_topp(robot, path, v_max=v_max, a_max=a_max, j_max=j_max, tau_max=tau_max,
-                      payload_kg=payload_kg, n_grid=n_grid, check_dt=check_dt,
-                      max_backoff=max_backoff, max_iter=max_iter)
+    prob = build_topp(
+        robot,
+        path,
+        v_max=v_max,
+        a_max=a_max,
+        j_max=j_max,
+        tau_max=tau_max,
+        payload_kg=payload_kg,
+        n_grid=n_grid,
+        check_dt=check_dt,
+        max_backoff=max_backoff,
+        max_iter=max_iter,
+    )
     return prob.solve()

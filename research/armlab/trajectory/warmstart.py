@@ -19,8 +19,15 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["scurve_min_duration", "sync_scurves", "scurve_phases", "eval_scurves", "phase_grid",
-           "fit_piecewise", "integrate_piecewise"]
+__all__ = [
+    "scurve_min_duration",
+    "sync_scurves",
+    "scurve_phases",
+    "eval_scurves",
+    "phase_grid",
+    "fit_piecewise",
+    "integrate_piecewise",
+]
 
 
 def _t_acc(vp, a, j):
@@ -115,8 +122,15 @@ def scurve_phases(D, vp, T, a, j) -> list[list[tuple[float, float, float]]]:
             apk = ji * tj
         tv = max(T - 2.0 * (2.0 * tj + ta), 0.0)
         jj = 0.0 if np.isinf(ji) else ji
-        phases = [(tj, 0.0, jj), (ta, apk, 0.0), (tj, apk, -jj), (tv, 0.0, 0.0),
-                  (tj, 0.0, -jj), (ta, -apk, 0.0), (tj, -apk, jj)]
+        phases = [
+            (tj, 0.0, jj),
+            (ta, apk, 0.0),
+            (tj, apk, -jj),
+            (tv, 0.0, 0.0),
+            (tj, 0.0, -jj),
+            (ta, -apk, 0.0),
+            (tj, -apk, jj),
+        ]
         out.append([(float(d), sgn * a0, sgn * jk) for d, a0, jk in phases if d > 0])
     return out
 
