@@ -1,10 +1,10 @@
-# armlab — the two commands: `make demo` and `make test`.
+# armlab — the two commands: `make demo` and `make test` (`make lint`: the CI quality gates).
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: demo test bench clean setup
+.PHONY: demo test lint bench clean setup
 
 setup: $(STAMP)
 
@@ -19,6 +19,12 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	MPLBACKEND=Agg $(PY) -m pytest -q
+
+# ruff (lint + format check) and mypy (files and settings in pyproject.toml [tool.mypy])
+lint: $(STAMP)
+	$(VENV)/bin/ruff check research tests benchmarks
+	$(VENV)/bin/ruff format --check research tests benchmarks
+	$(VENV)/bin/mypy
 
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e ".[test,bench]"

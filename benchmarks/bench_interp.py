@@ -140,7 +140,7 @@ def main() -> None:
         name, r, n = ours(label, lambda f=fn: f(robot, W, dt=dt_for(probe)))
         rows.append((name, r, n, "-", None))
     t, plan = best_time(lambda: trapezoid_steps(**STEPS_ARGS))
-    rows.append(("trapezoid_steps (seed 002)", rate(plan.n_steps, t), plan.n_steps, "-", None))
+    rows.append(("trapezoid_steps (SHU paper)", rate(plan.n_steps, t), plan.n_steps, "-", None))
 
     # -- Cartesian ----------------------------------------------------------------------
     qc = np.array(Q_CART)
@@ -201,7 +201,7 @@ def main() -> None:
         return k
 
     t, k = best_time(online)
-    rows.append(("OnlineInterpolator.step (seed 001)", rate(k, t), k, "-", None))
+    rows.append(("OnlineInterpolator.step (Li, Meng, Chen)", rate(k, t), k, "-", None))
 
     # -- table --------------------------------------------------------------------------
     print(f"robot {ROBOT}, ~{N_POINTS} samples per call, best of {REPEATS}\n")
@@ -219,7 +219,7 @@ def main() -> None:
         "\npoints/s = samples produced / wall time of one call. armlab planners also choose the"
         "\nduration from the joint limits and verify them (torque=True adds inverse dynamics at"
         "\nevery sample); the toolbox functions only evaluate the profile for a given time."
-        "\n'ptp_sync velocity torque=True': the one-period velocity steps of seed 000 need more"
+        "\n'ptp_sync velocity torque=True': the one-period velocity steps of Jiang 1987 need more"
         "\ntorque than the drives have, so the planner slows down (more samples)."
     )
 

@@ -241,7 +241,7 @@ def bench_numerical(rows: list) -> None:
         }
         for start, q0 in seeds.items():
             res, t = timed(
-                lambda q0=q0: [
+                lambda q0=q0, robot=robot, T=T, n=n: [
                     ik_solve(
                         robot,
                         T[k],
@@ -271,7 +271,7 @@ def bench_numerical(rows: list) -> None:
             T_end = T @ np.linalg.inv(tool)
             np.random.seed(p["seed"])  # ik_LM restarts draw from numpy's global generator
             sol, t = timed(
-                lambda q0=q0, kw=kw: [
+                lambda q0=q0, kw=kw, twin=twin, T_end=T_end, n=n: [
                     twin.ik_LM(
                         T_end[k],
                         q0=q0[k],

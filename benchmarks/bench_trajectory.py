@@ -311,10 +311,8 @@ def main() -> None:
         rows.append((name, build, r1, r2, r3))
 
     print()
-    print(
-        "armlab.trajectory optimisers vs peers (seed %d%s)"
-        % (SEED, ", quick" if args.quick else "")
-    )
+    quick = ", quick" if args.quick else ""
+    print(f"armlab.trajectory optimisers vs peers (seed {SEED:d}{quick})")
     hdr = (
         f"{'benchmark':<47}{'robot':<11}{'n':>4}  {'ratio med':>9}  {'ratio max':>9}  "
         f"{'ours [s] med':>12}  {'peer [s] med':>12}  {'feasible ours/peer':>18}"

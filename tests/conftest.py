@@ -88,3 +88,29 @@ def ur5():
 @pytest.fixture(scope="session")
 def panda():
     return armlab.load_robot(PANDA_URDF, lock_joints=PANDA_FINGERS, tool_frame="panda_hand")
+
+
+def make_study_folder(folder: Path, robot, trajectory, gains=None, profile=None) -> Path:
+    """A study folder as ``armlab run`` leaves it for a design that passed, assembled from
+    objects (for export tests whose trajectory no planner would produce): design.json,
+    trajectory.npz, gains.json and a summary.json with the design verdict and checksums."""
+    from armlab.deploy import save_trajectory, write_gains
+    from armlab.deploy.provenance import file_sha256
+    from armlab.io import write_json
+    from armlab.robot import load_profile
+    from armlab.study.record import design_record
+
+    folder.mkdir(parents=True, exist_ok=True)
+    controller = load_profile(profile)
+    write_json(folder / "design.json", design_record(robot, controller))
+    save_trajectory(folder / "trajectory.npz", trajectory, robot)
+    names = ["design.json", "trajectory.npz"]
+    if gains is not None:
+        write_gains(folder / "gains.json", gains, format="json")
+        names.append("gains.json")
+    summary = {
+        "design": {"verdict": "pass", "failed_checks": [], "advisories": []},
+        "files": {n: file_sha256(folder / n) for n in names},
+    }
+    write_json(folder / "summary.json", summary)
+    return folder

@@ -1,5 +1,5 @@
 """armlab.control: joint plant (thesis ch. 5), robust cascade tuning, discrete PID, closed-loop
-arm simulation, seed-004 force loop, gains JSON."""
+arm simulation, force loop of Kong et al. 1998, gains JSON."""
 
 from __future__ import annotations
 
@@ -293,7 +293,7 @@ def test_simulation_input_errors(teachbot6, arm_gains):
 
 
 # ---------------------------------------------------------------------------- force loop
-def test_seed004_designs_are_stable_on_their_environment():
+def test_kong1998_designs_are_stable_on_their_environment():
     for KE, gains in SEED_DESIGNS.items():
         r = force_loop(KE, duration_s=6.0)
         assert r.gains == gains
@@ -301,12 +301,12 @@ def test_seed004_designs_are_stable_on_their_environment():
         assert abs(r.final_error_N) < 0.02 * r.setpoint_N
         # the linear model (contact kept) has its poles inside the unit circle
         assert np.all(np.abs(ct.poles(force_loop_model(KE))) < 1.0)
-    # stiffer environment, faster loop with the seed's gains (figs. 6-8)
+    # stiffer environment, faster loop with the paper's gains (Kong et al. 1998, figs. 6-8)
     ts = [force_loop(KE, duration_s=6.0).settling_time_s for KE in sorted(SEED_DESIGNS)]
     assert ts[0] > ts[1] > ts[2]
 
 
-def test_seed004_robustness_and_mismatch():
+def test_kong1998_robustness_and_mismatch():
     rob = force_robustness(700.0, n_runs=6, seed=3, duration_s=5.0)
     assert np.all((rob.natural_frequency_rad_s >= 290) & (rob.natural_frequency_rad_s <= 350))
     assert np.all((rob.damping >= 0.1) & (rob.damping <= 0.3))

@@ -1,8 +1,8 @@
 """armlab.deploy: controller profiles, set-point tables, pre-flight checks, file formats, export.
 
-Reference values: the seed-002 DDA card (digest §3: 1 ms .. 2 s period, 4095 pulses per axis per
-period, x2/x4 decoding, 12-bit +-10 V D/A) and teachbot6's drives (1000-line encoders, x4,
-reducer ratios of thesis table 4.3).
+Reference values: the DDA card of the SHU controller paper (§1: 1 ms .. 2 s period, 4095 pulses
+per axis per period, x2/x4 decoding, 12-bit +-10 V D/A) and teachbot6's drives (1000-line
+encoders, x4, reducer ratios of HEU thesis table 4.3).
 """
 
 from __future__ import annotations
@@ -39,6 +39,7 @@ from armlab.deploy import (
 from armlab.deploy.numtext import format_list, format_rows
 from armlab.errors import InputError, LimitViolation
 from armlab.trajectory import Trajectory
+from conftest import make_study_folder
 
 RATIOS = (125, 410, 385, 80, 298, 128)  # thesis table 4.3
 
@@ -129,7 +130,7 @@ def write_profile(path: Path, **fields) -> Path:
 
 
 # ---------------------------------------------------------------------- profiles
-def test_reference_profile_is_the_seed_002_card():
+def test_reference_profile_is_the_shu_controller_card():
     p = load_profile()
     assert p.name == "reference_dda"
     assert p.cycle_s == 1e-3 and p.cycle_range_s == (1e-3, 2.0)
@@ -318,8 +319,9 @@ def test_one_percent_too_fast_is_refused_naming_cycle_joint_limit(teachbot6):
 
 
 def test_pulse_limit_4095_passes_4096_refused(teachbot6):
-    """Seed 002: 0..4095 pulses per axis per DDA period. On a 25 ms period joint 5 (189 713
-    counts/rad) needs ~4096 pulses per cycle at 0.8635 rad/s, below its 0.875 rad/s limit."""
+    """SHU controller paper, §1: 0..4095 pulses per axis per DDA period. On a 25 ms period
+    joint 5 (189 713 counts/rad) needs ~4096 pulses per cycle at 0.8635 rad/s, below its
+    0.875 rad/s limit."""
     prof = load_profile().with_cycle(0.025)
     cpr = teachbot6.drives["joint5"].counts_per_rad
     ok = trapezoid_move(teachbot6, "joint5", 4094.5 / (cpr * 0.025), 3.0, 1.0)
@@ -362,7 +364,7 @@ def test_start_pose_range_continuity_and_order(teachbot6):
     assert (f.check, f.joint) == ("joint range", "joint3")
     first = int(np.argmax(q[:, 2] > np.radians(160) + 1e-9))  # samples are on the 10 ms grid
     assert abs(f.t_s - t[first]) <= 0.01 + 1e-12
-    # a jump: the seed-000 PTP without ramps starts at full speed (velocity step from rest)
+    # a jump: the Jiang 1987 PTP without ramps starts at full speed (velocity step from rest)
     v = 0.2
     q = np.zeros((11, 6))
     q[:, 0] = v * np.linspace(0, 1, 11)
@@ -430,18 +432,13 @@ def test_trajectory_file_round_trip(teachbot6, tmp_path):
 
 # ---------------------------------------------------------------------- export / CLI
 def make_study(tmp_path, robot, traj, name="study") -> Path:
-    study = tmp_path / name
-    study.mkdir()
-    save_trajectory(study / "trajectory.npz", traj, robot)
-    (study / "summary.json").write_text("{}")
-    return study
+    return make_study_folder(tmp_path / name, robot, traj)
 
 
 def test_export_formats_carry_checksums(teachbot6, tmp_path):
     tr = cosine_motion(teachbot6, duration_s=3.0, n=301)
     study = make_study(tmp_path, teachbot6, tr)
     sha = trajectory_sha256(tr)
-    src = file_sha256(study / "trajectory.npz")
     out = tmp_path / "out"
     for fmt, name in (
         ("csv", "setpoints.csv"),
@@ -449,20 +446,20 @@ def test_export_formats_carry_checksums(teachbot6, tmp_path):
         ("npz", "setpoints.npz"),
         ("c", "setpoints.h"),
     ):
-        paths = export_study(study, fmt=fmt, out_dir=out)
+        paths = export_study(study, fmt=fmt, out_dir=out).files
         assert [p.name for p in paths] == [name]  # no gains.json in this study
         if fmt == "npz":
             with np.load(paths[0]) as z:
                 text = str(z["meta_json"])
         else:
             text = paths[0].read_text()
-        assert sha in text and src in text and armlab.__version__ in text
-    assert read_setpoints(out / "setpoints.csv").meta["source"]["sha256"] == src
+        assert sha in text and armlab.__version__ in text
+    assert read_setpoints(out / "setpoints.csv").meta["trajectory_sha256"] == sha
     with pytest.raises(InputError, match="no gains.json"):
         export_study(study, fmt="ros2", out_dir=out)
     with pytest.raises(InputError, match="unknown export format"):
         export_study(study, fmt="xlsx", out_dir=out)
-    with pytest.raises(InputError, match="no trajectory.npz"):
+    with pytest.raises(InputError, match="no summary.json"):
         export_study(tmp_path / "out", fmt="csv", out_dir=tmp_path / "o2")
 
 

@@ -19,10 +19,10 @@ from armlab.deploy import (
     gains_sha256,
     gains_to_ros2_yaml,
     load_gains,
-    save_trajectory,
     write_gains,
 )
 from armlab.errors import InputError
+from conftest import make_study_folder
 
 ct = pytest.importorskip("control")
 tuning = pytest.importorskip("armlab.control.tuning")
@@ -169,18 +169,16 @@ def test_gains_c_header_compiles(arm_gains, tmp_path):
 
 
 def test_export_study_with_gains(teachbot6, arm_gains, tmp_path, capsys):
-    study = tmp_path / "study"
-    study.mkdir()
     t = np.linspace(0, 1, 11)
     z = np.zeros((11, 6))
     from armlab.trajectory import Trajectory
 
-    save_trajectory(study / "trajectory.npz", Trajectory(t, z, z, z), teachbot6)
-    (study / "gains.json").write_text(arm_gains.to_json())
+    study = make_study_folder(tmp_path / "study", teachbot6, Trajectory(t, z, z, z), arm_gains)
     src = file_sha256(study / "gains.json")
     out = tmp_path / "out"
     names = {
-        fmt: [p.name for p in export_study(study, fmt, None, out)] for fmt in ("json", "c", "ros2")
+        fmt: [p.name for p in export_study(study, fmt, None, out).files]
+        for fmt in ("json", "c", "ros2")
     }
     assert names == {
         "json": ["setpoints.json", "gains.json"],
@@ -192,6 +190,6 @@ def test_export_study_with_gains(teachbot6, arm_gains, tmp_path, capsys):
         assert src in text and gains_sha256(arm_gains) in text and armlab.__version__ in text
     assert load_gains(out / "gains.json").to_dict() == arm_gains.to_dict()
     assert cli_main(["export", str(study), "--format", "ros2", "--out", str(out)]) == 0
-    # never overwrite the study's own gains.json
-    with pytest.raises(InputError, match="refusing to overwrite"):
+    # never write into the study folder (its gains.json is the study's record)
+    with pytest.raises(InputError, match="refusing to write into the study folder"):
         export_study(study, "json", None, study)

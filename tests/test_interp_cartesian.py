@@ -1,5 +1,6 @@
-"""Cartesian interpolators: line (seed 000 eq. 6-9, thesis 6.3.3), arc through three points
-(seed 000 eq. 10-24, thesis 6.3.4-6.3.5), tangent-arc corner blending (seed 002 2.2(2))."""
+"""Cartesian interpolators: line (Jiang 1987, eq. 6-9; HEU thesis, 6.3.3), arc through three
+points (Jiang 1987, eq. 10-24; HEU thesis, 6.3.4-6.3.5), tangent-arc corner blending (SHU
+controller paper, §2.2 (2))."""
 
 from __future__ import annotations
 
@@ -69,7 +70,7 @@ def test_circle_degenerate_points():
         circle_through(p, p, p)
 
 
-def test_blend_geometry_seed_002():
+def test_blend_geometry_shu_controller_paper():
     # square corner, radius R: tangent points at R tan(45 deg) = R from the corner, centre at
     # R / sin(45 deg) from it on the bisector
     P = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0]], float)
@@ -194,9 +195,9 @@ def test_line_numerical_ik_arm(ur5):
     traj = line(ur5, T0, T1, 0.2, q_start=q0, a_max=3.0)
     P = fk_batch(ur5, traj.q)[:, :3, 3]
     assert _distance_to_segment(P, T0[:3, 3], T1[:3, 3]).max() <= 1e-9
-    from armlab.trajectory.timescale import planner_limits
+    from armlab.robot import resolve_limits
 
-    assert traj.check_limits(ur5, limits=planner_limits(ur5, a_max=3.0)).ok(1e-9)
+    assert traj.check_limits(ur5, limits=resolve_limits(ur5, a_max=3.0)).ok(1e-9)
 
 
 # ---------------------------------------------------------------------- arc

@@ -1,5 +1,5 @@
-"""Classical joint-space interpolators: seed 002 step lengths, 1-D profiles, synchronised PTP
-(seed 000 eq. 1-5), cubic/quintic via points (thesis 6.3.2)."""
+"""Classical joint-space interpolators: SHU controller paper step lengths, 1-D profiles,
+synchronised PTP (Jiang 1987, eq. 1-5), cubic/quintic via points (HEU thesis, 6.3.2)."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from armlab.errors import InfeasibleError, InputError, LimitViolation
+from armlab.robot import resolve_limits
 from armlab.trajectory import (
     cubic_via,
     double_s_profile,
@@ -27,9 +28,8 @@ from armlab.trajectory.profiles import (
     trapezoid_min_time,
     trapezoid_profile_for_duration,
 )
-from armlab.trajectory.timescale import planner_limits
 
-# ---------------------------------------------------------------------- seed 002 table 1
+# ------------------------------------------------------- SHU controller paper, table 1
 
 
 def test_steps_table_values_with_cruise():
@@ -241,7 +241,7 @@ def test_ptp_resamples_within_limits(teachbot6, profile):
             assert r.ratios["jerk"].max() <= 1.01
 
 
-def test_ptp_velocity_is_seed_000_eq_4(teachbot6):
+def test_ptp_velocity_is_jiang1987_eq_4(teachbot6):
     # velocity limits only (a_max = inf): T = max |dQ_i| / w_i (eq. 3), w_i = dQ_i / T (eq. 4)
     dt = 0.1
     traj = ptp_sync(teachbot6, Q0, Q1, "velocity", dt=dt, a_max=np.inf)
@@ -270,7 +270,7 @@ def test_ptp_degenerate_and_bad_input(teachbot6, ur5):
     assert traj.n_samples == 1 and traj.duration == 0 and traj.meta["zero_length"]
     far = Q1.copy()
     far[2] = 3.0  # joint3 range is -90..160 deg
-    with pytest.raises(LimitViolation, match="joint3"):
+    with pytest.raises(InputError, match=r"ptp_sync q_goal: joint3 = 3 rad is outside its range"):
         ptp_sync(teachbot6, Q0, far)
     with pytest.raises(InputError, match="profile"):
         ptp_sync(teachbot6, Q0, Q1, "cubic")
@@ -279,7 +279,7 @@ def test_ptp_degenerate_and_bad_input(teachbot6, ur5):
     with pytest.raises(InputError, match="a_max"):  # a plain URDF has no acceleration limits
         ptp_sync(ur5, np.zeros(6), np.full(6, 0.3))
     traj = ptp_sync(ur5, np.zeros(6), np.full(6, 0.3), a_max=2.0)
-    assert traj.check_limits(ur5, limits=planner_limits(ur5, a_max=2.0)).ok(1e-9)
+    assert traj.check_limits(ur5, limits=resolve_limits(ur5, a_max=2.0)).ok(1e-9)
 
 
 @settings(

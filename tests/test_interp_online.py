@@ -1,4 +1,4 @@
-"""Real-time single-step interpolator with speed override (seed 001), and the plots."""
+"""Real-time single-step interpolator with speed override (Li, Meng, Chen), and the plots."""
 
 from __future__ import annotations
 
@@ -95,7 +95,7 @@ def test_target_moved_mid_motion():
 
 
 def test_end_speed_above_cruise_and_flyby():
-    # v_end > velo: the end segment accelerates (seed 001 step 4)
+    # v_end > velo: the end segment accelerates (Li, Meng, Chen, step 4)
     oi = OnlineInterpolator(0.5, 0.1, 0.5, v_start=0.0, v_end=0.4)
     run = oi.run(PERIOD)
     _check_run(run, 0.5, PERIOD, 0.4, 0.5)

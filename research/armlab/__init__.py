@@ -14,6 +14,7 @@ Conventions (used everywhere in the package)
 
 from armlab.errors import (
     ArmlabError,
+    DesignFailure,
     InfeasibleError,
     InputError,
     LimitViolation,
@@ -21,12 +22,13 @@ from armlab.errors import (
     SpecError,
     UnreachableError,
 )
-from armlab.robot import Robot, load_robot
+from armlab.robot import Limits, Robot, load_robot, resolve_limits
 
 __version__ = "0.1.0"
 
 __all__ = [
     "ArmlabError",
+    "DesignFailure",
     "InfeasibleError",
     "InputError",
     "LimitViolation",
@@ -34,6 +36,8 @@ __all__ = [
     "SpecError",
     "UnreachableError",
     "Robot",
+    "Limits",
     "load_robot",
+    "resolve_limits",
     "__version__",
 ]

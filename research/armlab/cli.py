@@ -1,6 +1,8 @@
 """The ``armlab`` command line: ``info``, ``run``, ``sweep``, ``export``.
 
-Every :class:`armlab.ArmlabError` becomes one line on stderr and exit status 2; no traceback.
+Exit status: 0 the design passes (or the command succeeded), 1 the study ran and the design fails
+(the failed checks on stderr; also an export refused for a failing design), 2 bad input or usage:
+every other :class:`armlab.ArmlabError` becomes one line on stderr, no traceback.
 """
 
 from __future__ import annotations
@@ -11,7 +13,7 @@ import sys
 
 import numpy as np
 
-from armlab.errors import ArmlabError
+from armlab.errors import ArmlabError, DesignFailure
 
 __all__ = ["main", "info_text"]
 
@@ -67,8 +69,29 @@ def _cmd_info(args) -> int:
 def _cmd_run(args) -> int:
     from armlab.study import run_study
 
-    run_study(args.study, args.out, workers=None)
-    return 0
+    summary = run_study(
+        args.study, args.out, workers=None, force=args.force, overwrite=args.overwrite
+    )
+    return _verdict_status(summary.get("design", {}))
+
+
+def _verdict_status(design: dict) -> int:
+    """Exit status of a finished study: 0 the design passes, 1 it fails or was not judged
+    (the failed checks, or what was not judged, on stderr)."""
+    verdict = design.get("verdict")
+    if verdict == "pass":
+        return 0
+    if verdict == "fail":
+        failed = design.get("failed_checks", [])
+        print(f"armlab: the design fails {len(failed)} check(s):", file=sys.stderr)
+        for line in failed:
+            print(f"  {line}", file=sys.stderr)
+    else:
+        print(
+            "armlab: the design was not judged: " + "; ".join(design.get("not_judged", [])),
+            file=sys.stderr,
+        )
+    return 1
 
 
 def _cmd_sweep(args) -> int:
@@ -81,9 +104,12 @@ def _cmd_sweep(args) -> int:
 def _cmd_export(args) -> int:
     from armlab.deploy import export_study
 
-    for path in export_study(
-        args.study_dir, fmt=args.format, profile=args.profile, out_dir=args.out
-    ):
+    result = export_study(
+        args.study_dir, fmt=args.format, profile=args.profile, out_dir=args.out, force=args.force
+    )
+    for note in result.notes:
+        print(f"armlab: {note}", file=sys.stderr)
+    for path in result.files:
         print(path)
     return 0
 
@@ -97,6 +123,16 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("run", help="run one study (default: the built-in teachbot6 study)")
     s.add_argument("study", nargs="?", default=None, help="STUDY.toml")
     s.add_argument("--out", required=True, help="output folder")
+    s.add_argument(
+        "--force",
+        action="store_true",
+        help="write setpoints.csv even if the design fails a check (recorded in the file)",
+    )
+    s.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="clear an output folder that holds another study's outputs",
+    )
     s.set_defaults(func=_cmd_run)
     s = sub.add_parser("sweep", help="run a parameter sweep of studies")
     s.add_argument("sweep", help="SWEEP.toml (or 'demo': the shipped example)")
@@ -105,10 +141,24 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--scheduler", default=None, help="Dask scheduler address tcp://host:port")
     s.set_defaults(func=_cmd_sweep)
     s = sub.add_parser("export", help="set-point tables and gains of a finished study")
-    s.add_argument("study_dir")
-    s.add_argument("--format", default="csv", choices=["csv", "json", "npz", "c", "ros2"])
-    s.add_argument("--profile", default=None, help="controller profile name or TOML path")
-    s.add_argument("--out", required=True)
+    s.add_argument("study_dir", help="folder written by armlab run")
+    s.add_argument(
+        "--format",
+        default="csv",
+        choices=["csv", "json", "npz", "c", "ros2"],
+        help="set-point table format (c: C headers; ros2: ros2_control gains YAML)",
+    )
+    s.add_argument(
+        "--profile",
+        default=None,
+        help="controller profile name or TOML path (default: the study's own controller)",
+    )
+    s.add_argument("--out", required=True, help="output folder (not the study folder)")
+    s.add_argument(
+        "--force",
+        action="store_true",
+        help="export a design that fails a check (the file records the failed checks)",
+    )
     s.set_defaults(func=_cmd_export)
     return p
 
@@ -118,6 +168,9 @@ def main(argv: list[str] | None = None) -> int:
     np.set_printoptions(precision=4, suppress=True)
     try:
         return int(args.func(args) or 0)
+    except DesignFailure as exc:
+        print(f"armlab: {exc}", file=sys.stderr)
+        return 1
     except ArmlabError as exc:
         print(f"armlab: error: {exc}", file=sys.stderr)
         return 2

@@ -13,6 +13,7 @@ __all__ = [
     "LimitViolation",
     "SpecError",
     "InputError",
+    "DesignFailure",
 ]
 
 
@@ -42,3 +43,9 @@ class LimitViolation(ArmlabError):
 
 class SpecError(ArmlabError, ValueError):
     """A specification (control spec, study file, sweep file) is invalid or impossible."""
+
+
+class DesignFailure(ArmlabError):
+    """The design fails checks (sizing, tracking budget, controller limits) and the requested
+    action needs a passing design (exporting tables); the message names the failed checks.
+    The command line exits with status 1 for it, as for a study whose design fails."""

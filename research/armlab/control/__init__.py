@@ -1,7 +1,7 @@
 """Joint servo control: plant, cascaded PID tuning, discretisation, arm simulation, force loop.
 
-Sources: thesis ch. 5 (digest §1: DC-motor joint model, cascaded current/speed/position loops,
-incremental PID, feed-forward 5.2) and seed 004 (digest §4: outer force loop).
+Sources: HEU thesis, ch. 5 (DC-motor joint model, cascaded current/speed/position loops,
+incremental PID, feed-forward 5.2) and Kong et al. 1998, §2.2 (outer force loop).
 
 Modules
 -------
@@ -11,7 +11,7 @@ loops       the three loops as python-control models, continuous and discrete; m
 tuning      robust inside-out tuning (tune_cascade, tune_arm), check_cascade
 discrete    incremental PID with anti-windup, D/A and encoder quantisers
 simulate    closed-loop simulation of all joints on the nonlinear arm (Pinocchio ABA)
-force       seed 004's outer force loop and its robustness study
+force       Kong et al. 1998's outer force loop and its robustness study
 plots       Bode, steps, root loci, tracking error, force responses (Figures)
 """
 

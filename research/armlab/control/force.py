@@ -1,7 +1,7 @@
-"""Outer force loop that corrects the position set-point (seed 004, digest §4).
+"""Outer force loop that corrects the position set-point (Kong et al. 1998, §2.2).
 
-Structure (seed 004, fig. 3, one force-controlled direction of the compliance frame; the seed
-aligns the tool frame with the compliance frame so each direction is an independent loop)::
+Structure (Kong et al. 1998, fig. 3, one force-controlled direction of the compliance frame; the
+paper aligns the tool frame with the compliance frame so each direction is an independent loop)::
 
     f_d --(+)--> PID --> K^-1 --> dx --(+ x_d)--> position loop / actuator G_a --> x
           (-)                                                                      |
@@ -14,21 +14,21 @@ aligns the tool frame with the compliance frame so each direction is an independ
 * stiffness matrix (one diagonal element) K turns the force command into a position correction
   ``dx = u / K`` [m] added to the desired position ``x_d``;
 * actuator: the existing position loop, second order ``w_n^2 / (s^2 + 2 zeta w_n s + w_n^2)``
-  (the seed's hydraulic drive: w_n in [290, 350] rad/s, zeta in [0.1, 0.3]), held (ZOH) over the
+  (the paper's hydraulic drive: w_n in [290, 350] rad/s, zeta in [0.1, 0.3]), held (ZOH) over the
   force period;
 * environment: ``f = K_E max(x - x_surface, 0)`` (contact is lost if the tool backs off);
   sensor gain K_F = 1.
 
-What the seed gives: K_E = 700, 5000, 30000 N/m with (Kp, Ki, Kd) = (0.55, 0.0062, 0.0041),
-(0.282, 0.0036, 0.0023), (0.142, 0.0043, 0.0017) (figs. 6-8), and the robustness study
-(fig. 9): w_n, zeta random in their ranges with the K_E = 700 design — the force response barely
-changes; fig. 10: a design used on another stiffness degrades. What it does not give (figures
-not legible): the force period and K. We take the gains as **per-sample** gains at
-``T_F = 1 ms`` and ``K = 5000 N/m`` (the middle environment: the loop gain is then exactly the
-PID there); with these the three published designs are each stable and non-oscillating on
-their own environment, the K_E = 700 design is insensitive to the actuator's spread, and the
-K_E = 700 design is unstable on K_E = 30000 — the seed's three findings. These two values are
-ASSUMED; a study that depends on them must say so.
+What Kong et al. 1998 give (§3): K_E = 700, 5000, 30000 N/m with (Kp, Ki, Kd) =
+(0.55, 0.0062, 0.0041), (0.282, 0.0036, 0.0023), (0.142, 0.0043, 0.0017) (figs. 6-8), and the
+robustness study (fig. 9): w_n, zeta random in their ranges with the K_E = 700 design — the
+force response barely changes; fig. 10: a design used on another stiffness degrades. What it
+does not give (figures not legible): the force period and K. We take the gains as
+**per-sample** gains at ``T_F = 1 ms`` and ``K = 5000 N/m`` (the middle environment: the loop
+gain is then exactly the PID there); with these the three published designs are each stable
+and non-oscillating on their own environment, the K_E = 700 design is insensitive to the
+actuator's spread, and the K_E = 700 design is unstable on K_E = 30000 — the paper's three
+findings. These two values are ASSUMED; a study that depends on them must say so.
 """
 
 from __future__ import annotations
@@ -52,7 +52,8 @@ __all__ = [
     "FORCE_SAMPLE_TIME_S",
 ]
 
-#: The seed's designs: environment stiffness [N/m] -> (Kp, Ki, Kd) per sample (seed 004 figs. 6-8).
+#: The paper's designs: environment stiffness [N/m] -> (Kp, Ki, Kd) per sample
+#: (Kong et al. 1998, figs. 6-8).
 SEED_DESIGNS: dict[float, tuple[float, float, float]] = {
     700.0: (0.55, 0.0062, 0.0041),
     5000.0: (0.282, 0.0036, 0.0023),
@@ -159,7 +160,7 @@ def force_loop_model(
     natural_frequency_rad_s: float = 320.0,
     damping: float = 0.2,
     sample_time_s: float = FORCE_SAMPLE_TIME_S,
-):
+) -> ct.TransferFunction:
     """Linear (contact kept) closed force loop f_d -> f as a discrete python-control TF.
 
     ``L(z) = C(z) K_E / K ZOH{G_a}(z)`` with ``C(z) = Kp + Ki z/(z - 1) + Kd (z - 1)/z``.
@@ -195,14 +196,14 @@ def force_loop(
     sample_time_s: float = FORCE_SAMPLE_TIME_S,
     duration_s: float = 8.0,
 ) -> ForceLoopResult:
-    """Simulate a force step on the seed-004 loop (contact nonlinearity included).
+    """Simulate a force step on the Kong et al. 1998 loop (contact nonlinearity included).
 
     Parameters
     ----------
     environment_stiffness_N_m : float
         K_E in [N/m].
     gains : (Kp, Ki, Kd), optional
-        Per-sample PID gains; default the seed's design for this K_E.
+        Per-sample PID gains; default the paper's design for this K_E.
     force_setpoint_N : float
         Step of desired force in [N] (the tool starts touching the surface, f = 0).
     stiffness_N_m : float
@@ -216,7 +217,7 @@ def force_loop(
     ForceLoopResult
     """
     kp, ki, kd = _gains(environment_stiffness_N_m, gains)
-    for name, x in (
+    for name, value in (
         ("environment_stiffness_N_m", environment_stiffness_N_m),
         ("stiffness_N_m", stiffness_N_m),
         ("force_setpoint_N", force_setpoint_N),
@@ -225,7 +226,7 @@ def force_loop(
         ("sample_time_s", sample_time_s),
         ("duration_s", duration_s),
     ):
-        _check(name, float(x))
+        _check(name, float(value))
     T = float(sample_time_s)
     n = int(round(duration_s / T)) + 1
     wn, zeta = float(natural_frequency_rad_s), float(damping)
@@ -273,7 +274,7 @@ def force_loop(
 
 @dataclass
 class ForceRobustness:
-    """Force responses with the actuator drawn at random (seed 004 fig. 9).
+    """Force responses with the actuator drawn at random (Kong et al. 1998, fig. 9).
 
     Attributes
     ----------
@@ -320,7 +321,7 @@ def force_robustness(
     damping_range=(0.1, 0.3),
     **kwargs,
 ) -> ForceRobustness:
-    """Seed 004's robustness study: w_n and zeta uniform in their ranges (seeded).
+    """Kong et al. 1998's robustness study: w_n and zeta uniform in their ranges (seeded).
 
     ``kwargs`` go to :func:`force_loop`.
     """

@@ -3,8 +3,8 @@
 This module is pure Python + the standard library on purpose: the deployment/export code reads
 and writes gains without importing python-control or Pinocchio.
 
-Signal chain of one joint (thesis ch. 5; controller of seed 002: 1 ms servo, 12-bit +-10 V D/A)
-------------------------------------------------------------------------------------------------
+Signal chain of one joint (HEU thesis ch. 5; SHU controller paper §1: 1 ms servo, 12-bit +-10 V D/A)
+----------------------------------------------------------------------------------------------------
 ::
 
     position loop (1 kHz, card)    speed loop (1 kHz, card)      current loop (amplifier, 20 kHz)
@@ -72,7 +72,9 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field, fields, replace
+from typing import Any
 
 from armlab.errors import InputError
 
@@ -234,7 +236,7 @@ class LoopGains:
     settling_time_discrete_s: float = math.nan
     robustness: list = field(default_factory=list)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.loop not in LOOPS:
             raise InputError(f"loop must be one of {LOOPS}, got {self.loop!r}")
         if self.kind not in _KINDS:
@@ -313,7 +315,7 @@ class LoopGains:
     # ------------------------------------------------------------------ JSON
     def to_dict(self) -> dict:
         """JSON-able dict: every field (nan -> null, inf -> "inf"), ``gains``, ``gain_units``."""
-        out = {}
+        out: dict[str, Any] = {}
         for f in fields(self):
             v = getattr(self, f.name)
             if f.name == "robustness":
@@ -455,7 +457,7 @@ class CascadeGains:
     plant: PlantSummary | None = None
     spec: dict = field(default_factory=dict)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for name in LOOPS:
             lg = getattr(self, name)
             if lg.loop != name:
@@ -465,7 +467,8 @@ class CascadeGains:
         return {name: getattr(self, name) for name in LOOPS}
 
     def replace_loop(self, loop: LoopGains) -> CascadeGains:
-        return replace(self, **{loop.loop: loop})
+        changes: dict[str, Any] = {loop.loop: loop}
+        return replace(self, **changes)
 
     def to_dict(self) -> dict:
         """Full JSON-able dict (the gains.json entry of the joint)."""
@@ -527,7 +530,7 @@ class ArmGains:
         except KeyError:
             raise InputError(f"no gains for joint {joint!r}; have {list(self.joints)}") from None
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[CascadeGains]:
         return iter(self.joints.values())
 
     def __len__(self) -> int:

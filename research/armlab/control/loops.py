@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import control as ct
 import numpy as np
@@ -52,7 +53,7 @@ __all__ = [
 
 
 # ---------------------------------------------------------------------------- controllers
-def pid_tf(lg: LoopGains):
+def pid_tf(lg: LoopGains) -> ct.TransferFunction:
     """Continuous ``C(s) = kp + ki/s + kd s/(Tf s + 1)`` as a python-control TF."""
     s = ct.tf("s")
     c = ct.tf([lg.kp], [1.0])
@@ -63,13 +64,13 @@ def pid_tf(lg: LoopGains):
     return ct.tf(c, inputs="e", outputs="u")
 
 
-def pid_tf_discrete(lg: LoopGains, dt: float | None = None):
+def pid_tf_discrete(lg: LoopGains, dt: float | None = None) -> ct.TransferFunction:
     """Incremental PID ``(q0 z^2 + q1 z + q2) / (z^2 - z)`` as a discrete TF (dt = sample time)."""
     dt = lg.sample_time_s if dt is None else dt
     num, den = lg.discrete_tf()
     if lg.ki == 0.0:  # no integral: the incremental form's pole at z = 1 cancels
-        num, _ = np.polydiv(num, [1.0, -1.0])
-        den = [1.0, 0.0]
+        quotient, _ = np.polydiv(num, [1.0, -1.0])
+        num, den = list(quotient), [1.0, 0.0]
         if num[-1] == 0.0 or len(num) == 1:
             num, den = [num[0]], [1.0]
     elif lg.q2 == 0.0:
@@ -204,6 +205,7 @@ class CascadeModel:
     def __init__(self, plant: JointPlant, gains):
         self.plant = plant
         self.gains = gains.loops() if isinstance(gains, CascadeGains) else dict(gains)
+        self._dd: Any = None  # discrete speed-loop drive (ct.StateSpace), built on first use
 
     def _g(self, loop: str) -> LoopGains:
         if loop not in self.gains:
@@ -211,14 +213,14 @@ class CascadeModel:
         return self.gains[loop]
 
     # ------------------------------------------------------------------ current loop
-    def current_plant(self, discrete: bool = False):
+    def current_plant(self, discrete: bool = False) -> ct.StateSpace:
         P = ct.ss(self.plant.voltage_to_current())
         if not discrete:
             return P
         lg = self._g("current")
         return ct.sample_system(P, lg.sample_time_s, "zoh")
 
-    def current_open(self, discrete: bool = False):
+    def current_open(self, discrete: bool = False) -> ct.StateSpace:
         lg = self._g("current")
         if discrete:
             dt = lg.sample_time_s
@@ -229,11 +231,11 @@ class CascadeModel:
             )
         return ct.ss(pid_tf(lg)) * self.current_plant(False)
 
-    def current_closed(self, discrete: bool = False):
+    def current_closed(self, discrete: bool = False) -> ct.StateSpace:
         """i* [A] -> i [A]."""
         return ct.feedback(self.current_open(discrete), 1)
 
-    def current_closed_lagged(self):
+    def current_closed_lagged(self) -> ct.StateSpace:
         """The current loop as the 1 kHz loops see it: continuous, its sampling lag
         ``(d + 1/2) T`` as a first-order Pade inside the loop."""
         lg = self._g("current")
@@ -280,7 +282,7 @@ class CascadeModel:
         self._dd = ct.ss(Ax, Bx, C, np.zeros((2, 1)), dt)
         return self._dd
 
-    def speed_plant(self, discrete: bool = False):
+    def speed_plant(self, discrete: bool = False) -> ct.StateSpace:
         """i* [A] -> (measured) motor speed [rad/s]; discrete: without the theta state."""
         if not discrete:
             return self.current_closed(False) * self._mech()
@@ -288,11 +290,11 @@ class CascadeModel:
         keep = [k for k in range(d.nstates) if k != d.nstates - 2]
         return ct.ss(d.A[np.ix_(keep, keep)], d.B[keep], d.C[1:2, keep], d.D[1:2], d.dt)
 
-    def speed_position_plant_discrete(self):
+    def speed_position_plant_discrete(self) -> ct.StateSpace:
         """i* [A] -> sampled motor angle [rad] (ZOH at the speed loop's period)."""
         return self._discrete_drive()[0, 0]
 
-    def speed_open(self, discrete: bool = False):
+    def speed_open(self, discrete: bool = False) -> ct.StateSpace:
         lg = self._g("speed")
         if discrete:
             dt = lg.sample_time_s
@@ -303,12 +305,12 @@ class CascadeModel:
             )
         return ct.ss(pid_tf(lg)) * self.speed_plant(False)
 
-    def speed_closed(self, discrete: bool = False):
+    def speed_closed(self, discrete: bool = False) -> ct.StateSpace:
         """w* [rad/s] -> (measured) motor speed [rad/s]."""
         return ct.feedback(self.speed_open(discrete), 1)
 
     # ------------------------------------------------------------------ position loop
-    def position_plant(self, discrete: bool = False):
+    def position_plant(self, discrete: bool = False) -> ct.StateSpace:
         """w* [rad/s] -> motor angle [rad] (speed loop closed)."""
         if not discrete:
             return self.speed_closed(False) * ct.ss(ct.tf([1.0], [1.0, 0.0]))
@@ -322,7 +324,7 @@ class CascadeModel:
         pick = ct.ss(np.zeros((0, 0)), np.zeros((0, 2)), np.zeros((1, 0)), [[0.0, 1.0]], dt)
         return ct.feedback(fwd, pick)[0, 0]
 
-    def position_open(self, discrete: bool = False):
+    def position_open(self, discrete: bool = False) -> ct.StateSpace:
         lg = self._g("position")
         if discrete:
             if abs(lg.sample_time_s - self._g("speed").sample_time_s) > 1e-12:
@@ -334,15 +336,15 @@ class CascadeModel:
             return ct.ss(pid_tf_discrete(lg)) * self.position_plant(True)
         return ct.ss(pid_tf(lg)) * self.position_plant(False)
 
-    def position_closed(self, discrete: bool = False):
+    def position_closed(self, discrete: bool = False) -> ct.StateSpace:
         """theta* [rad] -> theta [rad] (motor side; the same ratio at the joint)."""
         return ct.feedback(self.position_open(discrete), 1)
 
     # ------------------------------------------------------------------ generic
-    def open_loop(self, loop: str, discrete: bool = False):
+    def open_loop(self, loop: str, discrete: bool = False) -> ct.StateSpace:
         return getattr(self, f"{loop}_open")(discrete)
 
-    def closed_loop(self, loop: str, discrete: bool = False):
+    def closed_loop(self, loop: str, discrete: bool = False) -> ct.StateSpace:
         return getattr(self, f"{loop}_closed")(discrete)
 
     def margins(self, loop: str, discrete: bool = False, n: int = 1500) -> Margins:

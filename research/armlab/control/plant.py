@@ -12,7 +12,7 @@ Neglecting B, the voltage-to-speed transfer function is the thesis' eq. 5-8::
 
 (joint 6: Te = 4.85e-5 s, Tm = 0.0248 s, 1/Ce = 1613 rpm/V). The thesis prints Tm = 0.2364 s:
 that figure uses Ce in V/rpm as if it were V s/rad (a factor 60 / 2 pi = 9.55); in SI it is
-0.0248 s, as the digest says.
+0.0248 s, as the HEU thesis (ch. 5) says.
 
 Inertia at the motor::
 
@@ -29,13 +29,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import control as ct
 import numpy as np
-import pinocchio as pin
 
 from armlab.errors import SpecError
+from armlab.robot import rigid_body
 from armlab.robot.drives import RPM_TO_RAD_S
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = [
     "JointPlant",
@@ -80,14 +84,13 @@ class InertiaRange:
         }
 
 
-def _mass_diag(model: pin.Model, Q: np.ndarray) -> np.ndarray:
-    m = model.copy()
-    m.armature = np.zeros(m.nv)
-    d = m.createData()
-    return np.array([np.diag(pin.crba(m, d, q)).copy() for q in Q])
+def _mass_diag(robot, Q: np.ndarray) -> np.ndarray:
+    """Diagonal of the rigid-body mass matrix without armature, (n, n_joints) [kg m^2]."""
+    M = rigid_body.mass_matrix(robot, Q)
+    return np.diagonal(M, axis1=1, axis2=2) - robot.model.armature
 
 
-def inertia_range(robot, *, n_samples: int = 400, seed: int = 0) -> InertiaRange:
+def inertia_range(robot: Robot, *, n_samples: int = 400, seed: int = 0) -> InertiaRange:
     """Min / nominal / max of the mass-matrix diagonal over the workspace, in [kg m^2].
 
     Parameters
@@ -109,10 +112,8 @@ def inertia_range(robot, *, n_samples: int = 400, seed: int = 0) -> InertiaRange
     Q = robot.random_q(rng, n_samples)
     centre = 0.5 * (robot.limits.lower_rad + robot.limits.upper_rad)
     Q = np.vstack([centre, Q])
-    with_payload = _mass_diag(robot.model, Q)
-    empty = (
-        _mass_diag(robot.with_payload(0.0).model, Q) if robot.payload.mass_kg > 0 else with_payload
-    )
+    with_payload = _mass_diag(robot, Q)
+    empty = _mass_diag(robot.with_payload(0.0), Q) if robot.payload.mass_kg > 0 else with_payload
     return InertiaRange(
         joint_names=list(robot.joint_names),
         min_kg_m2=np.minimum(with_payload.min(0), empty.min(0)),
@@ -124,7 +125,9 @@ def inertia_range(robot, *, n_samples: int = 400, seed: int = 0) -> InertiaRange
     )
 
 
-def motor_speed_tf(motor, inertia_kg_m2: float | None = None, *, friction: bool = False):
+def motor_speed_tf(
+    motor, inertia_kg_m2: float | None = None, *, friction: bool = False
+) -> ct.TransferFunction:
     """Thesis eq. 5-8: armature voltage [V] -> motor speed [rad/s], as a python-control TF.
 
     ``W(s) = Kt / ((L s + R)(J s + B) + Kt Ke)``; with B = 0 this is
@@ -243,7 +246,7 @@ class JointPlant:
         return 1.0 / (self.Ke * RPM_TO_RAD_S)
 
     # ------------------------------------------------------------------ LTI models
-    def voltage_to_current(self):
+    def voltage_to_current(self) -> ct.TransferFunction:
         """U [V] -> i [A] with the back-EMF loop: ``(J s + B) / ((L s + R)(J s + B) + Kt Ke)``."""
         J, B = self.J, self.B
         return ct.tf(
@@ -253,15 +256,15 @@ class JointPlant:
             outputs="i_A",
         )
 
-    def current_to_speed(self):
+    def current_to_speed(self) -> ct.TransferFunction:
         """i [A] -> motor speed w [rad/s]: ``Kt / (J s + B)``."""
         return ct.tf([self.Kt], [self.J, self.B], inputs="i_A", outputs="w_rad_s")
 
-    def speed_to_position(self):
+    def speed_to_position(self) -> ct.TransferFunction:
         """w [rad/s] -> motor angle [rad]: ``1 / s``."""
         return ct.tf([1.0], [1.0, 0.0], inputs="w_rad_s", outputs="theta_rad")
 
-    def voltage_to_speed(self):
+    def voltage_to_speed(self) -> ct.TransferFunction:
         """Thesis eq. 5-8 with friction, U [V] -> w [rad/s]:
         ``Kt / ((L s + R)(J s + B) + Kt Ke)``."""
         return ct.tf(
@@ -275,7 +278,7 @@ class JointPlant:
             outputs="w_rad_s",
         )
 
-    def state_space(self):
+    def state_space(self) -> ct.StateSpace:
         """States (i, w, theta) at the motor; inputs (U [V], tau_L [N m]); outputs (i, w, theta)."""
         J, L = self.J, self.L
         A = [[-self.R / L, -self.Ke / L, 0.0], [self.Kt / J, -self.B / J, 0.0], [0.0, 1.0, 0.0]]
@@ -306,7 +309,7 @@ class JointPlant:
 
 
 def joint_plant(
-    robot,
+    robot: Robot,
     joint,
     *,
     inertia: str | float = "nominal",

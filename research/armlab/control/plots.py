@@ -6,14 +6,17 @@ Every function returns a :class:`matplotlib.figure.Figure` (never shows it); hea
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import control as ct
 import numpy as np
-from matplotlib.figure import Figure
 
 from armlab.control.gains import LOOPS, CascadeGains
 from armlab.control.loops import CascadeModel, _response, freq_grid, margins
 from armlab.control.plant import INERTIA_CASES, JointPlant
+
+if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with the package
+    from matplotlib.figure import Figure
 
 __all__ = ["bode_figure", "step_figure", "root_locus_figure", "tracking_figure", "force_figure"]
 
@@ -25,6 +28,8 @@ def bode_figure(
 ) -> Figure:
     """Open-loop Bode plot of one loop at min/nominal/max inertia, continuous (dashed) and
     discrete (solid), gain crossover and -180 deg marked, margins in the legend."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(8, 6))
     ax_m, ax_p = fig.subplots(2, 1, sharex=True)
     dt = getattr(gains, loop).sample_time_s
@@ -59,6 +64,8 @@ def bode_figure(
 def step_figure(plant: JointPlant, gains: CascadeGains) -> Figure:
     """Closed-loop unit-step responses of the current, speed and position loops at min/nominal/
     max inertia (discrete solid, continuous dashed)."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(11, 3.5))
     axes = fig.subplots(1, 3)
     for ax, loop in zip(axes, LOOPS, strict=True):
@@ -103,6 +110,8 @@ def root_locus_figure(
 ) -> Figure:
     """Root locus of ``1 + k L`` for one loop at the nominal inertia; the tuned gain (k = 1)
     marked. Discrete loops are drawn with the unit circle."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(6, 5))
     ax = fig.subplots()
     m = CascadeModel(plant.at("nominal"), gains)
@@ -141,6 +150,8 @@ def root_locus_figure(
 
 def tracking_figure(result) -> Figure:
     """Joint tracking errors and the TCP error over time, with the accuracy tolerance."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(9, 6))
     ax_j, ax_t = fig.subplots(2, 1, sharex=True)
     err = result.error_rad
@@ -166,6 +177,8 @@ def tracking_figure(result) -> Figure:
 
 def force_figure(results) -> Figure:
     """Force step responses (list of :class:`ForceLoopResult`) on one axis."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(7, 4))
     ax = fig.subplots()
     for r in results:

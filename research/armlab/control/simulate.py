@@ -1,6 +1,7 @@
 """Closed-loop simulation of all joints' cascades on the nonlinear arm (Pinocchio ABA).
 
-What runs each servo period T (1 ms, the card of seed 002), all joints at once (vectorised):
+What runs each servo period T (1 ms, the card of the SHU controller paper, §1), all joints at
+once (vectorised):
 
 1. encoder: ``theta_m = floor(N q counts_per_rad) / counts_per_rad`` (motor side, x4 decoding);
    speed ``w_m = (theta_m,k - theta_m,k-1) / T``;
@@ -30,7 +31,7 @@ Feed-forward (thesis 5.2), any combination of:
 (i_ff = (M(q_d) qdd_d + C qd_d + g + armature + viscous) / (N Kt): the model-based
 ``tau = D(q) qdd_d + C + F + G`` of thesis 5.2 with the feedback left to the cascade).
 
-Positioning accuracy: the thesis' Monte-Carlo accuracy analysis (ch. 3, digest §1) concludes
+Positioning accuracy: the thesis' Monte-Carlo accuracy analysis (HEU thesis, ch. 3) concludes
 that about 1 mm total is achievable; the servo is given half of that budget
 (:data:`SERVO_SHARE`), the rest being geometric errors, reducer backlash and compliance. A
 tracking simulation passes when its TCP error stays within 0.5 mm along the whole motion.
@@ -40,6 +41,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -48,6 +50,10 @@ from scipy.linalg import expm
 from armlab.control.discrete import IncrementalPID
 from armlab.control.gains import ArmGains, CascadeGains
 from armlab.errors import InputError
+from armlab.robot import rigid_body
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = [
     "TrackingResult",
@@ -177,7 +183,7 @@ def _cascades(robot, gains) -> list[CascadeGains]:
 
 
 def simulate_tracking(
-    robot,
+    robot: Robot,
     trajectory,
     gains,
     *,
@@ -246,9 +252,11 @@ def simulate_tracking(
     da_range = cas[0].speed.da_range_V
     da_bits = cas[0].speed.da_bits
 
-    model = robot.model.copy()
+    model = robot.model.copy()  # gravity in the base frame, as robot.model's
     model.armature = J_rot * N**2
     data = model.createData()
+    # rigid_body evaluates robot.model: add the armature the simulated model has on top of it
+    d_armature = model.armature - robot.model.armature
 
     # ---------------------------------------------------------------- set-points
     t_end = trajectory.t[0] + trajectory.duration + max(0.0, t_after_s)
@@ -258,15 +266,12 @@ def simulate_tracking(
     i_ff = np.zeros((n, nj))
     if ff:
         if "computed_torque" in ff:
-            tau = np.array([pin.rnea(model, data, q_d[k], qd_d[k], qdd_d[k]) for k in range(n)])
+            tau = rigid_body.inverse_dynamics(robot, q_d, qd_d, qdd_d) + d_armature * qdd_d
             tau += Bm * N**2 * qd_d
             i_ff += tau / (N * Kt)
         else:
             if "gravity" in ff:
-                tau_g = np.array(
-                    [pin.computeGeneralizedGravity(model, data, q_d[k]) for k in range(n)]
-                )
-                i_ff += tau_g / (N * Kt)
+                i_ff += rigid_body.gravity_torques(robot, q_d) / (N * Kt)
             if "acceleration" in ff:
                 Jn = np.array(
                     [
@@ -306,7 +311,7 @@ def simulate_tracking(
     # ---------------------------------------------------------------- initial state
     q = q_d[0].copy()
     v = qd_d[0].copy()
-    g0 = pin.computeGeneralizedGravity(model, data, q)
+    g0 = rigid_body.gravity_torques(robot, q)
     i_hold = (g0 + Bm * N**2 * v) / (N * Kt)
     i_cmd = i_hold.copy()  # applied during the first period
     S = np.zeros((4, nj))  # (i, x_I, i*, v) of every joint

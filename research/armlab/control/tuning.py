@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import control as ct
 import numpy as np
@@ -48,6 +49,10 @@ from armlab.control.loops import (
 )
 from armlab.control.plant import INERTIA_CASES, JointPlant, inertia_range, joint_plant
 from armlab.errors import ArmlabError, SpecError
+from armlab.robot.controller import ControllerProfile
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = ["TuningSpec", "tune_cascade", "tune_arm", "check_cascade"]
 
@@ -222,7 +227,7 @@ def _bisect_max(feasible, lo: float, hi: float, n: int = 40) -> float | None:
 def _loop(
     loop: str, kind: str, kp: float, ki: float, dt: float, spec: TuningSpec, plant: JointPlant
 ) -> LoopGains:
-    kw = {}
+    kw: dict[str, Any] = {}
     if loop == "current":
         lo, hi = -plant.supply_voltage_V, plant.supply_voltage_V
     elif loop == "speed":
@@ -318,13 +323,13 @@ def _tune_speed(plants, current: LoopGains, spec: TuningSpec, n_grid: int) -> Lo
             continue
         lg = make(kp)
         found.append((_worst(cases, lg, spec)[3], beta, lg))
-    best = None
+    best: tuple[float, LoopGains] | None = None
     if found:
         # the strongest integral action (largest beta) within 15 % of the best bandwidth:
         # the speed loop's integral rejects the gravity and friction load
         w_best = max(f[0] for f in found)
-        best = max((f for f in found if f[0] >= 0.85 * w_best), key=lambda f: f[1])
-        best = (best[0], best[2])
+        top = max((f for f in found if f[0] >= 0.85 * w_best), key=lambda f: f[1])
+        best = (top[0], top[2])
     if best is None:
         raise SpecError(
             f"{p0.joint}: no speed-loop PI meets phase_margin_deg>="
@@ -450,7 +455,7 @@ def check_cascade(
         rows = []
         for case in INERTIA_CASES:
             m = models[case]
-            row = {"label": case, "inertia_kg_m2": plant.J_motor(case)}
+            row: dict[str, Any] = {"label": case, "inertia_kg_m2": plant.J_motor(case)}
             for disc in (False, True):
                 sfx = "_discrete" if disc else ""
                 mg = m.margins(name, disc, n=n_grid)
@@ -488,7 +493,7 @@ def check_cascade(
 
 
 # ---------------------------------------------------------------------------- public
-def tune_cascade(robot, joint, *, inertias=None, n_grid: int = 600, **spec) -> CascadeGains:
+def tune_cascade(robot: Robot, joint, *, inertias=None, n_grid: int = 600, **spec) -> CascadeGains:
     """Tune one joint's current, speed and position loops, robust over its inertia range.
 
     Parameters
@@ -564,14 +569,51 @@ def _assert_meets(g: CascadeGains, sp: TuningSpec) -> None:
                 )
 
 
-def tune_arm(robot, **spec) -> ArmGains:
+def controller_spec(controller: ControllerProfile, spec: dict) -> dict:
+    """``spec`` with the controller's servo period (speed and position loops) and D/A.
+
+    The controller profile is the one home of the servo period and the D/A converter: a spec
+    that names another value for them is refused (:class:`SpecError`), so the gains are tuned
+    and discretised for the controller the tables are written for.
+    """
+    from_profile = {
+        "speed_sample_time_s": controller.servo_period_s,
+        "position_sample_time_s": controller.servo_period_s,
+        "da_range_V": controller.dac_range_V,
+        "da_bits": int(controller.dac_bits),
+    }
+    out = dict(spec)
+    for key, value in from_profile.items():
+        given = out.get(key)
+        if given is not None and not math.isclose(float(given), float(value), rel_tol=1e-12):
+            raise SpecError(
+                f"{key}={given} differs from controller profile {controller.name!r} "
+                f"({value}): set it in the controller profile ([controller] in a study)"
+            )
+        out[key] = value
+    return out
+
+
+def tune_arm(robot: Robot, *, controller: ControllerProfile | None = None, **spec) -> ArmGains:
     """:func:`tune_cascade` for every joint (one inertia-range computation shared).
+
+    Parameters
+    ----------
+    robot : Robot
+    controller : ControllerProfile, optional
+        The joint controller: its servo period is the speed and position loops' sample time and
+        its D/A range and bits are the speed loop's output (:func:`controller_spec`). None: the
+        sample times and D/A of ``spec`` (or :class:`TuningSpec`'s defaults).
+    **spec
+        Fields of :class:`TuningSpec`.
 
     Returns
     -------
     ArmGains
         ``.joints[name]`` in joint order; ``to_json()`` is a study's ``gains.json``.
     """
+    if controller is not None:
+        spec = controller_spec(controller, spec)
     sp = TuningSpec.from_kwargs("", **spec)
     inertias = inertia_range(robot, n_samples=sp.n_inertia_samples, seed=sp.seed)
     joints = {

@@ -1,8 +1,9 @@
 """Deployment: set-point tables and servo gains for the real controller, with safety checks.
 
-Sources: seed 002 (DDA controller: 1 ms .. 2 s interpolation period, 0..4095 pulses per axis per
-period, x2/x4 encoder decoding, 12-bit +-10 V D/A), seed 000 (fault handling: over-speed,
-over-limit -> made into pre-flight checks), digest §3, DESIGN.md "Set-point table".
+Sources: SHU controller paper, §1 (DDA controller: 1 ms .. 2 s interpolation period, 0..4095
+pulses per axis per period, x2/x4 encoder decoding, 12-bit +-10 V D/A); HR SJ-1 control-software
+paper, §8 (fault handling: over-speed, over-limit -> made into pre-flight checks); DESIGN.md
+"Set-point table".
 
 * :func:`load_profile` — the controller (``data/profiles/*.toml``; default ``reference_dda``).
 * :func:`setpoint_table` — a trajectory sampled per controller cycle, in encoder counts,
@@ -22,7 +23,7 @@ from armlab.deploy.gains_export import (
     render_gains,
     write_gains,
 )
-from armlab.deploy.profiles import (
+from armlab.robot.controller import (
     DEFAULT_PROFILE,
     ControllerProfile,
     list_profiles,

@@ -1,9 +1,10 @@
-"""Pre-flight checks of a set-point table: seed 000's run-time faults made preventive.
+"""Pre-flight checks of a set-point table: the 1987 controller's run-time faults made preventive.
 
-The 1987 welding controller (seed 000, "fault handling"; digest §3) clears the D/A output buffer
-and brakes when it sees over-speed, over-limit or a controller error. A table that would trigger
-one of those is refused here, before any file is written. Every check runs on every cycle ``k``
-of the table (positions ``q_k`` at ``t_k = t_0 + k T``, ``T`` the controller period):
+The 1987 welding controller (HR SJ-1 control-software paper, §8 "fault handling") clears the
+D/A output buffer and brakes when it sees over-speed, over-limit or a controller error. A table
+that would trigger one of those is refused here, before any file is written. Every check runs
+on every cycle ``k`` of the table (positions ``q_k`` at ``t_k = t_0 + k T``, ``T`` the controller
+period):
 
 * ``finite``        q_k and qd_k are finite numbers.
 * ``start pose``    ``|q_0 - q_current| x counts_per_rad <= start_tolerance_counts`` (cycle 0).
@@ -12,7 +13,7 @@ of the table (positions ``q_k`` at ``t_k = t_0 + k T``, ``T`` the controller per
 * ``speed``         ``max(|qd_k|, |q_k - q_{k-1}| / T) <= v_max (1 + speed_tolerance)``: the
                     planned speed and the mean speed over the cycle.
 * ``pulse rate``    ``|dcounts_k| = |counts_k - counts_{k-1}| <= max_pulses_per_cycle``
-                    (seed 002: 0..4095 pulses per axis per DDA period).
+                    (SHU controller paper, §1: 0..4095 pulses per axis per DDA period).
 * ``continuity``    no jump: the velocity change entering cycle k,
                     ``|q_k - 2 q_{k-1} + q_{k-2}| / T``, is at most what the acceleration limit
                     allows in one cycle, ``a_max T (1 + continuity_tolerance)``. The arm is at rest
@@ -31,6 +32,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from armlab.errors import LimitViolation
+from armlab.robot.limits import Limits
 
 __all__ = ["CHECKS", "PreflightFailure", "PreflightReport", "preflight"]
 
@@ -163,11 +165,7 @@ def preflight(
     qd: np.ndarray,
     counts_exact: np.ndarray,
     dcounts: np.ndarray | None,
-    joint_names: list[str],
-    lower_rad: np.ndarray,
-    upper_rad: np.ndarray,
-    velocity_rad_s: np.ndarray,
-    acceleration_rad_s2: np.ndarray | None,
+    limits: Limits,
     counts_per_rad: np.ndarray,
     cycle_s: float,
     max_pulses_per_cycle: int | None,
@@ -188,10 +186,9 @@ def preflight(
         ``q x counts_per_rad x sign`` before rounding.
     dcounts : int array (n_cycles, n_axes) or None
         Counts per cycle (None when counts could not be formed: non-finite input).
-    joint_names : list of str
-        Joint of each axis.
-    lower_rad, upper_rad, velocity_rad_s : arrays (n_axes,)
-    acceleration_rad_s2 : array (n_axes,) or None
+    limits : Limits
+        The limits of the axes, in axis order (``robot.limits.subset(axis index)``): joint
+        names, range, velocity (required) and acceleration (the continuity check, if known).
     counts_per_rad : array (n_axes,)
     cycle_s : float
         Controller period T in [s].
@@ -204,7 +201,16 @@ def preflight(
     Returns
     -------
     PreflightReport
+
+    Raises
+    ------
+    InputError
+        ``limits`` has no velocity limit (the controller's over-speed check needs one).
     """
+    limits.require(("velocity",), where="set-point pre-flight")
+    joint_names = list(limits.joint_names)
+    lower_rad, upper_rad = limits.lower_rad, limits.upper_rad
+    velocity_rad_s, acceleration_rad_s2 = limits.velocity_rad_s, limits.acceleration_rad_s2
     n = q.shape[0]
     T = float(cycle_s)
     found: list[tuple[int, int, int, PreflightFailure]] = []
@@ -260,8 +266,8 @@ def preflight(
                 off[j],
                 start_tolerance_counts,
                 "counts",
-                f"the table starts at {qs[0, j]:.6g} rad, {off[j]:.4g} counts from the current pose "
-                f"{q_current[j]:.6g} rad (tolerance {start_tolerance_counts:g} counts)",
+                f"the table starts at {qs[0, j]:.6g} rad, {off[j]:.4g} counts from the current "
+                f"pose {q_current[j]:.6g} rad (tolerance {start_tolerance_counts:g} counts)",
             ),
         )
 
@@ -344,9 +350,9 @@ def preflight(
                 dv[k, j],
                 allowed[j],
                 "rad/s",
-                f"{'abrupt stop after the last cycle' if k == n - 1 and stops[j] else 'velocity jump'}"
-                f" of {dv[k, j]:.6g} rad/s in one cycle, more than the acceleration limit allows "
-                f"({allowed[j]:.6g} rad/s = a_max x {T:g} s)",
+                ("abrupt stop after the last cycle" if k == n - 1 and stops[j] else "velocity jump")
+                + f" of {dv[k, j]:.6g} rad/s in one cycle, more than the acceleration limit "
+                f"allows ({allowed[j]:.6g} rad/s = a_max x {T:g} s)",
             ),
         )
 

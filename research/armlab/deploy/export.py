@@ -1,8 +1,11 @@
 """``armlab export``: set-point tables and gains of a finished study, in the controller's formats.
 
-A study folder (written by :mod:`armlab.study`) holds ``trajectory.npz`` (written with
-:func:`armlab.deploy.save_trajectory`), ``gains.json`` (``ArmGains.to_json()``),
-``setpoints.csv`` and ``summary.json``. Export writes into ``out_dir``:
+A study folder (written by :mod:`armlab.study`) holds ``summary.json`` (the verdict and the sha256
+of every file), ``design.json`` (the resolved design: robot, drive train after the study's
+overrides, limits, controller profile -- :mod:`armlab.study.record`), ``trajectory.npz``,
+``gains.json`` and, for a passing design, ``setpoints.csv``. Export checks the folder against
+the checksums, refuses a failing design unless ``force``, rebuilds the robot and the controller
+from ``design.json`` alone, and writes into ``out_dir``:
 
 =======  ==========================================================
 format   files
@@ -22,16 +25,25 @@ refused export (a pre-flight :class:`~armlab.LimitViolation`) leaves nothing beh
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from armlab.deploy.gains_export import load_gains, render_gains
-from armlab.deploy.profiles import load_profile
-from armlab.deploy.provenance import atomic_write_many, file_sha256
+from armlab.deploy.provenance import file_sha256
 from armlab.deploy.table import setpoint_table
-from armlab.deploy.trajfile import load_trajectory, trajectory_robot
-from armlab.errors import InputError
+from armlab.deploy.trajfile import load_trajectory
+from armlab.errors import DesignFailure, InputError
+from armlab.io import atomic_write_many
+from armlab.robot.controller import ControllerProfile, load_profile
 
-__all__ = ["EXPORT_FORMATS", "TRAJECTORY_FILE", "GAINS_FILE", "export_study"]
+__all__ = [
+    "EXPORT_FORMATS",
+    "TRAJECTORY_FILE",
+    "GAINS_FILE",
+    "ExportResult",
+    "export_study",
+    "profile_differences",
+]
 
 EXPORT_FORMATS = ("csv", "json", "npz", "c", "ros2")
 TRAJECTORY_FILE = "trajectory.npz"
@@ -50,6 +62,27 @@ _GAINS_FILE = {
 }
 
 
+@dataclass
+class ExportResult:
+    """What :func:`export_study` wrote (``files``) and what the user should know (``notes``:
+    a profile other than the study's and how it differs, a forced export)."""
+
+    files: list[Path] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+
+def profile_differences(study: ControllerProfile, other: ControllerProfile) -> list[str]:
+    """``"cycle_s 0.001 -> 0.01"`` for every field in which two controller profiles differ."""
+    out = []
+    for f in fields(ControllerProfile):
+        if f.name in ("name", "description", "source"):
+            continue
+        a, b = getattr(study, f.name), getattr(other, f.name)
+        if a != b:
+            out.append(f"{f.name} {a} -> {b}")
+    return out
+
+
 def export_study(
     study_dir: str | os.PathLike,
     fmt: str = "csv",
@@ -57,34 +90,52 @@ def export_study(
     out_dir: str | os.PathLike | None = None,
     *,
     q_current=None,
-) -> list[Path]:
+    force: bool = False,
+) -> ExportResult:
     """Export a finished study's set-points (and gains) for the real controller.
+
+    With the study's own controller the table is the one ``armlab run`` wrote, bit for bit
+    (same robot, drive train, limits and controller, rebuilt from ``design.json``).
 
     Parameters
     ----------
     study_dir : path
-        Folder of a finished study (``trajectory.npz``, ``gains.json``).
+        Folder of a finished study (``armlab run``).
     fmt : {"csv", "json", "npz", "c", "ros2"}
     profile : str, path, ControllerProfile or None
-        Controller profile (:func:`armlab.deploy.load_profile`); None: the seed-002 DDA card.
+        Controller profile (:func:`armlab.robot.load_profile`); None: the study's own controller
+        (its profile with the study's ``[controller]`` keys). Another profile re-checks the table
+        against it; the differences are listed in the result's notes.
     out_dir : path, optional
-        Output folder (created if needed); default ``study_dir/export``.
+        Output folder (created if needed; never the study folder); default ``study_dir/export``.
     q_current : array (n_joints,), optional
         The robot's current pose [rad]: the table must start there.
+    force : bool
+        Export a design that fails checks; the exported table records the failed checks.
 
     Returns
     -------
-    list of Path
-        The files written.
+    ExportResult
+        The files written and the notes.
 
     Raises
     ------
+    DesignFailure
+        The study's design fails checks (named in the message) and ``force`` is False.
     LimitViolation
         A pre-flight check fails (first failing cycle, joint and limit in the message);
         nothing is written.
     InputError
-        Unknown format, missing study files, a target that would overwrite a source file.
+        Unknown format, not a study folder, files changed since the run (checksums), the URDF
+        changed, gains tuned for another servo period, a target inside the study folder.
     """
+    from armlab.study.record import (
+        controller_from_design,
+        load_design,
+        robot_from_design,
+        verify_folder,
+    )
+
     study = Path(study_dir)
     fmt = str(fmt).lower()
     if fmt not in EXPORT_FORMATS:
@@ -92,31 +143,67 @@ def export_study(
     if not study.is_dir():
         raise InputError(f"study folder {study} not found")
     out = Path(out_dir) if out_dir is not None else study / "export"
-    prof = load_profile(profile)
+    if out.resolve() == study.resolve():
+        raise InputError(
+            f"refusing to write into the study folder {study}: its files are the study's "
+            "record; choose another --out folder"
+        )
+    summary = verify_folder(study)
+    design = summary.get("design", {})
+    failed = list(design.get("failed_checks", []))
+    result = ExportResult()
+    if design.get("verdict") != "pass":
+        what = (
+            f"fails {len(failed)} check(s): " + "; ".join(failed)
+            if failed
+            else "was not judged: " + "; ".join(design.get("not_judged", []))
+        )
+        if not force:
+            raise DesignFailure(
+                f"export refused: the design of {study} {what} (--force exports it)"
+            )
+        result.notes.append(f"forced export: the design {what}")
+    record = load_design(study)
+    study_profile = controller_from_design(record)
+    prof = study_profile if profile is None else load_profile(profile)
+    if profile is not None:
+        diff = profile_differences(study_profile, prof)
+        if diff:
+            result.notes.append(
+                f"controller profile {prof.name!r} instead of the study's "
+                f"{study_profile.name!r}: " + ", ".join(diff) + " (the table is checked against it)"
+            )
     outputs: list[tuple[Path, bytes | str]] = []
 
     if fmt in _SETPOINT_FILE:
         tpath = study / TRAJECTORY_FILE
         if not tpath.is_file():
-            raise InputError(
-                f"{study}: no {TRAJECTORY_FILE} (the study runner saves it with "
-                "armlab.deploy.save_trajectory)"
-            )
+            raise InputError(f"{study}: no {TRAJECTORY_FILE}")
         traj = load_trajectory(tpath)
-        robot = trajectory_robot(traj)
-        table = setpoint_table(
-            robot,
-            traj,
-            prof,
-            q_current=q_current,
-            source={"file": TRAJECTORY_FILE, "sha256": traj.meta["file_sha256"]},
-        )
+        robot = robot_from_design(record)
+        study_info = record.get("study") or {}
+        source: dict = {
+            "study": study_info.get("source"),
+            "study_sha256": study_info.get("sha256"),
+        }
+        if failed:
+            source["forced_despite"] = failed
+        table = setpoint_table(robot, traj, prof, q_current=q_current, source=source)
         outputs.append((out / _SETPOINT_FILE[fmt], table.render(fmt)))
 
     if fmt in _GAINS_FILE:
         gpath = study / GAINS_FILE
         if gpath.is_file():
             gains = load_gains(gpath)
+            periods = {
+                lg.sample_time_s for g in gains.joints.values() for lg in (g.speed, g.position)
+            }
+            if any(abs(p - prof.servo_period_s) > 1e-12 for p in periods):
+                raise InputError(
+                    f"{study}: the gains were tuned for a servo period of "
+                    f"{sorted(periods)} s, controller profile {prof.name!r} has "
+                    f"{prof.servo_period_s} s: run the study with this controller"
+                )
             name, gfmt = _GAINS_FILE[fmt]
             outputs.append(
                 (
@@ -129,11 +216,6 @@ def export_study(
         elif fmt == "ros2":
             raise InputError(f"{study}: no {GAINS_FILE} to export as ros2_control YAML")
 
-    sources = {(study / TRAJECTORY_FILE).resolve(), (study / GAINS_FILE).resolve()}
-    for path, _ in outputs:
-        if path.resolve() in sources:
-            raise InputError(
-                f"refusing to overwrite the study's own {path.name}: choose another --out folder"
-            )
     out.mkdir(parents=True, exist_ok=True)
-    return atomic_write_many(outputs)
+    result.files = list(atomic_write_many(outputs))
+    return result

@@ -12,11 +12,15 @@ import io
 import json
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from armlab.deploy.numtext import format_list, format_rows
 from armlab.errors import InputError
+
+if TYPE_CHECKING:
+    from armlab.deploy.table import SetpointTable
 
 __all__ = [
     "SETPOINT_FORMATS",
@@ -280,7 +284,7 @@ def _c_header(table) -> bytes:
 
 
 # ---------------------------------------------------------------------- reading
-def read_setpoints_file(path: Path):
+def read_setpoints_file(path: Path) -> SetpointTable:
     """Read a CSV, JSON or NPZ set-point file into a :class:`SetpointTable`."""
     from armlab.deploy.table import SETPOINTS_FORMAT, _table_from_columns
 

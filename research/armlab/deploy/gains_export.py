@@ -24,10 +24,15 @@ import json
 import math
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from armlab.deploy.formats import c_identifier, c_string
-from armlab.deploy.provenance import armlab_version, atomic_write, gains_sha256
+from armlab.deploy.provenance import armlab_version, gains_sha256
 from armlab.errors import InputError
+from armlab.io import atomic_write
+
+if TYPE_CHECKING:
+    from armlab.control import ArmGains
 
 __all__ = [
     "GAINS_FORMATS",
@@ -70,7 +75,7 @@ def gains_to_json(gains, *, source: dict | None = None) -> str:
     return json.dumps(d, indent=2, allow_nan=False) + "\n"
 
 
-def load_gains(path: str | os.PathLike):
+def load_gains(path: str | os.PathLike) -> ArmGains:
     """Read gains JSON (ours or a study's ``gains.json``) into an :class:`armlab.control.ArmGains`.
 
     Raises

@@ -52,19 +52,19 @@ def _field(x: np.ndarray, decimals: int, name: str) -> np.ndarray:
     buf = np.zeros((n, width), dtype=np.uint8)
     last_int = width - 1
     # unsigned 32-bit digit arithmetic where it fits: NumPy divides by a scalar with libdivide
-    if decimals:
-        f, ten = fp.astype(np.uint32), np.uint32(10)  # fp < 10^decimals <= 10^9
+    if fp is not None:  # decimals > 0
+        f, ten32 = fp.astype(np.uint32), np.uint32(10)  # fp < 10^decimals <= 10^9
         zero_run = np.ones(n, dtype=bool)  # trailing zeros so far (become padding)
         for k in range(decimals):
-            q = f // ten
-            d = f - q * ten
+            q = f // ten32
+            d = f - q * ten32
             f = q
             zero_run &= d == 0
             buf[:, width - 1 - k] = (d + 48) * ~zero_run
         buf[:, width - 1 - decimals] = ord(".") * ~zero_run
         last_int = width - 2 - decimals
     small = n == 0 or ip.max() < 2**32
-    i = ip.astype(np.uint32 if small else np.uint64)
+    i: np.ndarray = ip.astype(np.uint32 if small else np.uint64)
     ten = np.uint32(10) if small else np.uint64(10)
     for k in range(max_nd):
         q = i // ten

@@ -1,8 +1,8 @@
-"""Checksums and atomic file writes shared by every exporter.
+"""Checksums shared by every exporter.
 
 Every file armlab.deploy writes carries the sha256 of its source (trajectory or gains) and
-armlab's version, and is written atomically: to a temporary file in the target folder, then
-``os.replace`` — a reader never sees a partial file, and a failed export leaves nothing behind.
+armlab's version, and is written atomically with :func:`armlab.io.atomic_write`: a reader
+never sees a partial file, and a failed export leaves nothing behind.
 """
 
 from __future__ import annotations
@@ -10,9 +10,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
-from collections.abc import Iterable
-from pathlib import Path
 
 import numpy as np
 
@@ -21,8 +18,6 @@ __all__ = [
     "trajectory_sha256",
     "gains_sha256",
     "file_sha256",
-    "atomic_write",
-    "atomic_write_many",
 ]
 
 
@@ -71,41 +66,3 @@ def file_sha256(path: str | os.PathLike) -> str:
         for block in iter(lambda: f.read(1 << 20), b""):
             h.update(block)
     return h.hexdigest()
-
-
-def _write_temp(path: Path, data: bytes) -> Path:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            os.fchmod(f.fileno(), 0o644)  # mkstemp's 0600 would hide the file from other users
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return Path(tmp)
-
-
-def atomic_write(path: str | os.PathLike, data: bytes | str) -> Path:
-    """Write ``data`` to ``path`` atomically (temporary file in the same folder, then rename)."""
-    return atomic_write_many([(path, data)])[0]
-
-
-def atomic_write_many(items: Iterable[tuple[str | os.PathLike, bytes | str]]) -> list[Path]:
-    """Write several files: every temporary file first, then rename them all.
-
-    If any write fails, every temporary file is removed and no target is touched.
-    """
-    items = [(Path(p), d.encode() if isinstance(d, str) else bytes(d)) for p, d in items]
-    temps: list[Path] = []
-    try:
-        for path, data in items:
-            temps.append(_write_temp(path, data))
-    except BaseException:
-        for t in temps:
-            t.unlink(missing_ok=True)
-        raise
-    for (path, _), tmp in zip(items, temps, strict=True):
-        os.replace(tmp, path)
-    return [p for p, _ in items]

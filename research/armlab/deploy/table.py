@@ -1,8 +1,8 @@
 """Set-point tables: a :class:`~armlab.trajectory.Trajectory` sampled at the controller's cycle.
 
 One row per controller cycle ``k = 0 .. n`` at ``t_k = t_0 + k T`` (``T`` the profile's period,
-1 ms .. 2 s on the seed-002 DDA card; the last row holds the end point). Per axis (controller
-axis order of the profile):
+1 ms .. 2 s on the DDA card of the SHU controller paper; the last row holds the end point).
+Per axis (controller axis order of the profile):
 
 * ``q_<joint>_rad``, ``qd_<joint>_rad_s`` — planned position and velocity (joint side),
   stored to 1e-9 (nano) resolution in every format;
@@ -11,7 +11,8 @@ axis order of the profile):
   ratio / (2 pi)`` (drives.toml; the profile may override the decoding) — computed from the
   exact position of each cycle, never by summing rounded increments, so it cannot drift;
 * ``dcounts_<joint>`` — counts of this cycle, ``counts_k - counts_{k-1}`` (0 on cycle 0): the
-  pulses the DDA card emits during cycle k (seed 002: one pulse = one position-command step).
+  pulses the DDA card emits during cycle k (SHU controller paper, §1: one pulse = one
+  position-command step).
 
 ``counts_0 + cumsum(dcounts) == counts`` exactly, and ``counts / (counts_per_rad sign)`` is within
 half a count of the planned position. Rounding is to nearest, ties to even (``numpy.rint``).
@@ -24,13 +25,18 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from armlab.deploy.checks import PreflightReport, preflight
-from armlab.deploy.profiles import ControllerProfile, load_profile
-from armlab.deploy.provenance import armlab_version, atomic_write, trajectory_sha256
+from armlab.deploy.provenance import armlab_version, trajectory_sha256
 from armlab.errors import InputError
+from armlab.io import atomic_write
+from armlab.robot.controller import ControllerProfile, load_profile
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = [
     "SetpointTable",
@@ -198,35 +204,9 @@ class SetpointTable:
         return atomic_write(path, formats.render_setpoints(self, fmt))
 
 
-def counts_per_rad(robot, profile: ControllerProfile, index: np.ndarray) -> np.ndarray:
-    """Encoder counts per joint radian of each controller axis.
-
-    ``pulses_per_rev x decoding x ratio / (2 pi)`` from ``robot.drives`` (``Drive.counts_per_rad``),
-    with the profile's decoding if it sets one; or the profile's ``counts_per_joint_rev / (2 pi)``.
-
-    Raises
-    ------
-    InputError
-        The robot has no drives and the profile gives no counts.
-    """
-    if profile.counts_per_joint_rev is not None:
-        if len(profile.counts_per_joint_rev) != len(index):
-            raise InputError(
-                f"controller profile {profile.name!r}: counts_per_joint_rev has "
-                f"{len(profile.counts_per_joint_rev)} entries for {len(index)} axes"
-            )
-        return np.asarray(profile.counts_per_joint_rev, dtype=float) / (2.0 * math.pi)
-    if robot.drives is None:
-        raise InputError(
-            f"robot {robot.name} has no drives.toml (encoder, reducer): the "
-            f"controller profile must give counts_per_joint_rev"
-        )
-    out = []
-    for i in index:
-        d = robot.drives[robot.joint_names[i]]
-        decoding = d.encoder.decoding if profile.decoding is None else int(profile.decoding)
-        out.append(d.encoder.pulses_per_rev * decoding * d.reducer.ratio / (2.0 * math.pi))
-    return np.asarray(out, dtype=float)
+def counts_per_rad(robot: Robot, profile: ControllerProfile, index: np.ndarray) -> np.ndarray:
+    """Encoder counts per joint radian of each axis: :meth:`ControllerProfile.counts_per_rad`."""
+    return profile.counts_per_rad(robot, index)
 
 
 def _check_names(robot, trajectory) -> None:
@@ -243,7 +223,7 @@ def _check_names(robot, trajectory) -> None:
 
 
 def setpoint_table(
-    robot, trajectory, profile=None, *, q_current=None, source: dict | None = None
+    robot: Robot, trajectory, profile=None, *, q_current=None, source: dict | None = None
 ) -> SetpointTable:
     """Sample a trajectory at the controller's cycle, convert to encoder counts, check it.
 
@@ -254,7 +234,8 @@ def setpoint_table(
     trajectory : Trajectory
         Evaluated at ``t_0 + k T`` by its own interpolation (``Trajectory.at``).
     profile : ControllerProfile, str, path or None
-        The controller (:func:`load_profile`); None: the seed-002 reference DDA controller.
+        The controller (:func:`load_profile`); None: the reference DDA controller (SHU
+        controller paper).
     q_current : array (n_joints,), optional
         The robot's current pose [rad] (robot joint order): the table must start there (within
         the profile's ``start_tolerance_counts``).
@@ -293,7 +274,6 @@ def setpoint_table(
                 f"({robot.n_joints},) for {robot.name}"
             )
         qc = qc[index]
-    lim = robot.limits
     with np.errstate(invalid="ignore", over="ignore"):
         counts_exact = q * (cpr * sign)
         finite = np.all(np.isfinite(counts_exact)) and np.all(np.abs(counts_exact) < 2**62)
@@ -302,18 +282,13 @@ def setpoint_table(
         counts = np.rint(counts_exact).astype(np.int64)
         dcounts = np.zeros_like(counts)
         dcounts[1:] = np.diff(counts, axis=0)
-    acc = None if lim.acceleration_rad_s2 is None else np.asarray(lim.acceleration_rad_s2)[index]
     report = preflight(
         t_s=times,
         q=q,
         qd=qd,
         counts_exact=counts_exact,
         dcounts=dcounts,
-        joint_names=names,
-        lower_rad=np.asarray(lim.lower_rad)[index],
-        upper_rad=np.asarray(lim.upper_rad)[index],
-        velocity_rad_s=np.asarray(lim.velocity_rad_s)[index],
-        acceleration_rad_s2=acc,
+        limits=robot.limits.subset(index),
         counts_per_rad=cpr,
         cycle_s=T,
         max_pulses_per_cycle=prof.max_pulses_per_cycle,

@@ -13,11 +13,17 @@ import io
 import json
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from armlab.deploy.provenance import armlab_version, atomic_write, file_sha256, trajectory_sha256
+from armlab.deploy.provenance import armlab_version, file_sha256, trajectory_sha256
 from armlab.errors import InputError
+from armlab.io import atomic_write
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
+    from armlab.trajectory import Trajectory
 
 __all__ = ["TRAJECTORY_FORMAT", "save_trajectory", "load_trajectory", "trajectory_robot"]
 
@@ -43,7 +49,7 @@ def _robot_info(robot) -> dict:
     }
 
 
-def save_trajectory(path: str | os.PathLike, trajectory, robot=None) -> Path:
+def save_trajectory(path: str | os.PathLike, trajectory, robot: Robot | None = None) -> Path:
     """Write ``trajectory`` (and the robot it was planned for) to ``path`` (.npz), atomically.
 
     Parameters
@@ -77,7 +83,7 @@ def save_trajectory(path: str | os.PathLike, trajectory, robot=None) -> Path:
     return atomic_write(path, buf.getvalue())
 
 
-def load_trajectory(path: str | os.PathLike):
+def load_trajectory(path: str | os.PathLike) -> Trajectory:
     """Read a trajectory written by :func:`save_trajectory`.
 
     Returns
@@ -133,7 +139,7 @@ def load_trajectory(path: str | os.PathLike):
     return traj
 
 
-def trajectory_robot(trajectory):
+def trajectory_robot(trajectory) -> Robot:
     """Rebuild the robot a loaded trajectory was planned for.
 
     The description is loaded again (URDF path if it exists, else the built-in name), joints not

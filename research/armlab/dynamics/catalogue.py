@@ -72,7 +72,7 @@ def load_catalogue(path: str | Path | None = None) -> Catalogue:
     thesis: dict[str, list[str | None]] = {}
 
     def parts(kind: str, build):
-        out = []
+        out: list = []
         for k, row in enumerate(data.get(kind, [])):
             row = dict(row)
             where = f"{path} {kind} {k + 1} ({row.get('model', '?')})"

@@ -21,11 +21,13 @@ acceleration ``qdd``, reducer ratio ``N`` and efficiency ``eta``:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from armlab.robot.drives import RPM_TO_RAD_S, Drive, available_torque_Nm
+from armlab.errors import InputError
+from armlab.robot.controller import ControllerProfile, load_profile
+from armlab.robot.drives import Drive, available_torque_Nm
 
 __all__ = [
     "Check",
@@ -57,6 +59,11 @@ CHECK_NAMES: dict[str, str] = {
 
 _TINY = 1e-12
 
+#: What a failed check against a zero limit means, in words (its margin is no number).
+_NO_LIMIT_LEFT = {
+    "motor_envelope": "above the motor's no-load speed at its supply voltage: no torque left",
+}
+
 
 @dataclass(frozen=True)
 class Check:
@@ -72,37 +79,59 @@ class Check:
     margin: float
     ok: bool
     unit: str = ""
+    note: str = ""
 
     def to_dict(self) -> dict:
+        """JSON-able dict; a margin that is not a number (no limit left) is None, with a note."""
         return {
             "name": self.name,
             "value": float(self.value),
             "limit": float(self.limit),
-            "margin": float(self.margin),
+            "margin": float(self.margin) if math.isfinite(self.margin) else None,
             "ok": bool(self.ok),
             "unit": self.unit,
+            "note": self.note,
         }
+
+    def describe(self) -> str:
+        """One line: ``motor_speed 2390 > 2200 rad/s (margin -8.6 %)`` or the check's note."""
+        rel = ">" if not self.ok else "<="
+        text = f"{self.name} {self.value:.4g} {rel} {self.limit:.4g} {self.unit}".rstrip()
+        if self.note:
+            return f"{text} ({self.note})"
+        return f"{text} (margin {100 * self.margin:+.1f} %)"
 
 
 @dataclass(frozen=True)
 class SizingOptions:
-    """Limits of the sizing that are not in the drives file.
+    """What the sizing checks need beyond the drive train.
 
     Attributes
     ----------
     tool_resolution_m : float
         Largest tool-point displacement one encoder count of a joint may cause, in [m], at the
         joint's largest lever arm to the tool point (default 0.1 mm, a tenth of the ~1 mm
-        accuracy of thesis ch. 3). ASSUMED.
-    cycle_s : float
-        Controller (DDA) cycle in [s] for the pulse-rate check (1 ms, seed 002).
-    max_counts_per_cycle : float
-        Pulses one axis may receive per cycle (4095, seed 002: 12-bit position cards).
+        accuracy of HEU thesis ch. 3). ASSUMED.
+    controller : ControllerProfile
+        The controller the set-point table is written for: its cycle, pulse limit per cycle,
+        decoding and counts per revolution are what the encoder checks use (the same function,
+        :meth:`ControllerProfile.counts_per_rad`, as the table). Default: the reference
+        controller (:func:`armlab.robot.load_profile`), the only controller default in armlab.
     """
 
     tool_resolution_m: float = 1e-4
-    cycle_s: float = 1e-3
-    max_counts_per_cycle: float = 4095.0
+    controller: ControllerProfile = field(default_factory=load_profile)
+
+    @property
+    def cycle_s(self) -> float:
+        """Controller cycle in [s] (the profile's)."""
+        return self.controller.cycle_s
+
+    @property
+    def max_counts_per_cycle(self) -> float:
+        """Pulses one axis may receive per cycle (the profile's; inf when it sets none)."""
+        m = self.controller.max_pulses_per_cycle
+        return math.inf if m is None else float(m)
 
 
 @dataclass(frozen=True)
@@ -126,6 +155,7 @@ class DriveArrays:
     reducer_peak_torque_Nm: np.ndarray
     reducer_max_input_speed_rad_s: np.ndarray
     counts_per_motor_rev: np.ndarray
+    pulses_per_rev: np.ndarray
 
     @classmethod
     def from_drives(cls, drives: list[Drive]) -> DriveArrays:
@@ -135,10 +165,6 @@ class DriveArrays:
         def peak(d: Drive) -> float:
             p = d.motor.peak_torque_Nm
             return p if math.isfinite(p) and p > 0 else d.motor.stall_torque_Nm
-
-        def rated(d: Drive) -> float:
-            s = d.motor.rated_speed_rpm
-            return s * RPM_TO_RAD_S if math.isfinite(s) and s > 0 else d.motor.no_load_speed_rad_s
 
         return cls(
             ratio=arr(lambda d: d.reducer.ratio),
@@ -150,7 +176,8 @@ class DriveArrays:
             viscous_Nm_s_rad=arr(lambda d: d.motor.viscous_friction_Nm_s_rad),
             stall_torque_Nm=arr(lambda d: d.motor.stall_torque_Nm),
             peak_torque_Nm=arr(peak),
-            rated_speed_rad_s=arr(rated),
+            # the same motor speed bounds the joint velocity limit (armlab.robot.resolve_limits)
+            rated_speed_rad_s=arr(lambda d: d.motor.speed_limit_rad_s),
             torque_constant_Nm_A=arr(lambda d: d.motor.torque_constant_Nm_A),
             back_emf_V_s_rad=arr(lambda d: d.motor.back_emf_V_s_rad),
             resistance_ohm=arr(lambda d: d.motor.resistance_ohm),
@@ -158,14 +185,34 @@ class DriveArrays:
             power_W=arr(lambda d: d.motor.power_W),
             reducer_rated_torque_Nm=arr(lambda d: d.reducer.rated_torque_Nm),
             reducer_peak_torque_Nm=arr(lambda d: d.reducer.peak_torque_Nm),
-            reducer_max_input_speed_rad_s=arr(
-                lambda d: d.reducer.max_input_speed_rpm * RPM_TO_RAD_S
-            ),
+            reducer_max_input_speed_rad_s=arr(lambda d: d.reducer.max_input_speed_rad_s),
             counts_per_motor_rev=arr(lambda d: d.encoder.pulses_per_rev * d.encoder.decoding),
+            pulses_per_rev=arr(lambda d: d.encoder.pulses_per_rev),
         )
 
 
-def motor_side(tau, qd, qdd, drives: DriveArrays):
+def counts_per_joint_rev_of(drives: DriveArrays, controller: ControllerProfile) -> np.ndarray:
+    """Counts per joint revolution the controller sees for each drive: the profile's
+    ``counts_per_joint_rev`` if it sets them, else pulses x decoding (the profile's decoding if it
+    sets one, else the encoder's) x ratio -- the rule of :meth:`ControllerProfile.counts_per_rad`
+    written for drive arrays (candidate drives of a selection are not on a robot)."""
+    if controller.counts_per_joint_rev is not None:
+        c = np.asarray(controller.counts_per_joint_rev, float)
+        if c.shape != drives.ratio.shape:
+            raise InputError(
+                f"controller profile {controller.name!r}: counts_per_joint_rev has {c.size} "
+                f"entries for {drives.ratio.size} joints"
+            )
+        return c
+    per_motor_rev = (
+        drives.counts_per_motor_rev
+        if controller.decoding is None
+        else drives.pulses_per_rev * float(controller.decoding)
+    )
+    return per_motor_rev * drives.ratio
+
+
+def motor_side(tau, qd, qdd, drives: DriveArrays) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Motor torque and speed from joint signals (rules in the module docstring).
 
     Parameters
@@ -195,7 +242,7 @@ def envelope_torque(w_m, t_m, drives: DriveArrays) -> np.ndarray:
 
     ``T_max = derating x min(T_peak, Kt (U -+ Ke |w|) / R)``: ``-`` while driving
     (``T w >= 0``: the back-EMF eats the supply voltage), ``+`` while generating. The armature
-    equation ``U = R i + Ke w`` with ``T = Kt i`` (thesis ch. 5, digest §1).
+    equation ``U = R i + Ke w`` with ``T = Kt i`` (HEU thesis, ch. 5).
     """
     kt, ke, r, u = (
         drives.torque_constant_Nm_A,
@@ -250,7 +297,8 @@ def evaluate_checks(
       (largest ``|T_m| / T_max``).
     * ``encoder_resolution``: joint angle per count ``2 pi / (pulses x decoding x N)`` <=
       ``tool_resolution_m / lever_m``.
-    * ``encoder_pulse_rate``: peak counts per controller cycle <= ``max_counts_per_cycle``.
+    * ``encoder_pulse_rate``: peak counts per controller cycle <= the controller's pulse limit
+      (``options.controller``: cycle, decoding and limit of the profile the table is written for).
     """
     w = np.asarray(weights, float)[:, None]
     t_m, w_m, _ = motor_side(tau, qd, qdd, drives)
@@ -287,10 +335,11 @@ def evaluate_checks(
     ratio = np.abs(t_m) / np.maximum(t_env, _TINY)
     k = np.argmax(ratio, axis=0)
     cols = np.arange(ratio.shape[1])
-    out["motor_envelope"] = (np.abs(t_m[k, cols]), np.maximum(t_env[k, cols], _TINY))
-    angle = 2.0 * np.pi / (drives.counts_per_motor_rev * drives.ratio)
+    out["motor_envelope"] = (np.abs(t_m[k, cols]), np.maximum(t_env[k, cols], 0.0))
+    counts_per_joint_rev = counts_per_joint_rev_of(drives, options.controller)
+    angle = 2.0 * np.pi / counts_per_joint_rev
     out["encoder_resolution"] = (angle, options.tool_resolution_m / np.maximum(lever_m, _TINY))
-    counts = peak_wm * drives.counts_per_motor_rev / (2.0 * np.pi) * options.cycle_s
+    counts = abs_qd.max(axis=0) * counts_per_joint_rev / (2.0 * np.pi) * options.cycle_s
     out["encoder_pulse_rate"] = (counts, options.max_counts_per_cycle)
     n_col = drives.ratio.size
     return {
@@ -311,10 +360,15 @@ def checks_for_column(
         v, lim = float(value[c]), float(limit[c])
         if not math.isfinite(lim):  # no such rating: nothing to check
             continue
-        margin = float(_margin(v, lim))
-        checks.append(
-            Check(name, v, lim, margin, bool(v <= lim * (1.0 + rtol) + _TINY), CHECK_NAMES[name])
-        )
+        ok = bool(v <= lim * (1.0 + rtol) + _TINY)
+        note = ""
+        if lim <= _TINY and not ok:
+            # a relative margin against a zero limit is no number: say what happened instead
+            margin = -math.inf
+            note = _NO_LIMIT_LEFT.get(name, "the limit is zero")
+        else:
+            margin = float(_margin(v, lim))
+        checks.append(Check(name, v, lim, margin, ok, CHECK_NAMES[name], note))
     return checks
 
 

@@ -1,7 +1,7 @@
 """Static holding check of a pose or a path: the torques that hold it, and the margin left.
 
 The holding torque is the gravity torque ``g(q)`` with the payload (RNEA at rest); the limit
-of each joint is its effort limit (``robot.limits.effort_Nm``: for robot_desc arms the thesis'
+of each joint is its torque limit (``robot.limits.torque_Nm``: for robot_desc arms the thesis'
 available torque, stall x ratio x efficiency x derating), and the margin is
 ``1 - max |g_j| / limit_j``.
 """
@@ -9,12 +9,16 @@ available torque, stall x ratio x efficiency x derating), and the margin is
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from armlab.dynamics.inverse import joint_torques
 from armlab.errors import InputError
 from armlab.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = ["HoldReport", "hold_check"]
 
@@ -95,7 +99,7 @@ class HoldReport:
         return "\n".join(lines) + "\n"
 
 
-def hold_check(robot, q_or_path, *, threads: int = 1) -> HoldReport:
+def hold_check(robot: Robot, q_or_path, *, threads: int = 1) -> HoldReport:
     """Torques needed to hold a pose or every pose of a path, with the margin to the limits.
 
     Parameters
@@ -120,8 +124,8 @@ def hold_check(robot, q_or_path, *, threads: int = 1) -> HoldReport:
         raise InputError("q has no poses")
     zeros = np.zeros_like(q)
     tau = joint_torques(robot, q, zeros, zeros, threads=threads)
-    effort = np.asarray(robot.limits.effort_Nm, float)
-    limit = np.where(effort > 0, effort, np.nan)
+    effort = robot.limits.torque_Nm
+    limit = np.full(robot.n_joints, np.nan) if effort is None else np.array(effort, float)
     return HoldReport(
         joint_names=list(robot.joint_names),
         q=q,

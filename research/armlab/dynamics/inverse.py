@@ -2,8 +2,9 @@
 
 The joint torque is Pinocchio's recursive Newton-Euler algorithm (RNEA) on the robot's model,
 payload included, ``tau = M(q) qdd + C(q, qd) qd + g(q)`` (thesis eq. 4-1 without friction),
-evaluated for all samples at once with ``pinocchio.rneaInParallel``. Gravity is the model's
-gravity expressed in the base frame, so a tilted ``transform_base_to_world`` is honoured.
+evaluated for all samples at once by :func:`armlab.robot.rigid_body.inverse_dynamics` (batched
+``pinocchio.rneaInParallel``). ``robot.model.gravity`` is the gravity expressed in the base
+frame (:class:`~armlab.robot.Robot`), so a tilted ``transform_base_to_world`` is honoured.
 
 The motor side (torque, speed, motoring/generating) follows the rules of
 :mod:`armlab.dynamics.checks`: ``w_m = N qd``;
@@ -17,20 +18,23 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pinocchio as pin
 
 from armlab.dynamics.checks import DriveArrays, motor_side
 from armlab.errors import InputError, RobotDescriptionError
+from armlab.robot import rigid_body
 from armlab.robot.drives import Drive
 from armlab.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = [
     "JointLoads",
     "inverse_dynamics",
     "joint_torques",
-    "dynamics_model",
     "as_trajectories",
     "sample_weights",
 ]
@@ -38,22 +42,11 @@ __all__ = [
 RAD_S_TO_RPM = 60.0 / (2.0 * np.pi)
 
 
-def dynamics_model(robot) -> pin.Model:
-    """The robot's Pinocchio model with gravity expressed in the base frame.
-
-    ``robot.model.gravity`` is read as the gravity in the world; when the base is rotated
-    (``transform_base_to_world``) a copy of the model gets ``g_base = R_base_in_world^T g``.
-    """
-    R = np.asarray(robot.transform_base_to_world)[:3, :3]
-    if np.allclose(R, np.eye(3), atol=1e-12):
-        return robot.model
-    model = robot.model.copy()
-    model.gravity = pin.Motion(R.T @ robot.model.gravity.linear, np.zeros(3))
-    return model
-
-
-def joint_torques(robot, q, qd, qdd, *, threads: int = 1) -> np.ndarray:
+def joint_torques(robot: Robot, q, qd, qdd, *, threads: int = 1) -> np.ndarray:
     """RNEA joint torques for many samples: ``(n_samples, n_joints)`` in [N m].
+
+    A thin alias of :func:`armlab.robot.rigid_body.inverse_dynamics` that always returns a 2-D
+    array (a single sample ``(n_joints,)`` gives ``(1, n_joints)``).
 
     Parameters
     ----------
@@ -63,27 +56,11 @@ def joint_torques(robot, q, qd, qdd, *, threads: int = 1) -> np.ndarray:
     threads : int
         Threads of ``pinocchio.rneaInParallel`` (1 keeps shared machines quiet).
     """
-    arrays = []
-    for name, x in (("q", q), ("qd", qd), ("qdd", qdd)):
-        a = np.atleast_2d(np.asarray(x, dtype=float))
-        if a.ndim != 2 or a.shape[1] != robot.n_joints:
-            raise InputError(f"{name} has shape {np.shape(x)}, expected (n, {robot.n_joints})")
-        if not np.all(np.isfinite(a)):
-            raise InputError(f"{name} contains NaN or infinite values")
-        arrays.append(a)
-    if not arrays[0].shape == arrays[1].shape == arrays[2].shape:
-        raise InputError("q, qd and qdd must have the same shape")
-    model = dynamics_model(robot)
-    pool = pin.ModelPool(model, max(1, int(threads)))
-    tau = np.asarray(
-        pin.rneaInParallel(max(1, int(threads)), pool, *(np.asfortranarray(a.T) for a in arrays))
-    )
-    if tau.ndim == 1:  # a batch of one comes back as a vector
-        tau = tau[:, None]
-    return np.ascontiguousarray(tau.T)
+    q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, qd, qdd))
+    return rigid_body.inverse_dynamics(robot, q, qd, qdd, threads=threads)
 
 
-def as_trajectories(trajectory_or_list, robot) -> list[Trajectory]:
+def as_trajectories(trajectory_or_list, robot: Robot) -> list[Trajectory]:
     """Validate one trajectory or a sequence of them for ``robot``; returns a list.
 
     Raises :class:`InputError` for anything but Trajectory objects, an empty list, a joint
@@ -258,7 +235,7 @@ def _drive_list(robot, drives) -> list[Drive] | None:
     return drives
 
 
-def inverse_dynamics(robot, trajectory, *, drives=None, threads: int = 1) -> JointLoads:
+def inverse_dynamics(robot: Robot, trajectory, *, drives=None, threads: int = 1) -> JointLoads:
     """Joint torque, speed and power along a trajectory, and the motor side of each joint.
 
     Parameters
@@ -317,7 +294,7 @@ def inverse_dynamics(robot, trajectory, *, drives=None, threads: int = 1) -> Joi
     return loads
 
 
-def require_drives(robot, drives=None) -> list[Drive]:
+def require_drives(robot: Robot, drives=None) -> list[Drive]:
     """The drive list of a robot (or the given one); RobotDescriptionError if there is none."""
     dl = _drive_list(robot, drives)
     if dl is None:

@@ -15,6 +15,8 @@ from armlab.errors import InputError
 if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with armlab.dynamics
     from matplotlib.figure import Figure
 
+    from armlab.robot.model import Robot
+
 __all__ = ["plot_joint_loads", "plot_operating_points"]
 
 
@@ -26,7 +28,7 @@ def _joint_indices(loads: JointLoads, joints) -> list[int]:
     return [loads.joint_names.index(n) for n in names]
 
 
-def plot_joint_loads(loads: JointLoads, robot=None, *, joints=None) -> Figure:
+def plot_joint_loads(loads: JointLoads, robot: Robot | None = None, *, joints=None) -> Figure:
     """Torque, speed and power over time, one row per joint, limits drawn dashed.
 
     Parameters
@@ -57,10 +59,10 @@ def plot_joint_loads(loads: JointLoads, robot=None, *, joints=None) -> Figure:
             ax.grid(True, alpha=0.3)
         if robot is not None:
             lim = robot.limits
-            if lim.effort_Nm[j] > 0:
+            if lim.torque_Nm is not None:
                 for s in (1, -1):
                     axes[row, 0].axhline(
-                        s * lim.effort_Nm[j],
+                        s * lim.torque_Nm[j],
                         color="C3",
                         ls="--",
                         lw=0.8,
@@ -79,7 +81,7 @@ def plot_joint_loads(loads: JointLoads, robot=None, *, joints=None) -> Figure:
                 axes[row, 2].axhline(
                     d.motor.power_W, color="C3", ls="--", lw=0.8, label="motor power"
                 )
-            for s in (1, -1):
+            for s in (1, -1) if lim.velocity_rad_s is not None else ():
                 axes[row, 1].axhline(s * lim.velocity_rad_s[j], color="C3", ls="--", lw=0.8)
             if row == 0:
                 axes[row, 0].legend(fontsize=7, loc="upper right")
@@ -89,7 +91,7 @@ def plot_joint_loads(loads: JointLoads, robot=None, *, joints=None) -> Figure:
     return fig
 
 
-def plot_operating_points(loads: JointLoads, robot, *, drives=None, joints=None) -> Figure:
+def plot_operating_points(loads: JointLoads, robot: Robot, *, drives=None, joints=None) -> Figure:
     """Motor operating points on the speed-torque plane with each motor's envelope.
 
     The envelope (:func:`armlab.dynamics.checks.envelope_torque`) is

@@ -1,7 +1,7 @@
-"""The thesis' sizing tables (seed 003, tables 4.2 and 4.3) and the Markdown reports that put
+"""The thesis' sizing tables (HEU thesis, tables 4.2 and 4.3) and the Markdown reports that put
 them beside ours.
 
-Thesis figures are restated from the digest §1; the differences between the thesis and our
+Thesis figures are restated from the HEU thesis (ch. 4); the differences between the thesis and our
 model are explained from the model's assumptions (robot_desc/teachbot6/mdh.toml: lumped masses
 of table 4.1 at the places written there, tool point 200 mm beyond the wrist centre ASSUMED,
 payload centre of mass at the tool point).
@@ -10,6 +10,7 @@ payload centre of mass at the tool point).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -29,7 +30,7 @@ THESIS_TABLE_4_2 = {
 }
 
 #: Thesis table 4.3: the selected drives; available = stall x ratio x 0.6 (x 0.8 for joint 2).
-THESIS_TABLE_4_3 = (
+THESIS_TABLE_4_3: tuple[dict[str, Any], ...] = (
     {
         "motor": "55LY54",
         "stall_torque_Nm": 0.1274,

@@ -1,6 +1,6 @@
 """The thesis' requirements as a duty cycle: each joint at its maximum speed and acceleration.
 
-Thesis chapter 2 gives, per joint, a maximum speed and acceleration (digest §1 table); its
+Thesis chapter 2 gives, per joint, a maximum speed and acceleration (HEU thesis, ch. 2 table); its
 table 4.3 verdict compares the drives against the static worst case of 4.2.1. To size the
 drives along a motion with the same content, :func:`requirement_moves` builds one move per
 joint:
@@ -14,14 +14,26 @@ joint:
   even the ramps do not fit, the move goes the other way; ``meta["note"]`` says so).
 
 The six moves form one duty cycle (``size(robot, moves)`` stacks them).
+
+The maximum speed is the **requirement**, the description's ``<limit velocity>`` (thesis table
+2.1 in the URDF), not ``robot.limits.velocity_rad_s``: that one is already capped by the drive
+train (motor speed / ratio, :func:`armlab.robot.resolve_limits`), and sizing is what checks
+whether the drive meets the requirement. The acceleration is ``robot.limits``' (drives.toml,
+thesis table 2.1).
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from armlab.errors import InputError
+from armlab.robot.limits import description_limits
 from armlab.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = ["requirement_moves", "trapezoid_move"]
 
@@ -71,7 +83,7 @@ def trapezoid_move(
 
 
 def requirement_moves(
-    robot,
+    robot: Robot,
     static=None,
     *,
     velocity_rad_s=None,
@@ -87,7 +99,9 @@ def requirement_moves(
     static : StaticLoadReport, optional
         Worst poses; computed with :func:`static_load` if not given.
     velocity_rad_s, acceleration_rad_s2 : array (n_joints,), optional
-        Override the robot's limits (e.g. twice them for a move that is too fast).
+        Override the required speed (default: the URDF's ``<limit velocity>``, falling back to
+        ``robot.limits`` where it has none) and acceleration (default ``robot.limits``), e.g.
+        twice them for a move that is too fast.
     cruise_s : float
         Time at full speed in [s].
     dt : float
@@ -102,7 +116,12 @@ def requirement_moves(
         from armlab.dynamics.static_load import static_load
 
         static = static_load(robot)
-    v = robot.limits.velocity_rad_s if velocity_rad_s is None else velocity_rad_s
+    v = velocity_rad_s
+    if v is None:
+        v = description_limits(robot.model, robot.joint_names).velocity_rad_s
+        v = robot.limits.velocity_rad_s if v is None else v
+    if v is None:
+        raise InputError(f"{robot.name} has no velocity limits: pass velocity_rad_s")
     a = robot.limits.acceleration_rad_s2 if acceleration_rad_s2 is None else acceleration_rad_s2
     if a is None:
         raise InputError(f"{robot.name} has no acceleration limits: pass acceleration_rad_s2")

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 from armlab.dynamics.catalogue import Catalogue, load_catalogue
 from armlab.dynamics.checks import (
@@ -27,6 +28,9 @@ from armlab.dynamics.inverse import as_trajectories, inverse_dynamics
 from armlab.dynamics.sizing import lever_arms_m
 from armlab.errors import InputError
 from armlab.robot.drives import Drive, Encoder, Motor, Reducer, available_torque_Nm
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = ["Candidate", "JointSelection", "Selection", "select_drives"]
 
@@ -124,7 +128,7 @@ class Selection:
                 return j
         raise InputError(f"no joint {name!r} in the selection")
 
-    def drives(self, robot) -> dict[str, Drive]:
+    def drives(self, robot: Robot) -> dict[str, Drive]:
         """The chosen drives as ``{joint: Drive}`` (for :func:`size`); the robot's own drive
         where nothing passed."""
         out = {}
@@ -209,7 +213,7 @@ def _drive(robot, j: int, motor: Motor, reducer: Reducer, derating: float) -> Dr
 
 
 def select_drives(
-    robot,
+    robot: Robot,
     trajectories,
     catalogue: Catalogue | str | None = None,
     *,

@@ -11,6 +11,7 @@ Each check is ``{name, value, limit, margin, ok}``; a failing check is a result,
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +20,7 @@ from armlab.dynamics.checks import (
     Checked,
     DriveArrays,
     SizingOptions,
+    counts_per_joint_rev_of,
     checks_for_column,
     evaluate_checks,
 )
@@ -32,10 +34,13 @@ from armlab.dynamics.inverse import (
 from armlab.errors import InputError
 from armlab.robot.drives import Drive
 
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
+
 __all__ = ["JointSizing", "SizingReport", "size", "lever_arms_m"]
 
 
-def lever_arms_m(robot) -> np.ndarray:
+def lever_arms_m(robot: Robot) -> np.ndarray:
     """Upper bound of each joint's distance to the tool point, (n_joints,) in [m].
 
     The sum of the lengths of the joint placements outboard of the joint plus the tool
@@ -136,7 +141,7 @@ class SizingReport:
 
 
 def size(
-    robot,
+    robot: Robot,
     trajectory,
     *,
     drives=None,
@@ -182,6 +187,7 @@ def size(
     results = evaluate_checks(
         loads.torque_Nm, loads.qd, loads.qdd, loads.weights, arrays, lever_arms_m(robot), options
     )
+    counts_per_rev = counts_per_joint_rev_of(arrays, options.controller)
     peak_t, rms_t, peak_v = loads.peak_torque_Nm, loads.rms_torque_Nm, loads.peak_speed_rad_s
     m_peak, m_rms = loads.motor_peak_torque_Nm, loads.motor_rms_torque_Nm
     m_speed = np.abs(loads.motor_speed_rad_s).max(axis=0) * RAD_S_TO_RPM
@@ -200,7 +206,7 @@ def size(
                 motor_peak_torque_Nm=float(m_peak[j]),
                 motor_rms_torque_Nm=float(m_rms[j]),
                 available_torque_Nm=float(d.available_torque_Nm),
-                counts_per_joint_rev=float(d.encoder.counts_per_joint_rev(d.reducer.ratio)),
+                counts_per_joint_rev=float(counts_per_rev[j]),
             )
         )
     return SizingReport(

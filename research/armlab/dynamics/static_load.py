@@ -1,6 +1,6 @@
 """Worst-case static load of each joint (thesis 4.2.1-4.2.2), found by optimisation.
 
-The thesis sizes its drives with a static method (eq. 4-2, digest §1):
+The thesis sizes its drives with a static method (HEU thesis, 4.2.1, eq. 4-2):
 
 ``tau_j = sum_i m_i g l_ij + sum_i J_ij alpha_j``
 
@@ -27,13 +27,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 from scipy.optimize import minimize
 
-from armlab.dynamics.inverse import dynamics_model, joint_torques
 from armlab.errors import InputError
+from armlab.robot import rigid_body
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = [
     "JointStaticLoad",
@@ -58,7 +62,7 @@ class StaticLoadProblem:
     ``start_signs``.
     """
 
-    robot: object
+    robot: Robot
     joint: int
     acceleration_rad_s2: float
     lower_rad: np.ndarray
@@ -71,9 +75,9 @@ class StaticLoadProblem:
     data: pin.Data = field(repr=False, default=None)
     n_evaluations: int = 0
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.model is None:
-            self.model = dynamics_model(self.robot)
+            self.model = self.robot.model  # gravity in the base frame (Robot keeps it so)
         self.data = self.model.createData()
         self._v0 = np.zeros(self.model.nv)
 
@@ -137,7 +141,7 @@ class StaticLoadProblem:
 
 
 def build_static_load(
-    robot,
+    robot: Robot,
     joint,
     *,
     mode: str = "total",
@@ -184,8 +188,8 @@ def build_static_load(
     zeros = np.zeros_like(q)
     acc = zeros.copy()
     acc[:, j] = acceleration_rad_s2
-    g = joint_torques(robot, q, zeros, zeros)[:, j]
-    tau_acc = joint_torques(robot, q, zeros, acc)[:, j] if mode != "gravity" else g
+    g = rigid_body.gravity_torques(robot, q)[:, j]
+    tau_acc = rigid_body.inverse_dynamics(robot, q, zeros, acc)[:, j] if mode != "gravity" else g
     inertia_term = tau_acc - g
     starts, signs = [], []
     for s in (1.0,) if mode == "inertia" else (1.0, -1.0):
@@ -294,7 +298,7 @@ class StaticLoadReport:
 
 
 def static_load(
-    robot,
+    robot: Robot,
     *,
     criterion: str = "gravity",
     acceleration_rad_s2=None,

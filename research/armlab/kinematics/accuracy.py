@@ -1,5 +1,5 @@
 """Positioning accuracy: Monte-Carlo of reducer angle errors and link-length tolerances
-(thesis 3.7, seed 003).
+(HEU thesis, 3.7).
 
 Method (thesis 3.7.1-3.7.3): the joint angles are drawn uniformly inside their ranges; each
 reducer transmits its angle with an error drawn uniformly in ``+-e`` (the encoder sits on the
@@ -33,11 +33,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from armlab.errors import ArmlabError, InputError
 from armlab.robot.dh import mdh_transforms
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = [
     "AccuracyResult",
@@ -183,7 +187,7 @@ def _positions(a, alpha, d, theta, upto: int, T_end: np.ndarray) -> np.ndarray:
 
 
 def accuracy_study(
-    robot,
+    robot: Robot,
     n_samples: int = 3000,
     seed: int = 0,
     *,

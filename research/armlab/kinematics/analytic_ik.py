@@ -1,6 +1,6 @@
 """Analytic inverse kinematics of PUMA-like 6R arms with a spherical wrist (teachbot6).
 
-Method (thesis 3.4.2, seed 003; digest §1). With the modified-DH table (Craig)
+Method (HEU thesis, 3.4.2). With the modified-DH table (Craig)
 ``T_{i-1,i} = RotX(alpha_{i-1}) TransX(a_{i-1}) RotZ(theta_i) TransZ(d_i)`` and
 ``theta_i = q_i + offset_i``, an arm of this family has
 
@@ -59,10 +59,14 @@ import dataclasses
 import itertools
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from armlab.errors import ArmlabError, InputError, UnreachableError
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = [
     "ik_all",
@@ -139,7 +143,7 @@ class _WristArm:
     transform_post: np.ndarray  # (4, 4) tool -> frame 6 placed at the wrist centre
 
 
-def has_analytic_ik(robot) -> bool:
+def has_analytic_ik(robot: Robot) -> bool:
     """True if :func:`ik_all` applies to ``robot`` (a DH table of the supported family)."""
     try:
         _arm(robot)
@@ -226,6 +230,7 @@ def _check_structure(robot) -> _WristArm:
         problems.append("a_3 and d_4 are both 0 (no forearm)")
     if problems:
         raise ArmlabError(f"no analytic IK for {name}: " + "; ".join(problems))
+    assert s1 is not None and s3 is not None and s4 is not None  # else a problem was raised
     # the Pinocchio model must be the DH chain (joint frame i == DH frame i)
     for i in range(6):
         c, s = math.cos(dh.offset_rad[i]), math.sin(dh.offset_rad[i])
@@ -432,7 +437,7 @@ def _range_variants(arm: _WristArm, q: np.ndarray, ok: np.ndarray):
     return out, valid, blocking
 
 
-def ik_all_batch(robot, poses, *, q_ref=None) -> tuple[np.ndarray, np.ndarray]:
+def ik_all_batch(robot: Robot, poses, *, q_ref=None) -> tuple[np.ndarray, np.ndarray]:
     """Every analytic solution of many poses at once (fully vectorised).
 
     Parameters
@@ -470,7 +475,9 @@ def ik_all_batch(robot, poses, *, q_ref=None) -> tuple[np.ndarray, np.ndarray]:
     return sol, valid
 
 
-def ik_all_batch_reasons(robot, poses, *, q_ref=None):
+def ik_all_batch_reasons(
+    robot: Robot, poses, *, q_ref=None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`ik_all_batch` plus ``reasons (n,)`` (codes of :data:`IK_REASONS`)."""
     arm = _arm(robot)
     T, _ = check_poses(poses)
@@ -550,7 +557,7 @@ def _unreachable_message(robot, arm: _WristArm, T: np.ndarray, code: int, where:
     )
 
 
-def ik_all(robot, pose, *, q_ref=None, unique_tol_rad: float = 1e-10) -> np.ndarray:
+def ik_all(robot: Robot, pose, *, q_ref=None, unique_tol_rad: float = 1e-10) -> np.ndarray:
     """Every in-range analytic IK solution of one tool pose (thesis 3.4.2).
 
     Parameters
@@ -610,7 +617,7 @@ def _weights(robot, weights) -> np.ndarray:
     return w
 
 
-def ik_nearest(robot, poses, q_ref, weights=None, *, sequential: bool = False) -> np.ndarray:
+def ik_nearest(robot: Robot, poses, q_ref, weights=None, *, sequential: bool = False) -> np.ndarray:
     """The in-range analytic solution closest to a reference (thesis 3.4.2, 6.3.1).
 
     Among the valid solutions of each pose, pick the one minimising the weighted distance

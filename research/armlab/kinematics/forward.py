@@ -5,13 +5,18 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pinocchio as pin
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = ["fk", "fk_batch", "jacobian", "analytic_jacobian", "tool_positions"]
 
 
-def fk(robot, q, frame: str | None = None) -> np.ndarray:
+def fk(robot: Robot, q, frame: str | None = None) -> np.ndarray:
     """Pose of the tool (or ``frame``) in the world, (4, 4).
 
     Parameters
@@ -28,7 +33,7 @@ def fk(robot, q, frame: str | None = None) -> np.ndarray:
     return robot.transform_base_to_world @ robot.data.oMf[fid].homogeneous
 
 
-def fk_batch(robot, q, frame: str | None = None) -> np.ndarray:
+def fk_batch(robot: Robot, q, frame: str | None = None) -> np.ndarray:
     """Poses of the tool (or ``frame``) for many configurations: (n, 4, 4) from q (n, n_joints)."""
     q = robot.check_q(q, batch=True)
     q2 = np.atleast_2d(q)
@@ -41,12 +46,12 @@ def fk_batch(robot, q, frame: str | None = None) -> np.ndarray:
     return robot.transform_base_to_world @ out
 
 
-def tool_positions(robot, q) -> np.ndarray:
+def tool_positions(robot: Robot, q) -> np.ndarray:
     """Tool-point positions in the world, (n, 3) in [m], for q (n, n_joints)."""
     return fk_batch(robot, q)[:, :3, 3]
 
 
-def jacobian(robot, q, frame: str | None = None, reference: str = "world") -> np.ndarray:
+def jacobian(robot: Robot, q, frame: str | None = None, reference: str = "world") -> np.ndarray:
     """Geometric Jacobian (6, n_joints): ``[v; omega] = J qd``.
 
     ``reference="world"``: linear velocity of the frame origin and angular velocity, both in
@@ -70,7 +75,7 @@ def _rpy_rate_matrix(rpy: np.ndarray) -> np.ndarray:
     return np.array([[cy * cp, -sy, 0.0], [sy * cp, cy, 0.0], [-sp, 0.0, 1.0]])
 
 
-def analytic_jacobian(robot, q, frame: str | None = None) -> np.ndarray:
+def analytic_jacobian(robot: Robot, q, frame: str | None = None) -> np.ndarray:
     """Analytic Jacobian (6, n_joints) for [position; roll-pitch-yaw] of the frame in the world:
     ``d/dt [p; r, p, y] = J_a qd``, with ``J_a = blockdiag(I, E(rpy)^-1) J``.
 

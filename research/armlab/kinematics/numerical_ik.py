@@ -30,6 +30,7 @@ import inspect
 import math
 import threading
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import osqp
@@ -38,6 +39,9 @@ from scipy import sparse
 
 from armlab.errors import InputError, UnreachableError
 from armlab.kinematics.analytic_ik import check_poses
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = ["IKResult", "IKSettings", "ik", "ik_solve", "ik_batch"]
 
@@ -170,7 +174,7 @@ def _errors(oMf: pin.SE3, oMdes: pin.SE3) -> tuple[float, float]:
 
 
 def ik_solve(
-    robot,
+    robot: Robot,
     pose,
     q_seed=None,
     *,
@@ -285,7 +289,7 @@ def ik_solve(
 
 
 def ik(
-    robot,
+    robot: Robot,
     pose,
     q_seed=None,
     *,
@@ -329,7 +333,9 @@ def ik(
     return res.q
 
 
-def ik_batch(robot, poses, q_seed=None, *, sequential: bool = True, **kwargs):
+def ik_batch(
+    robot: Robot, poses, q_seed=None, *, sequential: bool = True, **kwargs
+) -> tuple[np.ndarray, list[IKResult]]:
     """Numerical IK of many poses (n, 4, 4).
 
     With ``sequential=True`` (paths) pose ``k`` is seeded with the solution of pose ``k - 1``

@@ -6,11 +6,15 @@ state), so they work under any backend; save them with ``fig.savefig(path)``.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from matplotlib.figure import Figure
 
 from armlab.kinematics.accuracy import AccuracyResult
 from armlab.kinematics.workspace import WorkspaceResult
+
+if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with the package
+    from matplotlib.figure import Figure
 
 __all__ = ["plot_workspace", "plot_accuracy", "plot_accuracy_scatter"]
 
@@ -30,6 +34,8 @@ def plot_workspace(
     """
     p = result.points_m[:max_points] * 1000.0
     r = np.hypot(p[:, 0], p[:, 1])
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(11, 5), layout="constrained")
     side, top = fig.subplots(1, 2)
     side.scatter(r, p[:, 2], s=1, alpha=0.25, color="tab:blue", rasterized=True)
@@ -77,6 +83,8 @@ _TITLES = {"angle": "reducer angle errors", "length": "link-length tolerances", 
 def plot_accuracy(result: AccuracyResult, *, bins: int = 60) -> Figure:
     """Histograms of the position error: one row per source (angle, length, both), columns
     dx, dy, dz and the total |dp|, in [mm]; the 95th percentile is marked."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(13, 8), layout="constrained")
     axes = fig.subplots(3, 4)
     for row, source in enumerate(("angle", "length", "combined")):
@@ -104,6 +112,8 @@ def plot_accuracy_scatter(result: AccuracyResult, source: str = "combined") -> F
     """Error per sample (the thesis' figures 3.3-3.10 style): dx, dy, dz and |dp| in [mm]
     against the sample number."""
     e = result.errors(source) * 1000.0
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(11, 6), layout="constrained")
     axes = fig.subplots(2, 2).ravel()
     data = [e[:, 0], e[:, 1], e[:, 2], np.linalg.norm(e, axis=1)]

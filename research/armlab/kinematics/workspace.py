@@ -13,6 +13,7 @@ is undone): reach is a property of the arm, not of where it stands.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.optimize import minimize
@@ -20,10 +21,13 @@ from scipy.optimize import minimize
 from armlab.errors import InputError
 from armlab.kinematics.forward import fk, fk_batch
 
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
+
 __all__ = ["WorkspaceResult", "workspace_cloud", "max_reach_m", "tool_points_in_base"]
 
 
-def tool_points_in_base(robot, q) -> np.ndarray:
+def tool_points_in_base(robot: Robot, q) -> np.ndarray:
     """Tool-point positions in the base frame, (n, 3) in [m], for q (n, n_joints)."""
     T = np.linalg.solve(robot.transform_base_to_world, fk_batch(robot, q))
     return T[:, :3, 3]
@@ -42,7 +46,7 @@ def _refine(robot, q0: np.ndarray, objective) -> tuple[float, np.ndarray]:
     return -float(res.fun), np.asarray(res.x)
 
 
-def max_reach_m(robot, n_samples: int = 2000, seed: int = 0) -> float:
+def max_reach_m(robot: Robot, n_samples: int = 2000, seed: int = 0) -> float:
     """Largest distance of the tool point from the base's z axis, in [m] (thesis 2.2.2 "max
     reach radius"): best of ``n_samples`` random in-range configurations, refined by a bounded
     local optimisation (L-BFGS-B) from the best three."""
@@ -114,7 +118,7 @@ class WorkspaceResult:
 
 
 def workspace_cloud(
-    robot, n_samples: int = 20000, seed: int = 0, *, refine: bool = True
+    robot: Robot, n_samples: int = 20000, seed: int = 0, *, refine: bool = True
 ) -> WorkspaceResult:
     """Monte-Carlo reach cloud of the tool point (thesis 3.6 workspace analysis).
 

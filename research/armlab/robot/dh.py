@@ -313,7 +313,7 @@ def _inertial_xml(lumps: list[LumpedMass], indent: str) -> str:
     total = sum(m.mass_kg for m in lumps)
     if total <= 0:
         return ""
-    com = sum(m.mass_kg * np.array(m.xyz_m) for m in lumps) / total
+    com = np.asarray(sum(m.mass_kg * np.array(m.xyz_m) for m in lumps) / total)
     inertia = np.zeros((3, 3))
     for m in lumps:
         r = np.array(m.xyz_m) - com

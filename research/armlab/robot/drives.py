@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 from dataclasses import MISSING, asdict, dataclass, fields
 from pathlib import Path
+from typing import Any
 
 from armlab.errors import RobotDescriptionError
 from armlab.tomlfile import read_toml
@@ -25,9 +26,10 @@ __all__ = [
 RPM_TO_RAD_S = 2.0 * math.pi / 60.0
 
 
-def available_torque_Nm(stall_torque_Nm, ratio, efficiency, derating=1.0):
+def available_torque_Nm(stall_torque_Nm, ratio, efficiency, derating=1.0) -> Any:
     """Thesis rule (table 4.3): available joint torque = stall torque x ratio x efficiency
-    x derating, in [N m]. Scalars or numpy arrays (one value per joint)."""
+    x derating, in [N m]. Scalars or numpy arrays (one value per joint); the result is a float
+    or an array accordingly (hence ``Any``)."""
     return stall_torque_Nm * ratio * efficiency * derating
 
 
@@ -88,6 +90,14 @@ class Motor:
         """No-load speed at the supply voltage, ``U / Ke``, in [rad/s]."""
         return self.supply_voltage_V / self.back_emf_V_s_rad
 
+    @property
+    def speed_limit_rad_s(self) -> float:
+        """The speed the motor may run at, in [rad/s]: the rated (table) speed if the data sheet
+        gives one, else the no-load speed ``U / Ke``. The sizing check ``motor_speed`` and the
+        joint velocity limit (:func:`armlab.robot.resolve_limits`) both use it."""
+        s = self.rated_speed_rpm
+        return s * RPM_TO_RAD_S if math.isfinite(s) and s > 0 else self.no_load_speed_rad_s
+
 
 @dataclass(frozen=True)
 class Reducer:
@@ -107,6 +117,11 @@ class Reducer:
     mass_kg: float = math.nan
     price: float = math.nan
     source: str = ""
+
+    @property
+    def max_input_speed_rad_s(self) -> float:
+        """Maximum input (motor-side) speed in [rad/s]."""
+        return self.max_input_speed_rpm * RPM_TO_RAD_S
 
 
 @dataclass(frozen=True)

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from armlab.io import atomic_write
 from armlab.robot.dh import read_dh_table, urdf_from_dh
 from armlab.robot.drives import read_drives
 from armlab.robot.model import robot_desc_dir
@@ -34,7 +35,7 @@ def write_description_urdf(folder: str | Path) -> Path:
     """Regenerate ``<folder>/<name>.urdf``; returns its path."""
     folder = Path(folder)
     path = folder / f"{folder.name}.urdf"
-    path.write_text(description_urdf(folder))
+    atomic_write(path, description_urdf(folder))
     return path
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import copy
 import math
 import os
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -20,15 +20,27 @@ import pinocchio as pin
 from armlab.errors import InputError, RobotDescriptionError
 from armlab.robot.dh import DHTable, read_dh_table
 from armlab.robot.drives import Drive, read_drives
+from armlab.robot.limits import Limits, description_limits, resolve_limits
 
-__all__ = ["Robot", "JointLimits", "Payload", "load_robot", "robot_desc_dir", "list_robots"]
+__all__ = ["Robot", "Payload", "load_robot", "robot_desc_dir", "list_robots"]
 
 
 def robot_desc_dir() -> Path:
-    """Folder of built-in robot descriptions: ``$ARMLAB_ROBOT_DESC`` or ``<repo>/robot_desc``."""
+    """Folder of built-in robot descriptions, the first of:
+
+    1. ``$ARMLAB_ROBOT_DESC``;
+    2. ``armlab/robot_desc`` inside the installed package (a wheel install: pyproject.toml ships
+       the repository's ``robot_desc/`` there as package data);
+    3. ``<repo>/robot_desc`` (a source checkout or an editable install).
+    """
     env = os.environ.get("ARMLAB_ROBOT_DESC")
     if env:
         return Path(env)
+    from importlib.resources import files
+
+    installed = Path(str(files("armlab") / "robot_desc"))
+    if installed.is_dir():
+        return installed
     return Path(__file__).resolve().parents[3] / "robot_desc"
 
 
@@ -38,22 +50,6 @@ def list_robots() -> list[str]:
     if not root.is_dir():
         return []
     return sorted(p.name for p in root.iterdir() if (p / f"{p.name}.urdf").is_file())
-
-
-@dataclass(frozen=True)
-class JointLimits:
-    """Joint limits, arrays of shape ``(n_joints,)`` in SI units.
-
-    ``acceleration_rad_s2`` and ``jerk_rad_s3`` are ``None`` when the description has no drives
-    file (a plain URDF); planners then ask the caller for them.
-    """
-
-    lower_rad: np.ndarray
-    upper_rad: np.ndarray
-    velocity_rad_s: np.ndarray
-    effort_Nm: np.ndarray
-    acceleration_rad_s2: np.ndarray | None = None
-    jerk_rad_s3: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -76,6 +72,13 @@ class Payload:
         )
 
 
+def _frozen(a) -> np.ndarray:
+    """A read-only float copy of ``a``."""
+    out = np.array(a, dtype=float)
+    out.flags.writeable = False
+    return out
+
+
 def _sub_inertia(a: pin.Inertia, b: pin.Inertia) -> pin.Inertia:
     """a - b through the (linear) dynamic parameters (a massless remainder keeps its rotation)."""
     p = a.toDynamicParameters() - b.toDynamicParameters()
@@ -95,14 +98,27 @@ class Robot:
     model : pinocchio.Model
         Kinematic and inertial model, payload included (``model.inertias``).
     joint_names : list of str
-    limits : JointLimits
+    limits : Limits
+        The resolved limits (:func:`armlab.robot.resolve_limits`): the URDF's combined with the
+        drive train (``limits.sources`` says where each value came from).
     drives : dict of str to Drive, or None
     dh : DHTable or None
         The DH table the URDF was generated from (built-in arms), used by the analytic IK.
     tool_frame : str
     transform_base_to_world : ndarray (4, 4)
+        Mounting of the base in the world, a rigid transform (read-only array; assign a new
+        one to change it).
+    gravity_in_world : ndarray (3,)
+        Gravity in the world in [m/s^2], the URDF model's gravity as loaded (0, 0, -9.81).
     payload : Payload
     urdf_path : Path
+
+    Gravity convention: ``model.gravity`` is the gravity expressed in the **base** frame,
+    ``g_base = R_base_in_world^T g_world`` with ``R_base_in_world`` the rotation of
+    ``transform_base_to_world``; assigning either property updates it. Every Pinocchio call on
+    ``model`` (``rnea``, ``aba``, ``computeGeneralizedGravity``, :mod:`armlab.robot.rigid_body`)
+    and the symbolic twin (:mod:`armlab.trajectory.symdyn`) therefore honour a rotated base
+    without rotating anything themselves.
     """
 
     def __init__(
@@ -129,10 +145,8 @@ class Robot:
         self.tool_frame_id = model.getFrameId(tool_frame)
         self._tool_parent = model.frames[self.tool_frame_id].parentJoint
         self._tool_placement0 = model.frames[self.tool_frame_id].placement.copy()
-        T = np.eye(4) if transform_base_to_world is None else np.asarray(transform_base_to_world)
-        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-            raise InputError("transform_base_to_world must be a finite (4, 4) array")
-        self.transform_base_to_world = T
+        self._gravity_in_world = _frozen(model.gravity.linear)
+        self.transform_base_to_world = transform_base_to_world  # sets model.gravity
         # Separate the description's payload from the bare arm so it can be replaced.
         self._bare_inertia = model.inertias[self._tool_parent].copy()
         payload = Payload(0.0, np.zeros(3), np.zeros((3, 3)))
@@ -148,20 +162,46 @@ class Robot:
             payload = Payload(float(y.mass), y.lever.copy(), y.inertia.copy())
         self.payload = payload
         self.attach_payload(payload.mass_kg, payload.com_m, payload.inertia_kg_m2)
-        lower, upper = model.lowerPositionLimit.copy(), model.upperPositionLimit.copy()
-        acc = jerk = None
-        if drives is not None:
-            acc = np.array([drives[n].acceleration_rad_s2 for n in self.joint_names])
-            jerk = np.array([drives[n].jerk_rad_s3 for n in self.joint_names])
-        self.limits = JointLimits(
-            lower_rad=lower,
-            upper_rad=upper,
-            velocity_rad_s=model.velocityLimit.copy(),
-            effort_Nm=model.effortLimit.copy(),
-            acceleration_rad_s2=acc,
-            jerk_rad_s3=jerk,
-        )
+        self.limits = resolve_limits(description_limits(model, self.joint_names), drives)
         self.data = model.createData()
+
+    # ------------------------------------------------------------------ base and gravity
+    @property
+    def transform_base_to_world(self) -> np.ndarray:
+        """Mounting of the base in the world (4, 4), [m] (read-only; assign to change)."""
+        return self._transform_base_to_world
+
+    @transform_base_to_world.setter
+    def transform_base_to_world(self, value: np.ndarray | None) -> None:
+        T = np.eye(4) if value is None else np.asarray(value, dtype=float)
+        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+            raise InputError("transform_base_to_world must be a finite (4, 4) array")
+        R = T[:3, :3]
+        rigid = np.allclose(R.T @ R, np.eye(3), atol=1e-6) and np.linalg.det(R) > 0
+        if not rigid or not np.allclose(T[3], [0.0, 0.0, 0.0, 1.0], atol=1e-12):
+            raise InputError(
+                "transform_base_to_world must be a rigid transform (rotation, [0 0 0 1])"
+            )
+        self._transform_base_to_world = _frozen(T)
+        self._update_gravity()
+
+    @property
+    def gravity_in_world(self) -> np.ndarray:
+        """Gravity in the world (3,) in [m/s^2] (read-only; assign to change)."""
+        return self._gravity_in_world
+
+    @gravity_in_world.setter
+    def gravity_in_world(self, value) -> None:
+        g = np.asarray(value, dtype=float)
+        if g.shape != (3,) or not np.all(np.isfinite(g)):
+            raise InputError("gravity_in_world must be a finite (3,) array in [m/s^2]")
+        self._gravity_in_world = _frozen(g)
+        self._update_gravity()
+
+    def _update_gravity(self) -> None:
+        """``model.gravity = R_base_in_world^T g_world`` (the class docstring's convention)."""
+        R = self._transform_base_to_world[:3, :3]
+        self.model.gravity = pin.Motion(R.T @ self._gravity_in_world, np.zeros(3))
 
     # ------------------------------------------------------------------ basic facts
     @property
@@ -179,7 +219,7 @@ class Robot:
         """Mass of all moving links, payload included, in [kg]."""
         return float(sum(inertia.mass for inertia in self.model.inertias[1:]))
 
-    def joint_index(self, name: str) -> int:
+    def joint_index(self, name: str | int) -> int:
         """Index of a joint by name or 1-based number; :class:`InputError` if unknown."""
         if isinstance(name, (int, np.integer)):
             if 1 <= int(name) <= self.n_joints:
@@ -283,10 +323,15 @@ class Robot:
         other.data = other.model.createData()
         return other
 
-    def with_limits(self, **changes) -> Robot:
-        """A copy with some limits replaced (keywords of :class:`JointLimits`)."""
+    def with_limits(self, limits: Limits | None = None, /, **changes) -> Robot:
+        """A copy with other limits: a whole :class:`Limits`, or some fields replaced
+        (``velocity_rad_s=...``, recorded as their source; no hardware check -- a study's
+        overrides go through :func:`armlab.robot.resolve_limits`)."""
         other = self.copy()
-        other.limits = replace(self.limits, **changes)
+        base = self.limits if limits is None else limits
+        if base.joint_names != tuple(self.joint_names):
+            raise InputError(f"limits are for joints {list(base.joint_names)}, not {self.name}'s")
+        other.limits = base.with_values("Robot.with_limits", **changes) if changes else base
         return other
 
     def drive(self, joint) -> Drive:

@@ -6,11 +6,15 @@ Plots are functions returning matplotlib Figures (headless); the report saves th
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from armlab.io import atomic_open, atomic_write
 
 __all__ = ["write_report", "summary_text"]
 
@@ -41,7 +45,7 @@ def _plant(ctx, joint):
     return make
 
 
-def _figures(ctx) -> list[tuple[str, str, Any]]:
+def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
     """(file name, caption, figure factory) of every plot the study can draw."""
     from armlab.control.plots import bode_figure, step_figure, tracking_figure
     from armlab.dynamics import plot_joint_loads, plot_operating_points
@@ -54,7 +58,7 @@ def _figures(ctx) -> list[tuple[str, str, Any]]:
         plot_torque_ratio,
     )
 
-    out = []
+    out: list[tuple[str, str, Callable[[], Any]]] = []  # (file name, caption, draw)
     traj, robot = ctx.trajectory, ctx.robot
     for kind, plot, caption in (
         ("workspace", plot_workspace, "Monte-Carlo workspace"),
@@ -62,7 +66,7 @@ def _figures(ctx) -> list[tuple[str, str, Any]]:
     ):
         res = ctx.figures.get(kind)
         if res is not None:
-            out.append((f"kinematics_{kind}.png", caption, lambda p=plot, r=res: p(r)))
+            out.append((f"kinematics_{kind}.png", caption, functools.partial(plot, res)))
     if traj is not None:
         optimised = ctx.spec.plan.planner in ("optimal", "path")
         joints = plot_limit_profiles if optimised else plot_joints
@@ -128,7 +132,7 @@ def _figures(ctx) -> list[tuple[str, str, Any]]:
         )
     loads = getattr(ctx.sizing, "loads", None)
     if loads is not None:
-        for plot, name, caption in (
+        for plot_loads, name, caption in (
             (
                 plot_joint_loads,
                 "sizing_loads.png",
@@ -140,7 +144,7 @@ def _figures(ctx) -> list[tuple[str, str, Any]]:
                 "Motor operating points on the speed-torque plane",
             ),
         ):
-            out.append((name, caption, lambda p=plot: p(loads, robot)))
+            out.append((name, caption, functools.partial(plot_loads, loads, robot)))
     return out
 
 
@@ -179,13 +183,23 @@ def write_report(ctx, summary: dict, out_dir: Path) -> list[Path]:
         f"Source `{spec.source}` (sha256 `{spec.hash[:12]}`), seed {spec.study.seed}, "
         f"armlab {summary['study']['armlab_version']}.",
         "",
+        "## Design verdict",
+        "",
+        *design_lines(summary),
+        "",
         "## Stages",
         "",
     ]
     lines += _table(
-        ["stage", "status", "time [s]", "note"],
+        ["stage", "status", "verdict", "time [s]", "note"],
         [
-            [s, info["status"], info["time_s"], _note(summary.get(_key(s), {}))]
+            [
+                s,
+                info["status"],
+                info.get("verdict") or "-",
+                info["time_s"],
+                _note(summary.get(_key(s), {})),
+            ]
             for s, info in summary["study"]["stages"].items()
         ],
     )
@@ -279,12 +293,13 @@ def write_report(ctx, summary: dict, out_dir: Path) -> list[Path]:
     for name, caption, make in _figures(ctx):
         fig = make()
         path = out_dir / name
-        fig.savefig(path, dpi=110)
+        with atomic_open(path, "wb") as f:
+            fig.savefig(f, format=path.suffix[1:] or "png", dpi=110)
         plt.close(fig)
         files.append(path)
         lines += [f"![{caption}]({name})", "", f"*{caption}*", ""]
     report = out_dir / "report.md"
-    report.write_text("\n".join(lines))
+    atomic_write(report, "\n".join(lines))
     return [report, *files]
 
 
@@ -330,8 +345,9 @@ def _section_lines(key: str, block: dict) -> list[str]:
             [[j, b.get("max_error_rad"), b.get("final_error_rad")] for j, b in items],
         )
     if key == "export":
+        cycle_ms = 1e3 * block.get("cycle_s", math.nan)
         lines = [
-            f"{_fmt(block.get('n_cycles'))} cycles of {_fmt(1e3 * block.get('cycle_s'))} ms "
+            f"{_fmt(block.get('n_cycles'))} cycles of {_fmt(cycle_ms)} ms "
             f"for controller profile `{block.get('profile')}`; every cycle passed the "
             "pre-flight checks (range, speed, pulses per cycle, continuity).",
             "",
@@ -456,9 +472,26 @@ def _stage_line(stage: str, summary: dict) -> str:
             text = ""
     else:
         text = block.get("reason", block.get("error", ""))
-    if len(text) > 62:
-        text = text[:59] + "..."
-    return f"  {stage:<12}{status:<15}{text}"
+    if len(text) > 56:
+        text = text[:53] + "..."
+    verdict = block.get("verdict") or "-"
+    return f"  {stage:<12}{status:<9}{verdict.upper():<6}{text}"
+
+
+def design_lines(summary: dict) -> list[str]:
+    """The design's verdict in words, its failed checks and advisories (one line each)."""
+    d = summary.get("design", {})
+    verdict = d.get("verdict", "?")
+    failed = d.get("failed_checks", [])
+    words = {
+        "pass": "the design PASSES every check the study ran",
+        "fail": f"the design FAILS {len(failed)} check(s)",
+        "incomplete": "the design is NOT JUDGED: " + "; ".join(d.get("not_judged", [])),
+    }.get(verdict, f"design verdict {verdict}")
+    lines = [f"design: {words}"]
+    lines += [f"  FAILED  {f}" for f in failed]
+    lines += [f"  advisory  {a}" for a in d.get("advisories", [])]
+    return lines
 
 
 def summary_text(
@@ -470,11 +503,12 @@ def summary_text(
     lines = [
         f"armlab study {st.get('name')!r}: robot {r.get('name')} ({r.get('n_joints')} "
         f"joints), payload {_fmt(r.get('payload_kg'))} kg",
-        f"  {'stage':<12}{'status':<15}key figures",
+        f"  {'stage':<12}{'status':<9}{'check':<6}key figures",
     ]
     from armlab.study.spec import STAGES
 
     lines += [_stage_line(s, summary) for s in STAGES]
+    lines += design_lines(summary)
     if files:
         names = list(dict.fromkeys(Path(f).name for f in files))
         pngs = [n for n in names if n.endswith(".png")]

@@ -2,36 +2,59 @@
 
 ``run_study(path, out_dir)`` is what ``armlab run`` calls; :func:`run_spec` is the same without
 the file reading and printing (sweeps and notebooks use it). Outputs in ``out_dir``
-(DESIGN.md): ``summary.json``, ``report.md`` with PNG plots beside it, ``setpoints.csv``,
-``gains.json`` and ``trajectory.npz`` (the input of ``armlab export``).
+(DESIGN.md): ``summary.json``, ``design.json`` (the resolved design, :mod:`armlab.study.record`),
+``report.md`` with PNG plots beside it, ``setpoints.csv`` (only for a design that passes, or with
+``force``), ``gains.json`` and ``trajectory.npz`` (the inputs of ``armlab export``).
+
+The result separates two facts: each stage's ``status`` (it ran, was skipped, or stopped with an
+error) and the design's ``verdict`` (``pass`` / ``fail`` with the failed checks, or
+``incomplete`` when a stage that judges the design did not run). ``armlab run`` exits 0 when the
+design passes, 1 when it fails, 2 on bad input.
 """
 
 from __future__ import annotations
 
-import json
 import math
-import os
 import sys
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from armlab.errors import ArmlabError
+from armlab.io import write_json
+from armlab.study.record import DESIGN_FILE, SUMMARY_FILE, design_record, prepare_out_dir
 from armlab.study.spec import STAGES, StudySpec, load_study
 from armlab.study.stages import (
+    FAIL,
     NEEDS,
+    PASS,
     STAGE_FUNCTIONS,
     SUMMARY_KEY,
     NotApplicable,
-    NotAvailable,
     StudyContext,
     build_robot,
+    controller_profile,
     robot_block,
 )
 
-__all__ = ["StudyResult", "run_study", "run_spec", "key_figures", "KEY_FIGURES", "write_json"]
+if TYPE_CHECKING:
+    from armlab.control import ArmGains
+    from armlab.robot.model import Robot
+    from armlab.trajectory import Trajectory
+
+__all__ = [
+    "StudyResult",
+    "run_study",
+    "run_spec",
+    "key_figures",
+    "KEY_FIGURES",
+    "write_json",
+    "design_verdict",
+]
+
+#: Stages whose verdict the design needs; a design is "incomplete" while one did not run.
+JUDGING_STAGES = ("plan", "sizing", "tuning", "tracking", "export")
 
 
 @dataclass
@@ -42,10 +65,11 @@ class StudyResult:
     ----------
     spec : StudySpec
     summary : dict
-        The summary.json content (DESIGN.md keys; each block has a ``status``).
+        The summary.json content (DESIGN.md keys; each block has a ``status`` and a
+        ``verdict``; ``summary["design"]`` the design's verdict and failed checks).
     context : StudyContext
-        The robot, trajectory, sizing report, gains, tracking result... (None where a stage did
-        not run).
+        The robot, controller, trajectory, sizing report, gains, tracking result... (None where a
+        stage did not run).
     out_dir : Path or None
     files : list of Path
         Files written.
@@ -58,53 +82,59 @@ class StudyResult:
     files: list[Path]
 
     @property
-    def robot(self):
+    def robot(self) -> Robot | None:
         return self.context.robot
 
     @property
-    def trajectory(self):
+    def trajectory(self) -> Trajectory | None:
         return self.context.trajectory
 
     @property
-    def gains(self):
+    def gains(self) -> ArmGains | None:
         return self.context.gains
+
+    @property
+    def verdict(self) -> str:
+        """``"pass"``, ``"fail"`` or ``"incomplete"`` (see :func:`design_verdict`)."""
+        return str(self.summary["design"]["verdict"])
+
+    @property
+    def failed_checks(self) -> list[str]:
+        """One line per failed check of the design."""
+        return list(self.summary["design"]["failed_checks"])
 
     def key_figures(self) -> dict[str, Any]:
         return key_figures(self.summary)
 
 
-def _clean(x):
-    """JSON-safe: NaN -> None, +-inf -> "inf"/"-inf" (strict JSON has neither)."""
-    if isinstance(x, float):
-        if math.isnan(x):
-            return None
-        if math.isinf(x):
-            return "inf" if x > 0 else "-inf"
-        return x
-    if isinstance(x, dict):
-        return {k: _clean(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    return x
+def design_verdict(summary: dict[str, Any], stages: tuple[str, ...]) -> dict[str, Any]:
+    """The design's verdict from the stage blocks of a summary.
 
-
-def write_json(path: Path, data: Any) -> Path:
-    """Write JSON atomically (temporary file in the same folder, then ``os.replace``)."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(_clean(data), f, indent=2, allow_nan=False)
-            f.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    ``fail`` when any stage failed a check; otherwise ``incomplete`` when a stage of
+    :data:`JUDGING_STAGES` that the study asked for did not run (skipped or no drive data), so
+    nothing was checked there; otherwise ``pass``. Advisories (worst-case requirement checks
+    beside the study's duty cycle) are listed but do not decide the verdict.
+    """
+    failed: list[str] = []
+    advisories: list[str] = []
+    unjudged: list[str] = []
+    for stage in STAGES:
+        block = summary.get(SUMMARY_KEY[stage], {})
+        failed += block.get("failed_checks", [])
+        advisories += block.get("advisories", [])
+        if stage in JUDGING_STAGES and stage in stages and block.get("verdict") not in (PASS, FAIL):
+            unjudged.append(f"{stage} ({block.get('reason', block.get('status', 'not run'))})")
+    verdict = FAIL if failed else ("incomplete" if unjudged else PASS)
+    return {
+        "verdict": verdict,
+        "failed_checks": failed,
+        "not_judged": unjudged,
+        "advisories": advisories,
+    }
 
 
 def _progress(total: int, enabled: bool | None, desc: str):
-    from tqdm import tqdm
+    from tqdm.auto import tqdm
 
     # disable=None: tqdm switches itself off when stderr is not a terminal (CI)
     return tqdm(
@@ -124,6 +154,8 @@ def run_spec(
     workers: int | None = None,
     progress: bool | None = False,
     report: bool | None = None,
+    force: bool = False,
+    overwrite: bool = False,
 ) -> StudyResult:
     """Run every stage of a study.
 
@@ -132,13 +164,20 @@ def run_spec(
     spec : StudySpec
     out_dir : str or Path, optional
         Output folder (created). None: run in memory and write nothing (sweeps); the export
-        stage still builds the set-point table, so its pre-flight checks run.
+        stage still builds the set-point table, so its pre-flight checks run. A folder that holds
+        an earlier run of the same study is cleared of its outputs first; one that holds
+        another study's outputs is refused unless ``overwrite``
+        (:func:`armlab.study.record.prepare_out_dir`).
     workers : int, optional
         Processes for the stages that can use several (reserved; None: one).
     progress : bool or None
         Progress bar over the stages: True, False, or None = only on a terminal.
     report : bool, optional
         Write report.md and its plots (default ``study.report``; never without ``out_dir``).
+    force : bool
+        Write the set-point table even when the design fails a check (recorded in the table).
+    overwrite : bool
+        Clear an output folder that holds another study's outputs.
 
     Raises
     ------
@@ -146,10 +185,8 @@ def run_spec(
         The first stage that fails, with the stage's name in front of its message; the
         summary.json written so far records it.
     """
-    out = None if out_dir is None else Path(out_dir)
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
-    ctx = StudyContext(spec=spec, out_dir=out, workers=workers)
+    out = None if out_dir is None else prepare_out_dir(out_dir, spec.hash, overwrite=overwrite)
+    ctx = StudyContext(spec=spec, out_dir=out, workers=workers, force=force)
     summary: dict[str, Any] = {
         "study": {
             "name": spec.study.name,
@@ -167,12 +204,20 @@ def run_spec(
         summary[key] = block
         summary["study"]["stages"][stage] = {
             "status": block["status"],
+            "verdict": block.get("verdict"),
             "time_s": round(time.perf_counter() - t0, 6),
         }
+        ctx.failed_so_far += block.get("failed_checks", [])
+
+    def finish() -> None:
+        summary["design"] = design_verdict(summary, tuple(spec.study.stages))
+        summary["key_figures"] = key_figures(summary)
+        if out is not None:
+            summary["files"] = {name: sha for name, sha in _checksums(out, ctx.files).items()}
+            files.insert(0, write_json(out / SUMMARY_FILE, summary))
 
     def fail(stage: str, exc: ArmlabError):
-        if out is not None:
-            files.append(write_json(out / "summary.json", summary))
+        finish()
         bar.close()
         return type(exc)(f"{stage}: {exc}")
 
@@ -180,11 +225,15 @@ def run_spec(
         t0 = time.perf_counter()
         bar.set_postfix_str("robot")
         try:
+            ctx.controller = controller_profile(spec)
             ctx.robot = build_robot(spec)
         except ArmlabError as exc:
             record("robot", "robot", {"status": "error", "error": str(exc)}, t0)
             raise fail("robot", exc) from None
         record("robot", "robot", robot_block(ctx), t0)
+        if out is not None:
+            path = write_json(out / DESIGN_FILE, design_record(ctx.robot, ctx.controller, spec))
+            ctx.files[DESIGN_FILE] = str(path)
         bar.update()
         for stage in STAGES:
             t0 = time.perf_counter()
@@ -196,41 +245,54 @@ def run_spec(
                 if summary["study"]["stages"].get(n, {}).get("status") != "ok"
             ]
             if stage not in spec.study.stages:
-                block = {"status": "skipped", "reason": "not in study.stages"}
+                block = {"status": "skipped", "verdict": None, "reason": "not in study.stages"}
             elif missing:
                 why = ", ".join(
                     f"{n}: {summary['study']['stages'].get(n, {}).get('status')}" for n in missing
                 )
-                block = {"status": "skipped", "reason": f"needs {', '.join(missing)} ({why})"}
+                block = {
+                    "status": "skipped",
+                    "verdict": None,
+                    "reason": f"needs {', '.join(missing)} ({why})",
+                }
             else:
                 try:
                     block = STAGE_FUNCTIONS[stage](ctx)
-                except NotAvailable as exc:
-                    block = {"status": "not available", "reason": str(exc)}
                 except NotApplicable as exc:
-                    block = {"status": "skipped", "reason": str(exc)}
+                    block = {"status": "skipped", "verdict": None, "reason": str(exc)}
                 except ArmlabError as exc:
                     record(
                         stage,
                         key,
-                        {"status": "error", "error": str(exc), "error_type": type(exc).__name__},
+                        {
+                            "status": "error",
+                            "verdict": None,
+                            "error": str(exc),
+                            "error_type": type(exc).__name__,
+                        },
                         t0,
                     )
                     raise fail(stage, exc) from None
             record(stage, key, block, t0)
             bar.update()
-        summary["key_figures"] = key_figures(summary)
-        if out is not None:
-            files += [Path(p) for p in ctx.files.values()]
-            if spec.study.report if report is None else report:
-                from armlab.study.report import write_report
+        if out is not None and (spec.study.report if report is None else report):
+            from armlab.study.report import write_report
 
-                bar.set_postfix_str("report")
-                files += write_report(ctx, summary, out)
-            files.insert(0, write_json(out / "summary.json", summary))
+            bar.set_postfix_str("report")
+            summary["design"] = design_verdict(summary, tuple(spec.study.stages))
+            files += write_report(ctx, summary, out)
+        finish()
+        files += [Path(p) for p in ctx.files.values()]
     finally:
         bar.close()
     return StudyResult(spec=spec, summary=summary, context=ctx, out_dir=out, files=files)
+
+
+def _checksums(out: Path, written: dict[str, str]) -> dict[str, str]:
+    """sha256 of every data file the run wrote (relative names), for export's verification."""
+    from armlab.deploy.provenance import file_sha256
+
+    return {Path(p).name: file_sha256(p) for p in written.values() if Path(p).is_file()}
 
 
 def _version() -> str:
@@ -247,6 +309,8 @@ def run_study(
     overrides: dict[str, Any] | None = None,
     progress: bool | None = None,
     quiet: bool = False,
+    force: bool = False,
+    overwrite: bool = False,
 ) -> dict[str, Any]:
     """Run a study file into ``out_dir`` and print a one-screen summary (``armlab run``).
 
@@ -255,7 +319,8 @@ def run_study(
     study : str, Path or None
         STUDY.toml; None: the built-in teachbot6 demo study (``armlab/data/demo_study.toml``).
     out_dir : str or Path
-        Output folder: summary.json, report.md + PNGs, setpoints.csv, gains.json, trajectory.npz.
+        Output folder: summary.json, design.json, report.md + PNGs, setpoints.csv, gains.json,
+        trajectory.npz.
     workers : int, optional
         Processes for the stages that can use several (reserved; None: one).
     overrides : dict, optional
@@ -264,14 +329,21 @@ def run_study(
         Stage progress bar; None: only on a terminal.
     quiet : bool
         Do not print the summary.
+    force : bool
+        Write the set-point table of a failing design (the table records the failed checks).
+    overwrite : bool
+        Clear an output folder that holds another study's outputs.
 
     Returns
     -------
     dict
-        The summary (summary.json content).
+        The summary (summary.json content); ``summary["design"]["verdict"]`` is the design's
+        verdict.
     """
     spec = load_study(study, overrides)
-    result = run_spec(spec, out_dir, workers=workers, progress=progress)
+    result = run_spec(
+        spec, out_dir, workers=workers, progress=progress, force=force, overwrite=overwrite
+    )
     if not quiet:
         from armlab.study.report import summary_text
 
@@ -324,6 +396,7 @@ KEY_FIGURES = (
     "tracking_max_error_rad",
     "tcp_max_error_m",
     "n_cycles",
+    "n_failed_checks",
 )
 
 
@@ -382,6 +455,9 @@ def key_figures(summary: dict[str, Any]) -> dict[str, Any]:
     out["n_cycles"] = math.nan if n is None else float(n)
     for stage, info in summary.get("study", {}).get("stages", {}).items():
         out[f"stage_{stage}"] = info.get("status", "")
+    design = summary.get("design", {})
+    out["verdict"] = design.get("verdict", "")
+    out["n_failed_checks"] = float(len(design.get("failed_checks", [])))
     return out
 
 

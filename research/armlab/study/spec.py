@@ -3,7 +3,8 @@
 A study file has these tables (every key optional unless marked; units in the key names)::
 
     [study]      name, seed, stages (subset of STAGES, in chain order), report (bool)
-    [robot]      name (required: built-in name or URDF path), tool_frame, lock_joints
+    [robot]      name (required: built-in name or URDF path), tool_frame, lock_joints,
+                 base_xyz_m, base_rpy_deg (mounting of the base in the world)
     [payload]    mass_kg, com_m (centre of mass in the tool frame)
     [waypoints]  unit ("deg" | "rad"), joint (n x n_joints) OR cartesian (n x 6: x, y, z in m,
                  roll, pitch, yaw in `unit`), ik_seed (n_joints, in `unit`)
@@ -15,9 +16,10 @@ A study file has these tables (every key optional unless marked; units in the ke
     [kinematics] workspace_samples, accuracy_samples
     [sizing]     catalogue, select
     [control]    position_bandwidth_rad_s | rise_time_s, phase_margin_deg, gain_margin_dB,
-                 overshoot_pct, method, servo_period_s, current_sample_time_s, n_inertia_samples
+                 overshoot_pct, method, current_sample_time_s, n_inertia_samples
     [tracking]   feedforward, quantise, t_after_s, accuracy_m
-    [controller] profile, cycle_s, pulse_limit
+    [controller] profile, cycle_s, pulse_limit, servo_period_s (the one home of the controller:
+                 the table, sizing's encoder checks, the tuning's discretisation, the simulation)
 
 Anything else -- an unknown table, an unknown key, a value of the wrong type or out of range --
 raises :class:`armlab.SpecError` naming the key (``plan.speed_scale``). Values that need the robot
@@ -196,6 +198,12 @@ class RobotSpec:
     name: str = _key(_str(), doc="built-in robot name or URDF path")
     tool_frame: str | None = _key(_str(), None, "tool frame (default tool0 or the last frame)")
     lock_joints: tuple[str, ...] = _key(_str_list(), (), "joints locked at 0")
+    base_xyz_m: tuple[float, ...] | None = _key(
+        _vector(3), None, "position of the base in the world, m (default 0 0 0)"
+    )
+    base_rpy_deg: tuple[float, ...] | None = _key(
+        _vector(3), None, "roll, pitch, yaw of the base in the world, deg (e.g. 90 0 0: wall)"
+    )
 
 
 @dataclass(frozen=True)
@@ -286,8 +294,8 @@ class SizingSpec:
 class ControlSpec:
     """``[control]``: specs of the robust cascade tuning (None: the tuner's defaults).
 
-    Keys are those of :class:`armlab.control.TuningSpec`; ``servo_period_s`` sets the speed and
-    position loops' sample time (the card's servo period).
+    Keys are those of :class:`armlab.control.TuningSpec`. The speed and position loops' sample
+    time and the D/A are the controller's (``[controller] servo_period_s``, the profile's DAC).
     """
 
     position_bandwidth_rad_s: float | None = _key(
@@ -301,9 +309,6 @@ class ControlSpec:
     overshoot_pct: float | None = _key(_float(0.0, 100.0), None, "position-loop step, %")
     method: str | None = _key(
         _str(("tustin", "backward", "zoh")), None, "integral discretisation of the incremental PID"
-    )
-    servo_period_s: float | None = _key(
-        _float(0.0, 0.1, lo_open=True), None, "speed/position loop sample time, s"
     )
     current_sample_time_s: float | None = _key(
         _float(0.0, 0.01, lo_open=True), None, "current loop sample time, s"
@@ -338,6 +343,9 @@ class ControllerSpec:
     profile: str | None = _key(_str(), None, "profile name or TOML path (default: reference)")
     cycle_s: float | None = _key(_float(0.0, 2.0, lo_open=True), None, "cycle period in s")
     pulse_limit: int | None = _key(_int(1), None, "pulses per cycle limit")
+    servo_period_s: float | None = _key(
+        _float(0.0, 0.1, lo_open=True), None, "servo (speed/position loop) period, s"
+    )
 
 
 _SECTIONS: dict[str, type] = {
@@ -458,7 +466,7 @@ def parse_study(
         raise SpecError(
             "waypoints.joint: give exactly one of waypoints.joint and waypoints.cartesian"
         )
-    n_wp = len(wp.joint if wp.joint is not None else wp.cartesian)
+    n_wp = len(wp.joint) if wp.joint is not None else len(wp.cartesian or ())
     if n_wp < 2 and "plan" in parts["study"].stages:
         raise SpecError(f"waypoints: at least 2 waypoints needed to plan, got {n_wp}")
     plan: PlanSpec = parts["plan"]

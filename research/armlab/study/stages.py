@@ -1,9 +1,16 @@
-"""The stages of a study: each takes the :class:`StudyContext` and returns its summary.json block.
+"""The stages of a study: plain functions from the :class:`StudyContext` to a summary block.
 
 Chain (DESIGN.md): robot -> kinematics checks -> plan -> static load -> sizing -> tuning ->
-closed-loop tracking -> export. Each stage calls the package's public functions; a stage that
-cannot apply (no drive data, no trajectory) reports ``status: "skipped"`` or ``"not available"``
-with the reason, and the stages that need its result are skipped -- a study never fakes a result.
+closed-loop tracking -> export. Each stage calls the package's public functions directly and
+stores its typed result on the context (``ctx.trajectory``, ``ctx.sizing``, ``ctx.gains``, ...);
+the block it returns is what summary.json holds for it.
+
+Two facts are kept apart in every block (issue "status is not a verdict"):
+
+* ``status``: whether the stage ran (``ok``), was ``skipped`` (with the reason) or stopped with an
+  ``error``;
+* ``verdict``: whether the design passes what the stage checks (``pass`` / ``fail``; ``None``
+  where the stage checks nothing), with ``failed_checks``: one line per failed check.
 
 A stage raises an :class:`armlab.ArmlabError` when its input is impossible (a waypoint out of
 range, an infeasible plan, an impossible control spec); the runner records it and stops.
@@ -12,26 +19,31 @@ range, an infeasible plan, an impossible control spec); the runner records it an
 from __future__ import annotations
 
 import functools
-import importlib
-import inspect
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from armlab.errors import LimitViolation, SpecError, UnreachableError
+from armlab.robot.controller import ControllerProfile, load_profile
 from armlab.study.spec import StudySpec
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
+    from armlab.trajectory import Trajectory
 
 __all__ = [
     "StudyContext",
-    "NotAvailable",
     "NotApplicable",
     "STAGE_FUNCTIONS",
     "SUMMARY_KEY",
     "build_robot",
-    "api",
+    "controller_profile",
+    "base_transform",
+    "PASS",
+    "FAIL",
 ]
 
 #: summary.json block written by each stage.
@@ -45,44 +57,34 @@ SUMMARY_KEY = {
     "export": "export",
 }
 
+#: Verdicts of a stage block.
+PASS, FAIL = "pass", "fail"
+
 #: Limit kinds a planner must honour exactly (the plan stage refuses a plan that breaks them).
 _KINEMATIC = ("position", "velocity", "acceleration", "jerk")
 
 
-class NotAvailable(Exception):
-    """A stage's package function is missing from this installation (not an armlab error)."""
+class NotApplicable(Exception):
+    """A stage that does not apply to this robot (no drive data): the stage is skipped."""
 
 
-def api(module: str, name: str):
-    """``module.name``, imported when a stage runs (a study imports only the stages it uses)."""
-    return getattr(importlib.import_module(module), name)
-
-
-def _call(fn, where: str, *args, **options):
-    """Call ``fn`` with the options the user set (not None); an option ``fn`` does not take is a
-    :class:`SpecError` naming the study key (``where.<option>``)."""
-    sig = inspect.signature(fn)
-    takes_any = any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
-    kw = {}
-    for key, (param, value) in options.items():
-        if value is None:
-            continue
-        if not takes_any and param not in sig.parameters:
-            raise SpecError(
-                f"{where}.{key.rstrip('_')}: not supported by {fn.__module__}.{fn.__name__}"
-            )
-        kw[param] = value
-    return fn(*args, **kw)
+def verdict_block(failed: list[str], checked: bool = True) -> dict[str, Any]:
+    """``{"verdict": "pass"|"fail"|None, "failed_checks": [...]}`` of a stage block."""
+    if not checked:
+        return {"verdict": None, "failed_checks": []}
+    return {"verdict": FAIL if failed else PASS, "failed_checks": list(failed)}
 
 
 @dataclass
 class StudyContext:
-    """Everything the stages share: the spec, the robot and each stage's result object."""
+    """Everything the stages share: the spec, the resolved design and each stage's result."""
 
     spec: StudySpec
     out_dir: Path | None = None
     workers: int | None = None
+    force: bool = False
     robot: Any = None
+    controller: ControllerProfile | None = None
     waypoints_q: np.ndarray | None = None
     waypoint_poses: np.ndarray | None = None
     trajectory: Any = None
@@ -94,6 +96,7 @@ class StudyContext:
     tracking: Any = None
     setpoints: Any = None
     jerk_limited: bool = True
+    failed_so_far: list[str] = field(default_factory=list)
     files: dict[str, str] = field(default_factory=dict)
     figures: dict[str, Any] = field(default_factory=dict)
 
@@ -119,7 +122,8 @@ def _per_joint(value, n: int, where: str) -> np.ndarray:
 
 def _catalogue(spec: StudySpec):
     """The drive catalogue (``sizing.catalogue`` or the package's)."""
-    load = api("armlab.dynamics", "load_catalogue")
+    from armlab.dynamics import load_catalogue as load
+
     name = spec.sizing.catalogue
     return load(None if name is None else spec.resolve(name))
 
@@ -143,30 +147,34 @@ def _find_part(kind: str, model: str, robot, spec: StudySpec, where: str):
     return found[model]
 
 
-def build_robot(spec: StudySpec):
+def build_robot(spec: StudySpec) -> Robot:
     """The study's robot: description + payload + drive changes + limit overrides.
 
-    A drive change (ratio, motor, reducer, efficiency, derating) also updates the joint's
-    effort limit when the description derives it from the drive (URDF effort = available output
-    torque, thesis table 4.3 rule), so the planners and checks see the new drive.
+    The limits are resolved again (:func:`armlab.robot.resolve_limits`) from the URDF and the
+    drive train after the ``[drives]`` changes -- velocity = min(URDF, motor speed / ratio,
+    reducer max input speed / ratio), torque = available torque (thesis table 4.3 rule) -- so
+    the planners and checks see the new drive; then ``[limits]`` overrides, which may only
+    tighten a hardware limit (:class:`SpecError` naming the key, joint and hardware limit).
     """
     from armlab.robot.drives import Drive
+    from armlab.robot.limits import description_limits, resolve_limits
 
     base = _load_cached(
         spec.resolve(spec.robot.name), spec.robot.tool_frame, tuple(spec.robot.lock_joints)
     )
     robot = base.copy()
+    base_to_world = base_transform(spec)
+    if base_to_world is not None:  # gravity follows the mounting (robot.model.gravity)
+        robot.transform_base_to_world = base_to_world
     p = spec.payload
     if p.mass_kg is not None or p.com_m is not None:
         mass = robot.payload.mass_kg if p.mass_kg is None else p.mass_kg
         com = robot.payload.com_m if p.com_m is None else np.asarray(p.com_m)
         robot.attach_payload(mass, com)
-    lim = robot.limits
     if spec.drives:
         if robot.drives is None:
             raise SpecError(f"drives: robot {robot.name} has no drives.toml to change")
         drives = dict(robot.drives)
-        effort = lim.effort_Nm.copy()
         for joint, change in spec.drives.items():
             where = f"drives.{joint}"
             if joint not in drives:
@@ -198,17 +206,13 @@ def build_robot(spec: StudySpec):
                 new = replace(new, encoder=replace(new.encoder, **enc))
             if change.derating is not None:
                 new = replace(new, derating=change.derating)
-            j = robot.joint_names.index(joint)
-            if math.isclose(effort[j], old.available_torque_Nm, rel_tol=1e-3):
-                effort[j] = new.available_torque_Nm
             drives[joint] = new
         robot.drives = drives
-        lim = replace(lim, effort_Nm=effort)
-    n = robot.n_joints
-    changes = {
-        k: _per_joint(v, n, f"limits.{k}") for k, v in vars(spec.limits).items() if v is not None
-    }
-    robot.limits = replace(lim, **changes)
+    robot.limits = resolve_limits(
+        description_limits(robot.model, robot.joint_names),
+        robot.drives,
+        overrides=vars(spec.limits),
+    )
     return robot
 
 
@@ -223,11 +227,16 @@ def robot_block(ctx: StudyContext) -> dict:
         "urdf": str(r.urdf_path),
         "tool_frame": r.tool_frame,
         "payload_kg": r.payload.mass_kg,
+        **verdict_block([], checked=False),
         "total_mass_kg": r.total_mass_kg,
-        "limits": {
+        "transform_base_to_world": np.asarray(r.transform_base_to_world).tolist(),
+        "limits": _jsonable(r.limits.to_dict())
+        if hasattr(r.limits, "to_dict")
+        else {
             "velocity_rad_s": r.limits.velocity_rad_s.tolist(),
             "effort_Nm": r.limits.effort_Nm.tolist(),
         },
+        "controller": ctx.controller.name if ctx.controller is not None else None,
     }
     if r.drives is not None:
         block["drives"] = {
@@ -262,6 +271,19 @@ def _rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     )
 
 
+def base_transform(spec: StudySpec) -> np.ndarray | None:
+    """``transform_base_to_world`` from ``[robot] base_xyz_m, base_rpy_deg`` (None: identity)."""
+    r = spec.robot
+    if r.base_xyz_m is None and r.base_rpy_deg is None:
+        return None
+    T = np.eye(4)
+    if r.base_rpy_deg is not None:
+        T[:3, :3] = _rpy_to_matrix(*np.radians(np.asarray(r.base_rpy_deg, float)))
+    if r.base_xyz_m is not None:
+        T[:3, 3] = np.asarray(r.base_xyz_m, float)
+    return T
+
+
 def _angles(values, unit: str) -> np.ndarray:
     a = np.asarray(values, float)
     return np.radians(a) if unit == "deg" else a
@@ -283,9 +305,11 @@ def waypoint_poses(spec: StudySpec) -> np.ndarray | None:
 
 def _solve_ik(ctx: StudyContext, poses: np.ndarray) -> np.ndarray:
     """Joint waypoints from poses, keeping the IK branch continuous: the analytic solution
-    nearest to the previous waypoint's (thesis 3.4.2, 6.3.1) on arms that have one, numerical IK
-    seeded with the previous waypoint otherwise. The first reference is ``waypoints.ik_seed``
+    nearest to the previous waypoint's (HEU thesis 3.4.2, 6.3.1) on arms that have one, numerical
+    IK seeded with the previous waypoint otherwise. The first reference is ``waypoints.ik_seed``
     (default: the middle of the joint ranges)."""
+    from armlab.kinematics import has_analytic_ik, ik, ik_nearest
+
     robot, wp = ctx.robot, ctx.spec.waypoints
     lim = robot.limits
     seed = (
@@ -293,13 +317,11 @@ def _solve_ik(ctx: StudyContext, poses: np.ndarray) -> np.ndarray:
         if wp.ik_seed is None
         else _per_joint(list(_angles(wp.ik_seed, wp.unit)), robot.n_joints, "waypoints.ik_seed")
     )
-    if api("armlab.kinematics", "has_analytic_ik")(robot):
-        ik_nearest = api("armlab.kinematics", "ik_nearest")
+    if has_analytic_ik(robot):
         try:
             return np.atleast_2d(ik_nearest(robot, poses, seed, sequential=True))
         except UnreachableError as exc:
             raise UnreachableError(f"waypoints.cartesian: {exc}") from None
-    ik = api("armlab.kinematics", "ik")
     out = []
     for k, pose in enumerate(poses):
         try:
@@ -345,6 +367,7 @@ def stage_kinematics(ctx: StudyContext) -> dict:
     tcp = np.array([fk(robot, row)[:3, 3] for row in q])
     block = {
         "status": "ok",
+        **verdict_block([], checked=False),
         "waypoints_from": source,
         "n_waypoints": int(len(q)),
         "waypoints_rad": q.tolist(),
@@ -353,36 +376,31 @@ def stage_kinematics(ctx: StudyContext) -> dict:
     }
     ks = spec.kinematics
     if ks.workspace_samples:
-        block["workspace"] = _optional_study(ctx, "workspace", ks.workspace_samples)
+        from armlab.kinematics import workspace_cloud
+
+        res = workspace_cloud(robot, n_samples=ks.workspace_samples, seed=spec.study.seed)
+        ctx.figures["workspace"] = res
+        block["workspace"] = {"status": "ok", **_to_dict(res)}
     if ks.accuracy_samples:
-        block["accuracy"] = _optional_study(ctx, "accuracy", ks.accuracy_samples)
+        if robot.dh is None:
+            block["accuracy"] = {"status": "skipped", "reason": f"{robot.name} has no DH table"}
+        else:
+            from armlab.kinematics import accuracy_study
+
+            res = accuracy_study(robot, n_samples=ks.accuracy_samples, seed=spec.study.seed)
+            ctx.figures["accuracy"] = res
+            block["accuracy"] = {"status": "ok", **_to_dict(res)}
     return block
 
 
-def _optional_study(ctx: StudyContext, kind: str, n: int) -> dict:
-    """The Monte-Carlo workspace cloud or accuracy study (thesis 3.6, 3.7) at the study seed."""
-    name = {"workspace": "workspace_cloud", "accuracy": "accuracy_study"}[kind]
-    fn = api("armlab.kinematics", name)
-    if kind == "accuracy" and ctx.robot.dh is None:
-        return {"status": "skipped", "reason": f"{ctx.robot.name} has no DH table"}
-    res = fn(ctx.robot, n_samples=n, seed=ctx.spec.study.seed)
-    ctx.figures[kind] = res
-    return {"status": "ok", **_to_dict(res)}
-
-
 # ---------------------------------------------------------------------------- plan
-def planning_robot(ctx: StudyContext):
-    """The robot with its velocity/acceleration/jerk limits scaled by s, s^2, s^3."""
+def planning_robot(ctx: StudyContext) -> Robot:
+    """The robot with its velocity/acceleration/jerk limits scaled by s, s^2, s^3
+    (:meth:`armlab.robot.Limits.scaled`, ``plan.speed_scale``)."""
     s = ctx.spec.plan.speed_scale
-    lim = ctx.robot.limits
     if s == 1.0:
         return ctx.robot
-    scaled = {"velocity_rad_s": lim.velocity_rad_s * s}
-    if lim.acceleration_rad_s2 is not None:
-        scaled["acceleration_rad_s2"] = lim.acceleration_rad_s2 * s**2
-    if lim.jerk_rad_s3 is not None:
-        scaled["jerk_rad_s3"] = lim.jerk_rad_s3 * s**3
-    return ctx.robot.with_limits(**scaled)
+    return ctx.robot.with_limits(ctx.robot.limits.scaled(s))
 
 
 def _concat(parts):
@@ -392,109 +410,91 @@ def _concat(parts):
     return out
 
 
-def _jerk_on(planner, requested: bool | None) -> bool:
-    """Whether the plan honours the jerk limits: as requested, else the planner's default
-    (its ``j_max`` keyword: ``False`` = off)."""
-    if requested is not None:
-        return requested
-    p = inspect.signature(planner).parameters.get("j_max")
-    return p is None or p.default is not False
+def plan_trajectory(ctx: StudyContext) -> Trajectory:
+    """Run the planner the study names; returns a Trajectory.
 
+    The jerk limits are honoured by ``optimal`` and ``path`` unless ``plan.jerk_limits = false``
+    and by the S-curve ``ptp`` profile; the other classical planners do not limit jerk
+    (``ctx.jerk_limited`` records which, so the plan check enforces only what was planned for).
+    """
+    from armlab import trajectory as T
 
-def plan_trajectory(ctx: StudyContext):
-    """Run the planner the study names; returns a Trajectory."""
     plan, robot = ctx.spec.plan, planning_robot(ctx)
     Q = ctx.waypoints_q
-    T = "armlab.trajectory"
+    torque = plan.torque_limits
     if plan.planner in ("optimal", "path"):
-        fn = api(T, "optimal" if plan.planner == "optimal" else "time_optimal_path")
-        ctx.jerk_limited = _jerk_on(fn, plan.jerk_limits)
-        limits = {
-            "tau_max": None if plan.torque_limits else False,
+        ctx.jerk_limited = True if plan.jerk_limits is None else plan.jerk_limits
+        limits: dict[str, Any] = {
+            "tau_max": None if torque else False,
             "j_max": None if ctx.jerk_limited else False,
         }
         if plan.planner == "path":  # the cubic spline through the waypoints, time-optimally
-            return fn(robot, Q, **limits)
-        return _call(
-            fn,
-            "plan",
-            robot,
-            Q,
-            objective=("objective", plan.objective),
-            duration_s=("duration", plan.duration_s),
-            **{k: (k, v) for k, v in limits.items() if v is not None},
-        )
+            return T.time_optimal_path(robot, Q, **limits)
+        opts: dict[str, Any] = {"objective": plan.objective}
+        if plan.duration_s is not None:
+            opts["duration"] = plan.duration_s
+        return T.optimal(robot, Q, **opts, **limits)
     # classical planners sample at the check step (the controller cycle by default), so the
     # set-point table hits their samples and never interpolates across a profile corner
+    dt = plan.check_dt_s
     if plan.planner == "ptp":
-        fn = api(T, "ptp_sync")
+        ctx.jerk_limited = plan.profile == "scurve"
         return _concat(
             [
-                _call(
-                    fn,
-                    "plan",
-                    robot,
-                    Q[i],
-                    Q[i + 1],
-                    profile=("profile", plan.profile),
-                    check_dt_s=("dt", plan.check_dt_s),
-                    torque_limits=("torque", plan.torque_limits),
-                )
+                T.ptp_sync(robot, Q[i], Q[i + 1], profile=plan.profile, dt=dt, torque=torque)
                 for i in range(len(Q) - 1)
             ]
         )
+    ctx.jerk_limited = False
     if plan.planner == "cubic":
-        fn = api(T, "cubic_via")
         durations = None
         if plan.duration_s is not None:
             d = np.linalg.norm(np.diff(Q, axis=0), axis=1)
             durations = plan.duration_s * d / d.sum()
-        return _call(
-            fn,
-            "plan",
-            robot,
-            Q,
-            duration_s=("durations", durations),
-            check_dt_s=("dt", plan.check_dt_s),
-            torque_limits=("torque", plan.torque_limits),
-        )
+        return T.cubic_via(robot, Q, durations=durations, dt=dt, torque=torque)
     poses = ctx.waypoint_poses
     speed = plan.speed_m_s
     if speed is None:
         raise SpecError(f"plan.speed_m_s: missing (required by planner {plan.planner!r})")
+    if poses is None:
+        raise SpecError(f"waypoints.cartesian: required by planner {plan.planner!r}")
     # the IK branch of the first waypoint starts the path; each line starts where the last ended
-    opts = {"dt": plan.check_dt_s, "torque": plan.torque_limits}
     if plan.planner == "line":
-        fn = api(T, "line")
         parts, q0 = [], Q[0]
         for i in range(len(poses) - 1):
-            parts.append(fn(robot, poses[i], poses[i + 1], speed, q_start=q0, **opts))
+            parts.append(
+                T.line(robot, poses[i], poses[i + 1], speed, q_start=q0, dt=dt, torque=torque)
+            )
             q0 = parts[-1].q[-1]
         return _concat(parts)
     if plan.planner == "arc3":
-        return api(T, "arc3")(robot, poses[0], poses[1], poses[2], speed, q_start=Q[0], **opts)
-    return api(T, "blend")(robot, poses, plan.blend_radius_m, speed, q_start=Q[0], **opts)
+        return T.arc3(
+            robot, poses[0], poses[1], poses[2], speed, q_start=Q[0], dt=dt, torque=torque
+        )
+    return T.blend(robot, poses, plan.blend_radius_m, speed, q_start=Q[0], dt=dt, torque=torque)
 
 
 def stage_plan(ctx: StudyContext) -> dict:
     """Plan, then check the plan on a fine grid against the robot's full limits.
 
-    A plan that breaks a kinematic limit (range, velocity, acceleration, and jerk unless
-    ``plan.jerk_limits = false``) is refused with :class:`LimitViolation` naming the limit,
-    joint and time; a torque ratio above 1 (with ``plan.torque_limits = false``) is reported
-    and left to the sizing stage.
+    A plan that breaks a kinematic limit it was planned for (range, velocity, acceleration, and
+    jerk where ``ctx.jerk_limited``) is refused with :class:`LimitViolation` naming the limit,
+    joint and time: that is a planner error, not a design property. A torque ratio above 1 (with
+    ``plan.torque_limits = false``) or a jerk ratio above 1 of a planner that does not limit jerk
+    is a failed check of the design (verdict ``fail``).
     """
     spec = ctx.spec
     traj = plan_trajectory(ctx)
     ctx.trajectory = traj
     robot = ctx.robot
-    torque = bool(np.all(robot.limits.effort_Nm > 0))
+    torque = bool(np.all(np.asarray(robot.limits.effort_Nm) > 0))
     # a trajectory already sampled at least as finely as the check step is checked at its own
     # samples: they are the planner's exact values (resampling would interpolate across the
     # acceleration steps of a trapezoid)
     fine = traj.n_samples > 1 and np.max(np.diff(traj.t)) <= spec.plan.check_dt_s * (1 + 1e-9)
     report = traj.check_limits(robot, dt=None if fine else spec.plan.check_dt_s, torque=torque)
     enforced = [k for k in _KINEMATIC if k != "jerk" or ctx.jerk_limited]
+    failed = []
     for kind, joint, ratio, at in report.violations(tol=1e-6):
         if kind in enforced:
             raise LimitViolation(
@@ -502,9 +502,11 @@ def stage_plan(ctx: StudyContext) -> dict:
                 f"{kind} limit of {joint} ({ratio:.4g} x the limit at "
                 f"t = {at:.4g} s)"
             )
+        failed.append(f"plan: {kind} of {joint} is {ratio:.4g} x its limit at t = {at:.4g} s")
     kind, joint, ratio = report.worst()
     return {
         "status": "ok",
+        **verdict_block(failed),
         "planner": spec.plan.planner,
         "method": traj.method,
         "duration_s": traj.duration,
@@ -512,6 +514,7 @@ def stage_plan(ctx: StudyContext) -> dict:
         "n_samples": traj.n_samples,
         "speed_scale": spec.plan.speed_scale,
         "check_dt_s": spec.plan.check_dt_s,
+        "jerk_limited": ctx.jerk_limited,
         "peak_ratio": {k: float(np.max(r)) for k, r in report.ratios.items()},
         "peak_joint": {k: report.joint_names[int(np.argmax(r))] for k, r in report.ratios.items()},
         "ratios": report.to_dict(),
@@ -546,19 +549,31 @@ def _jsonable(x):
 
 
 def stage_static_load(ctx: StudyContext) -> dict:
-    """Worst-case static holding torque per joint (thesis 4.2.1) with the payload."""
-    res = _call(
-        api("armlab.dynamics", "static_load"),
-        "study",
-        ctx.robot,
-        seed=("seed", ctx.spec.study.seed),
-    )
+    """Worst-case static holding torque per joint (HEU thesis 4.2.1) with the payload.
+
+    The worst case is a requirement of the drive train, not of the study's motion: a joint whose
+    worst-case torque exceeds its torque limit is listed under ``advisories`` (and in the
+    summary), while the verdict judges the planned duty cycle (sizing stage).
+    """
+    from armlab.dynamics import static_load
+
+    res = static_load(ctx.robot, seed=ctx.spec.study.seed)
     ctx.static_load = res
-    return {"status": "ok", **_to_dict(res)}
-
-
-class NotApplicable(Exception):
-    """A stage that does not apply to this robot (no drive data): the stage is skipped."""
+    limit = ctx.robot.limits.effort_Nm
+    advisories = []
+    for j, x in enumerate(res.joints):
+        lim = float(limit[j]) if limit is not None else math.inf
+        if math.isfinite(lim) and x.torque_Nm > lim * (1 + 1e-9):
+            advisories.append(
+                f"static_load: {x.joint} worst-case {x.torque_Nm:.4g} N m > {lim:.4g} N m "
+                "available (torque limit)"
+            )
+    return {
+        "status": "ok",
+        **verdict_block([], checked=False),
+        "advisories": advisories,
+        **_to_dict(res),
+    }
 
 
 def _needs_drives(ctx: StudyContext) -> None:
@@ -566,35 +581,44 @@ def _needs_drives(ctx: StudyContext) -> None:
         raise NotApplicable(f"{ctx.robot.name} has no drives.toml (motor, reducer, encoder)")
 
 
+def _sizing_failures(report) -> list[str]:
+    return [
+        f"sizing: {j.joint} {c.describe()}" for j in report.joints for c in j.checks if not c.ok
+    ]
+
+
 def stage_sizing(ctx: StudyContext) -> dict:
-    """Drive sizing checks along the planned trajectory; optional selection from a catalogue."""
+    """Drive sizing checks along the planned trajectory, against the study's controller (encoder
+    checks at its cycle and pulse limit); the worst-case requirement moves of HEU thesis tables
+    4.2/4.3 beside them (advisories); optional selection from a catalogue."""
+    from armlab.dynamics import SizingOptions, requirement_moves, select_drives, size
+
     _needs_drives(ctx)
-    if ctx.trajectory is None:
-        raise NotAvailable("needs a trajectory")
-    size = api("armlab.dynamics", "size")
-    res = _call(
-        size, "plan", ctx.robot, ctx.trajectory, check_dt_s=("dt", ctx.spec.plan.check_dt_s)
-    )
+    options = SizingOptions(controller=ctx.controller)
+    res = size(ctx.robot, ctx.trajectory, dt=ctx.spec.plan.check_dt_s, options=options)
     ctx.sizing = res
-    block = {"status": "ok", **_to_dict(res)}
+    block = {"status": "ok", **verdict_block(_sizing_failures(res)), **_to_dict(res)}
     if ctx.static_load is not None:
-        # thesis tables 4.2/4.3: the drives against each joint's worst case (full speed and
+        # HEU thesis tables 4.2/4.3: the drives against each joint's worst case (full speed and
         # acceleration from its worst static pose), beside the planned cycle
-        moves = api("armlab.dynamics", "requirement_moves")(ctx.robot, ctx.static_load)
-        ctx.requirement_sizing = size(ctx.robot, moves)
+        moves = requirement_moves(ctx.robot, ctx.static_load)
+        ctx.requirement_sizing = size(ctx.robot, moves, options=options)
+        adv = [
+            f.replace("sizing:", "worst-case move:", 1)
+            for f in _sizing_failures(ctx.requirement_sizing)
+        ]
         block["requirement_moves"] = {
             "ok": bool(ctx.requirement_sizing.ok),
             "failures": [f"{joint}:{check}" for joint, check in ctx.requirement_sizing.failures()],
         }
+        block["advisories"] = adv
     if ctx.spec.sizing.select:
-        select = api("armlab.dynamics", "select_drives")
-        sel = _call(
-            select,
-            "sizing",
+        sel = select_drives(
             ctx.robot,
             [ctx.trajectory],
-            catalogue=("catalogue", _catalogue(ctx.spec)),
-            check_dt_s=("dt", ctx.spec.plan.check_dt_s),
+            catalogue=_catalogue(ctx.spec),
+            dt=ctx.spec.plan.check_dt_s,
+            options=options,
         )
         ctx.selection = sel
         block["selection"] = {"status": "ok", **_to_dict(sel)}
@@ -602,129 +626,174 @@ def stage_sizing(ctx: StudyContext) -> dict:
 
 
 # ---------------------------------------------------------------------------- control
+def _tuning_failures(gains, spec: dict) -> list[str]:
+    """Loops whose worst-case margins miss the spec (continuous or discrete)."""
+    pm_req = float(spec.get("phase_margin_deg", math.nan))
+    gm_req = float(spec.get("gain_margin_dB", math.nan))
+    out = []
+    for joint, loops in gains.summary().items():
+        for loop, fig in loops.items():
+            if not isinstance(fig, dict):
+                continue
+            for key, req, unit in (
+                ("phase_margin_deg", pm_req, "deg"),
+                ("phase_margin_discrete_deg", pm_req, "deg"),
+                ("gain_margin_dB", gm_req, "dB"),
+                ("gain_margin_discrete_dB", gm_req, "dB"),
+            ):
+                v = fig.get(key)
+                if isinstance(v, (int, float)) and math.isfinite(req) and v < req - 1e-6:
+                    out.append(f"tuning: {joint} {loop} {key} {v:.4g} < {req:.4g} {unit}")
+    return out
+
+
 def stage_tuning(ctx: StudyContext) -> dict:
     """Robust cascade tuning of every joint (current PI, speed PI, position P) to the study's
-    control specs, checked continuous and discrete over each joint's inertia range."""
+    control specs, discretised at the controller's servo period and checked continuous and
+    discrete over each joint's inertia range."""
+    from armlab.control import tune_arm
+
     _needs_drives(ctx)
     c = ctx.spec.control
-    tune_arm = api("armlab.control", "tune_arm")
-    gains = _call(
-        tune_arm,
-        "control",
+    options = {
+        "position_bandwidth_rad_s": c.position_bandwidth_rad_s,
+        "rise_time_s": c.rise_time_s,
+        "phase_margin_deg": c.phase_margin_deg,
+        "gain_margin_dB": c.gain_margin_dB,
+        "overshoot_pct": c.overshoot_pct,
+        "method": c.method,
+        "current_sample_time_s": c.current_sample_time_s,
+        "n_inertia_samples": c.n_inertia_samples,
+        "seed": ctx.spec.study.seed,
+    }
+    gains = tune_arm(
         ctx.robot,
-        position_bandwidth_rad_s=("position_bandwidth_rad_s", c.position_bandwidth_rad_s),
-        rise_time_s=("rise_time_s", c.rise_time_s),
-        phase_margin_deg=("phase_margin_deg", c.phase_margin_deg),
-        gain_margin_dB=("gain_margin_dB", c.gain_margin_dB),
-        overshoot_pct=("overshoot_pct", c.overshoot_pct),
-        method=("method", c.method),
-        servo_period_s=("speed_sample_time_s", c.servo_period_s),
-        servo_period_s_=("position_sample_time_s", c.servo_period_s),
-        current_sample_time_s=("current_sample_time_s", c.current_sample_time_s),
-        n_inertia_samples=("n_inertia_samples", c.n_inertia_samples),
-        seed=("seed", ctx.spec.study.seed),
+        controller=ctx.controller,
+        **{k: v for k, v in options.items() if v is not None},
     )
     ctx.gains = gains
-    return {"status": "ok", **_jsonable(gains.summary())}
+    return {
+        "status": "ok",
+        **verdict_block(_tuning_failures(gains, gains.spec)),
+        "servo_period_s": ctx.controller.servo_period_s if ctx.controller else None,
+        **_jsonable(gains.summary()),
+    }
 
 
 def stage_tracking(ctx: StudyContext) -> dict:
-    """Closed-loop simulation of the arm tracking the plan with the tuned cascades."""
+    """Closed-loop simulation of the arm tracking the plan with the tuned cascades; the verdict
+    is the TCP error against the accuracy budget."""
+    from armlab.control import simulate_tracking
+
     _needs_drives(ctx)
-    if ctx.trajectory is None or ctx.gains is None:
-        raise NotAvailable("needs a trajectory and gains")
     t = ctx.spec.tracking
-    sim = api("armlab.control", "simulate_tracking")
     ff = t.feedforward if t.feedforward is None or t.feedforward == "none" else tuple(t.feedforward)
-    res = _call(
-        sim,
-        "tracking",
-        ctx.robot,
-        ctx.trajectory,
-        ctx.gains,
-        feedforward=("feedforward", ff),
-        quantise=("quantise", None if t.quantise else False),
-        t_after_s=("t_after_s", t.t_after_s),
-        accuracy_m=("accuracy_m", t.accuracy_m),
-    )
+    opts: dict[str, Any] = {"quantise": t.quantise}
+    if ff is not None:
+        opts["feedforward"] = ff
+    if t.t_after_s is not None:
+        opts["t_after_s"] = t.t_after_s
+    if t.accuracy_m is not None:
+        opts["accuracy_m"] = t.accuracy_m
+    res = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, **opts)
     ctx.tracking = res
-    return {"status": "ok", **_to_dict(res)}
+    failed = []
+    if not res.within_accuracy:
+        failed.append(
+            f"tracking: TCP error {res.tcp_max_error_m * 1e3:.4g} mm > budget "
+            f"{res.accuracy_m * 1e3:.4g} mm"
+        )
+    return {"status": "ok", **verdict_block(failed), **_to_dict(res)}
 
 
 # ---------------------------------------------------------------------------- export
-def controller_profile(ctx: StudyContext):
-    """The controller profile with the study's cycle period / pulse limit applied."""
-    c = ctx.spec.controller
-    load = api("armlab.deploy", "load_profile")
-    prof = load(None if c.profile is None else ctx.spec.resolve(c.profile))
+def controller_profile(spec: StudySpec) -> ControllerProfile:
+    """The study's controller: the profile ``[controller] profile`` (default: the reference
+    controller) with the study's ``cycle_s``, ``pulse_limit`` and ``servo_period_s``.
+
+    This is the one controller of a study: sizing's encoder checks, the tuning's discretisation,
+    the simulation's servo period and the set-point table all read it.
+    """
+    c = spec.controller
+    prof = load_profile(None if c.profile is None else spec.resolve(c.profile))
     if c.cycle_s is not None:
         prof = prof.with_cycle(c.cycle_s)
     if c.pulse_limit is not None:
         prof = prof.replace(max_pulses_per_cycle=c.pulse_limit)
+    if c.servo_period_s is not None:
+        prof = prof.replace(servo_period_s=c.servo_period_s)
     return prof
 
 
 def stage_export(ctx: StudyContext) -> dict:
-    """Set-point table (with the deploy pre-flight checks), gains JSON and the trajectory file.
+    """Set-point table for the study's controller (with the deploy pre-flight checks), gains JSON
+    and the trajectory file.
 
-    Without an output folder (sweeps) the table is still built -- its checks run -- but nothing
-    is written.
+    The table is always built, so its pre-flight checks run; a table that breaks a controller
+    limit is a failed check of the design. Files are written only into an output folder and only
+    for a design that passes every stage (``ctx.failed_so_far`` empty), unless ``ctx.force``;
+    a forced export records the failed checks in the table's header.
     """
-    if ctx.trajectory is None:
-        raise NotAvailable("needs a trajectory")
+    from armlab.deploy import save_trajectory, setpoint_table, write_gains
     from armlab.deploy.provenance import file_sha256
 
-    prof = controller_profile(ctx)
+    prof = ctx.controller
+    assert prof is not None
     if ctx.robot.drives is None and prof.counts_per_joint_rev is None:
         raise NotApplicable(
             f"{ctx.robot.name} has no drives.toml and controller profile "
             f"{prof.name!r} gives no counts_per_joint_rev"
         )
-    table = _call(
-        api("armlab.deploy", "setpoint_table"),
-        "export",
-        ctx.robot,
-        ctx.trajectory,
-        prof,
-        source=("source", {"study": ctx.spec.source, "study_sha256": ctx.spec.hash}),
-    )
+    source: dict[str, Any] = {"study": ctx.spec.source, "study_sha256": ctx.spec.hash}
+    if ctx.failed_so_far:
+        source["forced_despite"] = list(ctx.failed_so_far)
+    try:
+        table = setpoint_table(ctx.robot, ctx.trajectory, prof, source=source)
+    except LimitViolation as exc:
+        return {
+            "status": "ok",
+            **verdict_block([f"export: {exc}"]),
+            "profile": prof.name,
+            "cycle_s": prof.cycle_s,
+            "written": False,
+            "files": {},
+        }
     ctx.setpoints = table
     block: dict[str, Any] = {
         "status": "ok",
+        **verdict_block([]),
         "profile": prof.name,
         "cycle_s": prof.cycle_s,
-        "n_cycles": _n_rows(table),
+        "n_cycles": table.n_cycles,
         "files": {},
+        "written": False,
     }
-    preflight = getattr(table, "meta", {}).get("preflight")
+    preflight = table.meta.get("preflight")
     if preflight is not None:
         block["preflight"] = _jsonable(preflight)
     out = ctx.out_dir
     if out is None:
         return block
-    paths = {"setpoints.csv": None, "gains.json": None, "trajectory.npz": None}
-    table.write(out / "setpoints.csv", format="csv")
-    paths["setpoints.csv"] = out / "setpoints.csv"
-    if ctx.gains is not None:
-        api("armlab.deploy", "write_gains")(out / "gains.json", ctx.gains, format="json")
-        paths["gains.json"] = out / "gains.json"
-    api("armlab.deploy", "save_trajectory")(out / "trajectory.npz", ctx.trajectory, ctx.robot)
+    paths: dict[str, Path] = {}
+    save_trajectory(out / "trajectory.npz", ctx.trajectory, ctx.robot)
     paths["trajectory.npz"] = out / "trajectory.npz"
+    if ctx.gains is not None:
+        write_gains(out / "gains.json", ctx.gains, format="json")
+        paths["gains.json"] = out / "gains.json"
+    if ctx.failed_so_far and not ctx.force:
+        block["reason"] = (
+            "setpoints.csv not written: the design fails "
+            f"{len(ctx.failed_so_far)} check(s) (armlab run --force writes it anyway)"
+        )
+    else:
+        table.write(out / "setpoints.csv", format="csv")
+        paths["setpoints.csv"] = out / "setpoints.csv"
+        block["written"] = True
+        block["forced"] = bool(ctx.failed_so_far)
     for name, path in paths.items():
-        if path is not None:
-            block["files"][name] = {"path": name, "sha256": file_sha256(path)}
-            ctx.files[name] = str(path)
+        block["files"][name] = {"path": name, "sha256": file_sha256(path)}
+        ctx.files[name] = str(path)
     return block
-
-
-def _n_rows(table) -> int | None:
-    for attr in ("n_cycles", "n_rows"):
-        if hasattr(table, attr):
-            return int(getattr(table, attr))
-    try:
-        return len(table)
-    except TypeError:
-        return None
 
 
 STAGE_FUNCTIONS = {

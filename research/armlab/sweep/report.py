@@ -4,11 +4,16 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
+from armlab.io import atomic_open
 from armlab.sweep.spec import SweepSpec
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["plot_figure_vs_parameter", "write_sweep_plots", "sweep_summary_text", "by_parameter"]
 
@@ -17,7 +22,7 @@ def _is_numeric(series: pd.Series) -> bool:
     return pd.api.types.is_numeric_dtype(series) and not pd.api.types.is_bool_dtype(series)
 
 
-def plot_figure_vs_parameter(frame: pd.DataFrame, figure: str, parameter: str):
+def plot_figure_vs_parameter(frame: pd.DataFrame, figure: str, parameter: str) -> Figure:
     """One figure of merit against one parameter: a point per finished study; studies that ended
     in an error are red crosses on the bottom edge; for a grid, the mean over the other
     parameters as a line. Categorical parameters (motor names) are spread on the x axis."""
@@ -79,7 +84,8 @@ def write_sweep_plots(frame: pd.DataFrame, spec: SweepSpec, out_dir: Path) -> li
         for p in spec.parameter_keys:
             fig = plot_figure_vs_parameter(frame, figure, p)
             path = folder / f"{figure}_vs_{p}.png"
-            fig.savefig(path, dpi=100)
+            with atomic_open(path, "wb") as f:
+                fig.savefig(f, format="png", dpi=100)
             plt.close(fig)
             paths.append(path)
     return paths

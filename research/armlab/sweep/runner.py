@@ -26,14 +26,18 @@ import sys
 import time
 import uuid
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
 from armlab.errors import InputError
+from armlab.io import atomic_write
 from armlab.sweep.spec import SweepSpec, load_sweep, parameter_key, parameter_sets
 from armlab.sweep.store import ResultStore
 from armlab.sweep.task import nan_row, run_parameter_set
+
+if TYPE_CHECKING:
+    from distributed import Client, LocalCluster
 
 __all__ = ["run_sweep", "run_sweep_spec", "open_client"]
 
@@ -45,7 +49,9 @@ def _cpu_count() -> int:
         return os.cpu_count() or 1
 
 
-def open_client(workers: int | None = None, scheduler: str | None = None):
+def open_client(
+    workers: int | None = None, scheduler: str | None = None
+) -> tuple[Client, LocalCluster | None]:
     """(client, cluster or None): a client of ``scheduler``, or of a new local process cluster
     with ``workers`` single-threaded worker processes (default: one per CPU).
 
@@ -158,7 +164,7 @@ def run_sweep_spec(
         plots=plots,
         out_dir=out,
     )
-    (out / "summary.txt").write_text(text + "\n")
+    atomic_write(out / "summary.txt", text + "\n")
     if not quiet:
         print(text)
     return frame

@@ -78,18 +78,26 @@ class Parameter:
         """The values a grid takes."""
         if self.values is not None:
             return list(self.values)
+        low, high = self._range()
+        assert self.num is not None  # parse_sweep requires num for a grid range
         f = np.geomspace if self.log else np.linspace
-        return [self._cast(x) for x in f(self.low, self.high, self.num)]
+        return [self._cast(x) for x in f(low, high, self.num)]
 
     def from_unit(self, u: float) -> Any:
         """The value at quantile ``u`` in [0, 1) (random and Latin-hypercube draws)."""
         if self.values is not None:
             return self.values[min(int(u * len(self.values)), len(self.values) - 1)]
+        low, high = self._range()
         if self.log:
-            x = math.exp(math.log(self.low) + u * (math.log(self.high) - math.log(self.low)))
+            x = math.exp(math.log(low) + u * (math.log(high) - math.log(low)))
         else:
-            x = self.low + u * (self.high - self.low)
+            x = low + u * (high - low)
         return self._cast(x)
+
+    def _range(self) -> tuple[float, float]:
+        """``(low, high)`` of a range parameter (``values`` is None: parse_sweep set both)."""
+        assert self.low is not None and self.high is not None
+        return self.low, self.high
 
     def _cast(self, x: float) -> Any:
         return int(round(x)) if self.integer else float(x)
@@ -327,6 +335,7 @@ def parameter_sets(spec: SweepSpec) -> list[dict[str, Any]]:
             for combo in itertools.product(*(p.grid() for p in params))
         ]
     else:
+        assert spec.samples is not None  # parse_sweep requires samples for random and lhs
         if spec.mode == "random":
             u = np.random.default_rng(spec.seed).random((spec.samples, len(params)))
         else:

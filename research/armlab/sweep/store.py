@@ -7,16 +7,14 @@ Layout of a sweep's output folder::
     DIR/results.parquet         every row, rewritten after completions (at most once per
                                 ``consolidate_s``) and at the end
 
-Both are written atomically (temporary file in the same folder, then ``os.replace``), so a crash
-or Ctrl-C at any moment leaves only complete files: the part files are the record of what is
-done (a re-run reads them), ``results.parquet`` the table to analyse.
+Both are written atomically (:mod:`armlab.io`: temporary file in the same folder, then
+``os.replace``), so a crash or Ctrl-C at any moment leaves only complete files: the part files
+are the record of what is done (a re-run reads them), ``results.parquet`` the table to analyse.
 """
 
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -24,6 +22,7 @@ from typing import Any
 import pandas as pd
 
 from armlab.errors import SpecError
+from armlab.io import atomic_open, write_json
 
 __all__ = ["ResultStore", "atomic_parquet"]
 
@@ -50,16 +49,10 @@ def _parquet_safe(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def atomic_parquet(frame: pd.DataFrame, path: Path) -> None:
-    """Write a DataFrame to Parquet atomically (temporary file + ``os.replace``)."""
+    """Write a DataFrame to Parquet atomically (:func:`armlab.io.atomic_open`)."""
     frame = _parquet_safe(frame)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        frame.to_parquet(tmp, index=False)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_open(path, "wb") as f:
+        frame.to_parquet(f, index=False)
 
 
 class ResultStore:
@@ -105,10 +98,7 @@ class ResultStore:
                     f"{meta['parameters']}; choose another --out or delete it"
                 )
             return
-        fd, tmp = tempfile.mkstemp(dir=self.dir, prefix=".sweep.json.", suffix=".tmp")
-        with os.fdopen(fd, "w") as f:
-            json.dump(meta, f, indent=2)
-        os.replace(tmp, path)
+        write_json(path, meta)
 
     def _load(self) -> None:
         """Rows already done: the consolidated table, then any part file it lacks."""

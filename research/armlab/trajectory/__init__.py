@@ -1,8 +1,8 @@
 """Joint trajectories: the :class:`Trajectory` type, classical interpolators and optimisers."""
 
+from armlab.robot.limits import Limits, resolve_limits
 from armlab.trajectory.cartesian import arc3, blend, follow_path, line, track_path
 from armlab.trajectory.core import LIMIT_KINDS, LimitReport, Trajectory
-from armlab.trajectory.limitset import LimitSet, resolve_limits
 from armlab.trajectory.online import OnlineInterpolator, OnlineRun, OnlineSample
 from armlab.trajectory.optimal import OptimalProblem, build_optimal, optimal
 from armlab.trajectory.optimal_plots import (
@@ -18,8 +18,9 @@ from armlab.trajectory.ptp import ptp_sync
 from armlab.trajectory.steps import StepPlan, trapezoid_steps
 from armlab.trajectory.symdyn import inverse_dynamics_function
 from armlab.trajectory.topp import ToppProblem, build_topp, time_optimal_path
+from armlab.trajectory.waypoints import validate_waypoints
 
-__all__ = ["Trajectory", "LimitReport", "LIMIT_KINDS"]
+__all__ = ["Trajectory", "LimitReport", "LIMIT_KINDS", "validate_waypoints"]
 __all__ += [  # classical interpolators (issue 4)
     "ptp_sync",
     "trapezoid_steps",
@@ -53,7 +54,7 @@ __all__ += [  # optimisers (issue 5)
     "time_optimal_path",
     "build_topp",
     "ToppProblem",
-    "LimitSet",
+    "Limits",
     "resolve_limits",
     "inverse_dynamics_function",
     "plot_limit_profiles",

@@ -22,16 +22,22 @@ ending) raises :class:`UnreachableError` with the arc length and point — never
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 
 from armlab.errors import ArmlabError, InputError, LimitViolation, UnreachableError
 from armlab.kinematics import fk, has_analytic_ik, ik, ik_all_batch, ik_nearest
+from armlab.robot.limits import resolve_limits
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.paths import ArcPath, BlendPath, CartesianPath, LinePath
 from armlab.trajectory.profiles import double_s_profile, time_grid, trapezoid_profile
-from armlab.trajectory.timescale import finish, planner_limits, stretch_needed
+from armlab.trajectory.timescale import finish, stretch_needed
+from armlab.trajectory.waypoints import validate_waypoints
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = ["line", "arc3", "blend", "follow_path", "path_derivatives", "track_path"]
 
@@ -71,7 +77,7 @@ def _newton(
     return q, False
 
 
-def track_path(robot, path: CartesianPath, s, q_ref, *, guide=None) -> np.ndarray:
+def track_path(robot: Robot, path: CartesianPath, s, q_ref, *, guide=None) -> np.ndarray:
     """Joint positions (n, n_joints) along ``path`` at arc lengths ``s`` (n,), on one branch.
 
     Parameters
@@ -131,7 +137,7 @@ def track_path(robot, path: CartesianPath, s, q_ref, *, guide=None) -> np.ndarra
     else:  # distance of sample k from its guide
         steps = np.abs(q - guide)
     if steps.size and steps.max() > _JUMP_RAD:
-        k, j = np.unravel_index(int(np.argmax(steps)), steps.shape)
+        k, j = (int(i) for i in np.unravel_index(int(np.argmax(steps)), steps.shape))
         raise UnreachableError(
             f"{path.kind}: no continuous IK branch near {_where(path, s[k])}: "
             f"{robot.joint_names[j]} jumps {steps[k, j]:.3g} rad (a singularity, a joint range "
@@ -146,7 +152,7 @@ def _failed_index(robot, poses) -> int:
     return int(bad[0]) if bad.size else 0
 
 
-def path_derivatives(robot, q, sample) -> tuple[np.ndarray, np.ndarray]:
+def path_derivatives(robot: Robot, q, sample) -> tuple[np.ndarray, np.ndarray]:
     """``g = dq/ds`` and ``h = d2q/ds2`` (n, n_joints) along a tracked path.
 
     ``J g = [dp/ds; w_s]`` and ``J h = [d2p/ds2; dw_s/ds] - Jdot g`` with the world-aligned
@@ -213,7 +219,7 @@ def _positive_or_none(x, name):
 
 def _start_configuration(robot, pose, q_start) -> np.ndarray:
     if q_start is not None:
-        q0 = robot.check_q(q_start, name="q_start").astype(float)
+        q0 = validate_waypoints(robot, q_start, where="q_start", min_rows=None)
         T = fk(robot, q0)
         err_p = np.linalg.norm(T[:3, 3] - pose[:3, 3])
         err_r = np.linalg.norm(pin.log3(T[:3, :3].T @ pose[:3, :3]))
@@ -233,7 +239,7 @@ def _start_configuration(robot, pose, q_start) -> np.ndarray:
 
 
 def follow_path(
-    robot,
+    robot: Robot,
     path: CartesianPath,
     speed: float,
     *,
@@ -270,8 +276,9 @@ def follow_path(
         Sample period [s].
     on_limit : {"slow", "raise"}
         What to do when a joint limit needs a lower speed/acceleration than requested.
-    v_max, a_max, j_max : optional
-        Override the robot's joint limits.
+    v_max, a_max, j_max : None, False, float or array (n_joints,)
+        Joint limits (:func:`armlab.robot.resolve_limits`): None the robot's, False off, a value
+        replaces it; velocity and acceleration are needed (jerk too for ``"scurve"``).
     torque : bool
         Also meet the torque limits.
     probe_step_m : float
@@ -304,12 +311,13 @@ def follow_path(
     dt = _positive_or_none(dt, "dt")
     scurve = profile == "scurve"
     method = method or path.kind
-    lim = planner_limits(
+    lim = resolve_limits(
         robot,
-        v_max,
-        a_max,
-        j_max,
+        v_max=v_max,
+        a_max=a_max,
+        j_max=j_max,
         need=("velocity", "acceleration") + (("jerk",) if scurve else ()),
+        where=method,
     )
     pose0 = path.point(0.0)
     q0 = _start_configuration(robot, pose0, q_start)
@@ -458,7 +466,7 @@ def _start_rotation(robot, first, q_start, rotation):
 
 
 def line(
-    robot,
+    robot: Robot,
     pose_start,
     pose_goal,
     speed: float,
@@ -468,7 +476,7 @@ def line(
     q_start=None,
     **kwargs,
 ) -> Trajectory:
-    """Straight line of the tool centre point (seed 000 eq. 6-9, thesis 6.3.3).
+    """Straight line of the tool centre point (Jiang 1987, eq. 6-9; HEU thesis, 6.3.3).
 
     Parameters
     ----------
@@ -534,14 +542,14 @@ def line(
         s=None,
         length_m=first.meta["length_m"] + second.meta["length_m"],
     )
-    lim = planner_limits(
-        robot, kwargs.get("v_max"), kwargs.get("a_max"), kwargs.get("j_max"), need=()
+    lim = resolve_limits(
+        robot, v_max=kwargs.get("v_max"), a_max=kwargs.get("a_max"), j_max=kwargs.get("j_max")
     )
     return finish(traj, robot, lim, torque=kwargs.get("torque", True), what="line")
 
 
 def arc3(
-    robot,
+    robot: Robot,
     p1,
     p2,
     p3,
@@ -554,9 +562,9 @@ def arc3(
     q_start=None,
     **kwargs,
 ) -> Trajectory:
-    """Arc (or full circle) of the tool centre point through three points (seed 000
-    eq. 10-24, thesis 6.3.4-6.3.5); planar arcs are the special case of a plane parallel to
-    a base plane.
+    """Arc (or full circle) of the tool centre point through three points (Jiang 1987,
+    eq. 10-24; HEU thesis, 6.3.4-6.3.5); planar arcs are the special case of a plane parallel
+    to a base plane.
 
     Parameters
     ----------
@@ -565,7 +573,7 @@ def arc3(
         Start, intermediate and end point in the world [m] (poses: their translations; the
         start orientation is ``p1``'s rotation, else ``rotation``, else ``fk(q_start)``'s).
     speed : float
-        Cruise speed along the arc [m/s] (seed 000 eq. 21: the polar angle advances by
+        Cruise speed along the arc [m/s] (Jiang 1987, eq. 21: the polar angle advances by
         ``v dt / R``).
     orientation : {"hold", "rotate", "slerp"}
         See :class:`ArcPath`.
@@ -619,7 +627,7 @@ def arc3(
 
 
 def blend(
-    robot,
+    robot: Robot,
     points,
     radius,
     speed: float,
@@ -630,8 +638,9 @@ def blend(
     q_start=None,
     **kwargs,
 ) -> Trajectory:
-    """Lines through a chain of points, each corner rounded by a tangent arc (seed 002
-    2.2(2)); the whole chain is one FlyBy motion (seed 001) timed by one profile.
+    """Lines through a chain of points, each corner rounded by a tangent arc (SHU
+    controller paper, §2.2 (2)); the whole chain is one FlyBy motion (Li, Meng, Chen) timed
+    by one profile.
 
     Parameters
     ----------
@@ -683,10 +692,11 @@ def blend(
             part = follow_path(robot, LinePath(Ta, Tb, "hold"), speed, q_start=q, **kwargs)
             q = part.q[-1]
             traj = part if traj is None else traj.concat(part)
+        assert traj is not None  # at least two points (documented n >= 2)
         traj.method = "blend"
         traj.meta.update(radius_m=0.0, stops=True, taught_points=taught.tolist(), s=None)
-        lim = planner_limits(
-            robot, kwargs.get("v_max"), kwargs.get("a_max"), kwargs.get("j_max"), need=()
+        lim = resolve_limits(
+            robot, v_max=kwargs.get("v_max"), a_max=kwargs.get("a_max"), j_max=kwargs.get("j_max")
         )
         return finish(traj, robot, lim, torque=kwargs.get("torque", True), what="blend")
     path = BlendPath(

@@ -10,12 +10,16 @@ polynomials the planners produce when the samples are their knots.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pinocchio as pin
 
 from armlab.errors import InputError
+from armlab.robot import rigid_body
+from armlab.robot.limits import Limits
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = ["Trajectory", "LimitReport", "LIMIT_KINDS"]
 
@@ -186,9 +190,9 @@ class Trajectory:
         if self.t[-1] - times[-1] > 1e-9 * max(1.0, dt):
             times = np.append(times, self.t[-1])
         q, qd, qdd, qddd = self.at(times)
-        if self.qddd is None:  # Hermite jerk of a jerk-less profile (trapezoid) means nothing
-            qddd = None
-        out = Trajectory(times, q, qd, qdd, qddd, joint_names=self.joint_names, method=self.method)
+        # Hermite jerk of a jerk-less profile (trapezoid) means nothing
+        jerk = qddd if self.qddd is not None else None
+        out = Trajectory(times, q, qd, qdd, jerk, joint_names=self.joint_names, method=self.method)
         out.report, out.stats, out.meta = self.report, dict(self.stats), dict(self.meta)
         return out
 
@@ -203,27 +207,26 @@ class Trajectory:
         if jump > tol:
             raise InputError(f"trajectories do not join: jump of {jump:.3g} in q or qd")
         t2 = other.t[1:] - other.t[0] + self.t[-1]
-        has_j = self.qddd is not None and other.qddd is not None
+        jerk = None
+        if self.qddd is not None and other.qddd is not None:
+            jerk = np.vstack([self.qddd, other.qddd[1:]])
         out = Trajectory(
             np.concatenate([self.t, t2]),
             np.vstack([self.q, other.q[1:]]),
             np.vstack([self.qd, other.qd[1:]]),
             np.vstack([self.qdd, other.qdd[1:]]),
-            np.vstack([self.qddd, other.qddd[1:]]) if has_j else None,
+            jerk,
             joint_names=self.joint_names,
             method=self.method if self.method == other.method else f"{self.method}+{other.method}",
         )
         return out
 
     # ------------------------------------------------------------------ limits
-    def torques(self, robot) -> np.ndarray:
-        """Inverse-dynamics joint torques (n_samples, n_joints) in [N m] (Pinocchio RNEA)."""
+    def torques(self, robot: Robot) -> np.ndarray:
+        """Inverse-dynamics joint torques (n_samples, n_joints) in [N m] (Pinocchio RNEA,
+        :func:`armlab.robot.rigid_body.inverse_dynamics`; gravity follows the robot's base)."""
         self._check_robot(robot)
-        model, data = robot.model, robot.model.createData()
-        tau = np.empty_like(self.q)
-        for k in range(self.n_samples):
-            tau[k] = pin.rnea(model, data, self.q[k], self.qd[k], self.qdd[k])
-        return tau
+        return rigid_body.inverse_dynamics(robot, self.q, self.qd, self.qdd)
 
     def _check_robot(self, robot) -> None:
         if robot.n_joints != self.n_joints:
@@ -232,7 +235,7 @@ class Trajectory:
             )
 
     def check_limits(
-        self, robot, *, dt: float | None = None, torque: bool = True, limits=None
+        self, robot: Robot, *, dt: float | None = None, torque: bool = True, limits=None
     ) -> LimitReport:
         """Peak ratio to each of the robot's limits per joint.
 
@@ -243,12 +246,15 @@ class Trajectory:
             Resample on this grid [s] first (a fine grid catches peaks between knots).
         torque : bool
             Include the torque ratio (RNEA at every sample, payload included).
-        limits : JointLimits, optional
-            Use these limits instead of ``robot.limits``.
+        limits : Limits, optional
+            Use these limits instead of ``robot.limits`` (e.g. a request's, from
+            :func:`armlab.robot.resolve_limits`); kinds that are None are not reported.
         """
         self._check_robot(robot)
         traj = self if dt is None else self.sample(dt)
         lim = robot.limits if limits is None else limits
+        if not isinstance(lim, Limits) or lim.n_joints != self.n_joints:
+            raise InputError(f"limits must be a Limits of {self.n_joints} joints, not {lim!r}")
         report = LimitReport(list(robot.joint_names))
         centre = 0.5 * (lim.upper_rad + lim.lower_rad)
         half = 0.5 * (lim.upper_rad - lim.lower_rad)
@@ -265,6 +271,6 @@ class Trajectory:
         put("velocity", traj.qd, lim.velocity_rad_s)
         put("acceleration", traj.qdd, lim.acceleration_rad_s2)
         put("jerk", traj.qddd, lim.jerk_rad_s3)
-        if torque and np.all(lim.effort_Nm > 0):
-            put("torque", traj.torques(robot), lim.effort_Nm)
+        if torque and lim.torque_Nm is not None:
+            put("torque", traj.torques(robot), lim.torque_Nm)
         return report

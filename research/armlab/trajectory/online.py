@@ -1,16 +1,17 @@
-"""Real-time single-step interpolator with on-line speed override (seed 001).
+"""Real-time single-step interpolator with on-line speed override (Li, Meng, Chen).
 
-Seed 001 (Kunshan-1 welding robot): the state is the arc length ``S_current`` and speed
-``V_current``; every period ``Ts`` the next ``S_next, V_next`` follow from the start and end
-speeds ``V_start, V_end``, the cruise speed ``velo`` and the acceleration ``accel``. The final
+Li, Meng, Chen, §1.2-1.3 (Kunshan-1 welding robot): the state is the arc length
+``S_current`` and speed ``V_current``; every period ``Ts`` the next ``S_next, V_next`` follow
+from the start and end speeds ``V_start, V_end``, the cruise speed ``velo`` and the
+acceleration ``accel``. The final
 ramp starts when the remaining distance ``S_CE`` is no longer above
 ``S_AECE = |V_current^2 - V_end^2| / (2 accel)`` (eq. 1); otherwise the speed goes towards
 ``velo`` at ``accel`` (eq. 2-9). The override ``Vrate`` (0-100 %) and the target may change
 between cycles; any path whose length is known (joint PTP, line, arc, FlyBy chain) works.
 
-Our reading, where the seed would break a limit or is silent:
+Our reading, where the paper would break a limit or is silent:
 
-* The seed scales the step by ``Vrate`` (eq. 13-14), which makes the speed jump when
+* The paper scales the step by ``Vrate`` (eq. 13-14), which makes the speed jump when
   ``Vrate`` changes. Here the override scales the *cruise* speed, ``velo * Vrate``, and the
   speed follows at no more than ``accel`` — the acceleration limit holds through every
   override change.
@@ -98,7 +99,7 @@ def _length_of(path) -> float:
 
 
 class OnlineInterpolator:
-    """Seed 001's single-step interpolator along any path of known length.
+    """Li, Meng, Chen's single-step interpolator along any path of known length.
 
     Parameters
     ----------
@@ -158,7 +159,7 @@ class OnlineInterpolator:
             )
 
     def set_target(self, path, *, v_end: float | None = None, tol: float = 1e-9) -> None:
-        """Move the target between cycles (seed 001: FlyBy, tracking corrections).
+        """Move the target between cycles (Li, Meng, Chen: FlyBy, tracking corrections).
 
         Parameters
         ----------
@@ -237,7 +238,8 @@ class OnlineInterpolator:
                 break
             vb = math.sqrt(ve * ve + 2 * a * d)
             vlo = math.sqrt(max(0.0, ve * ve - 2 * a * d))
-            # seed 001 eq. 1: the final ramp starts when S_CE <= S_AECE = |V^2 - V_end^2| / 2a
+            # Li, Meng, Chen, eq. 1: the final ramp starts when
+            # S_CE <= S_AECE = |V^2 - V_end^2| / 2a
             s_aece = abs(v * v - ve * ve) / (2 * a)
             if v > ve and d <= s_aece + tol_d:  # on the braking curve: -a to the end (eq. 6-7)
                 h = (v - ve) / a

@@ -79,21 +79,22 @@ problem serves every payload of a robot (cached per kinematics, sizes and flags)
 
 References: Verscheure et al., IEEE TAC 54(10) 2009 (time-optimal problems as optimisation);
 Betts, *Practical Methods for Optimal Control*, 2010 (direct transcription); Farouki, CAGD 29 2012
-(Bernstein convex-hull property); seed-digest §2 (time-synchronised PTP).
+(Bernstein convex-hull property); Jiang 1987, eq. 1-5 (time-synchronised PTP).
 """
 
 from __future__ import annotations
 
 import time as _time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
-import casadi as ca
 import numpy as np
-import pinocchio as pin
 
+from armlab._lazy import lazy_import
 from armlab.errors import ArmlabError, InfeasibleError, InputError
+from armlab.robot import rigid_body
+from armlab.robot.limits import LIMIT_KEYS, Limits, resolve_limits
 from armlab.trajectory.core import Trajectory
-from armlab.trajectory.limitset import LimitSet, resolve_limits
 from armlab.trajectory.symdyn import (
     dynamic_parameters,
     kinematics_key,
@@ -107,6 +108,15 @@ from armlab.trajectory.warmstart import (
     scurve_min_duration,
     sync_scurves,
 )
+from armlab.trajectory.waypoints import validate_waypoints
+
+if TYPE_CHECKING:
+    import casadi as ca  # the real module for the type checker (CasADi ships type stubs)
+else:
+    ca = lazy_import("casadi")  # CasADi loads at the first symbolic build, not with the package
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = ["optimal", "build_optimal", "OptimalProblem", "OBJECTIVES", "JUMP_RAMP_S", "H_MIN_S"]
 
@@ -203,7 +213,9 @@ def _build_structure(
     max_iter: int,
 ) -> _Structure:
     t0 = _time.perf_counter()
-    X = ca.MX if SYMBOLIC == "MX" else ca.SX
+    # SX or MX, chosen by a module constant; both share the symbolic API, and typing it as the
+    # union makes mypy reject every mixed SX/MX operation it cannot rule out
+    X: Any = ca.MX if SYMBOLIC == "MX" else ca.SX
     N = int(sum(seg_n))
     # decision variables are scaled: physical = scaled * scale (scales are parameters)
     Q = X.sym("q", n, N + 1)
@@ -249,7 +261,7 @@ def _build_structure(
     Hr = ca.repmat(H.T, n, 1)
     Qa, Qb, Va, Vb = Q[:, :N], Q[:, 1:], V[:, :N], V[:, 1:]
     rows: list[tuple] = []  # (expr, kind, per-joint)
-    if mode == "jerk":
+    if A is not None:  # jerk mode
         Aa, Ab = A[:, :N], A[:, 1:]
         rows.append((Qb - (Qa + Hr * Va + Hr**2 / 2 * Aa + Hr**3 / 6 * U), "dynamics", True))
         rows.append(((Vb - (Va + Hr * Aa + Hr**2 / 2 * U)) / rv, "dynamics", True))
@@ -262,7 +274,7 @@ def _build_structure(
         rows.append(((Vb - (Va + Hr * U)) / rv, "dynamics", True))
         rows.append((Qa + Va * Hr / 2, "position", True))
     need_tau = torque_rows or objective == "energy"
-    tau_nodes = None
+    tau_nodes: list[Any] = []
     if need_tau:
         if mode == "jerk":
             tau_nodes = [rnea(Q, V, A)]
@@ -350,7 +362,7 @@ def _structure(
     st = _STRUCTURES.get(key)
     if st is None:
         rnea_p = parametric_inverse_dynamics_function(robot) if need_tau else None
-        n_pi = rnea_p.size1_in(3) if need_tau else 0
+        n_pi = rnea_p.size1_in(3) if rnea_p is not None else 0
         st = _build_structure(
             rnea_p, n_pi, n, seg_n, mode, objective, torque_rows, fixed_duration, max_iter
         )
@@ -362,44 +374,27 @@ def _structure(
 
 # ----------------------------------------------------------------------------- helpers
 def _check_waypoints(robot, waypoints) -> np.ndarray:
-    w = np.asarray(waypoints, dtype=float)
-    n = robot.n_joints
-    if w.ndim != 2 or w.shape[1] != n or w.shape[0] < 2:
-        raise InputError(f"waypoints have shape {w.shape}, expected (n_waypoints >= 2, {n})")
-    if not np.all(np.isfinite(w)):
-        k, i = np.argwhere(~np.isfinite(w))[0]
-        raise InputError(f"waypoint {k} is not finite at {robot.joint_names[i]}")
+    w = validate_waypoints(robot, waypoints, where="optimal waypoints")
     same = np.flatnonzero(np.all(np.abs(np.diff(w, axis=0)) < 1e-12, axis=1))
     if same.size:
         raise InputError(f"waypoints {same[0]} and {same[0] + 1} coincide; remove the duplicate")
     return w
 
 
-def _check_ranges(robot, w: np.ndarray, ls: LimitSet) -> None:
-    for k in range(w.shape[0]):
-        for i in range(w.shape[1]):
-            if not (ls.lower_rad[i] - 1e-12 <= w[k, i] <= ls.upper_rad[i] + 1e-12):
-                raise InfeasibleError(
-                    f"position limit: waypoint {k} puts {ls.joint_names[i]} at {w[k, i]:.4g} rad, "
-                    f"outside its range [{ls.lower_rad[i]:.4g}, {ls.upper_rad[i]:.4g}] rad"
-                )
-
-
-def _gravity(robot, q) -> np.ndarray:
-    return pin.computeGeneralizedGravity(robot.model, robot.model.createData(), np.asarray(q))
-
-
-def _check_static_torque(robot, w: np.ndarray, ls: LimitSet, exact: np.ndarray) -> None:
-    if ls.torque is None:
+def _check_static_torque(robot, w: np.ndarray, ls: Limits, exact: np.ndarray) -> None:
+    if ls.torque_Nm is None:
         return
-    for k in np.flatnonzero(exact):
-        g = _gravity(robot, w[k])
-        r = np.abs(g) / ls.torque
+    idx = np.flatnonzero(exact)
+    if idx.size == 0:
+        return
+    gs = rigid_body.gravity_torques(robot, w[idx])
+    for k, g in zip(idx, gs, strict=True):
+        r = np.abs(g) / ls.torque_Nm
         i = int(np.argmax(r))
         if r[i] > 1.0:
             raise InfeasibleError(
                 f"torque limit: {ls.joint_names[i]} needs {abs(g[i]):.4g} N m to hold waypoint "
-                f"{k} against gravity, above its tau_max of {ls.torque[i]:.4g} N m"
+                f"{k} against gravity, above its tau_max of {ls.torque_Nm[i]:.4g} N m"
             )
 
 
@@ -417,19 +412,20 @@ def _energy_weights(robot) -> tuple[np.ndarray, str]:
     return w, "J"
 
 
-def _surrogate_acc(robot, w0, ls: LimitSet) -> np.ndarray:
+def _surrogate_acc(robot, w0, ls: Limits) -> np.ndarray:
     """An acceleration scale for the warm start when no acceleration limit is given."""
-    if ls.acceleration is not None:
-        return ls.acceleration
-    if ls.jerk is not None:
+    if ls.acceleration_rad_s2 is not None:
+        return ls.acceleration_rad_s2
+    if ls.jerk_rad_s3 is not None:
         return np.full(robot.n_joints, np.inf)
-    M = pin.crba(robot.model, robot.model.createData(), np.asarray(w0))
-    g = np.abs(_gravity(robot, w0))
-    spare = np.maximum(ls.torque - g, 0.1 * ls.torque)
+    assert ls.torque_Nm is not None  # build_optimal refuses velocity limits alone
+    M = rigid_body.mass_matrix(robot, w0)
+    g = np.abs(rigid_body.gravity_torques(robot, w0))
+    spare = np.maximum(ls.torque_Nm - g, 0.1 * ls.torque_Nm)
     return 0.5 * spare / np.maximum(np.diag(M), 1e-6)
 
 
-def _classical_segment(robot, qa, qb, ls: LimitSet, acc, ns: int, mode: str):
+def _classical_segment(robot, qa, qb, ls: Limits, acc, ns: int, mode: str):
     """(T, node times, q, qd, qdd, u) of one synchronised rest-to-rest S-curve segment.
 
     The node times hold the switching instants of the slowest joint(s) (those within 2 % of
@@ -438,8 +434,8 @@ def _classical_segment(robot, qa, qb, ls: LimitSet, acc, ns: int, mode: str):
     optimiser's integration equations on that grid.
     """
     n = robot.n_joints
-    v = ls.velocity if ls.velocity is not None else np.full(n, np.inf)
-    j = ls.jerk if ls.jerk is not None else np.full(n, np.inf)
+    v = ls.velocity_rad_s if ls.velocity_rad_s is not None else np.full(n, np.inf)
+    j = ls.jerk_rad_s3 if ls.jerk_rad_s3 is not None else np.full(n, np.inf)
     D = qb - qa
     Tj = scurve_min_duration(D, v, acc, j)
     T = float(np.max(Tj))
@@ -466,11 +462,10 @@ def _timescale_for_torque(robot, q, qd, qdd, tau_max) -> float:
     """
     if tau_max is None:
         return 1.0
-    model, data = robot.model, robot.model.createData()
+    taus = rigid_body.inverse_dynamics(robot, q, qd, qdd)
+    gs = rigid_body.gravity_torques(robot, q)
     need = 1.0
-    for k in range(q.shape[0]):
-        tau = pin.rnea(model, data, q[k], qd[k], qdd[k])
-        g = _gravity(robot, q[k])
+    for tau, g in zip(taus, gs, strict=True):
         room = tau_max - np.abs(g)
         if np.any(room <= 0):
             continue
@@ -484,14 +479,14 @@ class OptimalProblem:
     """A built (not yet solved) optimal trajectory problem; :meth:`solve` returns a Trajectory.
 
     Build with :func:`build_optimal`. Attributes are inspectable: ``limits`` (the effective
-    :class:`LimitSet`), ``waypoints``, ``segment_intervals``, ``mode`` ("jerk" or
+    :class:`Limits`), ``waypoints``, ``segment_intervals``, ``mode`` ("jerk" or
     "acceleration"), ``fractions`` (interval durations over their segment's), ``x0`` (warm
     start), ``warm_durations_s``.
     """
 
-    robot: object
+    robot: Robot
     waypoints: np.ndarray
-    limits: LimitSet
+    limits: Limits
     objective: str
     duration: float | None
     via_tolerance: np.ndarray
@@ -520,14 +515,14 @@ class OptimalProblem:
     def waypoint_nodes(self) -> np.ndarray:
         return np.concatenate([[0], np.cumsum(self.segment_intervals)]).astype(int)
 
-    def _structure(self, limits: LimitSet) -> _Structure:
+    def _structure(self, limits: Limits) -> _Structure:
         return _structure(
             self.robot,
             self.n,
             self.segment_intervals,
             self.mode,
             self.objective,
-            limits.torque is not None,
+            limits.torque_Nm is not None,
             self.duration is not None,
             self.max_iter,
         )
@@ -567,13 +562,14 @@ class OptimalProblem:
         """The synchronised S-curve plan (stopping at each via point) on the node grid."""
         w, ls, n = self.waypoints, self.limits, self.n
         acc = _surrogate_acc(self.robot, w[0], ls)
-        qs, vs, as_, us, hs, Ts = [w[:1]], [np.zeros((1, n))], [None], [], [], []
+        qs, vs, us, hs, T_list = [w[:1]], [np.zeros((1, n))], [], [], []
+        as_: list[Any] = [None]  # accelerations per segment (index 0 unused)
         for s, ns in enumerate(self.segment_intervals):
             T, t, q, qd, qdd, u = _classical_segment(
                 self.robot, w[s], w[s + 1], ls, acc, ns, self.mode
             )
             # slow down uniformly until the torques fit: t*alpha, qd/alpha, qdd/alpha^2, ...
-            alpha = _timescale_for_torque(self.robot, q, qd, qdd, ls.torque)
+            alpha = _timescale_for_torque(self.robot, q, qd, qdd, ls.torque_Nm)
             order = 3 if self.mode == "jerk" else 2
             T, t, qd, qdd, u = T * alpha, t * alpha, qd / alpha, qdd / alpha**2, u / alpha**order
             qs.append(q[1:])
@@ -581,11 +577,11 @@ class OptimalProblem:
             as_.append(qdd)
             us.append(u)
             hs.append(np.diff(t))
-            Ts.append(T)
+            T_list.append(T)
         q, v, h, u = np.vstack(qs), np.vstack(vs), np.concatenate(hs), np.vstack(us)
         # accelerations at the nodes: from the segment ends (zero at rest, jerk mode)
-        a = np.vstack([as_[1][:1]] + [x[1:] for x in as_[1:]])
-        Ts = np.array(Ts)
+        a: np.ndarray | None = np.vstack([as_[1][:1]] + [x[1:] for x in as_[1:]])
+        Ts = np.array(T_list)
         if self.duration is not None:  # stretch or squeeze onto the requested duration
             beta = self.duration / Ts.sum()
             order = 3 if self.mode == "jerk" else 2
@@ -601,16 +597,16 @@ class OptimalProblem:
             return np.maximum(np.max(np.abs(warm), axis=0), 1e-3)
 
         self.scales = {
-            "v": scale(ls.velocity, v),
-            "a": scale(ls.acceleration, a if a is not None else u),
-            "u": scale(ls.jerk if self.mode == "jerk" else ls.acceleration, u),
+            "v": scale(ls.velocity_rad_s, v),
+            "a": scale(ls.acceleration_rad_s2, a if a is not None else u),
+            "u": scale(ls.jerk_rad_s3 if self.mode == "jerk" else ls.acceleration_rad_s2, u),
             "T": Ts.copy(),
         }
         self.x0 = self._pack(q, v, a, u, Ts)
         return self.x0
 
     # ------------------------------------------------------------------ bounds
-    def _bounds(self, st: _Structure, limits: LimitSet):
+    def _bounds(self, st: _Structure, limits: Limits):
         n, N = self.n, self.N
         inf = np.inf
         ls = limits
@@ -624,9 +620,9 @@ class OptimalProblem:
             else:
                 lo_q[node] = np.maximum(self.waypoints[k] - tol, ls.lower_rad)
                 hi_q[node] = np.minimum(self.waypoints[k] + tol, ls.upper_rad)
-        vmax = ls.velocity if ls.velocity is not None else np.full(n, inf)
-        amax = ls.acceleration if ls.acceleration is not None else np.full(n, inf)
-        jmax = ls.jerk if ls.jerk is not None else np.full(n, inf)
+        vmax = ls.velocity_rad_s if ls.velocity_rad_s is not None else np.full(n, inf)
+        amax = ls.acceleration_rad_s2 if ls.acceleration_rad_s2 is not None else np.full(n, inf)
+        jmax = ls.jerk_rad_s3 if ls.jerk_rad_s3 is not None else np.full(n, inf)
         lo_v, hi_v = np.tile(-vmax, (N + 1, 1)), np.tile(vmax, (N + 1, 1))
         lo_v[[0, -1]] = hi_v[[0, -1]] = 0.0
         lbx, ubx = [lo_q.reshape(-1), lo_v.reshape(-1)], [hi_q.reshape(-1), hi_v.reshape(-1)]
@@ -641,7 +637,9 @@ class OptimalProblem:
             lbx.append(np.tile(-amax, N))
             ubx.append(np.tile(amax, N))
         nseg = len(self.segment_intervals)
-        fmin = np.array([self.fractions[self.segment_of_interval == s].min() for s in range(nseg)])
+        frac = self.fractions
+        assert frac is not None  # set by make_warm_start, which solve() runs first
+        fmin = np.array([frac[self.segment_of_interval == s].min() for s in range(nseg)])
         lbx.append(H_MIN_S / fmin)
         ubx.append(np.full(nseg, inf))
         # constraint rows
@@ -660,16 +658,16 @@ class OptimalProblem:
             lbg[m] = ubg[m] = self.duration
         return np.concatenate(lbx), np.concatenate(ubx), lbg, ubg
 
-    def _params(self, limits: LimitSet) -> np.ndarray:
+    def _params(self, limits: Limits) -> np.ndarray:
         n = self.n
-        tau = limits.torque if limits.torque is not None else np.ones(n)
+        tau = limits.torque_Nm if limits.torque_Nm is not None else np.ones(n)
         if self.objective == "time":
             w = TIME_REGULARISATION
         elif self.objective == "time+smooth":
             w = self.smooth_weight
         else:
             w = 0.0
-        ref = self.limits.jerk if self.mode == "jerk" else self.limits.acceleration
+        ref = self.limits.jerk_rad_s3 if self.mode == "jerk" else self.limits.acceleration_rad_s2
         if ref is None:
             ref = np.ones(n)
         ew, _ = _energy_weights(self.robot)
@@ -712,7 +710,7 @@ class OptimalProblem:
         return self.check_dt or traj.duration / CHECK_SAMPLES
 
     # ------------------------------------------------------------------ solve
-    def _solve_once(self, limits: LimitSet, x0: np.ndarray):
+    def _solve_once(self, limits: Limits, x0: np.ndarray):
         st = self._structure(limits)
         lbx, ubx, lbg, ubg = self._bounds(st, limits)
         p = self._params(limits)
@@ -751,20 +749,19 @@ class OptimalProblem:
         InfeasibleError
             The request cannot meet its limits; the message names the binding limit and joint.
         """
-        if self.x0 is None:
-            self.make_warm_start()
-        torque_on = self.limits.torque is not None
+        x0 = self.x0 if self.x0 is not None else self.make_warm_start()
+        torque_on = self.limits.torque_Nm is not None
         limits = self.limits
-        x0 = self.x0
         total_iter, total_time, rounds = 0, 0.0, 0
-        last = None  # (structure, solution) of the last solve that succeeded
-        jl = self.limits.joint_limits()
+        last: tuple[_Structure, np.ndarray] | None = None  # the last solve that succeeded
+        jl = self.limits
         while True:
             st, x, info, data = self._solve_once(limits, x0)
             total_iter += info["iterations"]
             total_time += info["solve_time_s"]
             if not info["success"]:
                 if rounds > 0:  # a backed-off re-solve failed: keep the last good one
+                    assert last is not None  # set by the first round, which succeeded
                     st, x = last
                     break
                 self._diagnose(st, x, info, data)
@@ -779,7 +776,7 @@ class OptimalProblem:
             for kind, r in over.items():
                 factor = (1 - BACKOFF_MARGIN) / np.maximum(r, 1.0)
                 factor[r <= 1 + CHECK_TOL] = 1.0
-                limits = limits.scaled(kind, factor)
+                limits = limits.tightened(kind, factor, "back-off")
             x0 = x
             rounds += 1
         traj = self._trajectory(st, x)
@@ -793,7 +790,8 @@ class OptimalProblem:
         ]
         q, v, a, u, h = self._unpack(st, x)
         stats = {
-            "solver": f"ipopt (casadi {ca.__version__})",
+            # casadi's stubs omit the module's __version__
+            "solver": f"ipopt (casadi {ca.__version__})",  # type: ignore[attr-defined]
             "iterations": total_iter,
             "solve_time_s": total_time,
             "build_time_s": info["build_time_s"],
@@ -822,7 +820,7 @@ class OptimalProblem:
                 "waypoint_times_s": traj.meta["knot_times_s"][self.waypoint_nodes]
                 + (JUMP_RAMP_S / 2 if self.mode != "jerk" else 0.0),
                 "limits": self.limits.to_dict(),
-                "backed_off_torque_Nm": None if limits.torque is None else limits.torque.copy(),
+                "backed_off_torque_Nm": limits.torque_Nm,  # read-only, or None
             }
         )
         return traj
@@ -835,10 +833,10 @@ class OptimalProblem:
             fastest = optimal(
                 self.robot,
                 self.waypoints,
-                v_max=_kw(self.limits.velocity),
-                a_max=_kw(self.limits.acceleration),
-                j_max=_kw(self.limits.jerk),
-                tau_max=_kw(self.limits.torque),
+                v_max=_kw(self.limits.velocity_rad_s),
+                a_max=_kw(self.limits.acceleration_rad_s2),
+                j_max=_kw(self.limits.jerk_rad_s3),
+                tau_max=_kw(self.limits.torque_Nm),
                 via_tolerance=self.via_tolerance,
                 n_intervals=self.segment_intervals,
             )
@@ -853,7 +851,7 @@ class OptimalProblem:
         viol = np.maximum(np.maximum(lbg - g, g - ubg), 0.0)
         kinds = st.g_kind
         limit_rows = np.isin(kinds, ["velocity", "position", "torque"])
-        if self.limits.torque is not None:
+        if self.limits.torque_Nm is not None:
             tau_rows = kinds == "torque"
             rat = np.abs(g[tau_rows])
             jnt = st.g_joint[tau_rows]
@@ -862,7 +860,7 @@ class OptimalProblem:
             i = int(np.argmax(worst))
             raise InfeasibleError(
                 f"torque limit: no trajectory keeps {self.limits.joint_names[i]} within its "
-                f"tau_max of {self.limits.torque[i]:.4g} N m (solver: {status}; peak ratio "
+                f"tau_max of {self.limits.torque_Nm[i]:.4g} N m (solver: {status}; peak ratio "
                 f"{worst[i]:.3g} at its last iterate)"
             )
         if np.any(viol[limit_rows] > 1e-6):
@@ -880,6 +878,7 @@ def _kw(x):
 
 def _binding_of(traj: Trajectory) -> tuple[str, str, float]:
     best = ("", "", -np.inf)
+    assert traj.report is not None  # a solved plan carries its fine-grid check
     for kind, r in traj.report.ratios.items():
         if kind == "position":
             continue
@@ -923,7 +922,7 @@ def _ramped_trajectory(t, Q, V, U, names) -> Trajectory:
 
 # ----------------------------------------------------------------------------- public
 def build_optimal(
-    robot,
+    robot: Robot,
     waypoints,
     *,
     v_max=None,
@@ -946,8 +945,17 @@ def build_optimal(
     if objective not in OBJECTIVES:
         raise InputError(f"objective {objective!r} unknown; choose one of {OBJECTIVES}")
     w = _check_waypoints(robot, waypoints)
-    ls = resolve_limits(robot, v_max=v_max, a_max=a_max, j_max=j_max, tau_max=tau_max)
-    if ls.acceleration is None and ls.jerk is None and ls.torque is None:
+    asked = (v_max, a_max, j_max, tau_max)
+    ls = resolve_limits(
+        robot,
+        v_max=v_max,
+        a_max=a_max,
+        j_max=j_max,
+        tau_max=tau_max,
+        need=[k for k, v in zip(LIMIT_KEYS, asked, strict=True) if v is None],  # the robot's
+        where=f"optimal on {robot.name}",
+    )
+    if ls.acceleration_rad_s2 is None and ls.jerk_rad_s3 is None and ls.torque_Nm is None:
         raise InputError(
             "velocity limits alone have no minimum-time solution: give a_max, j_max or tau_max"
         )
@@ -967,7 +975,6 @@ def build_optimal(
     tol = np.full(robot.n_joints, float(tol)) if tol.ndim == 0 else tol
     if tol.shape != (robot.n_joints,) or np.any(tol < 0) or not np.all(np.isfinite(tol)):
         raise InputError(f"via_tolerance must be >= 0 rad, scalar or ({robot.n_joints},)")
-    _check_ranges(robot, w, ls)
     exact = np.ones(w.shape[0], bool)
     if np.any(tol > 0):
         exact[1:-1] = False
@@ -975,12 +982,11 @@ def build_optimal(
     nseg = w.shape[0] - 1
     if n_intervals is None:
         n_intervals = max(16, 48 // nseg) if nseg > 1 else 32
-    seg_n = (
-        tuple(int(x) for x in n_intervals) if np.ndim(n_intervals) else (int(n_intervals),) * nseg
-    )
+    counts = np.asarray(n_intervals)
+    seg_n = tuple(int(x) for x in counts) if counts.ndim else (int(counts),) * nseg
     if len(seg_n) != nseg or min(seg_n) < 2:
         raise InputError(f"n_intervals must be >= 2 per segment ({nseg} segments)")
-    mode = "jerk" if (ls.jerk is not None or objective == "jerk") else "acceleration"
+    mode = "jerk" if (ls.jerk_rad_s3 is not None or objective == "jerk") else "acceleration"
     return OptimalProblem(
         robot=robot,
         waypoints=w,
@@ -998,7 +1004,7 @@ def build_optimal(
 
 
 def optimal(
-    robot,
+    robot: Robot,
     waypoints,
     *,
     v_max=None,
@@ -1026,7 +1032,8 @@ def optimal(
     v_max, a_max, j_max, tau_max : None, False, float or array (n_joints,)
         Limits on ``|qd|`` [rad/s], ``|qdd|`` [rad/s^2], ``|qddd|`` [rad/s^3], ``|tau|`` [N m].
         None takes the robot's own (``robot.limits``; plain URDFs have no acceleration or jerk
-        limit, pass them), False switches the limit off, a value overrides it.
+        limit, pass them), False switches the limit off, a value overrides it
+        (:func:`armlab.robot.resolve_limits`; every missing one is named in one InputError).
     objective : {"time", "time+smooth", "jerk", "energy"}
         Minimum time (default); minimum time plus ``smooth_weight`` times the integral of the
         squared normalised jerk; minimum jerk or minimum energy for a fixed ``duration``.
@@ -1053,11 +1060,12 @@ def optimal(
     Raises
     ------
     InfeasibleError
-        A waypoint outside a joint range, a torque limit below the static gravity torque at a
-        waypoint, a duration shorter than the minimum, or a torque limit no trajectory meets —
-        the message names the limit and the joint.
+        A torque limit below the static gravity torque at a waypoint, a duration shorter than
+        the minimum, or a torque limit no trajectory meets — the message names the limit and
+        the joint.
     InputError
-        Bad shapes, values or keyword combinations.
+        Bad shapes, values or keyword combinations; a waypoint outside a joint range
+        (:func:`~armlab.trajectory.waypoints.validate_waypoints`).
     """
     prob = build_optimal(
         robot,

@@ -6,10 +6,16 @@ Every function returns a :class:`matplotlib.figure.Figure` (never shows it); wor
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from matplotlib.figure import Figure
 
 from armlab.errors import InputError
+
+if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with the package
+    from matplotlib.figure import Figure
+
+    from armlab.robot.model import Robot
 
 __all__ = ["plot_limit_profiles", "plot_torque_ratio", "plot_phase_plane"]
 
@@ -22,22 +28,17 @@ _ROWS = (
 
 
 def _limits_of(traj, robot) -> dict:
-    """``{field: {joint: value}}``: the limits the planner used, else the robot's."""
+    """``{field: {joint: value}}`` (:meth:`Limits.to_dict`): the limits the planner used, else
+    the robot's."""
     if "limits" in traj.meta:
         return traj.meta["limits"]
     if robot is None:
         return {}
-    lim = robot.limits
-    out = {}
-    for name in ("velocity_rad_s", "acceleration_rad_s2", "jerk_rad_s3"):
-        x = getattr(lim, name)
-        out[name] = None if x is None else dict(zip(robot.joint_names, map(float, x), strict=True))
-    out["torque_Nm"] = dict(zip(robot.joint_names, map(float, lim.effort_Nm), strict=True))
-    return out
+    return robot.limits.to_dict()
 
 
 def plot_limit_profiles(
-    traj, robot=None, *, dt: float | None = None, title: str | None = None
+    traj, robot: Robot | None = None, *, dt: float | None = None, title: str | None = None
 ) -> Figure:
     """Joint position, velocity, acceleration and jerk over time with their limits (dashed).
 
@@ -57,6 +58,8 @@ def plot_limit_profiles(
     signals = {"q": q, "qd": qd, "qdd": qdd, "qddd": qddd}
     t_rel = times - traj.t[0]
     limits = _limits_of(traj, robot)
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(9, 9), constrained_layout=True)
     axes = fig.subplots(4, 1, sharex=True)
     for ax, (key, label, lim_name) in zip(axes, _ROWS, strict=True):
@@ -80,7 +83,7 @@ def plot_limit_profiles(
 
 
 def plot_torque_ratio(
-    traj, robot, *, dt: float | None = None, tau_max=None, title: str | None = None
+    traj, robot: Robot, *, dt: float | None = None, tau_max=None, title: str | None = None
 ) -> Figure:
     """``|tau_i(t)| / tau_max,i`` for every joint (inverse dynamics, payload included).
 
@@ -96,11 +99,15 @@ def plot_torque_ratio(
     tau = fine.torques(robot)
     if tau_max is None:
         lim = _limits_of(traj, robot).get("torque_Nm")
-        tau_max = np.array([lim[n] for n in traj.joint_names]) if lim else robot.limits.effort_Nm
+        tau_max = np.array([lim[n] for n in traj.joint_names]) if lim else robot.limits.torque_Nm
+        if tau_max is None:
+            raise InputError(f"{robot.name} has no torque limit: pass tau_max in [N m]")
     tau_max = np.asarray(tau_max, float)
     if tau_max.shape != (traj.n_joints,):
         raise InputError(f"tau_max has shape {tau_max.shape}, expected ({traj.n_joints},)")
     ratio = np.abs(tau) / tau_max
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(9, 4), constrained_layout=True)
     ax = fig.subplots()
     for j, name in enumerate(traj.joint_names):
@@ -137,6 +144,8 @@ def plot_phase_plane(traj_or_problem, *, title: str | None = None) -> Figure:
     if not hasattr(prob, "limit_curves"):
         raise InputError("plot_phase_plane needs a time_optimal_path result (meta['topp'])")
     curves = prob.limit_curves()
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(9, 4.5), constrained_layout=True)
     ax = fig.subplots()
     s = curves["s"]

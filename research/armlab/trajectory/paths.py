@@ -7,22 +7,24 @@ also give the derivatives the planners need to map a speed profile ``s(t)`` into
     p(s), dp/ds, d2p/ds2                 (position of the tool centre point, [m])
     R(s), w_s = omega / sdot, dw_s/ds    (orientation; angular velocity per unit s, world axes)
 
-Geometry (seed-digest §2):
+Geometry:
 
-* **line** (seed 000 eq. 6-9, thesis 6.3.3): ``p(s) = p0 + (p1 - p0) s / L``; orientation held
-  or turned about one fixed axis at a constant rate (slerp, thesis 6.3.6 "simultaneous").
+* **line** (Jiang 1987, eq. 6-9; HEU thesis, 6.3.3): ``p(s) = p0 + (p1 - p0) s / L``;
+  orientation held or turned about one fixed axis at a constant rate (slerp, thesis 6.3.6
+  "simultaneous").
   If the rotation is large for the distance, the path length is ``max(|p1 - p0|, rho theta)``
   with ``rho = rotation_radius_m``: the orientation then moves like a point at distance
   ``rho`` from the tool centre point (a pure reorientation is a path of length ``rho theta``).
-* **arc through three points** (seed 000 eq. 10-24, thesis 6.3.4-6.3.5): the thesis' frame
-  (origin P1, ``x'`` along P1P3, ``z'`` along P1P3 x P1P2, ``y' = z' x x'``) makes the arc
+* **arc through three points** (Jiang 1987, eq. 10-24; HEU thesis, 6.3.4-6.3.5): the thesis'
+  frame (origin P1, ``x'`` along P1P3, ``z'`` along P1P3 x P1P2, ``y' = z' x x'``) makes the arc
   planar; the circle ``X'^2 + Y'^2 - 2 m X' - 2 n Y' + q = 0`` through the three points solves
-  the 3 x 3 system of seed 000 eq. 18 (Cramer's rule, eq. 19) and ``R`` follows from eq. 20.
+  the 3 x 3 system of Jiang 1987, eq. 18 (Cramer's rule, eq. 19) and ``R`` follows from eq. 20.
   The polar angle advances by ``ds / R`` (eq. 21).
-* **tangent-arc corner blend** (seed 002 2.2(2)): at a corner P2 between P1P2 and P2P3 with
-  turning angle ``beta`` (corner angle ``gamma = pi - beta``), the arc of radius ``R`` touches
-  both lines at ``Q1 = P2 - R tan(beta/2) u_in`` and ``Q2 = P2 + R tan(beta/2) u_out``; its
-  centre lies on the bisector at ``R / sin(gamma/2)`` from P2.
+* **tangent-arc corner blend** (SHU controller paper, §2.2 (2)): at a corner P2 between P1P2
+  and P2P3 with turning angle ``beta`` (corner angle ``gamma = pi - beta``), the arc of radius
+  ``R`` touches both lines at ``Q1 = P2 - R tan(beta/2) u_in`` and
+  ``Q2 = P2 + R tan(beta/2) u_out``; its centre lies on the bisector at ``R / sin(gamma/2)``
+  from P2.
 """
 
 from __future__ import annotations
@@ -71,7 +73,7 @@ class JointPath:
         self.length = float(np.linalg.norm(delta))
         self.direction = delta / self.length if self.length > 0 else np.zeros_like(delta)
 
-    def point(self, s):
+    def point(self, s) -> np.ndarray:
         """Joint positions at ``s``: (n_joints,) for a scalar, (n, n_joints) for an array."""
         s_arr = np.clip(np.asarray(s, float), 0.0, self.length)
         q = self.q_start + np.multiply.outer(s_arr, self.direction)
@@ -139,7 +141,7 @@ class OrientationLaw:
         axis = np.asarray(axis_w, float)
         return cls(np.asarray(R0, float), axis / np.linalg.norm(axis), float(rate), mode)
 
-    def evaluate(self, s: np.ndarray):
+    def evaluate(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         s = np.asarray(s, float).reshape(-1)
         R = _rotations(self.axis_w, self.rate * s) @ self.R0
         w = np.broadcast_to(self.rate * self.axis_w, (s.size, 3)).copy()
@@ -175,7 +177,7 @@ class Circle:
         d = np.asarray(p, float) - self.centre
         return float(np.mod(math.atan2(d @ self.e2, d @ self.e1), 2 * math.pi))
 
-    def point(self, phi):
+    def point(self, phi) -> np.ndarray:
         phi = np.asarray(phi, float)
         return self.centre + self.radius * (
             np.multiply.outer(np.cos(phi), self.e1) + np.multiply.outer(np.sin(phi), self.e2)
@@ -197,7 +199,7 @@ def _point3(p, name: str) -> np.ndarray:
 def circle_through(p1, p2, p3, *, tol: float = 1e-9) -> Circle:
     """The circle through three points, oriented so that P1 -> P2 -> P3 runs positively.
 
-    Seed 000 eq. 10-20 / thesis 6.3.5: in the frame with origin P1, ``x'`` along P1P3 and
+    Jiang 1987, eq. 10-20 / HEU thesis, 6.3.5: in the frame with origin P1, ``x'`` along P1P3 and
     ``z'`` along P1P3 x P1P2, the circle ``X'^2 + Y'^2 - 2 m X' - 2 n Y' + q = 0`` solves
     ``[2X'_i  2Y'_i  1] [-m, -n, q]^T = -(X'_i^2 + Y'_i^2)`` (eq. 18); the centre is
     ``(m, n)`` (eq. 19) and ``R = sqrt((X'_1 - m)^2 + (Y'_1 - n)^2)`` (eq. 20).
@@ -318,7 +320,7 @@ class CartesianPath:
             return np.zeros(0)
         return self.cum[1:-1] / self._scale
 
-    def point(self, s):
+    def point(self, s) -> np.ndarray:
         """Tool pose(s) at ``s``: (4, 4) for a scalar, (n, 4, 4) for an array."""
         T = self.evaluate(s).poses()
         return T[0] if np.ndim(s) == 0 else T
@@ -343,7 +345,7 @@ def _pose(T, name: str) -> np.ndarray:
 
 
 class LinePath(CartesianPath):
-    """Straight line between two tool poses (seed 000 eq. 6-9, thesis 6.3.3).
+    """Straight line between two tool poses (Jiang 1987, eq. 6-9; HEU thesis, 6.3.3).
 
     Parameters
     ----------
@@ -387,7 +389,7 @@ class LinePath(CartesianPath):
 
 
 class ArcPath(CartesianPath):
-    """Arc (or full circle) through three points (seed 000 eq. 10-24, thesis 6.3.4-6.3.5).
+    """Arc (or full circle) through three points (Jiang 1987, eq. 10-24; HEU thesis, 6.3.4-6.3.5).
 
     Parameters
     ----------
@@ -472,7 +474,7 @@ class ArcPath(CartesianPath):
 
 class BlendPath(CartesianPath):
     """Lines through a chain of points with every corner rounded by a tangent arc (FlyBy,
-    seed 002 2.2(2), seed 001).
+    SHU controller paper, §2.2 (2); Li, Meng, Chen).
 
     Parameters
     ----------
@@ -558,7 +560,7 @@ class BlendPath(CartesianPath):
             arcs.append(
                 _ArcPiece(Circle(centre, float(r[c]), normal, e1, np.cross(normal, e1)), beta)
             )
-        pieces = []
+        pieces: list[_LinePiece | _ArcPiece] = []
         for k in range(n - 1):
             t_in = tangent[k - 1] if k >= 1 else 0.0
             t_out = tangent[k] if k < n - 2 else 0.0
@@ -571,8 +573,9 @@ class BlendPath(CartesianPath):
             a = P[k] + t_in * u[k]
             b = P[k + 1] - t_out * u[k]
             pieces.append(_LinePiece(a, b))
-            if k < n - 2 and arcs[k] is not None:
-                pieces.append(arcs[k])
+            arc = arcs[k] if k < n - 2 else None
+            if arc is not None:
+                pieces.append(arc)
         length = float(sum(p.length for p in pieces))
         if rotation is None:
             raise InputError("blend: give the start orientation (rotation=..., or poses)")

@@ -5,13 +5,21 @@ Every function returns a :class:`matplotlib.figure.Figure` (never shows it); wor
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from matplotlib.figure import Figure
+
+if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with the package
+    from matplotlib.figure import Figure
+
+    from armlab.robot.model import Robot
 
 __all__ = ["plot_joints", "plot_tcp_path", "plot_online"]
 
 
-def plot_joints(traj, robot=None, *, limits: bool = True, title: str | None = None) -> Figure:
+def plot_joints(
+    traj, robot: Robot | None = None, *, limits: bool = True, title: str | None = None
+) -> Figure:
     """Joint positions [rad], velocities [rad/s] and accelerations [rad/s^2] over time.
 
     Parameters
@@ -20,6 +28,8 @@ def plot_joints(traj, robot=None, *, limits: bool = True, title: str | None = No
     robot : Robot, optional
         With ``limits=True``, the velocity and acceleration limits are drawn dashed.
     """
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(9, 7.5), constrained_layout=True)
     axes = fig.subplots(3, 1, sharex=True)
     rows = [
@@ -44,13 +54,15 @@ def plot_joints(traj, robot=None, *, limits: bool = True, title: str | None = No
     return fig
 
 
-def plot_tcp_path(robot, traj, taught_points=None, *, title: str | None = None) -> Figure:
+def plot_tcp_path(robot: Robot, traj, taught_points=None, *, title: str | None = None) -> Figure:
     """Path of the tool centre point in 3-D (forward kinematics of every sample), with the
     taught points (default ``traj.meta["taught_points"]``) marked."""
     from armlab.kinematics import fk_batch
 
     P = fk_batch(robot, traj.q)[:, :3, 3]
     pts = traj.meta.get("taught_points") if taught_points is None else taught_points
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(7, 6), constrained_layout=True)
     ax = fig.add_subplot(projection="3d")
     ax.plot(P[:, 0], P[:, 1], P[:, 2], lw=1.5, label="tool centre point")
@@ -75,6 +87,8 @@ def plot_tcp_path(robot, traj, taught_points=None, *, title: str | None = None) 
 
 def plot_online(run, *, title: str | None = None) -> Figure:
     """Arc length, speed and override of an :class:`OnlineRun` over time."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(8, 6), constrained_layout=True)
     ax1, ax2, ax3 = fig.subplots(3, 1, sharex=True)
     ax1.plot(run.t, run.s)

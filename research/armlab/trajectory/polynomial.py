@@ -1,6 +1,6 @@
 """Cubic and quintic polynomials through via points in joint space (thesis 6.3.2).
 
-Thesis 6.3.2 (seed 003): each joint follows, on each segment of duration ``T``, the cubic
+HEU thesis, 6.3.2: each joint follows, on each segment of duration ``T``, the cubic
 ``theta(t) = c0 + c1 t + c2 t^2 + c3 t^3`` fixed by the positions and velocities at both ends::
 
     c0 = q0,   c1 = v0,
@@ -28,14 +28,20 @@ acceleration, jerk and torque limit holds).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.interpolate import CubicSpline
 
 from armlab.errors import InputError, LimitViolation
+from armlab.robot.limits import resolve_limits
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import time_grid, trapezoid_min_time
-from armlab.trajectory.timescale import check_in_range, finish, planner_limits, stretch_needed
+from armlab.trajectory.timescale import check_in_range, finish, stretch_needed
+from armlab.trajectory.waypoints import validate_waypoints
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = ["cubic_via", "quintic_via", "via_velocities"]
 
@@ -120,9 +126,10 @@ class _PiecewisePoly:
                     dp = poly.deriv(der)
                     if dp.degree() < 1 or not np.any(dp.coef):
                         continue
+                    roots: np.ndarray = dp.roots()  # numpy's stubs: elements are object_
                     out += [
                         self.knots[s] + r.real
-                        for r in dp.roots()
+                        for r in roots
                         if abs(r.imag) < 1e-12 and 0 < r.real < T
                     ]
         return np.array(out)
@@ -137,22 +144,11 @@ class _PiecewisePoly:
             for j in range(nj):
                 c = self.coeffs[s, :, j]
                 poly = np.polynomial.Polynomial(c)
-                ts = [0.0, T] + [
-                    r.real for r in poly.deriv().roots() if abs(r.imag) < 1e-12 and 0 < r.real < T
-                ]
+                roots: np.ndarray = poly.deriv().roots()  # numpy's stubs: elements are object_
+                ts = [0.0, T] + [r.real for r in roots if abs(r.imag) < 1e-12 and 0 < r.real < T]
                 vals = poly(np.array(ts))
                 lo[j], hi[j] = min(lo[j], vals.min()), max(hi[j], vals.max())
         return lo, hi
-
-
-def _check_waypoints(robot, waypoints) -> np.ndarray:
-    W = np.asarray(waypoints, float)
-    if W.ndim != 2 or W.shape[1] != robot.n_joints or W.shape[0] < 2:
-        raise InputError(f"waypoints have shape {W.shape}, expected (m >= 2, {robot.n_joints})")
-    if not np.all(np.isfinite(W)):
-        raise InputError("waypoints contain NaN or infinite values")
-    check_in_range(robot, W, "via-point waypoints")
-    return W
 
 
 def _sample_times(knots: np.ndarray, dt: float, extra: np.ndarray, corners: bool) -> np.ndarray:
@@ -187,7 +183,7 @@ def _via_plan(
     torque: bool,
 ) -> Trajectory:
     method = "cubic_via" if degree == 3 else "quintic_via"
-    W = _check_waypoints(robot, waypoints)
+    W = validate_waypoints(robot, waypoints, where=f"{method} waypoints")
     dt = float(dt)
     if not math.isfinite(dt) or dt <= 0:
         raise InputError(f"dt must be a positive number of seconds, not {dt!r}")
@@ -202,12 +198,13 @@ def _via_plan(
         A_given = np.asarray(accelerations, float)
         if A_given.shape != W.shape or not np.all(np.isfinite(A_given)):
             raise InputError(f"accelerations have shape {A_given.shape}, expected {W.shape}")
-    lim = planner_limits(
+    lim = resolve_limits(
         robot,
-        v_max,
-        a_max,
-        j_max,
+        v_max=v_max,
+        a_max=a_max,
+        j_max=j_max,
         need=("velocity",) if durations is not None else ("velocity", "acceleration"),
+        where=method,
     )
     merged = 0
     if durations is None:
@@ -324,7 +321,7 @@ def _via_plan(
 
 
 def cubic_via(
-    robot,
+    robot: Robot,
     waypoints,
     durations=None,
     velocities=None,
@@ -349,8 +346,9 @@ def cubic_via(
         Via-point velocities: the continuity rule (default), a C2 spline, or given [rad/s].
     dt : float
         Sample period in [s]; the via points are samples too.
-    v_max, a_max, j_max : float or array (n_joints,), optional
-        Override the robot's limits.
+    v_max, a_max, j_max : None, False, float or array (n_joints,)
+        Limits (:func:`armlab.robot.resolve_limits`): None the robot's, False off, a value
+        replaces it; velocity is needed, and acceleration when ``durations`` are not given.
     torque : bool
         Also meet the torque limits.
 
@@ -364,10 +362,11 @@ def cubic_via(
     Raises
     ------
     InputError
-        Bad shapes or durations.
+        Bad shapes or durations; a waypoint outside a joint range
+        (:func:`~armlab.trajectory.waypoints.validate_waypoints`).
     LimitViolation
-        A waypoint or the overshoot between via points leaves a joint range, or the given
-        durations break a limit (the message names joint and limit).
+        The overshoot between via points leaves a joint range, or the given durations break
+        a limit (the message names joint and limit).
     """
     return _via_plan(
         robot,
@@ -385,7 +384,7 @@ def cubic_via(
 
 
 def quintic_via(
-    robot,
+    robot: Robot,
     waypoints,
     durations=None,
     velocities=None,

@@ -5,7 +5,7 @@ parameter) from ``0`` to ``length`` in ``duration`` [s], starting and ending at 
 sequence of phases of constant jerk; each phase starts with a given acceleration, so a
 trapezoid (acceleration steps) and a double S (continuous acceleration) share one evaluator.
 
-Shapes (seed-digest §2, seed 002 table 1, Biagiotti & Melchiorri "Trajectory Planning for
+Shapes (SHU controller paper, table 1; Biagiotti & Melchiorri "Trajectory Planning for
 Automatic Machines and Robots" §3.2 and §3.4 for the double S):
 
 * trapezoid, acceleration ``a1``, cruise ``v``, deceleration ``a2``::

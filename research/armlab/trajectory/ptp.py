@@ -1,6 +1,6 @@
-"""Time-synchronised point-to-point motion in joint space (seed 000 eq. 1-5).
+"""Time-synchronised point-to-point motion in joint space (Jiang 1987, eq. 1-5).
 
-Seed 000 (1987 welding robot): joint ``i`` alone would need ``t_i = |Qd_i - Qc_i| / w_i``
+Jiang 1987 (a welding robot): joint ``i`` alone would need ``t_i = |Qd_i - Qc_i| / w_i``
 (eq. 3); the common time is ``T = max t_i`` and every joint moves at
 ``w_i = (Qd_i - Qc_i) / T`` (eq. 4), so that all arrive together; the set-point of the next
 step is ``Qn = Qc + (Qd - Qc) dt / T`` (eq. 5), ``dt = 100 ms``.
@@ -21,10 +21,12 @@ Profiles here:
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from armlab.errors import InputError
+from armlab.robot.limits import resolve_limits
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import (
     MotionProfile,
@@ -37,7 +39,11 @@ from armlab.trajectory.profiles import (
     trapezoid_profile,
     trapezoid_profile_for_duration,
 )
-from armlab.trajectory.timescale import check_in_range, finish, planner_limits, stretch_needed
+from armlab.trajectory.timescale import finish, stretch_needed
+from armlab.trajectory.waypoints import validate_waypoints
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = ["ptp_sync", "PTP_PROFILES"]
 
@@ -46,7 +52,7 @@ _DEFAULT_DT = {"trapezoid": 0.01, "scurve": 0.01, "velocity": 0.1}
 
 
 def _velocity_profiles(D, v, a, dt):
-    """Seed 000 eq. 3-4 with one-period ramps; returns (profiles, T, binding)."""
+    """Jiang 1987, eq. 3-4 with one-period ramps; returns (profiles, T, binding)."""
     t_i = D / v  # eq. 3
     T = float(t_i.max())
     binding = ("velocity", int(t_i.argmax()))
@@ -97,7 +103,7 @@ def _for_duration(profile, d, T, v, a, j):
 
 
 def ptp_sync(
-    robot,
+    robot: Robot,
     q_start,
     q_goal,
     profile: str = "trapezoid",
@@ -117,9 +123,13 @@ def ptp_sync(
     q_start, q_goal : array (n_joints,)
         Start and goal in [rad], inside the joint ranges.
     profile : {"trapezoid", "scurve", "velocity"}
-        See the module docstring (seed 000 eq. 1-5 for ``"velocity"``).
-    v_max, a_max, j_max : float or array (n_joints,), optional
-        Override the robot's limits in [rad/s], [rad/s^2], [rad/s^3].
+        See the module docstring (Jiang 1987, eq. 1-5 for ``"velocity"``).
+    v_max, a_max, j_max : None, False, float or array (n_joints,)
+        Limits in [rad/s], [rad/s^2], [rad/s^3] (:func:`armlab.robot.resolve_limits`): None
+        takes the robot's, False switches the kind off, a value replaces it. ``"trapezoid"``
+        needs velocity and acceleration limits, ``"scurve"`` also jerk, ``"velocity"`` velocity
+        only (its acceleration limit, if known, lengthens the motion); a needed one that is
+        missing or off is an :class:`InputError` naming the study key and the keyword.
     dt : float, optional
         Sample period of the result in [s]; for ``"velocity"`` also the interpolation period
         of the paper (default 0.1 s there, 0.01 s otherwise).
@@ -141,18 +151,17 @@ def ptp_sync(
     Raises
     ------
     InputError
-        Bad shape, unknown profile, missing limit.
+        Bad shape, unknown profile, missing limit; start or goal outside a joint's range
+        (:func:`~armlab.trajectory.waypoints.validate_waypoints`).
     LimitViolation
-        Start or goal outside a joint's range; gravity alone above a torque limit.
+        Gravity alone above a torque limit.
     """
     if profile not in PTP_PROFILES:
         raise InputError(f"unknown PTP profile {profile!r}; use one of {PTP_PROFILES}")
     if sync not in ("time", "phase"):
         raise InputError(f"sync must be 'time' or 'phase', not {sync!r}")
-    q0 = robot.check_q(q_start, name="q_start").astype(float)
-    q1 = robot.check_q(q_goal, name="q_goal").astype(float)
-    check_in_range(robot, q0, "ptp_sync q_start")
-    check_in_range(robot, q1, "ptp_sync q_goal")
+    q0 = validate_waypoints(robot, q_start, where="ptp_sync q_start", min_rows=None)
+    q1 = validate_waypoints(robot, q_goal, where="ptp_sync q_goal", min_rows=None)
     dt = _DEFAULT_DT[profile] if dt is None else float(dt)
     if not math.isfinite(dt) or dt <= 0:
         raise InputError(f"dt must be a positive number of seconds, not {dt!r}")
@@ -161,7 +170,9 @@ def ptp_sync(
         "scurve": ("velocity", "acceleration", "jerk"),
         "velocity": ("velocity",),
     }[profile]
-    lim = planner_limits(robot, v_max, a_max, j_max, need=need)
+    lim = resolve_limits(
+        robot, v_max=v_max, a_max=a_max, j_max=j_max, need=need, where=f"ptp_sync {profile}"
+    )
     v, a, j = lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3
     delta = q1 - q0
     D = np.abs(delta)

@@ -1,7 +1,7 @@
-"""Trapezoidal motion as per-step lengths: seed 002, table 1 (PC-based robot controller, 1998).
+"""Trapezoidal motion as per-step lengths: SHU controller paper (1998), §2.1, table 1.
 
 The controller sends, every interpolation period ``T``, the length of the next step along the
-path (a line length in [m], an arc angle in [rad]). Table 1 of seed 002 (digest §2)::
+path (a line length in [m], an arc angle in [rad]). Table 1 of the SHU controller paper::
 
     phase          length               time          steps      length of step k
     acceleration   S1 = V^2 / (2 a1)    t1 = V / a1   n1 = t1/T  (2k - 1) a1 T^2 / 2
@@ -11,9 +11,9 @@ path (a line length in [m], an arc angle in [rad]). Table 1 of seed 002 (digest 
 If ``L < S1 + S2`` there is no cruise (a triangle with a lower peak); the remainder ``dL`` that
 does not fill a whole step is inserted once into the deceleration steps, where it keeps them
 decreasing: before step 1 if ``dL >= S2_1``, else between steps ``k - 1`` and ``k`` with
-``S2_{k-1} >= dL >= S2_k`` (the seed's two cases).
+``S2_{k-1} >= dL >= S2_k`` (the paper's two cases).
 
-Where the seed is silent we decide (documented in :func:`trapezoid_steps`):
+Where the paper is silent we decide (documented in :func:`trapezoid_steps`):
 
 * the table assumes ``t1/T`` and ``t2/T`` whole. We round the step counts up,
   ``n_i = ceil(V / (a_i T))``, and use the effective accelerations ``a_i' = V / (n_i T) <= a_i``
@@ -22,7 +22,7 @@ Where the seed is silent we decide (documented in :func:`trapezoid_steps`):
 * a short move gets the triangle's peak ``V_p = sqrt(2 L a1 a2 / (a1 + a2))``; if the rounded
   ramps overshoot ``L`` the peak is lowered to ``V_p = 2 L / ((n1 + n2) T)`` so that they fill
   ``L`` exactly (then no left-over step is needed);
-* a remainder smaller than the last deceleration step goes after it (a third case the seed
+* a remainder smaller than the last deceleration step goes after it (a third case the paper
   does not list).
 """
 
@@ -40,7 +40,7 @@ __all__ = ["StepPlan", "trapezoid_steps"]
 
 @dataclass
 class StepPlan:
-    """Per-period step lengths of a trapezoidal move (seed 002 table 1).
+    """Per-period step lengths of a trapezoidal move (SHU controller paper, table 1).
 
     Attributes
     ----------
@@ -125,7 +125,7 @@ def _positive(x, name: str) -> float:
 
 
 def trapezoid_steps(length: float, v: float, a_acc: float, a_dec: float, period: float) -> StepPlan:
-    """Per-step lengths of a trapezoidal move, seed 002 table 1.
+    """Per-step lengths of a trapezoidal move, SHU controller paper, table 1.
 
     Parameters
     ----------
@@ -148,7 +148,7 @@ def trapezoid_steps(length: float, v: float, a_acc: float, a_dec: float, period:
 
     Notes
     -----
-    See the module docstring for the choices where the seed is silent (whole step counts,
+    See the module docstring for the choices where the paper is silent (whole step counts,
     short moves, a remainder smaller than the last step). ``L = 0`` gives no steps.
     """
     L = float(length)

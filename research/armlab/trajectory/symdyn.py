@@ -25,12 +25,18 @@ payload change gives a new function and an unchanged robot reuses the old one.
 from __future__ import annotations
 
 import hashlib
+from typing import TYPE_CHECKING, Any
 
-import casadi as ca
 import numpy as np
 import pinocchio as pin
 
+from armlab._lazy import lazy_import
 from armlab.errors import RobotDescriptionError
+
+if TYPE_CHECKING:
+    import casadi as ca  # the real module for the type checker (CasADi ships type stubs)
+else:
+    ca = lazy_import("casadi")  # CasADi loads at the first symbolic build, not with the package
 
 __all__ = [
     "inverse_dynamics_function",
@@ -128,9 +134,16 @@ def _build(model: pin.Model) -> ca.Function:
     qdd = ca.SX.sym("qdd", nq)
     nj = model.njoints
     pi = ca.SX.sym("pi", 10 * (nj - 1) + nq)  # dynamic parameters of each body, armature
-    R, p, S = [None] * nj, [None] * nj, [None] * nj
-    v_lin, v_ang, a_lin, a_ang = [None] * nj, [None] * nj, [None] * nj, [None] * nj
-    f_lin, f_ang = [None] * nj, [None] * nj
+    # per body (index 0: the base): casadi SX or DM expressions, filled in below
+    R: list[Any] = [None] * nj
+    p: list[Any] = [None] * nj
+    S: list[Any] = [None] * nj
+    v_lin: list[Any] = [None] * nj
+    v_ang: list[Any] = [None] * nj
+    a_lin: list[Any] = [None] * nj
+    a_ang: list[Any] = [None] * nj
+    f_lin: list[Any] = [None] * nj
+    f_ang: list[Any] = [None] * nj
     g = np.asarray(model.gravity.vector, float)
     v_lin[0] = ca.SX.zeros(3)
     v_ang[0] = ca.SX.zeros(3)
@@ -184,7 +197,7 @@ def _build(model: pin.Model) -> ca.Function:
         fl = fl + ca.cross(va, hl)
         fa = fa + ca.cross(va, ha) + ca.cross(vl, hl)
         f_lin[i], f_ang[i] = fl, fa
-    tau = [None] * nq
+    tau: list[Any] = [None] * nq
     for i in range(nj - 1, 0, -1):
         idx = model.joints[i].idx_q
         s_lin, s_ang = S[i]

@@ -1,4 +1,7 @@
-"""Limits for the classical planners, and the uniform time stretch that meets them.
+"""The uniform time stretch that brings a classical plan within its limits.
+
+The limits of a request are a :class:`armlab.robot.Limits` from
+:func:`armlab.robot.resolve_limits` (the robot's, overridden or switched off per call).
 
 Stretching a trajectory in time by ``k >= 1`` (``q_k(t) = q(t / k)``) divides the velocities
 by ``k``, the accelerations by ``k^2`` and the jerks by ``k^3``. Inverse dynamics
@@ -11,74 +14,21 @@ say which limit set the pace (``Trajectory.meta["slowdown"]``).
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pinocchio as pin
 
-from armlab.errors import InputError, LimitViolation
+from armlab.errors import LimitViolation
+from armlab.robot import rigid_body
 
-__all__ = ["planner_limits", "stretch_needed", "finish", "check_in_range"]
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
+    from armlab.trajectory.core import Trajectory
 
-
-def _per_joint(robot, value, name: str) -> np.ndarray:
-    a = np.asarray(value, dtype=float)
-    if a.ndim == 0:
-        a = np.full(robot.n_joints, float(a))
-    if a.shape != (robot.n_joints,):
-        raise InputError(f"{name} has shape {a.shape}, expected a scalar or ({robot.n_joints},)")
-    if np.any(np.isnan(a)) or np.any(a <= 0):
-        raise InputError(f"{name} must be > 0 for every joint, got {a.tolist()}")
-    return a
+__all__ = ["stretch_needed", "finish", "check_in_range"]
 
 
-def planner_limits(
-    robot,
-    v_max=None,
-    a_max=None,
-    j_max=None,
-    *,
-    need: tuple[str, ...] = ("velocity", "acceleration"),
-):
-    """The robot's :class:`JointLimits` with per-call overrides.
-
-    Parameters
-    ----------
-    robot : Robot
-    v_max, a_max, j_max : float or array (n_joints,), optional
-        Override the velocity [rad/s], acceleration [rad/s^2], jerk [rad/s^3] limits
-        (``np.inf`` switches one off).
-    need : tuple of str
-        Limits the planner cannot work without.
-
-    Raises
-    ------
-    InputError
-        A needed limit is missing from the description (plain URDF without drives.toml) and not
-        given, or an override has the wrong shape or a value <= 0.
-    """
-    lim = robot.limits
-    v = lim.velocity_rad_s if v_max is None else _per_joint(robot, v_max, "v_max")
-    a = lim.acceleration_rad_s2 if a_max is None else _per_joint(robot, a_max, "a_max")
-    j = lim.jerk_rad_s3 if j_max is None else _per_joint(robot, j_max, "j_max")
-    for kind, arr, arg in (
-        ("velocity", v, "v_max"),
-        ("acceleration", a, "a_max"),
-        ("jerk", j, "j_max"),
-    ):
-        if kind in need and (arr is None or np.any(~(np.asarray(arr) > 0))):
-            raise InputError(
-                f"{robot.name} has no {kind} limit for every joint (no drives.toml?): pass {arg}"
-            )
-    return replace(
-        lim,
-        velocity_rad_s=np.asarray(v, float),
-        acceleration_rad_s2=None if a is None else np.asarray(a, float),
-        jerk_rad_s3=None if j is None else np.asarray(j, float),
-    )
-
-
-def check_in_range(robot, q, what: str) -> None:
+def check_in_range(robot: Robot, q, what: str) -> None:
     """Raise :class:`LimitViolation` naming the joint if ``q`` (n_joints,) or (n, n_joints)
     leaves the joint range."""
     q2 = np.atleast_2d(np.asarray(q, float))
@@ -99,8 +49,9 @@ def _ratio(signal, limit) -> np.ndarray:
     return np.where(np.isfinite(r), r, 0.0)
 
 
-def stretch_needed(traj, robot, limits, *, torque: bool = True) -> tuple[float, str, str]:
-    """Smallest time-stretch factor ``k >= 1`` that brings ``traj`` within ``limits``.
+def stretch_needed(traj, robot: Robot, limits, *, torque: bool = True) -> tuple[float, str, str]:
+    """Smallest time-stretch factor ``k >= 1`` that brings ``traj`` within ``limits``
+    (a :class:`~armlab.robot.Limits`; kinds that are None are not limited).
 
     ``k = max(r_v, sqrt(r_a), cbrt(r_j), k_tau)`` with ``r`` the peak ratios of the samples
     and ``k_tau`` the exact factor for the torques: ``|g + (tau - g) x| <= tau_max`` with
@@ -117,24 +68,20 @@ def stretch_needed(traj, robot, limits, *, torque: bool = True) -> tuple[float, 
     LimitViolation
         Gravity alone exceeds a joint's torque limit somewhere (no speed can fix it).
     """
-    cands: list[tuple[float, str, int]] = []
-    r = _ratio(traj.qd, limits.velocity_rad_s)
-    cands.append((float(r.max()), "velocity", int(r.argmax())))
+    cands: list[tuple[float, str, int]] = [(1.0, "", 0)]
+    if limits.velocity_rad_s is not None:
+        r = _ratio(traj.qd, limits.velocity_rad_s)
+        cands.append((float(r.max()), "velocity", int(r.argmax())))
     if limits.acceleration_rad_s2 is not None:
         r = _ratio(traj.qdd, limits.acceleration_rad_s2)
         cands.append((math.sqrt(r.max()), "acceleration", int(r.argmax())))
     if limits.jerk_rad_s3 is not None and traj.qddd is not None:
         r = _ratio(traj.qddd, limits.jerk_rad_s3)
         cands.append((float(np.cbrt(r.max())), "jerk", int(r.argmax())))
-    eff = np.asarray(limits.effort_Nm, float)
-    if torque and np.all(eff > 0) and np.any(np.isfinite(eff)):
-        model, data = robot.model, robot.model.createData()
-        n = traj.n_samples
-        g = np.empty((n, robot.n_joints))
-        tau = np.empty((n, robot.n_joints))
-        for k in range(n):
-            g[k] = pin.computeGeneralizedGravity(model, data, traj.q[k])
-            tau[k] = pin.rnea(model, data, traj.q[k], traj.qd[k], traj.qdd[k])
+    eff = limits.torque_Nm
+    if torque and eff is not None and np.any(np.isfinite(eff)):
+        g = rigid_body.gravity_torques(robot, traj.q)
+        tau = rigid_body.inverse_dynamics(robot, traj.q, traj.qd, traj.qdd)
         over = np.abs(g) > eff * (1 + 1e-12)
         if np.any(over):
             k, j = np.argwhere(over)[0]
@@ -156,7 +103,7 @@ def stretch_needed(traj, robot, limits, *, torque: bool = True) -> tuple[float, 
     return k, kind, robot.joint_names[j]
 
 
-def finish(traj, robot, limits, *, torque: bool, what: str):
+def finish(traj, robot: Robot, limits, *, torque: bool, what: str) -> Trajectory:
     """Set ``traj.report`` and raise :class:`LimitViolation` if any limit is still broken."""
     traj.report = traj.check_limits(robot, torque=torque, limits=limits)
     bad = traj.report.violations(tol=1e-9)

@@ -50,16 +50,17 @@ from __future__ import annotations
 
 import time as _time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
-import casadi as ca
 import numpy as np
-import pinocchio as pin
 from scipy import sparse
 from scipy.interpolate import CubicSpline
 
+from armlab._lazy import lazy_import
 from armlab.errors import ArmlabError, InfeasibleError, InputError
+from armlab.robot import rigid_body
+from armlab.robot.limits import LIMIT_KEYS, Limits, resolve_limits
 from armlab.trajectory.core import Trajectory
-from armlab.trajectory.limitset import LimitSet, resolve_limits
 from armlab.trajectory.optimal import (
     BACKOFF_MARGIN,
     CHECK_SAMPLES,
@@ -67,6 +68,15 @@ from armlab.trajectory.optimal import (
     JUMP_RAMP_S,
     refuse_violation,
 )
+from armlab.trajectory.waypoints import validate_waypoints
+
+if TYPE_CHECKING:
+    import casadi as ca  # the real module for the type checker (CasADi ships type stubs)
+else:
+    ca = lazy_import("casadi")  # CasADi loads at the first symbolic build, not with the package
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = [
     "time_optimal_path",
@@ -139,16 +149,16 @@ class GeometricPath:
         return self.spline(s), self._d[0](s), self._d[1](s), self._d[2](s)
 
 
-def path_dynamics(robot, q, dq, ddq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``m, c, g`` (each (n, n_joints)) so that ``tau = m sdd + c sd^2 + g`` along the path."""
-    model, data = robot.model, robot.model.createData()
-    n = q.shape[0]
-    m, c, g = np.empty_like(q), np.empty_like(q), np.empty_like(q)
-    z = np.zeros(q.shape[1])
-    for k in range(n):
-        g[k] = pin.rnea(model, data, q[k], z, z)
-        m[k] = pin.rnea(model, data, q[k], z, dq[k]) - g[k]
-        c[k] = pin.rnea(model, data, q[k], dq[k], ddq[k]) - g[k]
+def path_dynamics(robot: Robot, q, dq, ddq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``m, c, g`` (each (n, n_joints)) so that ``tau = m sdd + c sd^2 + g`` along the path.
+
+    ``q``, ``dq = q'``, ``ddq = q''`` are (n, n_joints); ``g`` in [N m], ``m = M q'`` and
+    ``c = M q'' + C(q, q') q'`` in [N m s^2] (batched :mod:`armlab.robot.rigid_body` calls).
+    """
+    z = np.zeros_like(np.asarray(q, dtype=float))
+    g = rigid_body.gravity_torques(robot, q)
+    m = rigid_body.inverse_dynamics(robot, q, z, dq) - g
+    c = rigid_body.inverse_dynamics(robot, q, dq, ddq) - g
     return m, c, g
 
 
@@ -159,9 +169,9 @@ class ToppProblem:
     Trajectory. Attributes: ``s`` (K+1,), ``limits``, ``path``, ``coeffs`` at the nodes and
     interval midpoints."""
 
-    robot: object
+    robot: Robot
     path: GeometricPath
-    limits: LimitSet
+    limits: Limits
     s: np.ndarray
     check_dt: float | None
     max_backoff: int
@@ -174,7 +184,7 @@ class ToppProblem:
     def compute_coefficients(self) -> dict:
         s = self.s
         mid = 0.5 * (s[:-1] + s[1:])
-        out = {}
+        out: dict[str, Any] = {}
         for name, pts in (("node", s), ("mid", mid)):
             q, d1, d2, d3 = self.path(pts)
             m, c, g = path_dynamics(self.robot, q, d1, d2)
@@ -184,22 +194,22 @@ class ToppProblem:
         self.coeffs = out
         return out
 
-    def _static_check(self, ls: LimitSet) -> None:
-        if ls.torque is None:
+    def _static_check(self, ls: Limits) -> None:
+        if ls.torque_Nm is None:
             return
         for name in ("node", "mid"):
             C = self.coeffs[name]
-            r = np.abs(C["g"]) / ls.torque
+            r = np.abs(C["g"]) / ls.torque_Nm
             k, i = np.unravel_index(int(np.argmax(r)), r.shape)
             if r[k, i] > 1.0:
                 raise InfeasibleError(
                     f"torque limit: {ls.joint_names[i]} needs {abs(C['g'][k, i]):.4g} N m to "
                     f"hold the path at s = {C['s'][k]:.3f} against gravity, above its tau_max "
-                    f"of {ls.torque[i]:.4g} N m"
+                    f"of {ls.torque_Nm[i]:.4g} N m"
                 )
 
     # ------------------------------------------------------------------ convex pass
-    def _rows(self, ls: LimitSet, scale: dict[str, np.ndarray]):
+    def _rows(self, ls: Limits, scale: dict[str, np.ndarray]):
         """Rows ``A b`` in ``[lo, hi]`` of the convex pass and upper bounds on ``b``.
 
         Acceleration, torque and velocity are imposed at the midpoint of each interval, where
@@ -227,21 +237,31 @@ class ToppProblem:
         kinds = []
         Cl = {k: v[:-1] for k, v in Cn.items() if k != "s"}
         Cr = {k: v[1:] for k, v in Cn.items() if k != "s"}
-        if ls.velocity is not None:  # q'(s)^2 b(s) at 1/4, 1/2, 3/4 of each interval
+        if ls.velocity_rad_s is not None:  # q'(s)^2 b(s) at 1/4, 1/2, 3/4 of each interval
             sc = scale["velocity"]
             for frac, d1 in zip(VELOCITY_POINTS, self.coeffs["vel_d1"], strict=True):
                 add(
-                    np.zeros((K, n)), d1**2, np.full((K, n), -np.inf), (ls.velocity * sc) ** 2, frac
+                    np.zeros((K, n)),
+                    d1**2,
+                    np.full((K, n), -np.inf),
+                    (ls.velocity_rad_s * sc) ** 2,
+                    frac,
                 )
                 kinds.append("velocity")
         for where, C in (("left", Cl), ("mid", Cm), ("right", Cr)):
-            if ls.acceleration is not None:
+            if ls.acceleration_rad_s2 is not None:
                 sc = scale["acceleration"]
-                add(C["d1"], C["d2"], -ls.acceleration * sc, ls.acceleration * sc, where)
+                add(
+                    C["d1"],
+                    C["d2"],
+                    -ls.acceleration_rad_s2 * sc,
+                    ls.acceleration_rad_s2 * sc,
+                    where,
+                )
                 kinds.append("acceleration")
-            if ls.torque is not None:
+            if ls.torque_Nm is not None:
                 sc = scale["torque"]
-                add(C["m"], C["c"], -ls.torque * sc - C["g"], ls.torque * sc - C["g"], where)
+                add(C["m"], C["c"], -ls.torque_Nm * sc - C["g"], ls.torque_Nm * sc - C["g"], where)
                 kinds.append("torque")
         nb = len(blocks)
         rows = np.arange(nb * K * n)
@@ -252,14 +272,14 @@ class ToppProblem:
         )
         A = ca.DM(sparse.csc_matrix((vv, (rr, cc)), shape=(nb * K * n, K + 1)))
         ub = np.full(K + 1, np.inf)
-        if ls.velocity is not None:  # node velocity: b_k <= (v scale / q')^2
+        if ls.velocity_rad_s is not None:  # node velocity: b_k <= (v scale / q')^2
             sc = scale["velocity"]
             scn = np.minimum(np.vstack([sc[:1], sc]), np.vstack([sc, sc[-1:]]))
-            ub = np.min((ls.velocity * scn) ** 2 / np.maximum(Cn["d1"] ** 2, 1e-300), axis=1)
+            ub = np.min((ls.velocity_rad_s * scn) ** 2 / np.maximum(Cn["d1"] ** 2, 1e-300), axis=1)
         return A, np.concatenate(lo), np.concatenate(hi), ub, kinds
 
     def solve_convex(
-        self, ls: LimitSet, scale: dict[str, np.ndarray] | None = None, b0: np.ndarray | None = None
+        self, ls: Limits, scale: dict[str, np.ndarray] | None = None, b0: np.ndarray | None = None
     ) -> tuple[np.ndarray, dict]:
         """Square path velocities ``b_k`` (K+1,) of the convex pass, and solver info."""
         s, K = self.s, self.s.size - 1
@@ -275,7 +295,7 @@ class ToppProblem:
             root = ca.sqrt(x + eps)
             f = ca.sum1(2 * ca.DM(ds) / (root[:-1] + root[1:]))
             nlp = {"x": x, "f": f, "g": ca.mtimes(A, x)}
-            opts = {
+            opts: dict[str, Any] = {
                 "print_time": False,
                 "ipopt.print_level": 0,
                 "ipopt.sb": "yes",
@@ -309,18 +329,18 @@ class ToppProblem:
         }
         return b, info
 
-    def interval_ratios(self, traj: Trajectory, ls: LimitSet, dt: float) -> dict:
+    def interval_ratios(self, traj: Trajectory, ls: Limits, dt: float) -> dict:
         """Peak ratio to each limit per path interval and joint, on the fine grid (K, n)."""
         fine = traj.sample(dt)
         s_f = np.interp(fine.t, traj.t, traj.meta["s"])
         K = self.s.size - 1
         k = np.clip(np.searchsorted(self.s, s_f, side="right") - 1, 0, K - 1)
         sig = {"velocity": fine.qd, "acceleration": fine.qdd}
-        if ls.torque is not None:
+        if ls.torque_Nm is not None:
             sig["torque"] = fine.torques(self.robot)
         out = {}
         for kind, x in sig.items():
-            lim = getattr(ls, kind)
+            lim = ls.get(kind)
             if lim is None:
                 continue
             r = np.abs(x) / lim
@@ -389,7 +409,7 @@ class ToppProblem:
         return tr
 
     # ------------------------------------------------------------------ jerk pass
-    def solve_jerk(self, ls: LimitSet, b: np.ndarray) -> tuple[dict, dict]:
+    def solve_jerk(self, ls: Limits, b: np.ndarray) -> tuple[dict, dict]:
         """Second pass with the jerk limit: nodes keep ``s_k``; ``dt_k`` and the path jerk
         ``u_k`` per interval are free (nonconvex, warm-started from ``b``)."""
         s, K = self.s, self.s.size - 1
@@ -417,26 +437,30 @@ class ToppProblem:
         m, cc, gg = (ca.DM(Cn[k]) for k in ("m", "c", "g"))
         C = ca.repmat(c, 1, n)
         Aa = ca.repmat(a, 1, n)
-        if ls.velocity is not None:
-            rows(ca.vec(d1 * C), -np.repeat(ls.velocity, K + 1), np.repeat(ls.velocity, K + 1))
-        if ls.acceleration is not None:
+        if ls.velocity_rad_s is not None:
+            rows(
+                ca.vec(d1 * C),
+                -np.repeat(ls.velocity_rad_s, K + 1),
+                np.repeat(ls.velocity_rad_s, K + 1),
+            )
+        if ls.acceleration_rad_s2 is not None:
             rows(
                 ca.vec(d1 * Aa + d2 * C**2),
-                -np.repeat(ls.acceleration, K + 1),
-                np.repeat(ls.acceleration, K + 1),
+                -np.repeat(ls.acceleration_rad_s2, K + 1),
+                np.repeat(ls.acceleration_rad_s2, K + 1),
             )
-        if ls.torque is not None:
+        if ls.torque_Nm is not None:
             tq = m * Aa + cc * C**2 + gg
-            rows(ca.vec(tq), -np.repeat(ls.torque, K + 1), np.repeat(ls.torque, K + 1))
-        if ls.jerk is not None:
+            rows(ca.vec(tq), -np.repeat(ls.torque_Nm, K + 1), np.repeat(ls.torque_Nm, K + 1))
+        if ls.jerk_rad_s3 is not None:
             for sl, uu in ((slice(0, K), u), (slice(1, K + 1), u)):  # both one-sided jerks
                 U = ca.repmat(uu, 1, n)
                 Cs, As = C[sl, :], Aa[sl, :]
                 jk = d1[sl, :] * U + 3 * d2[sl, :] * Cs * As + d3[sl, :] * Cs**3
-                rows(ca.vec(jk), -np.repeat(ls.jerk, K), np.repeat(ls.jerk, K))
+                rows(ca.vec(jk), -np.repeat(ls.jerk_rad_s3, K), np.repeat(ls.jerk_rad_s3, K))
         G = ca.vertcat(*g)
         nlp = {"x": x, "f": ca.sum1(h), "g": G}
-        opts = {
+        opts: dict[str, Any] = {
             "print_time": False,
             "ipopt.print_level": 0,
             "ipopt.sb": "yes",
@@ -481,7 +505,7 @@ class ToppProblem:
         }
         return sol, info
 
-    def _jerk_warm_start(self, ls: LimitSet, b: np.ndarray) -> np.ndarray:
+    def _jerk_warm_start(self, ls: Limits, b: np.ndarray) -> np.ndarray:
         """A consistent (s, sd, sdd, sddd) plan on the grid: the convex ``sd`` profile smoothed,
         slowed down, and re-integrated as a piecewise-cubic ``s(t)`` through the nodes."""
         s, K = self.s, self.s.size - 1
@@ -505,10 +529,10 @@ class ToppProblem:
                 + 3 * np.abs(Cn["d2"] * (cd * cdd)[:, None])
                 + np.abs(Cn["d3"]) * np.abs(cd[:, None]) ** 3
             )
-            ratio = np.max(jerk / ls.jerk) if ls.jerk is not None else 0.0
-            if ls.acceleration is not None:
+            ratio = np.max(jerk / ls.jerk_rad_s3) if ls.jerk_rad_s3 is not None else 0.0
+            if ls.acceleration_rad_s2 is not None:
                 acc = np.abs(Cn["d1"] * cdd[:, None]) + np.abs(Cn["d2"]) * cd[:, None] ** 2
-                ratio = max(ratio, np.max(acc / ls.acceleration) ** 1.5)
+                ratio = max(ratio, np.max(acc / ls.acceleration_rad_s2) ** 1.5)
             if ratio <= 1.0:
                 break
             beta /= min(max(ratio ** (1 / 3), 1.05), 2.0)
@@ -543,17 +567,8 @@ class ToppProblem:
             self.compute_coefficients()
         self._static_check(self.limits)
         ls0 = self.limits
-        jl = ls0.joint_limits()
-        convex_ls = LimitSet(
-            ls0.joint_names,
-            ls0.lower_rad,
-            ls0.upper_rad,
-            ls0.velocity,
-            ls0.acceleration,
-            None,
-            ls0.torque,
-        )
-        ls = convex_ls
+        jl = ls0
+        ls = resolve_limits(ls0, j_max=False)  # the convex pass has no jerk limit
         total_it, total_t, rounds = 0, 0.0, 0
         b = None
         K, n = self.s.size - 1, ls.n_joints
@@ -580,6 +595,7 @@ class ToppProblem:
             if not over or rounds >= self.max_backoff:
                 break
             for kind, r in over.items():
+                f: np.ndarray | float
                 if rounds == 0:  # first: tighten only the intervals that overshoot
                     f = np.where(r > 1 + CHECK_TOL, (1 - BACKOFF_MARGIN) / np.maximum(r, 1.0), 1.0)
                 else:  # then the residue moves around: tighten the whole kind a little
@@ -587,17 +603,10 @@ class ToppProblem:
                 scale[kind] = scale[kind] * f
             rounds += 1
         passes = ["convex"]
+        assert b is not None  # a successful convex round set it (a failed first one raised)
         b_convex = b
-        if ls0.jerk is not None:
-            ls = LimitSet(
-                ls0.joint_names,
-                ls0.lower_rad,
-                ls0.upper_rad,
-                ls0.velocity,
-                ls0.acceleration,
-                ls0.jerk,
-                ls0.torque,
-            )
+        if ls0.jerk_rad_s3 is not None:
+            ls = ls0
             jrounds = 0
             while True:
                 sol, info = self.solve_jerk(ls, b_convex)
@@ -611,7 +620,7 @@ class ToppProblem:
                     )
                 traj = self.trajectory_from_jerk(sol)
                 rep = traj.check_limits(
-                    self.robot, dt=self._dt(traj), limits=jl, torque=ls.torque is not None
+                    self.robot, dt=self._dt(traj), limits=jl, torque=ls.torque_Nm is not None
                 )
                 if not self._backoff(rep, jrounds):
                     break
@@ -620,7 +629,9 @@ class ToppProblem:
             rounds += jrounds
             passes.append("jerk")
         dt = self._dt(traj)
-        traj.report = traj.check_limits(self.robot, dt=dt, limits=jl, torque=ls0.torque is not None)
+        traj.report = traj.check_limits(
+            self.robot, dt=dt, limits=jl, torque=ls0.torque_Nm is not None
+        )
         binding = [
             (k, traj.joint_names[i], float(r[i]))
             for k, r in traj.report.ratios.items()
@@ -628,7 +639,8 @@ class ToppProblem:
             if r[i] >= 1 - 2e-3 and k != "position"
         ]
         stats = {
-            "solver": f"ipopt (casadi {ca.__version__})",
+            # casadi's stubs omit the module's __version__
+            "solver": f"ipopt (casadi {ca.__version__})",  # type: ignore[attr-defined]
             "iterations": total_it,
             "solve_time_s": total_t,
             "n_intervals": int(self.s.size - 1),
@@ -662,17 +674,17 @@ class ToppProblem:
         return bool(over) and rounds < self.max_backoff
 
     @staticmethod
-    def _scaled(ls: LimitSet, rep) -> LimitSet:
+    def _scaled(ls: Limits, rep) -> Limits:
         for kind, r in rep.ratios.items():
-            if kind == "position" or getattr(ls, kind, None) is None:
+            if kind == "position" or ls.get(kind) is None:
                 continue
             factor = (1 - BACKOFF_MARGIN) / np.maximum(r, 1.0)
             factor[r <= 1 + CHECK_TOL] = 1.0
-            ls = ls.scaled(kind, factor)
+            ls = ls.tightened(kind, factor, "back-off")
         return ls
 
     # ------------------------------------------------------------------ phase plane
-    def limit_curves(self, ls: LimitSet | None = None) -> dict[str, np.ndarray]:
+    def limit_curves(self, ls: Limits | None = None) -> dict[str, np.ndarray]:
         """Upper bounds on ``sd(s)`` at the nodes: from the velocity limits alone, and the
         maximum velocity curve of all limits (largest ``sd`` for which some ``sdd`` satisfies
         every acceleration and torque limit), for the phase-plane figure."""
@@ -680,27 +692,32 @@ class ToppProblem:
         C = self.coeffs["node"]
         K1 = self.s.size
         out = {"s": self.s.copy()}
-        if ls.velocity is not None:
-            bv = np.min(ls.velocity**2 / np.maximum(C["d1"] ** 2, 1e-300), axis=1)
+        if ls.velocity_rad_s is not None:
+            bv = np.min(ls.velocity_rad_s**2 / np.maximum(C["d1"] ** 2, 1e-300), axis=1)
         else:
             bv = np.full(K1, np.inf)
         out["velocity"] = np.sqrt(bv)
         bmax = np.empty(K1)
         for k in range(K1):
             lo_a = []  # constraints alpha * a + beta * b in [lo, hi]
-            if ls.acceleration is not None:
+            if ls.acceleration_rad_s2 is not None:
                 for i in range(ls.n_joints):
                     lo_a.append(
-                        (C["d1"][k, i], C["d2"][k, i], -ls.acceleration[i], ls.acceleration[i])
+                        (
+                            C["d1"][k, i],
+                            C["d2"][k, i],
+                            -ls.acceleration_rad_s2[i],
+                            ls.acceleration_rad_s2[i],
+                        )
                     )
-            if ls.torque is not None:
+            if ls.torque_Nm is not None:
                 for i in range(ls.n_joints):
                     lo_a.append(
                         (
                             C["m"][k, i],
                             C["c"][k, i],
-                            -ls.torque[i] - C["g"][k, i],
-                            ls.torque[i] - C["g"][k, i],
+                            -ls.torque_Nm[i] - C["g"][k, i],
+                            ls.torque_Nm[i] - C["g"][k, i],
                         )
                     )
             bmax[k] = _max_b(lo_a, bv[k])
@@ -755,7 +772,7 @@ def path_grid(n_intervals: int, end_levels: int = END_REFINEMENT) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- public
 def build_topp(
-    robot,
+    robot: Robot,
     path,
     *,
     v_max=None,
@@ -771,19 +788,21 @@ def build_topp(
     """Build (do not solve) the problem of :func:`time_optimal_path`; same parameters."""
     if payload_kg is not None:
         robot = robot.with_payload(payload_kg)
-    ls = resolve_limits(robot, v_max=v_max, a_max=a_max, j_max=j_max, tau_max=tau_max)
-    if ls.velocity is None and ls.acceleration is None and ls.torque is None:
+    asked = (v_max, a_max, j_max, tau_max)
+    ls = resolve_limits(
+        robot,
+        v_max=v_max,
+        a_max=a_max,
+        j_max=j_max,
+        tau_max=tau_max,
+        need=[k for k, v in zip(LIMIT_KEYS, asked, strict=True) if v is None],  # the robot's
+        where=f"time_optimal_path on {robot.name}",
+    )
+    if ls.velocity_rad_s is None and ls.acceleration_rad_s2 is None and ls.torque_Nm is None:
         raise InputError("time_optimal_path needs at least one of v_max, a_max, tau_max")
     gp = GeometricPath(path, robot.n_joints)
     lo, hi = ls.lower_rad, ls.upper_rad
-    pts = gp.points
-    bad = np.argwhere((pts < lo - 1e-12) | (pts > hi + 1e-12))
-    if bad.size:
-        k, i = bad[0]
-        raise InfeasibleError(
-            f"position limit: path point {k} puts {ls.joint_names[i]} at {pts[k, i]:.4g} rad, "
-            f"outside its range [{lo[i]:.4g}, {hi[i]:.4g}] rad"
-        )
+    pts = validate_waypoints(robot, gp.points, where="time_optimal_path points")
     s_dense = np.linspace(0.0, 1.0, 40 * pts.shape[0] + 400)
     q_dense = gp(s_dense)[0]
     out = (q_dense < lo - 1e-9) | (q_dense > hi + 1e-9)
@@ -812,7 +831,7 @@ def build_topp(
 
 
 def time_optimal_path(
-    robot,
+    robot: Robot,
     path,
     *,
     v_max=None,
@@ -855,9 +874,12 @@ def time_optimal_path(
 
     Raises
     ------
+    InputError
+        A path point outside a joint range
+        (:func:`~armlab.trajectory.waypoints.validate_waypoints`).
     InfeasibleError
-        A path point outside a joint range, gravity alone above a torque limit somewhere on
-        the path (named joint and ``s``), or no feasible parameterisation.
+        The spline between the points leaves a joint range, gravity alone above a torque limit
+        somewhere on the path (named joint and ``s``), or no feasible parameterisation.
     """
     prob = build_topp(
         robot,

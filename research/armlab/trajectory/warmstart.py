@@ -9,8 +9,8 @@ velocity ``vp``, cruise, mirror image down). With ``t_acc(vp)`` the time to reac
 
 its duration is ``T(vp) = D / vp + t_acc(vp)``, decreasing in ``vp`` up to the largest peak
 velocity that still fits (``vp t_acc(vp) <= D`` and ``vp <= v``). ``a = inf`` or ``j = inf``
-give the jerk-only and trapezoidal special cases. Synchronisation (seed-digest §2,
-"time-synchronised PTP"): every joint of a segment gets the slowest joint's duration by
+give the jerk-only and trapezoidal special cases. Synchronisation (Jiang 1987,
+eq. 1-5, "time-synchronised PTP"): every joint of a segment gets the slowest joint's duration by
 lowering its own ``vp`` until ``T(vp)`` equals it — the classical plan the optimiser starts
 from.
 """
@@ -60,7 +60,7 @@ def _vp_max(D, v, a, j, iters: int = 80):
     return np.where(fits, np.where(np.isfinite(v), v, hi), lo)
 
 
-def scurve_min_duration(D, v, a, j):
+def scurve_min_duration(D, v, a, j) -> np.ndarray:
     """Minimum rest-to-rest duration in [s] of each joint (arrays broadcast).
 
     Parameters
@@ -78,7 +78,7 @@ def scurve_min_duration(D, v, a, j):
     return T
 
 
-def sync_scurves(D, T, v, a, j, iters: int = 80):
+def sync_scurves(D, T, v, a, j, iters: int = 80) -> np.ndarray:
     """Peak velocities ``vp`` (signed like ``D``) giving every joint the duration ``T`` [s].
 
     ``T`` must be at least :func:`scurve_min_duration` of every joint.
@@ -135,7 +135,7 @@ def scurve_phases(D, vp, T, a, j) -> list[list[tuple[float, float, float]]]:
     return out
 
 
-def eval_scurves(D, vp, T, a, j, times):
+def eval_scurves(D, vp, T, a, j, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Positions offsets, velocities, accelerations ``(n_times, n_joints)`` of the S-curves.
 
     Parameters
@@ -176,7 +176,7 @@ def eval_scurves(D, vp, T, a, j, times):
     return q, qd, qdd
 
 
-def phase_grid(D, vp, T, a, j, n_intervals: int, h_min: float = 0.0, joints=None):
+def phase_grid(D, vp, T, a, j, n_intervals: int, h_min: float = 0.0, joints=None) -> np.ndarray:
     """Node times ``(n_intervals + 1,)`` holding the switching instants of some S-curves.
 
     The switching instants of the ``joints`` (default all; the first one's are kept longest)
@@ -216,7 +216,7 @@ def phase_grid(D, vp, T, a, j, n_intervals: int, h_min: float = 0.0, joints=None
     return grid
 
 
-def fit_piecewise(h, u_ref, target, mode: str = "jerk"):
+def fit_piecewise(h, u_ref, target, mode: str = "jerk") -> np.ndarray:
     """Piecewise-constant inputs closest to ``u_ref`` that reach ``target`` from rest.
 
     Minimises ``sum_k h_k (u_k - u_ref,k)^2`` subject to the end state (``(q, qd, qdd)`` for
@@ -244,7 +244,7 @@ def fit_piecewise(h, u_ref, target, mode: str = "jerk"):
     return u_ref + (Winv[:, None] * Phi.T) @ np.linalg.solve(G, r)
 
 
-def integrate_piecewise(h, u, x0, mode: str = "jerk"):
+def integrate_piecewise(h, u, x0, mode: str = "jerk") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Node states ``q, qd, qdd`` (each (N+1, n)) of piecewise-constant jerk (or acceleration)."""
     N, n = u.shape
     q = np.empty((N + 1, n))

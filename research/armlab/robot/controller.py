@@ -1,10 +1,10 @@
 """Controller profiles: what the real controller accepts (a small TOML file each).
 
-The default profile, ``reference_dda``, is the controller of seed 002 (digest §3): an industrial
-PC with two 3-axis position cards, DDA interpolation period settable from 1 ms to 2 s, at most
-4095 pulses per axis per DDA period, quadrature counting with x2 or x4 decoding, 1 ms servo
-update, 12-bit +-10 V D/A. Profiles live in ``armlab/data/profiles/<name>.toml``; any other TOML
-file with the same keys can be given by path.
+The default profile, ``reference_dda``, is the controller of the SHU controller paper (§1): an
+industrial PC with two 3-axis position cards, DDA interpolation period settable from 1 ms to
+2 s, at most 4095 pulses per axis per DDA period, quadrature counting with x2 or x4 decoding,
+1 ms servo update, 12-bit +-10 V D/A. Profiles live in ``armlab/data/profiles/<name>.toml``;
+any other TOML file with the same keys can be given by path.
 """
 
 from __future__ import annotations
@@ -12,11 +12,15 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from armlab.errors import InputError
 from armlab.tomlfile import read_toml
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
 
 __all__ = ["ControllerProfile", "DEFAULT_PROFILE", "load_profile", "list_profiles", "profiles_dir"]
 
@@ -43,20 +47,20 @@ class ControllerProfile:
     cycle_s : float
         Controller (DDA interpolation) period in [s]: one set-point row per cycle.
     cycle_range_s : (float, float)
-        Periods the controller accepts in [s] (seed 002: 1 ms .. 2 s).
+        Periods the controller accepts in [s] (SHU controller paper: 1 ms .. 2 s).
     max_pulses_per_cycle : int or None
-        Most position-command pulses (= encoder counts) per axis per cycle (seed 002: 4095);
-        None for no limit.
+        Most position-command pulses (= encoder counts) per axis per cycle (SHU controller
+        paper: 4095); None for no limit.
     decoding : int or None
-        Counter decoding of the quadrature encoder (x2 or x4 on the seed-002 card); None keeps the
-        robot's ``drives.toml`` value.
+        Counter decoding of the quadrature encoder (x2 or x4 on the SHU controller paper's
+        card); None keeps the robot's ``drives.toml`` value.
     counts_per_joint_rev : tuple of float or None
         Counts per joint revolution per axis (axis order); overrides the drives (needed for a
         robot without ``drives.toml``).
     servo_period_s : float
         Servo update period in [s] (sample time of the card's position/speed loops).
     max_axes : int or None
-        Axes the controller drives (seed 002: 2 cards x 3).
+        Axes the controller drives (SHU controller paper: 2 cards x 3).
     axis_order : tuple of (str or int) or None
         Joint driven by controller axis 1, 2, ... (joint names or 1-based joint numbers);
         None: the robot's joint order.
@@ -90,7 +94,7 @@ class ControllerProfile:
     speed_tolerance: float = 1e-6
     continuity_tolerance: float = 0.05
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         where = f"controller profile {self.name!r}"
         lo, hi = (float(x) for x in self.cycle_range_s)
         object.__setattr__(self, "cycle_range_s", (lo, hi))
@@ -143,7 +147,7 @@ class ControllerProfile:
         """A copy with some fields replaced (validated again)."""
         return replace(self, **changes)
 
-    def axes(self, robot) -> tuple[np.ndarray, np.ndarray]:
+    def axes(self, robot: Robot) -> tuple[np.ndarray, np.ndarray]:
         """(joint index per axis, sign per axis) for ``robot``, both ``(n_axes,)``.
 
         Raises
@@ -177,6 +181,45 @@ class ControllerProfile:
             sign = np.asarray(self.axis_sign, dtype=np.int64)
         return index, sign
 
+    def counts_per_rad(self, robot: Robot, index: np.ndarray | None = None) -> np.ndarray:
+        """Encoder counts per joint radian of each controller axis, ``(n_axes,)``.
+
+        ``pulses_per_rev x decoding x ratio / (2 pi)`` from the robot's drive train, with this
+        profile's decoding if it sets one; or this profile's ``counts_per_joint_rev / (2 pi)``.
+        The set-point table and the sizing's encoder checks both read this one function.
+
+        Parameters
+        ----------
+        robot : Robot
+        index : array of int, optional
+            Joint index of each axis (:meth:`axes`); default the robot's joint order.
+
+        Raises
+        ------
+        InputError
+            The robot has no drives and the profile gives no counts.
+        """
+        if index is None:
+            index = np.arange(robot.n_joints)
+        if self.counts_per_joint_rev is not None:
+            if len(self.counts_per_joint_rev) != len(index):
+                raise InputError(
+                    f"controller profile {self.name!r}: counts_per_joint_rev has "
+                    f"{len(self.counts_per_joint_rev)} entries for {len(index)} axes"
+                )
+            return np.asarray(self.counts_per_joint_rev, dtype=float) / (2.0 * math.pi)
+        if robot.drives is None:
+            raise InputError(
+                f"robot {robot.name} has no drive train (drives.toml): the controller profile "
+                "must give counts_per_joint_rev"
+            )
+        out = []
+        for i in index:
+            d = robot.drives[robot.joint_names[i]]
+            decoding = d.encoder.decoding if self.decoding is None else int(self.decoding)
+            out.append(d.encoder.pulses_per_rev * decoding * d.reducer.ratio / (2.0 * math.pi))
+        return np.asarray(out, dtype=float)
+
     def to_dict(self) -> dict:
         """JSON-able dict of every field (tuples as lists)."""
         return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
@@ -204,8 +247,8 @@ def load_profile(name_or_path: str | Path | ControllerProfile | None = None) -> 
     Parameters
     ----------
     name_or_path : str, path, ControllerProfile or None
-        None: the reference controller of seed 002 (``reference_dda``). A profile object is
-        returned as is.
+        None: the reference controller of the SHU controller paper (``reference_dda``). A
+        profile object is returned as is.
 
     Raises
     ------
