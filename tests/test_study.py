@@ -14,7 +14,7 @@ import pytest
 import armlab
 import armlab.kinematics
 import armlab.trajectory
-from armlab.errors import SpecError, UnreachableError
+from armlab.errors import InputError, SpecError
 from armlab.study import (
     KEY_FIGURES,
     STAGES,
@@ -241,7 +241,7 @@ def test_cartesian_waypoints_go_through_ik(teachbot6):
 def test_waypoint_out_of_range_is_an_error_recorded_in_the_summary(tmp_path):
     doc = quick_doc()
     doc["waypoints"]["joint"][1][2] = 170.0  # joint3 range is -90 .. 160 deg
-    with pytest.raises(UnreachableError) as err:
+    with pytest.raises(InputError) as err:
         run_spec(parse_study(doc), tmp_path)
     msg = str(err.value)
     assert msg.startswith("kinematics: waypoints.joint[1]: joint3 = 170 deg")

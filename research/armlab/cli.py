@@ -36,13 +36,15 @@ def info_text(robot_name: str) -> str:
         f"{'joint':<10}{'range [deg]':>18}{'v [rad/s]':>11}{'a [rad/s2]':>12}{'j [rad/s3]':>12}"
         f"{'effort [Nm]':>13}",
     ]
+    def cell(values, i: int, width: int) -> str:
+        return f"{'-':>{width}}" if values is None else f"{values[i]:>{width}.4g}"
+
     for i, name in enumerate(robot.joint_names):
-        acc = "-" if lim.acceleration_rad_s2 is None else f"{lim.acceleration_rad_s2[i]:.3g}"
-        jerk = "-" if lim.jerk_rad_s3 is None else f"{lim.jerk_rad_s3[i]:.3g}"
         rng = f"{math.degrees(lim.lower_rad[i]):.0f} .. {math.degrees(lim.upper_rad[i]):.0f}"
         lines.append(
-            f"{name:<10}{rng:>18}{lim.velocity_rad_s[i]:>11.4g}{acc:>12}{jerk:>12}"
-            f"{lim.effort_Nm[i]:>13.4g}"
+            f"{name:<10}{rng:>18}{cell(lim.velocity_rad_s, i, 11)}"
+            f"{cell(lim.acceleration_rad_s2, i, 12)}{cell(lim.jerk_rad_s3, i, 12)}"
+            f"{cell(lim.torque_Nm, i, 13)}"
         )
     if robot.drives is not None:
         lines += [

@@ -5,6 +5,8 @@ The command line prints ``str(error)`` on one line and exits non-zero; no traceb
 
 from __future__ import annotations
 
+from typing import Any
+
 __all__ = [
     "ArmlabError",
     "RobotDescriptionError",
@@ -39,6 +41,10 @@ class InfeasibleError(ArmlabError):
 
 class LimitViolation(ArmlabError):
     """A result would break a limit (joint range, speed, torque, controller pulse rate)."""
+
+    #: details of the failing check where the raiser attaches them (the deploy pre-flight
+    #: attaches a :class:`~armlab.deploy.checks.PreflightFailure`); unset otherwise
+    failure: Any
 
 
 class SpecError(ArmlabError, ValueError):

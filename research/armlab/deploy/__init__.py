@@ -23,15 +23,15 @@ from armlab.deploy.gains_export import (
     render_gains,
     write_gains,
 )
+from armlab.deploy.provenance import file_sha256, gains_sha256, trajectory_sha256
+from armlab.deploy.table import SetpointTable, counts_per_rad, read_setpoints, setpoint_table
+from armlab.deploy.trajfile import load_trajectory, save_trajectory, trajectory_robot
 from armlab.robot.controller import (
     DEFAULT_PROFILE,
     ControllerProfile,
     list_profiles,
     load_profile,
 )
-from armlab.deploy.provenance import file_sha256, gains_sha256, trajectory_sha256
-from armlab.deploy.table import SetpointTable, counts_per_rad, read_setpoints, setpoint_table
-from armlab.deploy.trajfile import load_trajectory, save_trajectory, trajectory_robot
 
 __all__ = [
     "CHECKS",

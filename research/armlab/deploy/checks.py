@@ -102,14 +102,15 @@ class PreflightReport:
     failures : list of PreflightFailure
         First failure of each failing check, earliest cycle first.
     n_cycles : int
-    peak_ratio : dict of str to dict of str to float
-        ``{check: {joint: peak value / limit}}`` for speed, pulse rate and continuity.
+    peak_ratio : dict of str to dict of str to float or None
+        ``{check: {joint: peak value / limit}}`` for speed, pulse rate and continuity (None
+        where not finite, e.g. a zero limit).
     """
 
     checks: list[str]
     failures: list[PreflightFailure] = field(default_factory=list)
     n_cycles: int = 0
-    peak_ratio: dict[str, dict[str, float]] = field(default_factory=dict)
+    peak_ratio: dict[str, dict[str, float | None]] = field(default_factory=dict)
 
     def ok(self) -> bool:
         return not self.failures

@@ -24,7 +24,7 @@ import json
 import math
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from armlab.deploy.formats import c_identifier, c_string
 from armlab.deploy.provenance import armlab_version, gains_sha256
@@ -61,7 +61,7 @@ def _as_arm_gains(gains):
 
 
 def _provenance(arm, source: dict | None) -> dict:
-    out = {"gains_sha256": gains_sha256(arm), "armlab_version": armlab_version()}
+    out: dict[str, Any] = {"gains_sha256": gains_sha256(arm), "armlab_version": armlab_version()}
     if source:
         out["source"] = dict(source)
     return out

@@ -298,6 +298,8 @@ def setpoint_table(
         continuity_tolerance=prof.continuity_tolerance,
     )
     report.raise_if_failed()
+    # non-finite or huge counts fail the "finite" or "counter range" check above
+    assert counts is not None and dcounts is not None
     meta = {
         "profile": prof.name,
         "max_pulses_per_cycle": prof.max_pulses_per_cycle,
@@ -359,13 +361,11 @@ def _table_from_columns(meta: dict, cols: dict[str, np.ndarray], where: str) -> 
             return ai
         return a.astype(float)
 
-    per = lambda pat, integer: (
-        np.column_stack(  # noqa: E731
-            [col(pat.format(j), integer) for j in joints]
-        )
-        if joints
-        else np.zeros((0, 0))
-    )
+    def per(pat: str, integer: bool) -> np.ndarray:
+        if not joints:
+            return np.zeros((0, 0))
+        return np.column_stack([col(pat.format(j), integer) for j in joints])
+
     table = SetpointTable(
         robot=str(meta.get("robot", "")),
         joint_names=joints,

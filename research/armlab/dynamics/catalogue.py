@@ -10,6 +10,7 @@ table 4.3). The file's header records where every number comes from.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -57,7 +58,7 @@ class Catalogue:
         raise RobotDescriptionError(f"{self.path}: no reducer {model!r} in the catalogue")
 
 
-def load_catalogue(path: str | Path | None = None) -> Catalogue:
+def load_catalogue(path: str | os.PathLike | None = None) -> Catalogue:
     """Read a drive catalogue (default: the one shipped with armlab).
 
     Raises

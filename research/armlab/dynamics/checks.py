@@ -304,7 +304,8 @@ def evaluate_checks(
     t_m, w_m, _ = motor_side(tau, qd, qdd, drives)
     abs_tau, abs_qd = np.abs(tau), np.abs(qd)
     peak_tau = abs_tau.max(axis=0)
-    out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    # (value, limit) per check: arrays per column or scalars, broadcast on return
+    out: dict[str, tuple[np.ndarray | float, np.ndarray | float]] = {}
     out["thesis_rule"] = (
         peak_tau,
         available_torque_Nm(

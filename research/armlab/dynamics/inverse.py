@@ -207,9 +207,12 @@ class JointLoads:
                 "peak_power_W": float(self.peak_power_W[j]),
             }
             if self.motor_torque_Nm is not None:
-                d["motor_peak_torque_Nm"] = float(self.motor_peak_torque_Nm[j])
-                d["motor_rms_torque_Nm"] = float(self.motor_rms_torque_Nm[j])
-                d["motor_peak_speed_rpm"] = float(self.motor_peak_speed_rpm[j])
+                m_peak, m_rms = self.motor_peak_torque_Nm, self.motor_rms_torque_Nm
+                m_rpm = self.motor_peak_speed_rpm
+                assert m_peak is not None and m_rms is not None and m_rpm is not None  # motor side
+                d["motor_peak_torque_Nm"] = float(m_peak[j])
+                d["motor_rms_torque_Nm"] = float(m_rms[j])
+                d["motor_peak_speed_rpm"] = float(m_rpm[j])
             out[name] = d
         return {
             "duration_s": self.duration,

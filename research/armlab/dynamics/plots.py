@@ -81,8 +81,9 @@ def plot_joint_loads(loads: JointLoads, robot: Robot | None = None, *, joints=No
                 axes[row, 2].axhline(
                     d.motor.power_W, color="C3", ls="--", lw=0.8, label="motor power"
                 )
-            for s in (1, -1) if lim.velocity_rad_s is not None else ():
-                axes[row, 1].axhline(s * lim.velocity_rad_s[j], color="C3", ls="--", lw=0.8)
+            if lim.velocity_rad_s is not None:
+                for s in (1, -1):
+                    axes[row, 1].axhline(s * lim.velocity_rad_s[j], color="C3", ls="--", lw=0.8)
             if row == 0:
                 axes[row, 0].legend(fontsize=7, loc="upper right")
     for col in range(3):
@@ -106,7 +107,7 @@ def plot_operating_points(loads: JointLoads, robot: Robot, *, drives=None, joint
         Its drives (or ``drives``) give the motor data.
     """
     drive_list = require_drives(robot, drives)
-    if loads.motor_torque_Nm is None:
+    if loads.motor_torque_Nm is None or loads.motor_speed_rad_s is None:
         raise InputError("loads have no motor-side signals (robot without drives)")
     from matplotlib.figure import Figure
 

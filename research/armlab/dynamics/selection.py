@@ -12,6 +12,7 @@ of it, which this one-pass selection does not iterate.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
@@ -215,7 +216,7 @@ def _drive(robot, j: int, motor: Motor, reducer: Reducer, derating: float) -> Dr
 def select_drives(
     robot: Robot,
     trajectories,
-    catalogue: Catalogue | str | None = None,
+    catalogue: Catalogue | str | os.PathLike | None = None,
     *,
     objective: str = "mass",
     options: SizingOptions | None = None,
@@ -246,7 +247,7 @@ def select_drives(
     """
     if objective not in OBJECTIVES:
         raise InputError(f"objective must be one of {OBJECTIVES}, not {objective!r}")
-    if catalogue is None or isinstance(catalogue, (str, bytes)) or hasattr(catalogue, "__fspath__"):
+    if not isinstance(catalogue, Catalogue):  # None or a path: read it
         catalogue = load_catalogue(catalogue)
     options = SizingOptions() if options is None else options
     trajs = as_trajectories(trajectories, robot)

@@ -20,8 +20,8 @@ from armlab.dynamics.checks import (
     Checked,
     DriveArrays,
     SizingOptions,
-    counts_per_joint_rev_of,
     checks_for_column,
+    counts_per_joint_rev_of,
     evaluate_checks,
 )
 from armlab.dynamics.inverse import (
@@ -190,6 +190,8 @@ def size(
     counts_per_rev = counts_per_joint_rev_of(arrays, options.controller)
     peak_t, rms_t, peak_v = loads.peak_torque_Nm, loads.rms_torque_Nm, loads.peak_speed_rad_s
     m_peak, m_rms = loads.motor_peak_torque_Nm, loads.motor_rms_torque_Nm
+    # drives given: inverse_dynamics computed the motor-side signals
+    assert m_peak is not None and m_rms is not None and loads.motor_speed_rad_s is not None
     m_speed = np.abs(loads.motor_speed_rad_s).max(axis=0) * RAD_S_TO_RPM
     joints = []
     for j, name in enumerate(robot.joint_names):

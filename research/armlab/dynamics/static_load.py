@@ -340,7 +340,8 @@ def static_load(
     acc = np.zeros(robot.n_joints) if acc is None else np.asarray(acc, float).reshape(-1)
     if acc.shape != (robot.n_joints,):
         raise InputError(f"acceleration_rad_s2 has shape {acc.shape}, expected ({robot.n_joints},)")
-    speed = robot.limits.velocity_rad_s
+    speed = robot.limits.require(["velocity"], where="static_load").velocity_rad_s
+    assert speed is not None  # require() raised otherwise
     joints, n_eval = [], 0
     for j, name in enumerate(robot.joint_names):
         problem = build_static_load(

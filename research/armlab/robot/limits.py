@@ -21,7 +21,8 @@ Every limit a planner, a checker, the limit report or the set-point pre-flight u
    slowed down in time by 1 / s).
 5. **per-call keywords** of the planners, ``v_max, a_max, j_max, tau_max``: ``None`` keeps the
    limit resolved so far (the robot's), ``False`` switches that kind off, a number or a
-   ``(n_joints,)`` array replaces it (all ``inf`` is off too). A planner names the kinds it
+   ``(n_joints,)`` array replaces it (all ``inf`` is off too; not checked against the
+   hardware: the request states its own limits). A planner names the kinds it
    ``need``-s; any of them missing is reported at once (:meth:`Limits.require`).
 
 ``Limits.sources`` says, per kind and joint, where each value came from.
@@ -32,6 +33,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
+from typing import Any
 
 import numpy as np
 
@@ -216,7 +218,7 @@ class Limits:
     def subset(self, index) -> Limits:
         """The limits of the joints ``index`` (an index array, in that order)."""
         idx = np.asarray(index, dtype=int).reshape(-1)
-        kw = {"joint_names": tuple(self.joint_names[i] for i in idx)}
+        kw: dict[str, Any] = {"joint_names": tuple(self.joint_names[i] for i in idx)}
         for name in _fields():
             a = getattr(self, name)
             kw[name] = None if a is None else a[idx]
@@ -418,7 +420,9 @@ def resolve_limits(
         ``s`` in (0, 1]: velocity x s, acceleration x s^2, jerk x s^3.
     v_max, a_max, j_max, tau_max : None, False, float or array (n_joints,)
         Per-call limits in [rad/s], [rad/s^2], [rad/s^3], [N m]: None keeps the limit resolved
-        so far, False switches it off, a value (> 0; all ``inf`` = off) replaces it.
+        so far, False switches it off, a value (> 0; all ``inf`` = off) replaces it -- without a
+        hardware check: a call states the limits of its own request (what-if studies), and the
+        plan is checked against them; only study overrides are tighten-only.
     need : sequence of str
         Kinds the caller cannot work without; any missing ones raise one error.
     where : str

@@ -76,7 +76,6 @@ def design_record(
     ``spec`` is the study it comes from (None: a design assembled in code, such as a notebook's).
     """
     urdf = Path(robot.urdf_path)
-    limits = robot.limits.to_dict() if hasattr(robot.limits, "to_dict") else None
     return {
         "format": DESIGN_FORMAT,
         "armlab_version": armlab_version(),
@@ -97,7 +96,7 @@ def design_record(
                 "inertia_kg_m2": _arr(robot.payload.inertia_kg_m2),
             },
         },
-        "limits": limits,
+        "limits": robot.limits.to_dict(),
         "drives": None
         if robot.drives is None
         else {name: asdict(robot.drives[name]) for name in robot.joint_names},

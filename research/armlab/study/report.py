@@ -93,7 +93,7 @@ def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
                 lambda: plot_tcp_path(robot, traj, points),
             )
         )
-        if np.all(robot.limits.effort_Nm > 0):
+        if robot.limits.torque_Nm is not None:
             dt = max(traj.duration / 2000, 1e-3)
             out.append(
                 (

@@ -422,7 +422,8 @@ def key_figures(summary: dict[str, Any]) -> dict[str, Any]:
     out["max_static_torque_Nm"] = max(torques) if torques else math.nan
     # sizing: per joint {checks: [{name, value, limit, margin, ok}]}
     sizing = summary.get("sizing", {})
-    margins, ok_all, binding = [], True, ""
+    margins: list[float] = []
+    ok_all, binding = True, ""
     for joint, block in _joint_items(sizing):
         for check in block.get("checks", []) if isinstance(block, dict) else []:
             m = _num(check.get("margin"))

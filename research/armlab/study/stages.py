@@ -230,12 +230,7 @@ def robot_block(ctx: StudyContext) -> dict:
         **verdict_block([], checked=False),
         "total_mass_kg": r.total_mass_kg,
         "transform_base_to_world": np.asarray(r.transform_base_to_world).tolist(),
-        "limits": _jsonable(r.limits.to_dict())
-        if hasattr(r.limits, "to_dict")
-        else {
-            "velocity_rad_s": r.limits.velocity_rad_s.tolist(),
-            "effort_Nm": r.limits.effort_Nm.tolist(),
-        },
+        "limits": _jsonable(r.limits.to_dict()),
         "controller": ctx.controller.name if ctx.controller is not None else None,
     }
     if r.drives is not None:
@@ -337,32 +332,18 @@ def stage_kinematics(ctx: StudyContext) -> dict:
     """Waypoints to joint space (IK for Cartesian ones), range check, TCP positions, reach, and
     the optional Monte-Carlo workspace and accuracy studies."""
     from armlab.kinematics import fk, max_reach_m
+    from armlab.trajectory.waypoints import validate_waypoints
 
     spec, robot = ctx.spec, ctx.robot
     wp = spec.waypoints
-    lim = robot.limits
     ctx.waypoint_poses = waypoint_poses(spec)
     if wp.joint is not None:
         q = _angles(wp.joint, wp.unit)
-        if q.shape[1] != robot.n_joints:
-            raise SpecError(
-                f"waypoints.joint: rows of {q.shape[1]} values, robot {robot.name} "
-                f"has {robot.n_joints} joints"
-            )
-        source = "joint"
+        where, source = "waypoints.joint", "joint"
     else:
         q = _solve_ik(ctx, ctx.waypoint_poses)
-        source = "cartesian (IK)"
-    for k, row in enumerate(q):
-        bad = np.flatnonzero((row < lim.lower_rad - 1e-9) | (row > lim.upper_rad + 1e-9))
-        if bad.size:
-            j = bad[0]
-            conv = math.degrees if wp.unit == "deg" else float
-            raise UnreachableError(
-                f"waypoints.{'joint' if wp.joint is not None else 'cartesian'}[{k}]: "
-                f"{robot.joint_names[j]} = {conv(row[j]):.6g} {wp.unit} is outside its range "
-                f"{conv(lim.lower_rad[j]):.6g} .. {conv(lim.upper_rad[j]):.6g} {wp.unit}"
-            )
+        where, source = "waypoints.cartesian", "cartesian (IK)"
+    q = validate_waypoints(robot, q, where=where, min_rows=1, unit=wp.unit)
     ctx.waypoints_q = q
     tcp = np.array([fk(robot, row)[:3, 3] for row in q])
     block = {
@@ -487,7 +468,7 @@ def stage_plan(ctx: StudyContext) -> dict:
     traj = plan_trajectory(ctx)
     ctx.trajectory = traj
     robot = ctx.robot
-    torque = bool(np.all(np.asarray(robot.limits.effort_Nm) > 0))
+    torque = robot.limits.torque_Nm is not None
     # a trajectory already sampled at least as finely as the check step is checked at its own
     # samples: they are the planner's exact values (resampling would interpolate across the
     # acceleration steps of a trapezoid)

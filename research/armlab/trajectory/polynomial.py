@@ -230,14 +230,11 @@ def _via_plan(
             traj.meta.update(zero_length=True, waypoints=W.tolist(), merged_waypoints=merged)
             return finish(traj, robot, lim, torque=torque, what=method)
         D = np.abs(np.diff(W, axis=0))
+        vel, acc = lim.velocity_rad_s, lim.acceleration_rad_s2
+        assert vel is not None and acc is not None  # needed: resolve_limits raised otherwise
         T = np.array(
             [
-                max(
-                    trapezoid_min_time(d, v, a)
-                    for d, v, a in zip(
-                        row, lim.velocity_rad_s, lim.acceleration_rad_s2, strict=True
-                    )
-                )
+                max(trapezoid_min_time(d, v, a) for d, v, a in zip(row, vel, acc, strict=True))
                 for row in D
             ]
         )

@@ -174,6 +174,7 @@ def ptp_sync(
         robot, v_max=v_max, a_max=a_max, j_max=j_max, need=need, where=f"ptp_sync {profile}"
     )
     v, a, j = lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3
+    assert v is not None  # resolve_limits raises when a needed limit is missing
     delta = q1 - q0
     D = np.abs(delta)
     D[D < 1e-12] = 0.0
@@ -202,6 +203,7 @@ def ptp_sync(
         profs, T, (bkind, bj) = _velocity_profiles(D, v, a, dt)
         sync_used = "phase"
     else:
+        assert a is not None  # needed by the trapezoid and S-curve profiles
         jj = j if j is not None else np.full(robot.n_joints, np.inf)
         t_i = np.array(
             [_min_time(profile, d, vv, aa, jv) for d, vv, aa, jv in zip(D, v, a, jj, strict=True)]
