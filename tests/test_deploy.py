@@ -33,7 +33,6 @@ from armlab.deploy import (
     read_setpoints,
     save_trajectory,
     setpoint_table,
-    trajectory_robot,
     trajectory_sha256,
 )
 from armlab.deploy.numtext import format_list, format_rows
@@ -414,13 +413,7 @@ def test_trajectory_file_round_trip(teachbot6, tmp_path):
         assert np.array_equal(getattr(back, k), getattr(tr, k))
     assert back.meta["sha256"] == trajectory_sha256(tr)
     assert back.meta["file_sha256"] == file_sha256(path)
-    robot = trajectory_robot(back)
-    assert robot.name == "teachbot6" and robot.joint_names == teachbot6.joint_names
-    np.testing.assert_allclose(robot.limits.velocity_rad_s, teachbot6.limits.velocity_rad_s)
-    # a study that tightened a limit keeps it tighter
-    slow = teachbot6.with_limits(velocity_rad_s=teachbot6.limits.velocity_rad_s * 0.5)
-    r2 = trajectory_robot(load_trajectory(save_trajectory(tmp_path / "t2.npz", tr, slow)))
-    np.testing.assert_allclose(r2.limits.velocity_rad_s, teachbot6.limits.velocity_rad_s * 0.5)
+    assert back.meta["robot"]["joint_names"] == list(teachbot6.joint_names)
     # an edited file is refused
     with np.load(path) as z:
         arrays = {k: z[k] for k in z.files}

@@ -36,6 +36,7 @@ def info_text(robot_name: str) -> str:
         f"{'joint':<10}{'range [deg]':>18}{'v [rad/s]':>11}{'a [rad/s2]':>12}{'j [rad/s3]':>12}"
         f"{'effort [Nm]':>13}",
     ]
+
     def cell(values, i: int, width: int) -> str:
         return f"{'-':>{width}}" if values is None else f"{values[i]:>{width}.4g}"
 

@@ -25,7 +25,7 @@ from armlab.deploy.gains_export import (
 )
 from armlab.deploy.provenance import file_sha256, gains_sha256, trajectory_sha256
 from armlab.deploy.table import SetpointTable, counts_per_rad, read_setpoints, setpoint_table
-from armlab.deploy.trajfile import load_trajectory, save_trajectory, trajectory_robot
+from armlab.deploy.trajfile import load_trajectory, save_trajectory
 from armlab.robot.controller import (
     DEFAULT_PROFILE,
     ControllerProfile,
@@ -59,5 +59,4 @@ __all__ = [
     "setpoint_table",
     "load_trajectory",
     "save_trajectory",
-    "trajectory_robot",
 ]

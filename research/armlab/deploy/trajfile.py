@@ -1,7 +1,8 @@
 """``trajectory.npz``: the planned trajectory of a study, with the robot it was planned for.
 
 The study runner saves the trajectory with :func:`save_trajectory`; ``armlab export`` reads it
-back with :func:`load_trajectory` and rebuilds the robot with :func:`trajectory_robot`. The file
+back with :func:`load_trajectory` (the robot it rebuilds comes from the study's ``design.json``,
+:mod:`armlab.study.record`, never from this file's summary of it). The file
 holds ``t, q, qd, qdd`` (and ``qddd``), the joint names, the planner (``method``), the content
 checksum (:func:`armlab.deploy.trajectory_sha256`, verified on loading), armlab's version and the
 robot: name, URDF path, tool frame, payload and the joint limits the study planned with.
@@ -25,7 +26,7 @@ if TYPE_CHECKING:
     from armlab.robot.model import Robot
     from armlab.trajectory import Trajectory
 
-__all__ = ["TRAJECTORY_FORMAT", "save_trajectory", "load_trajectory", "trajectory_robot"]
+__all__ = ["TRAJECTORY_FORMAT", "save_trajectory", "load_trajectory"]
 
 TRAJECTORY_FORMAT = "armlab.trajectory/1"
 
@@ -57,8 +58,8 @@ def save_trajectory(path: str | os.PathLike, trajectory, robot: Robot | None = N
     path : path
     trajectory : Trajectory
     robot : Robot, optional
-        Recorded so that :func:`trajectory_robot` can rebuild it (name, URDF path, tool frame,
-        payload, limits). Without it, ``armlab export`` cannot check the table.
+        Summarised in the file for a reader (name, URDF path, tool frame,
+        payload, limits).
 
     Returns
     -------
@@ -137,55 +138,3 @@ def load_trajectory(path: str | os.PathLike) -> Trajectory:
         }
     )
     return traj
-
-
-def trajectory_robot(trajectory) -> Robot:
-    """Rebuild the robot a loaded trajectory was planned for.
-
-    The description is loaded again (URDF path if it exists, else the built-in name), joints not
-    in the trajectory are locked, the payload and tool frame are restored, and each limit is the
-    tighter of the description's and the study's (a pre-flight check never loosens a limit).
-
-    Raises
-    ------
-    InputError
-        The trajectory carries no robot, or its joints are not the robot's.
-    """
-    from armlab.robot import load_robot
-
-    info = trajectory.meta.get("robot")
-    if not info:
-        raise InputError("the trajectory file records no robot (save_trajectory(..., robot))")
-    path = info.get("urdf_path") or ""
-    source = path if path and Path(path).is_file() else info["name"]
-    names = list(info["joint_names"])
-    full = load_robot(source)
-    extra = [j for j in full.joint_names if j not in names]
-    if any(j not in full.joint_names for j in names):
-        raise InputError(
-            f"robot {full.name} has no joint(s) {[j for j in names if j not in full.joint_names]}"
-        )
-    tool = info.get("tool_frame")
-    if tool not in [f.name for f in full.model.frames]:
-        tool = None
-    robot = load_robot(source, info.get("payload_kg"), tool_frame=tool, lock_joints=tuple(extra))
-    if list(robot.joint_names) != names:
-        raise InputError(
-            f"robot {robot.name} joints {robot.joint_names} differ from the trajectory's {names}"
-        )
-    lim, stored = robot.limits, info.get("limits") or {}
-
-    def tighter(key, fn):
-        mine, theirs = getattr(lim, key), stored.get(key)
-        if theirs is None:
-            return mine
-        theirs = np.asarray(theirs, dtype=float)
-        return theirs if mine is None else fn(np.asarray(mine, dtype=float), theirs)
-
-    return robot.with_limits(
-        lower_rad=tighter("lower_rad", np.maximum),
-        upper_rad=tighter("upper_rad", np.minimum),
-        velocity_rad_s=tighter("velocity_rad_s", np.minimum),
-        acceleration_rad_s2=tighter("acceleration_rad_s2", np.minimum),
-        jerk_rad_s3=tighter("jerk_rad_s3", np.minimum),
-    )

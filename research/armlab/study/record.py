@@ -190,10 +190,16 @@ def limits_from_dict(d: dict) -> Limits:
         v = d.get(key)
         return None if v is None else np.array([float(v[n]) for n in names])
 
+    def required(key: str) -> np.ndarray:  # the joint range is always written
+        a = arr(key)
+        if a is None:
+            raise InputError(f"design.json limits: no {key}")
+        return a
+
     return Limits(
         joint_names=tuple(names),
-        lower_rad=arr("lower_rad"),
-        upper_rad=arr("upper_rad"),
+        lower_rad=required("lower_rad"),
+        upper_rad=required("upper_rad"),
         velocity_rad_s=arr("velocity_rad_s"),
         acceleration_rad_s2=arr("acceleration_rad_s2"),
         jerk_rad_s3=arr("jerk_rad_s3"),

@@ -114,7 +114,8 @@ def _load_cached(name: str, tool_frame: str | None, lock: tuple[str, ...]):
 
 
 def _per_joint(value, n: int, where: str) -> np.ndarray:
-    a = np.full(n, float(value)) if np.isscalar(value) else np.asarray(value, float)
+    scalar = np.isscalar(value)  # a plain bool: the TypeGuard narrows to types float() rejects
+    a = np.full(n, float(value)) if scalar else np.asarray(value, float)
     if a.shape != (n,):
         raise SpecError(f"{where}: {a.size} values, the robot has {n} joints")
     return a
@@ -341,6 +342,7 @@ def stage_kinematics(ctx: StudyContext) -> dict:
         q = _angles(wp.joint, wp.unit)
         where, source = "waypoints.joint", "joint"
     else:
+        assert ctx.waypoint_poses is not None  # the spec gives joint or Cartesian waypoints
         q = _solve_ik(ctx, ctx.waypoint_poses)
         where, source = "waypoints.cartesian", "cartesian (IK)"
     q = validate_waypoints(robot, q, where=where, min_rows=1, unit=wp.unit)
@@ -368,9 +370,9 @@ def stage_kinematics(ctx: StudyContext) -> dict:
         else:
             from armlab.kinematics import accuracy_study
 
-            res = accuracy_study(robot, n_samples=ks.accuracy_samples, seed=spec.study.seed)
-            ctx.figures["accuracy"] = res
-            block["accuracy"] = {"status": "ok", **_to_dict(res)}
+            acc = accuracy_study(robot, n_samples=ks.accuracy_samples, seed=spec.study.seed)
+            ctx.figures["accuracy"] = acc
+            block["accuracy"] = {"status": "ok", **_to_dict(acc)}
     return block
 
 
@@ -402,6 +404,7 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
 
     plan, robot = ctx.spec.plan, planning_robot(ctx)
     Q = ctx.waypoints_q
+    assert Q is not None  # set by stage_kinematics, which runs first
     torque = plan.torque_limits
     if plan.planner in ("optimal", "path"):
         ctx.jerk_limited = True if plan.jerk_limits is None else plan.jerk_limits
@@ -466,6 +469,7 @@ def stage_plan(ctx: StudyContext) -> dict:
     """
     spec = ctx.spec
     traj = plan_trajectory(ctx)
+    assert ctx.waypoints_q is not None  # plan_trajectory needs them
     ctx.trajectory = traj
     robot = ctx.robot
     torque = robot.limits.torque_Nm is not None
@@ -575,6 +579,7 @@ def stage_sizing(ctx: StudyContext) -> dict:
     from armlab.dynamics import SizingOptions, requirement_moves, select_drives, size
 
     _needs_drives(ctx)
+    assert ctx.controller is not None  # run_study sets it before the stages
     options = SizingOptions(controller=ctx.controller)
     res = size(ctx.robot, ctx.trajectory, dt=ctx.spec.plan.check_dt_s, options=options)
     ctx.sizing = res
