@@ -326,7 +326,7 @@ def test_kong1998_robustness_and_mismatch():
 def test_plots_return_figures(teachbot6, arm_gains, inertias):
     from matplotlib.figure import Figure
 
-    from armlab.control import plots
+    from armlab.plots import servo as plots
 
     plant = joint_plant(teachbot6, "joint4", inertias=inertias)
     g = arm_gains["joint4"]

@@ -16,14 +16,13 @@ from armlab.dynamics import (
     THESIS_TABLE_4_3,
     inverse_dynamics,
     load_catalogue,
-    plot_joint_loads,
-    plot_operating_points,
     requirement_moves,
     select_drives,
     size,
     static_load,
 )
 from armlab.dynamics.checks import DriveArrays, SizingOptions, evaluate_checks
+from armlab.plots import plot_joint_loads, plot_operating_points
 from armlab.robot.drives import Drive, Encoder, Motor, Reducer
 from armlab.trajectory import Trajectory
 

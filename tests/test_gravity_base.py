@@ -15,9 +15,10 @@ import armlab
 from armlab.control import simulate_tracking, tune_arm
 from armlab.dynamics import build_static_load, inverse_dynamics, joint_torques, static_load
 from armlab.errors import InputError
+from armlab.planning.topp import path_dynamics
 from armlab.robot import rigid_body
-from armlab.trajectory import Trajectory, inverse_dynamics_function, optimal
-from armlab.trajectory.topp import path_dynamics
+from armlab.robot.symbolic import inverse_dynamics_function
+from armlab.trajectory import Trajectory, optimal
 
 G_WORLD = np.array([0.0, 0.0, -9.81])
 R_X90 = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])

@@ -34,12 +34,13 @@ def test_trajectory_and_io_do_not_import_casadi_or_matplotlib(module):
 
 
 def test_lazy_names_still_work():
-    """The plot functions and the CasADi optimisers keep their public names."""
+    """The optimisers keep their stable names (armlab.trajectory.optimal), the plots import no
+    matplotlib until drawn, CasADi loads on the first symbolic build."""
     code = (
         "import sys\n"
-        "from armlab.trajectory import optimal, inverse_dynamics_function, plot_joints\n"
-        "from armlab.kinematics import plot_workspace\n"
-        "from armlab.dynamics import plot_joint_loads\n"
+        "from armlab.trajectory import optimal\n"
+        "from armlab.robot.symbolic import inverse_dynamics_function\n"
+        "from armlab.plots import plot_joints, plot_workspace, plot_joint_loads\n"
         "assert callable(optimal) and 'casadi' not in sys.modules\n"
         "import armlab, numpy as np\n"
         "r = armlab.load_robot('teachbot6')\n"

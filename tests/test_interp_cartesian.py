@@ -14,9 +14,9 @@ from hypothesis import strategies as st
 
 from armlab.errors import InputError, LimitViolation, UnreachableError
 from armlab.kinematics import fk, fk_batch
+from armlab.planning.cartesian import path_derivatives, track_path
+from armlab.planning.paths import circle_through
 from armlab.trajectory import ArcPath, BlendPath, LinePath, arc3, blend, line
-from armlab.trajectory.cartesian import path_derivatives, track_path
-from armlab.trajectory.paths import circle_through
 
 # a comfortable configuration of teachbot6 (wrist bent, arm not stretched)
 Q_START = np.array([0.3, 0.3, 0.9, 0.5, 0.7, 0.2])

@@ -11,6 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from armlab.errors import InfeasibleError, InputError, LimitViolation
+from armlab.planning.via_points import via_velocities
 from armlab.robot import resolve_limits
 from armlab.trajectory import (
     cubic_via,
@@ -20,7 +21,6 @@ from armlab.trajectory import (
     trapezoid_profile,
     trapezoid_steps,
 )
-from armlab.trajectory.polynomial import via_velocities
 from armlab.trajectory.profiles import (
     double_s_min_time,
     double_s_profile_for_duration,

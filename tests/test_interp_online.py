@@ -10,14 +10,12 @@ from matplotlib.figure import Figure
 
 from armlab.errors import InfeasibleError, InputError
 from armlab.kinematics import fk
+from armlab.plots import plot_joints, plot_online, plot_tcp_path
 from armlab.trajectory import (
     JointPath,
     LinePath,
     OnlineInterpolator,
     line,
-    plot_joints,
-    plot_online,
-    plot_tcp_path,
     ptp_sync,
 )
 from armlab.trajectory.profiles import trapezoid_min_time

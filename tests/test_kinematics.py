@@ -29,11 +29,9 @@ from armlab.kinematics import (
     ik_solve,
     jacobian,
     max_reach_m,
-    plot_accuracy,
-    plot_accuracy_scatter,
-    plot_workspace,
     workspace_cloud,
 )
+from armlab.plots import plot_accuracy, plot_accuracy_scatter, plot_workspace
 from conftest import PANDA_FINGERS, PANDA_URDF
 
 

@@ -11,15 +11,13 @@ from matplotlib.figure import Figure
 
 import armlab
 from armlab.errors import InfeasibleError, InputError
+from armlab.planning.optimal import JUMP_RAMP_S
+from armlab.planning.topp import LIMIT_MARGIN
+from armlab.plots import plot_limit_profiles, plot_phase_plane, plot_torque_ratio
 from armlab.trajectory import (
     optimal,
-    plot_limit_profiles,
-    plot_phase_plane,
-    plot_torque_ratio,
     time_optimal_path,
 )
-from armlab.trajectory.optimal import JUMP_RAMP_S
-from armlab.trajectory.topp import LIMIT_MARGIN
 
 ONE_JOINT_URDF = """<?xml version="1.0"?>
 <robot name="one">
@@ -329,8 +327,8 @@ def test_plots_return_figures(teachbot6):
 
 def test_a_plan_left_violating_after_backoff_is_refused(teachbot6):
     """A solved plan whose fine-grid report still breaks a limit is never handed out."""
+    from armlab.planning.optimal import refuse_violation
     from armlab.trajectory import ptp_sync
-    from armlab.trajectory.optimal import refuse_violation
 
     traj = ptp_sync(teachbot6, np.zeros(6), np.array([0.5, 0.2, 0.3, 0.0, 0.0, 0.0]))
     traj.report = traj.check_limits(teachbot6)

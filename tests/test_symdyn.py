@@ -1,4 +1,4 @@
-"""CasADi inverse dynamics (armlab.trajectory.symdyn) against pinocchio.rnea."""
+"""CasADi inverse dynamics (armlab.robot.symbolic) against pinocchio.rnea."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pinocchio as pin
 import pytest
 
 from armlab.errors import RobotDescriptionError
-from armlab.trajectory.symdyn import (
+from armlab.robot.symbolic import (
     dynamic_parameters,
     dynamics_key,
     inverse_dynamics_function,

@@ -12,7 +12,7 @@ tuning      robust inside-out tuning (tune_cascade, tune_arm), check_cascade
 discrete    incremental PID with anti-windup, D/A and encoder quantisers
 simulate    closed-loop simulation of all joints on the nonlinear arm (Pinocchio ABA)
 force       Kong et al. 1998's outer force loop and its robustness study
-plots       Bode, steps, root loci, tracking error, force responses (Figures)
+(figures: armlab.plots.servo -- Bode, steps, root loci, tracking error, force responses)
 """
 
 from armlab.control.discrete import IncrementalPID, quantise_da, quantise_encoder

@@ -1,5 +1,6 @@
 """Dynamics and drive sizing (thesis ch. 4): inverse dynamics along trajectories, worst-case
-static load, drive sizing checks, catalogue selection, holding checks and plots.
+static load, drive sizing checks, catalogue selection, holding checks (figures:
+:mod:`armlab.plots.dynamics`).
 
 Stable names (DESIGN.md): :func:`inverse_dynamics`, :func:`static_load`, :func:`size`,
 :func:`select_drives`, :func:`load_catalogue`, :func:`hold_check`.
@@ -9,7 +10,6 @@ from armlab.dynamics.catalogue import Catalogue, load_catalogue
 from armlab.dynamics.checks import CHECK_NAMES, Check, SizingOptions, envelope_torque, motor_side
 from armlab.dynamics.holding import HoldReport, hold_check
 from armlab.dynamics.inverse import JointLoads, inverse_dynamics, joint_torques
-from armlab.dynamics.plots import plot_joint_loads, plot_operating_points
 from armlab.dynamics.reference import THESIS_TABLE_4_2, THESIS_TABLE_4_3
 from armlab.dynamics.requirements import requirement_moves
 from armlab.dynamics.selection import Selection, select_drives
@@ -44,8 +44,6 @@ __all__ = [
     "Catalogue",
     "hold_check",
     "HoldReport",
-    "plot_joint_loads",
-    "plot_operating_points",
     "THESIS_TABLE_4_2",
     "THESIS_TABLE_4_3",
 ]

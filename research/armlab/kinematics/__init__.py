@@ -7,7 +7,7 @@
   ``ik``, ``ik_solve`` -> ``IKResult``, ``ik_batch``;
 * :mod:`~armlab.kinematics.workspace` — Monte-Carlo reach cloud, ``max_reach_m``;
 * :mod:`~armlab.kinematics.accuracy` — Monte-Carlo positioning accuracy (thesis 3.7);
-* :mod:`~armlab.kinematics.plots` — figures of the two studies.
+* figures of the two studies: :mod:`armlab.plots.kinematics`.
 
 Poses are tool poses in the world: ``T_base_in_world @ T_tool_in_base`` (thesis 3.5).
 """
@@ -29,7 +29,6 @@ from armlab.kinematics.analytic_ik import (
 )
 from armlab.kinematics.forward import analytic_jacobian, fk, fk_batch, jacobian, tool_positions
 from armlab.kinematics.numerical_ik import IKResult, IKSettings, ik, ik_batch, ik_solve
-from armlab.kinematics.plots import plot_accuracy, plot_accuracy_scatter, plot_workspace
 from armlab.kinematics.workspace import (
     WorkspaceResult,
     max_reach_m,
@@ -63,7 +62,4 @@ __all__ = [
     "AccuracyResult",
     "REDUCER_ANGLE_ERROR_RAD",
     "LINK_TOLERANCES_M",
-    "plot_workspace",
-    "plot_accuracy",
-    "plot_accuracy_scatter",
 ]

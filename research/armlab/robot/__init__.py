@@ -18,6 +18,7 @@ from armlab.robot.model import (
     robot_desc_dir,
 )
 from armlab.robot.rigid_body import gravity_torques, mass_matrix, nonlinear_effects
+from armlab.robot.symbolic import inverse_dynamics_function
 
 __all__ = [
     "DEFAULT_PROFILE",
@@ -45,4 +46,5 @@ __all__ = [
     "gravity_torques",
     "mass_matrix",
     "nonlinear_effects",
+    "inverse_dynamics_function",
 ]

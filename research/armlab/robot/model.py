@@ -117,7 +117,7 @@ class Robot:
     ``g_base = R_base_in_world^T g_world`` with ``R_base_in_world`` the rotation of
     ``transform_base_to_world``; assigning either property updates it. Every Pinocchio call on
     ``model`` (``rnea``, ``aba``, ``computeGeneralizedGravity``, :mod:`armlab.robot.rigid_body`)
-    and the symbolic twin (:mod:`armlab.trajectory.symdyn`) therefore honour a rotated base
+    and the symbolic twin (:mod:`armlab.robot.symbolic`) therefore honour a rotated base
     without rotating anything themselves.
     """
 

@@ -10,7 +10,7 @@ through this module, batched over samples (``pinocchio.rneaInParallel``). Everyt
 :class:`~armlab.robot.Robot` keeps ``model.gravity = R_base_in_world^T g_world`` in step with
 ``transform_base_to_world``, so a rotated base (a wall or ceiling mount) is honoured by
 construction and nothing here rotates gravity again. The symbolic twin
-(:mod:`armlab.trajectory.symdyn`) reads the same ``model.gravity``.
+(:mod:`armlab.robot.symbolic`) reads the same ``model.gravity``.
 
 Shapes: joint arrays are ``(n_joints,)`` for one sample or ``(n, n_joints)`` for ``n``
 samples; results have the shape of the input (``(n_joints,)`` or ``(n, n_joints)``; the mass

@@ -47,15 +47,20 @@ def _plant(ctx, joint):
 
 def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
     """(file name, caption, figure factory) of every plot the study can draw."""
-    from armlab.control.plots import bode_figure, step_figure, tracking_figure
-    from armlab.dynamics import plot_joint_loads, plot_operating_points
-    from armlab.kinematics import plot_accuracy, plot_workspace, tool_positions
-    from armlab.trajectory import (
+    from armlab.kinematics import tool_positions
+    from armlab.plots import (
+        bode_figure,
+        plot_accuracy,
+        plot_joint_loads,
         plot_joints,
         plot_limit_profiles,
+        plot_operating_points,
         plot_phase_plane,
         plot_tcp_path,
         plot_torque_ratio,
+        plot_workspace,
+        step_figure,
+        tracking_figure,
     )
 
     out: list[tuple[str, str, Callable[[], Any]]] = []  # (file name, caption, draw)

@@ -400,7 +400,7 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
     and by the S-curve ``ptp`` profile; the other classical planners do not limit jerk
     (``ctx.jerk_limited`` records which, so the plan check enforces only what was planned for).
     """
-    from armlab import trajectory as T
+    from armlab import planning as T
 
     plan, robot = ctx.spec.plan, planning_robot(ctx)
     Q = ctx.waypoints_q

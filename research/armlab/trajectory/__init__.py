@@ -1,27 +1,27 @@
-"""Joint trajectories: the :class:`Trajectory` type, classical interpolators and optimisers."""
+"""Joint trajectories: the :class:`Trajectory` type and its primitives.
+
+* :mod:`.core` -- :class:`Trajectory` (the one currency between planners and consumers) and
+  :class:`LimitReport`;
+* :mod:`.profiles` -- the timing primitives (trapezoid and double-S motion profiles);
+* :mod:`.waypoints` -- the one validation of joint waypoints.
+
+The planners live in :mod:`armlab.planning`. Their stable names of the design notes --
+``armlab.trajectory.optimal``, ``ptp_sync``, ``time_optimal_path``... -- are still reachable
+here: they are looked up in :mod:`armlab.planning` on first use (so importing this package
+imports no planner and no CasADi).
+"""
+
+from __future__ import annotations
+
+from typing import Any
 
 from armlab.robot.limits import Limits, resolve_limits
-from armlab.trajectory.cartesian import arc3, blend, follow_path, line, track_path
 from armlab.trajectory.core import LIMIT_KINDS, LimitReport, Trajectory
-from armlab.trajectory.online import OnlineInterpolator, OnlineRun, OnlineSample
-from armlab.trajectory.optimal import OptimalProblem, build_optimal, optimal
-from armlab.trajectory.optimal_plots import (
-    plot_limit_profiles,
-    plot_phase_plane,
-    plot_torque_ratio,
-)
-from armlab.trajectory.paths import ArcPath, BlendPath, CartesianPath, JointPath, LinePath
-from armlab.trajectory.plots import plot_joints, plot_online, plot_tcp_path
-from armlab.trajectory.polynomial import cubic_via, quintic_via
 from armlab.trajectory.profiles import MotionProfile, double_s_profile, trapezoid_profile
-from armlab.trajectory.ptp import ptp_sync
-from armlab.trajectory.steps import StepPlan, trapezoid_steps
-from armlab.trajectory.symdyn import inverse_dynamics_function
-from armlab.trajectory.topp import ToppProblem, build_topp, time_optimal_path
 from armlab.trajectory.waypoints import validate_waypoints
 
-__all__ = ["Trajectory", "LimitReport", "LIMIT_KINDS", "validate_waypoints"]
-__all__ += [  # classical interpolators (issue 4)
+#: Planner names reachable as ``armlab.trajectory.<name>`` (their home: armlab.planning).
+PLANNER_NAMES = (
     "ptp_sync",
     "trapezoid_steps",
     "StepPlan",
@@ -40,24 +40,32 @@ __all__ += [  # classical interpolators (issue 4)
     "OnlineInterpolator",
     "OnlineSample",
     "OnlineRun",
-    "MotionProfile",
-    "trapezoid_profile",
-    "double_s_profile",
-    "plot_joints",
-    "plot_tcp_path",
-    "plot_online",
-]
-__all__ += [  # optimisers (issue 5)
     "optimal",
     "build_optimal",
     "OptimalProblem",
     "time_optimal_path",
     "build_topp",
     "ToppProblem",
+)
+
+__all__ = [
+    "Trajectory",
+    "LimitReport",
+    "LIMIT_KINDS",
+    "MotionProfile",
+    "trapezoid_profile",
+    "double_s_profile",
+    "validate_waypoints",
     "Limits",
     "resolve_limits",
-    "inverse_dynamics_function",
-    "plot_limit_profiles",
-    "plot_torque_ratio",
-    "plot_phase_plane",
+    *PLANNER_NAMES,
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """``armlab.trajectory.optimal`` and the other planner names, from :mod:`armlab.planning`."""
+    if name in PLANNER_NAMES:
+        import armlab.planning
+
+        return getattr(armlab.planning, name)
+    raise AttributeError(f"module 'armlab.trajectory' has no attribute {name!r}")

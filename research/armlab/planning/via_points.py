@@ -34,10 +34,10 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from armlab.errors import InputError, LimitViolation
+from armlab.planning.timescale import check_in_range, finish, stretch_needed
 from armlab.robot.limits import resolve_limits
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import time_grid, trapezoid_min_time
-from armlab.trajectory.timescale import check_in_range, finish, stretch_needed
 from armlab.trajectory.waypoints import validate_waypoints
 
 if TYPE_CHECKING:

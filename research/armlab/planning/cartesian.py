@@ -1,6 +1,6 @@
 """Cartesian motions: line, arc through three points, blended chain (FlyBy), any path.
 
-A Cartesian path (:mod:`armlab.trajectory.paths`) is timed by a trapezoid (or double S) in arc
+A Cartesian path (:mod:`armlab.planning.paths`) is timed by a trapezoid (or double S) in arc
 length ``s(t)``; every sample goes through inverse kinematics (analytic for spherical-wrist
 arms, a Newton corrector seeded from the previous point for any other URDF), keeping one IK
 branch along the whole path. Joint velocities and accelerations follow exactly from the path
@@ -29,11 +29,11 @@ import pinocchio as pin
 
 from armlab.errors import ArmlabError, InputError, LimitViolation, UnreachableError
 from armlab.kinematics import fk, has_analytic_ik, ik, ik_all_batch, ik_nearest
+from armlab.planning.paths import ArcPath, BlendPath, CartesianPath, LinePath
+from armlab.planning.timescale import finish, stretch_needed
 from armlab.robot.limits import resolve_limits
 from armlab.trajectory.core import Trajectory
-from armlab.trajectory.paths import ArcPath, BlendPath, CartesianPath, LinePath
 from armlab.trajectory.profiles import double_s_profile, time_grid, trapezoid_profile
-from armlab.trajectory.timescale import finish, stretch_needed
 from armlab.trajectory.waypoints import validate_waypoints
 
 if TYPE_CHECKING:

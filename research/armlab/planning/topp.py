@@ -28,7 +28,7 @@ Jerk pass (not convex in ``(a, b)``)
 jerk limit is given we solve a second, *nonconvex* problem in the time domain on the same
 s-grid: the nodes keep their ``s_k``; each interval gets a duration ``dt_k`` and a constant
 path jerk ``u_k`` (``s(t)`` piecewise cubic, integrated exactly — the same transcription as
-:mod:`armlab.trajectory.optimal` with one "joint" ``s``). Joint velocity, acceleration, jerk
+:mod:`armlab.planning.optimal` with one "joint" ``s``). Joint velocity, acceleration, jerk
 (both one-sided values) and torque are constrained at the nodes. It is warm-started from the
 convex solution slowed down until its jerk fits, and solved with IPOPT: a local optimum.
 
@@ -43,7 +43,7 @@ problem re-solved; residues after that tighten the whole limit kind slightly
 (``max_backoff`` rounds). ``traj.report`` is the final fine-grid check: "feasible on the fine
 grid", not a proof between its samples. The convex pass is globally optimal on its grid; the
 jerk pass is a local optimum. Jerk-free results have acceleration steps, replaced by 50 us
-ramps as in :mod:`armlab.trajectory.optimal`.
+ramps as in :mod:`armlab.planning.optimal`.
 """
 
 from __future__ import annotations
@@ -58,16 +58,16 @@ from scipy.interpolate import CubicSpline
 
 from armlab._lazy import lazy_import
 from armlab.errors import ArmlabError, InfeasibleError, InputError
-from armlab.robot import rigid_body
-from armlab.robot.limits import LIMIT_KEYS, Limits, resolve_limits
-from armlab.trajectory.core import Trajectory
-from armlab.trajectory.optimal import (
+from armlab.planning.optimal import (
     BACKOFF_MARGIN,
     CHECK_SAMPLES,
     CHECK_TOL,
     JUMP_RAMP_S,
     refuse_violation,
 )
+from armlab.robot import rigid_body
+from armlab.robot.limits import LIMIT_KEYS, Limits, resolve_limits
+from armlab.trajectory.core import Trajectory
 from armlab.trajectory.waypoints import validate_waypoints
 
 if TYPE_CHECKING:
@@ -870,7 +870,7 @@ def time_optimal_path(
     Trajectory
         ``.report`` (fine-grid limit ratios), ``.stats`` (solver, iterations, solve_time_s,
         n_intervals, passes, binding limits), ``.meta["topp"]`` (the problem, for
-        :func:`armlab.trajectory.optimal_plots.plot_phase_plane`).
+        :func:`armlab.plots.optimal.plot_phase_plane`).
 
     Raises
     ------

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from armlab.errors import InputError
+from armlab.planning.timescale import finish, stretch_needed
 from armlab.robot.limits import resolve_limits
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import (
@@ -39,7 +40,6 @@ from armlab.trajectory.profiles import (
     trapezoid_profile,
     trapezoid_profile_for_duration,
 )
-from armlab.trajectory.timescale import finish, stretch_needed
 from armlab.trajectory.waypoints import validate_waypoints
 
 if TYPE_CHECKING:

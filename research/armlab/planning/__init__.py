@@ -1,0 +1,59 @@
+"""Motion planners: each returns a :class:`armlab.trajectory.Trajectory`.
+
+=====================  ===============================================================
+module                 planners
+=====================  ===============================================================
+:mod:`.ptp`            time- or phase-synchronised point-to-point (velocity step,
+                       trapezoid, S-curve; Jiang 1987, HEU thesis 6.2)
+:mod:`.steps`          the SHU controller paper's per-period trapezoid step table
+:mod:`.via_points`     cubic and quintic splines through via points (HEU thesis 6.2.3)
+:mod:`.paths`          Cartesian path geometry: line, arc, blended chain
+:mod:`.cartesian`      Cartesian motions timed along those paths through IK (Li, Meng,
+                       Chen; HEU thesis 6.3)
+:mod:`.online`         the online interpolator with speed override (Li, Meng, Chen)
+:mod:`.optimal`        time-synchronised optimal trajectories: the problem
+                       (:class:`OptimalProblem`), its transcription
+                       (:mod:`.transcription`) and warm start (:mod:`.warmstart`)
+:mod:`.topp`           time-optimal path parameterisation along a fixed joint path
+:mod:`.timescale`      the one back-off: stretch a plan in time until every limit holds
+=====================  ===============================================================
+
+Limits come from :func:`armlab.robot.resolve_limits` (the robot's, overridden per call);
+waypoints are checked by :func:`armlab.trajectory.validate_waypoints`.
+"""
+
+from armlab.planning.cartesian import arc3, blend, follow_path, line, track_path
+from armlab.planning.online import OnlineInterpolator, OnlineRun, OnlineSample
+from armlab.planning.optimal import OptimalProblem, build_optimal, optimal
+from armlab.planning.paths import ArcPath, BlendPath, CartesianPath, JointPath, LinePath
+from armlab.planning.ptp import ptp_sync
+from armlab.planning.steps import StepPlan, trapezoid_steps
+from armlab.planning.topp import ToppProblem, build_topp, time_optimal_path
+from armlab.planning.via_points import cubic_via, quintic_via
+
+__all__ = [
+    "ptp_sync",
+    "trapezoid_steps",
+    "StepPlan",
+    "cubic_via",
+    "quintic_via",
+    "line",
+    "arc3",
+    "blend",
+    "follow_path",
+    "track_path",
+    "JointPath",
+    "CartesianPath",
+    "LinePath",
+    "ArcPath",
+    "BlendPath",
+    "OnlineInterpolator",
+    "OnlineSample",
+    "OnlineRun",
+    "optimal",
+    "build_optimal",
+    "OptimalProblem",
+    "time_optimal_path",
+    "build_topp",
+    "ToppProblem",
+]
