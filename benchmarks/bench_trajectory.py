@@ -30,8 +30,8 @@ import pinocchio as pin  # noqa: E402
 
 import armlab  # noqa: E402
 from armlab.errors import ArmlabError, InfeasibleError  # noqa: E402
-from armlab.trajectory import Trajectory, optimal, time_optimal_path  # noqa: E402
 from armlab.planning.topp import GeometricPath, build_topp  # noqa: E402
+from armlab.trajectory import Trajectory, optimal, time_optimal_path  # noqa: E402
 
 # ----------------------------------------------------------------------------- parameters
 SEED = 20240605
