@@ -53,7 +53,8 @@ Guarantee between the nodes (every instant, not only at nodes)
   fine grid (default ``dt = T/4000``, about 100 samples per interval); a joint whose torque
   ratio exceeds ``1 + 1e-6`` has its torque limit backed off by that ratio and a margin (0.1 %)
   and the problem is re-solved from the previous solution (at most ``max_backoff`` rounds). The
-  returned trajectory's ``report`` is that fine-grid check — the torque guarantee is "on the fine grid", not a proof between its samples.
+  returned trajectory's ``report`` is that fine-grid check — the torque guarantee is "on the
+  fine grid", not a proof between its samples.
 
 The returned :class:`~armlab.trajectory.Trajectory` holds the exact piecewise polynomial: its
 samples are the knots (jerk mode; the quintic Hermite evaluation of ``Trajectory.at`` reproduces a
