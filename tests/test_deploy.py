@@ -25,7 +25,6 @@ from armlab.cli import main as cli_main
 from armlab.deploy import (
     CHECKS,
     ControllerProfile,
-    export_study,
     file_sha256,
     list_profiles,
     load_profile,
@@ -37,6 +36,7 @@ from armlab.deploy import (
 )
 from armlab.deploy.numtext import format_list, format_rows
 from armlab.errors import InputError, LimitViolation
+from armlab.study import export_study
 from armlab.trajectory import Trajectory
 from conftest import make_study_folder
 

@@ -14,7 +14,6 @@ import pytest
 import armlab
 from armlab.cli import main as cli_main
 from armlab.deploy import (
-    export_study,
     file_sha256,
     gains_sha256,
     gains_to_ros2_yaml,
@@ -22,6 +21,7 @@ from armlab.deploy import (
     write_gains,
 )
 from armlab.errors import InputError
+from armlab.study import export_study
 from conftest import make_study_folder
 
 ct = pytest.importorskip("control")

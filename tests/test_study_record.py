@@ -182,7 +182,7 @@ def test_export_refuses_a_folder_whose_files_changed(tmp_path):
     np.savez(tmp_path / "other.npz", x=np.zeros(3))
     (out / "trajectory.npz").write_bytes((tmp_path / "other.npz").read_bytes())
     with pytest.raises(InputError, match="trajectory.npz does not match the checksum"):
-        from armlab.deploy import export_study
+        from armlab.study import export_study
 
         export_study(out, "csv", out_dir=tmp_path / "e")
     (out / "summary.json").unlink()
@@ -216,7 +216,7 @@ def test_a_failing_design_is_not_ok(tmp_path, capsys):
     # no controller table for a failing design; export refused with the checks named
     assert not (out / "setpoints.csv").exists()
     with pytest.raises(DesignFailure, match="joint2"):
-        from armlab.deploy import export_study
+        from armlab.study import export_study
 
         export_study(out, "csv", out_dir=tmp_path / "e")
     assert cli_main(["export", str(out), "--out", str(tmp_path / "e")]) == 1

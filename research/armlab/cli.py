@@ -105,7 +105,7 @@ def _cmd_sweep(args) -> int:
 
 
 def _cmd_export(args) -> int:
-    from armlab.deploy import export_study
+    from armlab.study import export_study
 
     result = export_study(
         args.study_dir, fmt=args.format, profile=args.profile, out_dir=args.out, force=args.force

@@ -10,11 +10,9 @@ paper, §8 (fault handling: over-speed, over-limit -> made into pre-flight check
   checked on every cycle; :meth:`SetpointTable.write` to CSV/JSON/NPZ/C, :func:`read_setpoints`.
 * :func:`write_gains`, :func:`load_gains` — servo gains as JSON, ros2_control YAML, C header.
 * :func:`save_trajectory`, :func:`load_trajectory` — a study's ``trajectory.npz``.
-* :func:`export_study` — ``armlab export STUDY_DIR --format ... --profile ... --out DIR``.
 """
 
 from armlab.deploy.checks import CHECKS, PreflightFailure, PreflightReport, preflight
-from armlab.deploy.export import EXPORT_FORMATS, export_study
 from armlab.deploy.gains_export import (
     gains_to_c_header,
     gains_to_json,
@@ -38,8 +36,6 @@ __all__ = [
     "PreflightFailure",
     "PreflightReport",
     "preflight",
-    "EXPORT_FORMATS",
-    "export_study",
     "gains_to_c_header",
     "gains_to_json",
     "gains_to_ros2_yaml",

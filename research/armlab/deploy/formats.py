@@ -20,7 +20,12 @@ from armlab.deploy.numtext import format_list, format_rows
 from armlab.errors import InputError
 
 if TYPE_CHECKING:
-    from armlab.deploy.table import SetpointTable
+    pass
+
+#: Format tag of every set-point file.
+SETPOINTS_FORMAT = "armlab.setpoints/1"
+#: q, qd, t_s resolution in every format: 1e-9 rad, rad/s, s.
+DECIMALS = 9
 
 __all__ = [
     "SETPOINT_FORMATS",
@@ -48,7 +53,6 @@ def setpoints_format(path: Path, format: str | None) -> str:
 
 
 def _decimals(table) -> list[int]:
-    from armlab.deploy.table import DECIMALS
 
     return [0, DECIMALS] + [DECIMALS, DECIMALS, 0, 0] * table.n_axes
 
@@ -284,10 +288,9 @@ def _c_header(table) -> bytes:
 
 
 # ---------------------------------------------------------------------- reading
-def read_setpoints_file(path: Path) -> SetpointTable:
-    """Read a CSV, JSON or NPZ set-point file into a :class:`SetpointTable`."""
-    from armlab.deploy.table import SETPOINTS_FORMAT, _table_from_columns
-
+def read_setpoints_file(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
+    """Read a CSV, JSON or NPZ set-point file: ``(metadata, named columns)``, format checked
+    (:func:`armlab.deploy.read_setpoints` builds the table from them)."""
     if not path.is_file():
         raise InputError(f"set-point file {path} not found")
     fmt = _SUFFIX_TO_FORMAT.get(path.suffix.lower())
@@ -299,4 +302,4 @@ def read_setpoints_file(path: Path) -> SetpointTable:
     meta, cols = readers[fmt](path)
     if meta.get("format") != SETPOINTS_FORMAT:
         raise InputError(f"{path}: format {meta.get('format')!r} is not {SETPOINTS_FORMAT!r}")
-    return _table_from_columns(meta, cols, str(path))
+    return meta, cols

@@ -29,7 +29,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from armlab.deploy import formats
 from armlab.deploy.checks import PreflightReport, preflight
+from armlab.deploy.formats import DECIMALS, SETPOINTS_FORMAT
 from armlab.deploy.provenance import armlab_version, trajectory_sha256
 from armlab.errors import InputError
 from armlab.io import atomic_write
@@ -46,9 +48,6 @@ __all__ = [
     "DECIMALS",
     "counts_per_rad",
 ]
-
-SETPOINTS_FORMAT = "armlab.setpoints/1"
-DECIMALS = 9  # q, qd, t_s resolution in every format: 1e-9 rad, rad/s, s
 
 
 def _round(x: np.ndarray) -> np.ndarray:
@@ -175,8 +174,6 @@ class SetpointTable:
     # ------------------------------------------------------------------ files
     def render(self, format: str = "csv") -> bytes:
         """The bytes of the file in ``format`` (csv, json, npz, c)."""
-        from armlab.deploy import formats
-
         return formats.render_setpoints(self, format)
 
     def write(self, path: str | os.PathLike, format: str | None = None) -> Path:
@@ -197,8 +194,6 @@ class SetpointTable:
         -------
         Path
         """
-        from armlab.deploy import formats
-
         path = Path(path)
         fmt = formats.setpoints_format(path, format)
         return atomic_write(path, formats.render_setpoints(self, fmt))
@@ -335,9 +330,8 @@ def read_setpoints(path: str | os.PathLike) -> SetpointTable:
     InputError
         Missing file, unknown suffix, not an armlab set-point file, inconsistent columns.
     """
-    from armlab.deploy import formats
-
-    return formats.read_setpoints_file(Path(path))
+    meta, cols = formats.read_setpoints_file(Path(path))
+    return _table_from_columns(meta, cols, str(path))
 
 
 def _table_from_columns(meta: dict, cols: dict[str, np.ndarray], where: str) -> SetpointTable:

@@ -5,6 +5,7 @@ servo tuning -> closed-loop tracking -> export. ``armlab run [STUDY.toml] --out 
 :func:`run_study`; sweeps and notebooks use :func:`load_study` and :func:`run_spec`.
 """
 
+from armlab.study.export import EXPORT_FORMATS, ExportResult, export_study
 from armlab.study.runner import (
     KEY_FIGURES,
     StudyResult,
@@ -26,6 +27,9 @@ from armlab.study.spec import (
 )
 
 __all__ = [
+    "EXPORT_FORMATS",
+    "ExportResult",
+    "export_study",
     "KEY_FIGURES",
     "PLANNERS",
     "STAGES",

@@ -324,7 +324,7 @@ def _note(block: dict) -> str:
 
 def _section_lines(key: str, block: dict) -> list[str]:
     """A table for the per-joint blocks; a key/value table otherwise."""
-    from armlab.study.runner import _joint_items
+    from armlab.study.figures import joint_items as _joint_items
 
     items = _joint_items(block)
     if key == "tracking":

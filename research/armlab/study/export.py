@@ -35,6 +35,12 @@ from armlab.deploy.trajfile import load_trajectory
 from armlab.errors import DesignFailure, InputError
 from armlab.io import atomic_write_many
 from armlab.robot.controller import ControllerProfile, load_profile
+from armlab.study.record import (
+    controller_from_design,
+    load_design,
+    robot_from_design,
+    verify_folder,
+)
 
 __all__ = [
     "EXPORT_FORMATS",
@@ -129,13 +135,6 @@ def export_study(
         Unknown format, not a study folder, files changed since the run (checksums), the URDF
         changed, gains tuned for another servo period, a target inside the study folder.
     """
-    from armlab.study.record import (
-        controller_from_design,
-        load_design,
-        robot_from_design,
-        verify_folder,
-    )
-
     study = Path(study_dir)
     fmt = str(fmt).lower()
     if fmt not in EXPORT_FORMATS:
