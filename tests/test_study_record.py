@@ -286,3 +286,16 @@ def test_design_record_rebuilds_the_study_robot(tmp_path):
     from armlab.robot.rigid_body import gravity_torques
 
     np.testing.assert_allclose(gravity_torques(robot, q), gravity_torques(ref, q), atol=1e-12)
+
+
+def test_a_rerun_removes_the_earlier_runs_exports(tmp_path):
+    from armlab.study import export_study
+
+    study = write_study(tmp_path)
+    out = tmp_path / "out"
+    assert run(study, out) == 0
+    written = export_study(out, "json").files  # default folder: out/export
+    assert [p.parent.name for p in written] == ["export"]
+    (out / "export" / "mine.txt").write_text("kept")
+    assert run(study, out) == 0
+    assert sorted(p.name for p in (out / "export").iterdir()) == ["mine.txt"]

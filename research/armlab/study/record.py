@@ -305,4 +305,28 @@ def prepare_out_dir(folder: str | os.PathLike, study_hash: str, *, overwrite: bo
         )
     for p in ours:
         p.unlink()
+    _clear_default_exports(folder / "export")
     return folder
+
+
+#: Files ``armlab export`` writes into a study's default ``export/`` folder.
+EXPORT_FILES = (
+    "setpoints.csv",
+    "setpoints.json",
+    "setpoints.npz",
+    "setpoints.h",
+    "gains.json",
+    "gains.h",
+    "gains_ros2.yaml",
+)
+
+
+def _clear_default_exports(folder: Path) -> None:
+    """Remove what an earlier ``armlab export`` wrote into ``folder`` (the study's default export
+    folder): exports of the earlier run must not outlive it. Other files are left alone."""
+    if not folder.is_dir():
+        return
+    for name in EXPORT_FILES:
+        (folder / name).unlink(missing_ok=True)
+    if not any(folder.iterdir()):
+        folder.rmdir()
