@@ -299,3 +299,37 @@ def test_a_rerun_removes_the_earlier_runs_exports(tmp_path):
     (out / "export" / "mine.txt").write_text("kept")
     assert run(study, out) == 0
     assert sorted(p.name for p in (out / "export").iterdir()) == ["mine.txt"]
+
+
+def test_kill_9_at_random_moments_never_leaves_a_mixed_folder(tmp_path):
+    """A study run killed at any moment leaves either no summary.json (export refuses the folder)
+    or a folder whose files all match it; a re-run of the same study then completes."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from armlab.study import export_study
+
+    study = write_study(tmp_path)
+    out = tmp_path / "out"
+    rng = np.random.default_rng(3)
+    env = {**os.environ, "MPLBACKEND": "Agg"}
+    cmd = [sys.executable, "-m", "armlab.cli", "run", str(study), "--out", str(out)]
+    assert subprocess.run(cmd, env=env, capture_output=True).returncode == 0
+    for delay in rng.uniform(0.05, 4.0, 4):
+        proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        if (out / "summary.json").is_file():
+            export_study(out, "csv", out_dir=tmp_path / "e")  # consistent: checksums match
+        else:
+            with pytest.raises(InputError, match="no summary.json"):
+                export_study(out, "csv", out_dir=tmp_path / "e")
+        # the same study re-runs into its own folder (stale .tmp files cleared)
+        (out / ".setpoints.csv.dead.tmp").write_text("partial")
+        assert subprocess.run(cmd, env=env, capture_output=True).returncode == 0
+        assert not list(out.glob(".*.tmp"))
+        export_study(out, "csv", out_dir=tmp_path / "e")

@@ -252,6 +252,24 @@ def verify_folder(folder: str | os.PathLike) -> dict:
     return summary
 
 
+def _recorded_study_hash(folder: Path) -> str | None:
+    """The study sha256 an earlier run recorded in ``folder``: summary.json's, else design.json's
+    (written first, so a run killed before its summary is still recognised)."""
+    for name, path in ((SUMMARY_FILE, ("study", "hash")), (DESIGN_FILE, ("study", "sha256"))):
+        f = folder / name
+        if not f.is_file():
+            continue
+        try:
+            value: Any = json.loads(f.read_text())
+            for key in path:
+                value = value.get(key) if isinstance(value, dict) else None
+        except (OSError, ValueError):
+            value = None
+        if isinstance(value, str):
+            return value
+    return None
+
+
 def _outputs(folder: Path) -> list[Path]:
     out: set[Path] = set()
     for pattern in OUTPUT_FILES:
@@ -291,13 +309,7 @@ def prepare_out_dir(folder: str | os.PathLike, study_hash: str, *, overwrite: bo
             f"--out {folder}: holds files armlab did not write ({shown}): choose an empty or "
             "new folder"
         )
-    same = False
-    summary = folder / SUMMARY_FILE
-    if summary.is_file():
-        try:
-            same = json.loads(summary.read_text()).get("study", {}).get("hash") == study_hash
-        except (OSError, ValueError, AttributeError):
-            same = False
+    same = _recorded_study_hash(folder) == study_hash
     if not same and not overwrite:
         raise InputError(
             f"--out {folder}: holds the outputs of another study (or an unfinished run): "
