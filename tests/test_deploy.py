@@ -34,6 +34,7 @@ from armlab.deploy import (
     setpoint_table,
     trajectory_sha256,
 )
+from armlab.deploy.formats import c_int_type
 from armlab.deploy.numtext import format_list, format_rows
 from armlab.errors import InputError, LimitViolation
 from armlab.study import export_study
@@ -137,8 +138,13 @@ def test_reference_profile_is_the_shu_controller_card():
     assert p.decoding == 4 and p.servo_period_s == 1e-3 and p.max_axes == 6
     assert p.dac_bits == 12 and p.dac_range_V == 10.0
     assert p.dac_volts_per_lsb == pytest.approx(20.0 / 4096)
-    assert {"reference_dda", "reference_dda_10ms", "generic_1khz"} <= set(list_profiles())
+    assert {"reference_dda", "reference_dda_10ms", "generic_1khz", "ethercat_cia402_csp"} <= set(
+        list_profiles()
+    )
     assert load_profile("reference_dda_10ms").cycle_s == 0.01
+    ec = load_profile("ethercat_cia402_csp")
+    assert ec.max_pulses_per_cycle is None and ec.decoding is None and ec.cycle_s == 1e-3
+    assert ec.home_position_rad == (0.0,) * 6 and ec.modulo_axes == ()
 
 
 def test_profile_errors(tmp_path):
@@ -158,6 +164,10 @@ def test_profile_errors(tmp_path):
         ControllerProfile(name="x", axis_sign=(1, 2))
     with pytest.raises(InputError, match="decoding"):
         ControllerProfile(name="x", decoding=3)
+    with pytest.raises(InputError, match="home_position_rad must be finite"):
+        ControllerProfile(name="x", home_position_rad=(0.0, math.inf))
+    with pytest.raises(InputError, match="modulo_axes repeats"):
+        ControllerProfile(name="x", modulo_axes=("joint6", "joint6"))
 
 
 def test_counts_per_rev_from_drives_and_profile_decoding(teachbot6):
@@ -192,6 +202,9 @@ def test_round_trip_60s_1ms_six_joints(teachbot6, motion60, table60, tmp_path):
     assert np.array_equal(back.counts, np.rint(q_plan * cpr).astype(np.int64))
     np.testing.assert_allclose(back.q_rad, q_plan, atol=0.6e-9)
     np.testing.assert_allclose(back.qd_rad_s, qd_plan, atol=0.6e-9)
+    qdd_plan = motion60.at(t)[2]
+    assert back.qdd_rad_s2 is not None and np.abs(qdd_plan).max() > 1e-3
+    np.testing.assert_allclose(back.qdd_rad_s2, qdd_plan, atol=0.6e-9)
     np.testing.assert_allclose(back.t_s, t, atol=1e-12)
     # the motion really moves: every joint covers many thousand counts
     assert np.all(np.ptp(back.counts, axis=0) > 10_000)
@@ -202,13 +215,23 @@ def test_all_formats_read_back_equal(table60, tmp_path):
         fmt: table60.write(tmp_path / f"sp.{ext}", fmt)
         for fmt, ext in (("csv", "csv"), ("json", "json"), ("npz", "npz"), ("c", "h"))
     }
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["sp.csv", "sp.h", "sp.json", "sp.npz"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "sp.c",
+        "sp.csv",
+        "sp.h",
+        "sp.json",
+        "sp.npz",
+    ]
     cols = table60.columns()
+    assert [c for c in cols if c.startswith("qdd_")] == [
+        f"qdd_joint{i}_rad_s2" for i in range(1, 7)
+    ]
     for fmt in ("csv", "json", "npz"):
         back = read_setpoints(paths[fmt])
         assert back.joint_names == table60.joint_names
         assert back.cycle_s == table60.cycle_s
         assert back.meta == table60.meta, fmt
+        assert back.header_meta()["format"] == "armlab.setpoints/2"
         assert back.trajectory_sha256 == table60.trajectory_sha256 != ""
         for name, values in cols.items():
             got = back.columns()[name]
@@ -227,7 +250,70 @@ def test_all_formats_read_back_equal(table60, tmp_path):
     header = paths["c"].read_text()
     assert f'#define ARMLAB_SP_TRAJECTORY_SHA256 "{table60.trajectory_sha256}"' in header
     assert f'#define ARMLAB_SP_ARMLAB_VERSION "{armlab.__version__}"' in header
-    assert "static const int32_t ARMLAB_SP_DCOUNTS[ARMLAB_SP_N_CYCLES][ARMLAB_SP_N_AXES]" in header
+    # the header declares, the .c file defines (one copy of the data, not one per includer)
+    assert "static" not in header and "{" not in header.split("*/", 1)[1]
+    assert (
+        "extern const armlab_sp_dcounts_t ARMLAB_SP_DCOUNTS[ARMLAB_SP_N_CYCLES][ARMLAB_SP_N_AXES];"
+        in header
+    )
+    data = (tmp_path / "sp.c").read_text()
+    assert '#include "sp.h"' in data and data.count("ARMLAB_SP_DCOUNTS[") == 1
+    # 60 s at 1 ms: at most 113 pulses per cycle (int8), counts beyond 2^15 (int32)
+    assert 64 < np.abs(table60.dcounts).max() <= 127 and np.abs(table60.counts).max() > 2**15
+    assert "typedef int8_t armlab_sp_dcounts_t;" in header
+    assert "typedef int32_t armlab_sp_counts_t;" in header
+
+
+def test_reads_format_1_files_without_accelerations(tmp_path):
+    """A set-point CSV of format armlab.setpoints/1 (before accelerations) still reads."""
+    meta = {
+        "format": "armlab.setpoints/1",
+        "robot": "r",
+        "joints": ["j1"],
+        "axis_sign": [1],
+        "cycle_s": 0.001,
+        "n_cycles": 3,
+        "decimals": 9,
+        "counts_per_joint_rev": {"j1": 4000.0},
+        "counts_per_rad": [4000.0 / (2 * math.pi)],
+        "profile": "reference_dda",
+    }
+    path = tmp_path / "old.csv"
+    path.write_text(
+        f"# meta: {json.dumps(meta)}\n"
+        "cycle,t_s,q_j1_rad,qd_j1_rad_s,counts_j1,dcounts_j1\n"
+        "0,0,0,0,0,0\n1,0.001,0.0005,0.5,0,0\n2,0.002,0.0025,1.5,2,2\n"
+    )
+    old = read_setpoints(path)
+    assert old.qdd_rad_s2 is None and old.n_cycles == 3
+    assert old.counts[:, 0].tolist() == [0, 0, 2] and old.qd_rad_s[2, 0] == 1.5
+    assert "qdd_j1_rad_s2" not in old.column_names()
+    # written again, it stays a format-1 file (no accelerations to write)
+    again = read_setpoints(old.write(tmp_path / "again.json"))
+    assert again.header_meta()["format"] == "armlab.setpoints/1"
+    assert np.array_equal(again.counts, old.counts)
+    # a format-2 file must have its accelerations
+    meta2 = dict(meta, format="armlab.setpoints/2")
+    bad = tmp_path / "bad.csv"
+    bad.write_text(path.read_text().replace(json.dumps(meta), json.dumps(meta2)))
+    with pytest.raises(InputError, match="no column 'qdd_j1_rad_s2'"):
+        read_setpoints(bad)
+
+
+@pytest.mark.parametrize(
+    "values, ctype",
+    [
+        ([0, -128, 127], "int8_t"),
+        ([0, 200], "uint8_t"),
+        ([-129, 5], "int16_t"),
+        ([40000, 0], "uint16_t"),
+        ([-40000], "int32_t"),
+        ([2**31], "uint32_t"),
+        ([-(2**31) - 1], "int64_t"),
+    ],
+)
+def test_narrowest_c_integer_type(values, ctype):
+    assert c_int_type(np.array(values, dtype=np.int64)) == ctype
 
 
 C_PROGRAM = r"""
@@ -236,35 +322,41 @@ C_PROGRAM = r"""
 #include "sp.h"
 int main(void) {
     int64_t s_counts = 0, s_dcounts = 0, weighted = 0;
-    for (int k = 0; k < ARMLAB_SP_N_CYCLES; ++k)
-        for (int a = 0; a < ARMLAB_SP_N_AXES; ++a) {
+    int k, a;
+    for (k = 0; k < ARMLAB_SP_N_CYCLES; ++k)
+        for (a = 0; a < ARMLAB_SP_N_AXES; ++a) {
             s_counts += ARMLAB_SP_COUNTS[k][a];
             s_dcounts += ARMLAB_SP_DCOUNTS[k][a];
             weighted += (int64_t)(k % 97 + 1) * (a + 1) * ARMLAB_SP_DCOUNTS[k][a];
         }
-    printf("%d %d %d %" PRId64 " %" PRId64 " %" PRId64 " %s\n", ARMLAB_SP_N_CYCLES,
+    printf("%d %d %d %" PRId64 " %" PRId64 " %" PRId64 " %s %d %d\n", ARMLAB_SP_N_CYCLES,
            ARMLAB_SP_N_AXES, ARMLAB_SP_MAX_PULSES_PER_CYCLE, s_counts, s_dcounts, weighted,
-           ARMLAB_SP_AXIS_JOINT[ARMLAB_SP_N_AXES - 1]);
+           ARMLAB_SP_AXIS_JOINT[ARMLAB_SP_N_AXES - 1], (int)sizeof(armlab_sp_counts_t),
+           (int)sizeof(armlab_sp_dcounts_t));
     return 0;
 }
 """
+#: The flags every generated C file must pass.
+GCC_STRICT = ["gcc", "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror"]
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not available")
-def test_c_header_compiles_and_checksums(teachbot6, tmp_path):
+def test_c_files_compile_strict_and_checksum(teachbot6, tmp_path):
     table = setpoint_table(teachbot6, cosine_motion(teachbot6, duration_s=6.0, n=601))
     table.write(tmp_path / "sp.h", "c")
     (tmp_path / "main.c").write_text(C_PROGRAM)
+    for src in ("sp.c", "main.c"):
+        subprocess.run([*GCC_STRICT, "-c", src], check=True, cwd=tmp_path, capture_output=True)
     exe = tmp_path / "main"
     subprocess.run(
-        ["gcc", "-std=c99", "-Wall", "-Werror", "-O0", "-o", str(exe), str(tmp_path / "main.c")],
-        check=True,
-        cwd=tmp_path,
-        capture_output=True,
+        ["gcc", "-o", str(exe), "main.o", "sp.o"], check=True, cwd=tmp_path, capture_output=True
     )
     out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.split()
     k = (np.arange(table.n_cycles) % 97 + 1)[:, None]
     a = np.arange(1, 7)[None, :]
+    # narrowest types: 6 s of this motion stays within +-32767 counts and +-127 pulses per cycle
+    assert np.abs(table.counts).max() <= 2**15 - 1 and np.abs(table.counts).max() > 127
+    assert np.abs(table.dcounts).max() <= 127
     expect = [
         table.n_cycles,
         6,
@@ -273,6 +365,8 @@ def test_c_header_compiles_and_checksums(teachbot6, tmp_path):
         int(table.dcounts.sum()),
         int((k * a * table.dcounts).sum()),
         "joint6",
+        2,
+        1,
     ]
     assert out == [str(x) for x in expect]
 
@@ -440,7 +534,8 @@ def test_export_formats_carry_checksums(teachbot6, tmp_path):
         ("c", "setpoints.h"),
     ):
         paths = export_study(study, fmt=fmt, out_dir=out).files
-        assert [p.name for p in paths] == [name]  # no gains.json in this study
+        names = [name, "setpoints.c"] if fmt == "c" else [name]
+        assert [p.name for p in paths] == names  # no gains.json in this study
         if fmt == "npz":
             with np.load(paths[0]) as z:
                 text = str(z["meta_json"])

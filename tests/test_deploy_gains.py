@@ -1,5 +1,6 @@
-"""armlab.deploy gains export: JSON (loads back into armlab.control objects, same margins),
-ros2_control YAML, C header; and ``armlab export`` of a study holding gains."""
+"""armlab.deploy gains export: JSON (loads back into armlab.control objects, same margins;
+numbers only), ros2_control YAML, C (header + data file, double or float); and ``armlab export``
+of a study holding gains."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import subprocess
 
 import numpy as np
 import pytest
+import yaml
 
 import armlab
 from armlab.cli import main as cli_main
@@ -58,9 +60,43 @@ def simple_open_loop(lg, plant_summary):
     return C / s
 
 
+def _infinite_paths(x, path=()):
+    """Paths of the "inf"/"-inf" strings of ArmGains.to_dict()."""
+    if isinstance(x, dict):
+        for k, v in x.items():
+            yield from _infinite_paths(v, (*path, k))
+    elif isinstance(x, list):
+        for i, v in enumerate(x):
+            yield from _infinite_paths(v, (*path, i))
+    elif x in ("inf", "-inf"):
+        yield path, x
+
+
+def _at(d, path):
+    for k in path:
+        d = d[k]
+    return d
+
+
 def test_json_round_trip_same_gains_and_margins(teachbot6, arm_gains, tmp_path):
     path = write_gains(tmp_path / "gains.json", arm_gains)
-    d = json.loads(path.read_text())
+    text = path.read_text()
+    d = json.loads(text)
+    # numbers only: every infinity of the gains is null plus a flag, and loads back as inf
+    infinite = list(_infinite_paths(arm_gains.to_dict()))
+    assert infinite, "the tuned gains have no infinite value: nothing tested"
+    assert '"inf"' not in text and '"-inf"' not in text
+    back = load_gains(path)
+    for where, value in infinite:
+        *parent, key = where
+        flag = f"{key}_infinite" if value == "inf" else f"{key}_negative_infinite"
+        assert _at(d, where) is None and _at(d, parent)[flag] is True, where
+    gm = [(j, n) for j in JOINTS for n, lg in arm_gains[j].loops().items()]
+    for j, n in gm:
+        for key in ("gain_margin_dB", "output_min", "output_max"):
+            a, b = getattr(back[j].loops()[n], key), getattr(arm_gains[j].loops()[n], key)
+            assert a == b or (math.isnan(a) and math.isnan(b)), (j, n, key)
+    assert any(math.isinf(back[j].loops()[n].gain_margin_dB) for j, n in gm)
     assert d["provenance"]["gains_sha256"] == gains_sha256(arm_gains)
     assert d["provenance"]["armlab_version"] == armlab.__version__
     back = load_gains(path)
@@ -106,18 +142,31 @@ def test_edited_gains_json_is_refused(arm_gains, tmp_path):
 
 
 def test_ros2_yaml(arm_gains, tmp_path):
-    yaml = pytest.importorskip("yaml")
     text = gains_to_ros2_yaml(arm_gains)
-    d = yaml.safe_load(text)["joint_trajectory_controller"]["ros__parameters"]
+    doc = yaml.safe_load(text)
+    cm = doc["controller_manager"]["ros__parameters"]
+    assert cm["update_rate"] == 1000  # 1 ms servo period
+    assert cm["joint_trajectory_controller"]["type"] == (
+        "joint_trajectory_controller/JointTrajectoryController"
+    )
+    d = doc["joint_trajectory_controller"]["ros__parameters"]
     assert d["joints"] == list(JOINTS)
     assert d["command_interfaces"] == ["velocity"]
+    assert d["state_interfaces"] == ["position", "velocity"]
+    assert "constraints" not in d  # none given
     for j in JOINTS:
         pos = arm_gains[j].position
         g = d["gains"][j]
         assert (g["p"], g["i"], g["d"]) == (pos.kp, pos.ki, pos.kd)
-        clamp = max(abs(pos.output_min), abs(pos.output_max)) / arm_gains[j].plant.ratio
-        assert g["i_clamp"] == pytest.approx(clamp, rel=1e-15)
-        assert all(isinstance(g[k], float) for k in ("p", "i", "d", "i_clamp"))
+        ratio = arm_gains[j].plant.ratio
+        assert g["u_clamp_max"] == pytest.approx(pos.output_max / ratio, rel=1e-15)
+        assert g["u_clamp_min"] == pytest.approx(pos.output_min / ratio, rel=1e-15)
+        assert (g["i_clamp_max"], g["i_clamp_min"]) == (g["u_clamp_max"], g["u_clamp_min"])
+        assert g["u_clamp_min"] < 0 < g["u_clamp_max"]
+        assert g["ff_velocity_scale"] == 1.0
+        assert g["antiwindup_strategy"] == ("conditional_integration" if pos.ki > 0 else "none")
+        assert "i_clamp" not in g  # the deprecated symmetric key is gone
+        assert all(isinstance(v, float) for k, v in g.items() if k != "antiwindup_strategy")
     assert gains_sha256(arm_gains) in text
 
 
@@ -125,47 +174,51 @@ GAINS_C = r"""
 #include <stdio.h>
 #include "gains.h"
 int main(void) {
-    for (int j = 0; j < ARMLAB_GAINS_N_JOINTS; ++j)
-        for (int l = 0; l < ARMLAB_GAINS_N_LOOPS; ++l) {
-            const armlab_pid_t *g = &ARMLAB_GAINS[j][l];
-            printf("%s %s %.17g %.17g %.17g %.17g %.17g %.17g %.17g %s %s\n",
-                   ARMLAB_GAINS_JOINT[j], ARMLAB_GAINS_LOOP_NAME[l], g->kp, g->ki, g->kd,
-                   g->q0, g->q1, g->q2, g->sample_time_s, ARMLAB_GAINS_UNIT_KP[l],
-                   ARMLAB_GAINS_OUTPUT_SIGNAL[j][l]);
+    int j, l;
+    for (j = 0; j < ARMLAB_GAINS_N_JOINTS; ++j)
+        for (l = 0; l < ARMLAB_GAINS_N_LOOPS; ++l) {
+            const PID_T *g = &ARMLAB_GAINS[j][l];
+            printf("%s %s %.17g %.17g %.17g %.17g %.17g %.17g %.17g %s %s %d\n",
+                   ARMLAB_GAINS_JOINT[j], ARMLAB_GAINS_LOOP_NAME[l], (double)g->kp,
+                   (double)g->ki, (double)g->kd, (double)g->q0, (double)g->q1, (double)g->q2,
+                   (double)g->sample_time_s, ARMLAB_GAINS_UNIT_KP[l],
+                   ARMLAB_GAINS_OUTPUT_SIGNAL[j][l], (int)sizeof g->kp);
         }
     return 0;
 }
 """
+GCC_STRICT = ["gcc", "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror"]
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not available")
-def test_gains_c_header_compiles(arm_gains, tmp_path):
-    write_gains(tmp_path / "gains.h", arm_gains)
-    (tmp_path / "main.c").write_text(GAINS_C)
+@pytest.mark.parametrize("real, struct, size", [("double", "f64", 8), ("float", "f32", 4)])
+def test_gains_c_files_compile_strict(arm_gains, tmp_path, real, struct, size):
+    write_gains(tmp_path / "gains.h", arm_gains, real=real)
+    header = (tmp_path / "gains.h").read_text()
+    assert "#include <math.h>" not in header and "static" not in header
+    assert f"extern const armlab_pid_{struct}_t ARMLAB_GAINS[ARMLAB_GAINS_N_JOINTS][3];" in header
+    (tmp_path / "main.c").write_text(GAINS_C.replace("PID_T", f"armlab_pid_{struct}_t"))
+    for src in ("gains.c", "main.c"):
+        subprocess.run([*GCC_STRICT, "-c", src], check=True, cwd=tmp_path, capture_output=True)
     exe = tmp_path / "main"
     subprocess.run(
-        ["gcc", "-std=c99", "-Wall", "-Werror", "-o", str(exe), "main.c", "-lm"],
-        check=True,
-        cwd=tmp_path,
-        capture_output=True,
+        ["gcc", "-o", str(exe), "main.o", "gains.o"], check=True, cwd=tmp_path, capture_output=True
     )
     rows = subprocess.run(
         [str(exe)], check=True, capture_output=True, text=True
     ).stdout.splitlines()
     assert len(rows) == 3 * len(JOINTS)
+    as_real = float if real == "double" else (lambda x: float(np.float32(x)))
     for row in rows:
-        j, loop, *nums, unit, signal = row.split()
+        j, loop, *nums, unit, signal, nbytes = row.split()
         lg = arm_gains[j].loops()[loop]
-        assert [float(x) for x in nums] == [
-            lg.kp,
-            lg.ki,
-            lg.kd,
-            lg.q0,
-            lg.q1,
-            lg.q2,
-            lg.sample_time_s,
-        ]
-        assert unit == lg.units["kp"] and signal == lg.output_signal
+        want = [lg.kp, lg.ki, lg.kd, lg.q0, lg.q1, lg.q2, lg.sample_time_s]
+        assert [float(x) for x in nums] == [as_real(x) for x in want]
+        assert unit == lg.units["kp"] and signal == lg.output_signal and int(nbytes) == size
+    if real == "float":  # float really rounds: some gain differs from its double value
+        assert any(
+            float(np.float32(lg.kp)) != lg.kp for cg in arm_gains for lg in cg.loops().values()
+        )
 
 
 def test_export_study_with_gains(teachbot6, arm_gains, tmp_path, capsys):
@@ -182,10 +235,10 @@ def test_export_study_with_gains(teachbot6, arm_gains, tmp_path, capsys):
     }
     assert names == {
         "json": ["setpoints.json", "gains.json"],
-        "c": ["setpoints.h", "gains.h"],
-        "ros2": ["gains_ros2.yaml"],
+        "c": ["setpoints.h", "setpoints.c", "gains.h", "gains.c"],
+        "ros2": ["ros2_controllers.yaml"],
     }
-    for name in ("gains.json", "gains.h", "gains_ros2.yaml"):
+    for name in ("gains.json", "gains.h", "ros2_controllers.yaml"):
         text = (out / name).read_text()
         assert src in text and gains_sha256(arm_gains) in text and armlab.__version__ in text
     assert load_gains(out / "gains.json").to_dict() == arm_gains.to_dict()

@@ -15,7 +15,21 @@ import numpy as np
 
 from armlab.errors import ArmlabError, DesignFailure
 
-__all__ = ["main", "info_text"]
+__all__ = ["main", "info_text", "build_parser"]
+
+#: ``armlab --help``'s description: plain text (the module docstring is reST for the API docs).
+SUMMARY = (
+    "armlab: design, sizing, motion planning and servo tuning of small 6-axis robot arms. "
+    "Commands: info (a robot's data), run (one study), sweep (many studies on Dask), export "
+    "(set-point tables and gains of a finished study)."
+)
+
+EXIT_STATUS = """\
+exit status:
+  0  the design passes (or the command succeeded)
+  1  the study ran and the design fails a check (the failed checks on stderr), or an export
+     was refused for a failing design
+  2  bad input or usage (one line on stderr, no traceback)"""
 
 
 def info_text(robot_name: str) -> str:
@@ -98,10 +112,28 @@ def _verdict_status(design: dict) -> int:
 
 
 def _cmd_sweep(args) -> int:
-    from armlab.sweep import run_sweep
+    """Exit status of a sweep: 0 every row done and its design passes; 1 error rows, failing
+    designs or designs not judged (their counts on stderr); 2 bad input, a folder holding
+    another sweep (without ``--overwrite``) or written by another client."""
+    from armlab.sweep import run_sweep, sweep_outcome
 
-    run_sweep(args.sweep, args.out, workers=args.workers, scheduler=args.scheduler)
-    return 0
+    frame = run_sweep(
+        args.sweep,
+        args.out,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        overwrite=args.overwrite,
+    )
+    n = sweep_outcome(frame)
+    if n["errors"] == n["failing"] == n["not_judged"] == 0:
+        return 0
+    print(
+        f"armlab: sweep: {n['errors']} of {n['rows']} rows are errors, {n['failing']} designs "
+        f"fail, {n['not_judged']} not judged (columns status, error and verdict of "
+        f"{args.out}/results.parquet)",
+        file=sys.stderr,
+    )
+    return 1
 
 
 def _cmd_export(args) -> int:
@@ -117,15 +149,72 @@ def _cmd_export(args) -> int:
     return 0
 
 
+class _HelpFormatter(argparse.HelpFormatter):
+    """Wraps descriptions to the terminal; keeps a text with line breaks (the exit-status table)
+    as written."""
+
+    def _fill_text(self, text, width, indent):
+        if "\n" in text:
+            return "".join(indent + line for line in text.splitlines(keepends=True))
+        return super()._fill_text(text, width, indent)
+
+
+def _names(names: list[str]) -> str:
+    return ", ".join(names) if names else "none found"
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="armlab", description=__doc__.splitlines()[0])
-    sub = p.add_subparsers(dest="command", required=True)
-    s = sub.add_parser("info", help="joints, limits, drives, reach and mass of a robot")
-    s.add_argument("robot", help="name under robot_desc/ (teachbot6) or a URDF path")
+    """The ``armlab`` argument parser: every argument has a help text; ``--version``."""
+    from armlab import __version__
+    from armlab.robot.controller import DEFAULT_PROFILE, list_profiles
+    from armlab.robot.model import list_robots
+
+    robots, profiles = _names(list_robots()), _names(list_profiles())
+    fmt = _HelpFormatter
+    p = argparse.ArgumentParser(
+        prog="armlab", description=SUMMARY, epilog=EXIT_STATUS, formatter_class=fmt
+    )
+    p.add_argument(
+        "--version",
+        action="version",
+        version=f"armlab {__version__}",
+        help="print the armlab version and exit",
+    )
+    sub = p.add_subparsers(
+        dest="command", required=True, metavar="COMMAND", title="commands", help="one of:"
+    )
+    s = sub.add_parser(
+        "info",
+        formatter_class=fmt,
+        help="joints, limits, drives, reach and mass of a robot",
+        description="Print a robot's joints, joint ranges and limits, drives (motor, reducer, "
+        f"encoder), maximum reach and moving mass. Built-in robots: {robots}.",
+    )
+    s.add_argument(
+        "robot",
+        metavar="ROBOT",
+        help=f"built-in robot name ({robots}) or the path of a URDF (a drives.toml and an "
+        "mdh.toml beside it are read too)",
+    )
     s.set_defaults(func=_cmd_info)
-    s = sub.add_parser("run", help="run one study (default: the built-in teachbot6 study)")
-    s.add_argument("study", nargs="?", default=None, help="STUDY.toml")
-    s.add_argument("--out", required=True, help="output folder")
+    s = sub.add_parser(
+        "run",
+        help="run one study (default: the built-in teachbot6 study)",
+        description="Run every stage of a study file (kinematics, plan, static load, sizing, "
+        "tuning, tracking, export) and write summary.json, design.json, the report and the "
+        "exports into the output folder. Without a study file, runs the built-in teachbot6 "
+        "demo study.",
+        epilog=EXIT_STATUS,
+        formatter_class=fmt,
+    )
+    s.add_argument(
+        "study",
+        nargs="?",
+        default=None,
+        metavar="STUDY.toml",
+        help="the study file (default: the built-in teachbot6 demo study)",
+    )
+    s.add_argument("--out", required=True, metavar="DIR", help="output folder")
     s.add_argument(
         "--force",
         action="store_true",
@@ -137,26 +226,75 @@ def build_parser() -> argparse.ArgumentParser:
         help="clear an output folder that holds another study's outputs",
     )
     s.set_defaults(func=_cmd_run)
-    s = sub.add_parser("sweep", help="run a parameter sweep of studies")
-    s.add_argument("sweep", help="SWEEP.toml (or 'demo': the shipped example)")
-    s.add_argument("--out", required=True, help="output folder (results.parquet)")
-    s.add_argument("--workers", type=int, default=None, help="local worker processes")
-    s.add_argument("--scheduler", default=None, help="Dask scheduler address tcp://host:port")
+    s = sub.add_parser(
+        "sweep",
+        formatter_class=fmt,
+        help="run a parameter sweep of studies",
+        description="Run one study per parameter set of a sweep file on a Dask cluster (a "
+        "local process cluster by default) and write one row per study to results.parquet, "
+        "with summary.txt and plots/. Running the same command again resumes: only the "
+        "missing parameter sets run.",
+    )
+    s.add_argument(
+        "sweep", metavar="SWEEP.toml", help="the sweep file, or 'demo' for the shipped example"
+    )
+    s.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="output folder (results.parquet, summary.txt, plots/)",
+    )
+    s.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="worker processes of the local cluster (default: one per CPU)",
+    )
+    s.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="address of a running Dask scheduler, tcp://host:port (instead of a local "
+        "cluster; its workers need armlab installed)",
+    )
+    s.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the results of another sweep in the output folder",
+    )
     s.set_defaults(func=_cmd_sweep)
-    s = sub.add_parser("export", help="set-point tables and gains of a finished study")
-    s.add_argument("study_dir", help="folder written by armlab run")
+    s = sub.add_parser(
+        "export",
+        help="set-point tables and gains of a finished study",
+        description="Write the set-point table of a finished study's plan for a controller "
+        "profile, and its tuned gains, into a new folder; a design that fails a check is "
+        f"refused unless --force. Built-in controller profiles: {profiles} (a study without a "
+        f"[controller] profile uses {DEFAULT_PROFILE}).",
+        epilog=EXIT_STATUS,
+        formatter_class=fmt,
+    )
+    s.add_argument("study_dir", metavar="STUDY_DIR", help="folder written by armlab run")
     s.add_argument(
         "--format",
         default="csv",
-        choices=["csv", "json", "npz", "c", "ros2"],
-        help="set-point table format (c: C headers; ros2: ros2_control gains YAML)",
+        choices=["csv", "json", "npz", "c", "ros2", "trajectory", "cia402"],
+        help="csv|json|npz: set-point table (json: + gains.json); c: C header + data file of "
+        "set-points and gains; ros2: ros2_control controllers YAML (controller_manager + "
+        "joint_trajectory_controller gains and constraints); trajectory: the plan as a "
+        "FollowJointTrajectory goal (JSON); cia402: CiA 402 cyclic synchronous position "
+        "set-points and object dictionary values",
     )
     s.add_argument(
         "--profile",
         default=None,
-        help="controller profile name or TOML path (default: the study's own controller)",
+        metavar="PROFILE",
+        help=f"built-in controller profile ({profiles}) or the path of a profile TOML "
+        "(default: the study's own controller)",
     )
-    s.add_argument("--out", required=True, help="output folder (not the study folder)")
+    s.add_argument(
+        "--out", required=True, metavar="DIR", help="output folder (not the study folder)"
+    )
     s.add_argument(
         "--force",
         action="store_true",

@@ -3,15 +3,16 @@
 Sources: HEU thesis, ch. 5 (DC-motor joint model, cascaded current/speed/position loops,
 incremental PID, feed-forward 5.2) and Kong et al. 1998, §2.2 (outer force loop).
 
-Modules
--------
-gains       LoopGains / CascadeGains / ArmGains and their JSON (gains.json)
-plant       JointPlant: motor + reducer + reflected arm inertia range (min/nominal/max)
-loops       the three loops as python-control models, continuous and discrete; margins
-tuning      robust inside-out tuning (tune_cascade, tune_arm), check_cascade
-discrete    incremental PID with anti-windup, D/A and encoder quantisers
-simulate    closed-loop simulation of all joints on the nonlinear arm (Pinocchio ABA)
-force       Kong et al. 1998's outer force loop and its robustness study
+The modules of the package:
+
+    gains       LoopGains / CascadeGains / ArmGains and their JSON (gains.json)
+    plant       JointPlant: motor + reducer + reflected arm inertia range (min/nominal/max)
+    loops       the three loops as python-control models, continuous and discrete; margins
+    tuning      robust inside-out tuning (tune_cascade, tune_arm), check_cascade
+    discrete    incremental PID with anti-windup, D/A and encoder quantisers
+    simulate    closed-loop simulation of all joints on the nonlinear arm (Pinocchio ABA)
+    force       Kong et al. 1998's outer force loop and its robustness study
+
 (figures: armlab.plots.servo -- Bode, steps, root loci, tracking error, force responses)
 """
 

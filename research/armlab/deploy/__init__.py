@@ -6,14 +6,22 @@ paper, §8 (fault handling: over-speed, over-limit -> made into pre-flight check
 "Set-point table".
 
 * :func:`load_profile` — the controller (``data/profiles/*.toml``; default ``reference_dda``).
-* :func:`setpoint_table` — a trajectory sampled per controller cycle, in encoder counts,
-  checked on every cycle; :meth:`SetpointTable.write` to CSV/JSON/NPZ/C, :func:`read_setpoints`.
-* :func:`write_gains`, :func:`load_gains` — servo gains as JSON, ros2_control YAML, C header.
+* :func:`setpoint_table` — a trajectory sampled per controller cycle, in encoder counts, with
+  positions, velocities and accelerations, checked on every cycle; :meth:`SetpointTable.write`
+  to CSV/JSON/NPZ/C (header + data file), :func:`read_setpoints`.
+* :func:`write_gains`, :func:`load_gains` — servo gains as JSON, ros2_control YAML, C.
+* :mod:`armlab.deploy.ros2` — the ros2_control controllers YAML (controller_manager +
+  joint_trajectory_controller with gains and constraints) and the plan as a
+  FollowJointTrajectory goal.
+* :mod:`armlab.deploy.cia402` — CiA 402 cyclic synchronous position set-points (target
+  position, velocity and torque offsets per cycle) and object dictionary values.
 * :func:`save_trajectory`, :func:`load_trajectory` — a study's ``trajectory.npz``.
 """
 
 from armlab.deploy.checks import CHECKS, PreflightFailure, PreflightReport, preflight
+from armlab.deploy.cia402 import Cia402Csp, cia402_csp, read_cia402_csp, read_cia402_objects
 from armlab.deploy.gains_export import (
+    gains_to_c_files,
     gains_to_c_header,
     gains_to_json,
     gains_to_ros2_yaml,
@@ -22,6 +30,13 @@ from armlab.deploy.gains_export import (
     write_gains,
 )
 from armlab.deploy.provenance import file_sha256, gains_sha256, trajectory_sha256
+from armlab.deploy.ros2 import (
+    JtcConstraints,
+    check_joint_trajectory,
+    jtc_constraints,
+    render_follow_joint_trajectory,
+    ros2_controllers_yaml,
+)
 from armlab.deploy.table import SetpointTable, counts_per_rad, read_setpoints, setpoint_table
 from armlab.deploy.trajfile import load_trajectory, save_trajectory
 from armlab.robot.controller import (
@@ -36,6 +51,11 @@ __all__ = [
     "PreflightFailure",
     "PreflightReport",
     "preflight",
+    "Cia402Csp",
+    "cia402_csp",
+    "read_cia402_csp",
+    "read_cia402_objects",
+    "gains_to_c_files",
     "gains_to_c_header",
     "gains_to_json",
     "gains_to_ros2_yaml",
@@ -49,6 +69,11 @@ __all__ = [
     "file_sha256",
     "gains_sha256",
     "trajectory_sha256",
+    "JtcConstraints",
+    "check_joint_trajectory",
+    "jtc_constraints",
+    "render_follow_joint_trajectory",
+    "ros2_controllers_yaml",
     "SetpointTable",
     "counts_per_rad",
     "read_setpoints",

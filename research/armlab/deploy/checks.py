@@ -6,7 +6,7 @@ that would trigger one of those is refused here, before any file is written. Eve
 on every cycle ``k`` of the table (positions ``q_k`` at ``t_k = t_0 + k T``, ``T`` the controller
 period):
 
-* ``finite``        q_k and qd_k are finite numbers.
+* ``finite``        q_k, qd_k (and qdd_k when given) are finite numbers.
 * ``start pose``    ``|q_0 - q_current| x counts_per_rad <= start_tolerance_counts`` (cycle 0).
 * ``joint range``   ``lower <= q_k <= upper`` (1e-9 rad slack).
 * ``counter range`` ``|counts_k| <= 2^31 - 1`` (the int32 registers and C arrays).
@@ -174,6 +174,7 @@ def preflight(
     start_tolerance_counts: float = 1.0,
     speed_tolerance: float = 1e-6,
     continuity_tolerance: float = 0.05,
+    qdd: np.ndarray | None = None,
 ) -> PreflightReport:
     """Run every check on every cycle (see the module docstring for the rules).
 
@@ -198,6 +199,8 @@ def preflight(
         The robot's current pose per axis [rad].
     start_tolerance_counts, speed_tolerance, continuity_tolerance : float
         From the controller profile.
+    qdd : array (n_cycles, n_axes), optional
+        Planned accelerations [rad/s^2] (the tables' feed-forward): checked finite.
 
     Returns
     -------
@@ -242,14 +245,17 @@ def preflight(
 
     report.checks.append("finite")
     finite = np.isfinite(q) & np.isfinite(qd)
+    acc = np.zeros_like(q) if qdd is None else np.asarray(qdd, dtype=float)
+    finite_all = finite & np.isfinite(acc)
     add(
         "finite",
-        ~finite,
+        ~finite_all,
         lambda k, j: (
-            q[k, j] if not np.isfinite(q[k, j]) else qd[k, j],
+            next(x for x in (q[k, j], qd[k, j], acc[k, j]) if not np.isfinite(x)),
             math.inf,
             "",
-            f"q = {q[k, j]!r} rad, qd = {qd[k, j]!r} rad/s are not finite numbers",
+            f"q = {q[k, j]!r} rad, qd = {qd[k, j]!r} rad/s, qdd = {acc[k, j]!r} rad/s^2 "
+            "are not all finite numbers",
         ),
     )
     qs = np.where(finite, q, 0.0)

@@ -1,9 +1,15 @@
-"""File formats of a set-point table: CSV, JSON, NumPy ``.npz`` and a C header.
+"""File formats of a set-point table: CSV, JSON, NumPy ``.npz`` and C (a header and a data file).
 
-All four carry the same metadata (robot, cycle period, counts per joint revolution, axis order
-and sign, the trajectory's sha256, armlab's version, the controller profile) and the same values:
-integers exactly, ``q``/``qd``/``t`` to 1e-9 (the table is stored at that resolution, so CSV, JSON
-and NPZ read back equal). Text is built with :mod:`armlab.deploy.numtext` (vectorised NumPy).
+All formats carry the same metadata (robot, cycle period, counts per joint revolution, axis order
+and sign, the trajectory's sha256, armlab's version, the controller profile). CSV, JSON and NPZ
+carry every column: integers exactly, ``q``/``qd``/``qdd``/``t`` to 1e-9 (the table is stored at
+that resolution, so they read back equal). C carries what the controller plays, the integer
+counts: ``setpoints.h`` declares them ``extern`` and ``setpoints.c`` defines them once, each
+array in the narrowest ``<stdint.h>`` type holding its values (:func:`c_int_type`). Text is built
+with :mod:`armlab.deploy.numtext` (vectorised NumPy).
+
+Format ``armlab.setpoints/2`` added the accelerations ``qdd_<joint>_rad_s2``; files of format
+``armlab.setpoints/1`` (no accelerations) still read, giving a table whose ``qdd_rad_s2`` is None.
 """
 
 from __future__ import annotations
@@ -12,28 +18,30 @@ import io
 import json
 import re
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from armlab.deploy.numtext import format_list, format_rows
 from armlab.errors import InputError
 
-if TYPE_CHECKING:
-    pass
-
-#: Format tag of every set-point file.
-SETPOINTS_FORMAT = "armlab.setpoints/1"
-#: q, qd, t_s resolution in every format: 1e-9 rad, rad/s, s.
+#: Format tag of every set-point file written.
+SETPOINTS_FORMAT = "armlab.setpoints/2"
+#: Format tags read back (``/1``: before accelerations).
+READABLE_SETPOINT_FORMATS = ("armlab.setpoints/1", SETPOINTS_FORMAT)
+#: q, qd, qdd, t_s resolution in every format: 1e-9 rad, rad/s, rad/s^2, s.
 DECIMALS = 9
 
 __all__ = [
     "SETPOINT_FORMATS",
+    "SETPOINTS_FORMAT",
+    "READABLE_SETPOINT_FORMATS",
     "setpoints_format",
     "render_setpoints",
+    "setpoint_files",
     "read_setpoints_file",
     "c_identifier",
     "c_string",
+    "c_int_type",
 ]
 
 SETPOINT_FORMATS = {"csv": ".csv", "json": ".json", "npz": ".npz", "c": ".h"}
@@ -53,14 +61,26 @@ def setpoints_format(path: Path, format: str | None) -> str:
 
 
 def _decimals(table) -> list[int]:
-
-    return [0, DECIMALS] + [DECIMALS, DECIMALS, 0, 0] * table.n_axes
+    """Decimals of each column, in the order of ``table.columns()``."""
+    per = [DECIMALS, DECIMALS] + ([DECIMALS] if table.qdd_rad_s2 is not None else []) + [0, 0]
+    return [0, DECIMALS] + per * table.n_axes
 
 
 def render_setpoints(table, fmt: str) -> bytes:
-    """The bytes of ``table`` in ``fmt`` (csv, json, npz, c)."""
+    """The bytes of ``table`` in ``fmt`` (csv, json, npz; c: the header ``setpoints.h``)."""
     fmt = setpoints_format(Path(""), fmt)
-    return {"csv": _csv, "json": _json, "npz": _npz, "c": _c_header}[fmt](table)
+    if fmt == "c":
+        return _c_files(table, "setpoints.h")[0]
+    return {"csv": _csv, "json": _json, "npz": _npz}[fmt](table)
+
+
+def setpoint_files(table, path: Path, fmt: str) -> list[tuple[Path, bytes]]:
+    """The files of ``table`` in ``fmt`` to write at ``path``: one, or for C the header at
+    ``path`` and its data file ``path`` with suffix ``.c``."""
+    if fmt == "c":
+        header, data = _c_files(table, path.name)
+        return [(path, header), (path.with_suffix(".c"), data)]
+    return [(path, render_setpoints(table, fmt))]
 
 
 # ---------------------------------------------------------------------- CSV
@@ -169,6 +189,7 @@ def _npz(table) -> bytes:
         t_s=table.t_s,
         q_rad=table.q_rad,
         qd_rad_s=table.qd_rad_s,
+        **({} if table.qdd_rad_s2 is None else {"qdd_rad_s2": table.qdd_rad_s2}),
         counts=table.counts,
         dcounts=table.dcounts,
         counts_per_rad=table.counts_per_rad,
@@ -190,6 +211,8 @@ def _read_npz(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
     for a, j in enumerate(meta["joints"]):
         cols[f"q_{j}_rad"] = arrays["q_rad"][:, a]
         cols[f"qd_{j}_rad_s"] = arrays["qd_rad_s"][:, a]
+        if "qdd_rad_s2" in arrays:
+            cols[f"qdd_{j}_rad_s2"] = arrays["qdd_rad_s2"][:, a]
         cols[f"counts_{j}"] = arrays["counts"][:, a]
         cols[f"dcounts_{j}"] = arrays["dcounts"][:, a]
     return meta, cols
@@ -208,10 +231,38 @@ def c_string(text: str) -> str:
     return '"' + s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ") + '"'
 
 
-def _c_array_2d(name: str, values: np.ndarray) -> bytes:
-    head = f"static const int32_t {name}[ARMLAB_SP_N_CYCLES][ARMLAB_SP_N_AXES] = {{\n".encode()
-    if values.size == 0:
-        return head + b"    {0}\n};\n"
+#: ``<stdint.h>`` types from the narrowest, with their ranges.
+_C_INT_TYPES = (
+    ("int8_t", -(2**7), 2**7 - 1),
+    ("uint8_t", 0, 2**8 - 1),
+    ("int16_t", -(2**15), 2**15 - 1),
+    ("uint16_t", 0, 2**16 - 1),
+    ("int32_t", -(2**31), 2**31 - 1),
+    ("uint32_t", 0, 2**32 - 1),
+    ("int64_t", -(2**63), 2**63 - 1),
+)
+
+
+def c_int_type(values) -> str:
+    """The narrowest ``<stdint.h>`` type holding every integer of ``values`` (``int8_t`` for
+    none): signed before unsigned of the same width.
+
+    Raises
+    ------
+    InputError
+        A value beyond int64.
+    """
+    a = np.asarray(values)
+    lo = int(a.min()) if a.size else 0
+    hi = int(a.max()) if a.size else 0
+    for name, tmin, tmax in _C_INT_TYPES:
+        if tmin <= lo and hi <= tmax:
+            return name
+    raise InputError(f"integers {lo} .. {hi} do not fit a C integer type")
+
+
+def _c_array_2d(ctype: str, name: str, values: np.ndarray) -> bytes:
+    head = f"const {ctype} {name}[ARMLAB_SP_N_CYCLES][ARMLAB_SP_N_AXES] = {{\n".encode()
     body = format_rows(
         [values[:, a] for a in range(values.shape[1])],
         0,
@@ -223,13 +274,17 @@ def _c_array_2d(name: str, values: np.ndarray) -> bytes:
     return head + body[:-2] + b"\n};\n"
 
 
-def _c_header(table) -> bytes:
+def _c_files(table, header_name: str) -> tuple[bytes, bytes]:
+    """``(header, data file)`` of the table; the data file includes ``header_name``."""
     meta = table.header_meta()
+    if table.n_cycles == 0 or table.n_axes == 0:
+        raise InputError("an empty set-point table has no C arrays (C has no empty arrays)")
     if np.abs(table.counts).max(initial=0) > 2**31 - 1:
-        raise InputError("counts do not fit int32 for the C header")
+        raise InputError("counts do not fit int32 for the C arrays")
     T = table.cycle_s
     pulses = meta.get("max_pulses_per_cycle")
-    joints = ", ".join(c_string(j) for j in table.joint_names)
+    t_counts, t_dcounts = c_int_type(table.counts), c_int_type(table.dcounts)
+    guard = c_identifier(Path(header_name).name)
     lines = [
         "/* armlab set-point table -- generated by armlab.deploy, do not edit.",
         f" * robot {meta['robot']}, {table.n_cycles} cycles of {T:g} s, axes "
@@ -238,9 +293,11 @@ def _c_header(table) -> bytes:
         " *                          (round(q x counts_per_rad x sign); 0 = joint zero).",
         " * ARMLAB_SP_DCOUNTS[k][a]: pulses axis a moves during cycle k (COUNTS[k] - COUNTS[k-1];",
         " *                          0 on cycle 0, which is the start pose).",
+        f" * The data are defined once, in {Path(header_name).stem}.c; each array has the",
+        " * narrowest <stdint.h> type that holds its values (armlab_sp_counts_t, ..._dcounts_t).",
         " */",
-        "#ifndef ARMLAB_SETPOINTS_H",
-        "#define ARMLAB_SETPOINTS_H",
+        f"#ifndef {guard}",
+        f"#define {guard}",
         "",
         "#include <stdint.h>",
         "",
@@ -264,33 +321,56 @@ def _c_header(table) -> bytes:
         f"#define ARMLAB_SP_MAX_PULSES_PER_CYCLE {-1 if pulses is None else int(pulses)}"
         + ("  /* -1: no limit */" if pulses is None else ""),
         "",
-        f"static const char *const ARMLAB_SP_AXIS_JOINT[ARMLAB_SP_N_AXES] = {{{joints}}};",
-        "static const int32_t ARMLAB_SP_AXIS_SIGN[ARMLAB_SP_N_AXES] = {"
+        f"typedef {t_counts} armlab_sp_counts_t;",
+        f"typedef {t_dcounts} armlab_sp_dcounts_t;",
+        "",
+        "extern const char *const ARMLAB_SP_AXIS_JOINT[ARMLAB_SP_N_AXES];",
+        "extern const int8_t ARMLAB_SP_AXIS_SIGN[ARMLAB_SP_N_AXES];",
+        "/* encoder counts per joint revolution (pulses x decoding x reducer ratio) */",
+        "extern const double ARMLAB_SP_COUNTS_PER_JOINT_REV[ARMLAB_SP_N_AXES];",
+        "extern const int32_t ARMLAB_SP_START_COUNTS[ARMLAB_SP_N_AXES];",
+        "extern const armlab_sp_counts_t ARMLAB_SP_COUNTS[ARMLAB_SP_N_CYCLES][ARMLAB_SP_N_AXES];",
+        "extern const armlab_sp_dcounts_t ARMLAB_SP_DCOUNTS[ARMLAB_SP_N_CYCLES][ARMLAB_SP_N_AXES];",
+        "",
+        f"#endif /* {guard} */",
+        "",
+    ]
+    header = "\n".join(lines).encode()
+    joints = ", ".join(c_string(j) for j in table.joint_names)
+    data = [
+        f"/* armlab set-point table data -- generated by armlab.deploy, do not edit "
+        f"(declarations: {header_name}). */",
+        f'#include "{header_name}"',
+        "",
+        f"const char *const ARMLAB_SP_AXIS_JOINT[ARMLAB_SP_N_AXES] = {{{joints}}};",
+        "const int8_t ARMLAB_SP_AXIS_SIGN[ARMLAB_SP_N_AXES] = {"
         + ", ".join(str(int(s)) for s in table.axis_sign)
         + "};",
-        "/* encoder counts per joint revolution (pulses x decoding x reducer ratio) */",
-        "static const double ARMLAB_SP_COUNTS_PER_JOINT_REV[ARMLAB_SP_N_AXES] = {"
+        "const double ARMLAB_SP_COUNTS_PER_JOINT_REV[ARMLAB_SP_N_AXES] = {"
         + ", ".join(repr(float(c)) for c in table.counts_per_joint_rev)
         + "};",
-        "static const int32_t ARMLAB_SP_START_COUNTS[ARMLAB_SP_N_AXES] = {"
-        + ", ".join(
-            str(int(c))
-            for c in (table.counts[0] if table.n_cycles else np.zeros(table.n_axes, int))
-        )
+        "const int32_t ARMLAB_SP_START_COUNTS[ARMLAB_SP_N_AXES] = {"
+        + ", ".join(str(int(c)) for c in table.counts[0])
         + "};",
         "",
     ]
-    out = ("\n".join(lines) + "\n").encode()
-    out += _c_array_2d("ARMLAB_SP_COUNTS", table.counts) + b"\n"
-    out += _c_array_2d("ARMLAB_SP_DCOUNTS", table.dcounts)
-    out += b"\n#endif /* ARMLAB_SETPOINTS_H */\n"
-    return out
+    body = ("\n".join(data) + "\n").encode()
+    body += _c_array_2d("armlab_sp_counts_t", "ARMLAB_SP_COUNTS", table.counts) + b"\n"
+    body += _c_array_2d("armlab_sp_dcounts_t", "ARMLAB_SP_DCOUNTS", table.dcounts)
+    return header, body
 
 
 # ---------------------------------------------------------------------- reading
 def read_setpoints_file(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
     """Read a CSV, JSON or NPZ set-point file: ``(metadata, named columns)``, format checked
-    (:func:`armlab.deploy.read_setpoints` builds the table from them)."""
+    (:func:`armlab.deploy.read_setpoints` builds the table from them).
+
+    Raises
+    ------
+    InputError
+        Missing file, unknown suffix, unreadable content, a format tag not in
+        :data:`READABLE_SETPOINT_FORMATS`.
+    """
     if not path.is_file():
         raise InputError(f"set-point file {path} not found")
     fmt = _SUFFIX_TO_FORMAT.get(path.suffix.lower())
@@ -300,6 +380,9 @@ def read_setpoints_file(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
             f"{path}: cannot read set-points from {path.suffix!r} files (.csv, .json, .npz)"
         )
     meta, cols = readers[fmt](path)
-    if meta.get("format") != SETPOINTS_FORMAT:
-        raise InputError(f"{path}: format {meta.get('format')!r} is not {SETPOINTS_FORMAT!r}")
+    if meta.get("format") not in READABLE_SETPOINT_FORMATS:
+        raise InputError(
+            f"{path}: format {meta.get('format')!r} is not one of "
+            f"{', '.join(READABLE_SETPOINT_FORMATS)}"
+        )
     return meta, cols

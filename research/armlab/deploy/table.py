@@ -4,8 +4,9 @@ One row per controller cycle ``k = 0 .. n`` at ``t_k = t_0 + k T`` (``T`` the pr
 1 ms .. 2 s on the DDA card of the SHU controller paper; the last row holds the end point).
 Per axis (controller axis order of the profile):
 
-* ``q_<joint>_rad``, ``qd_<joint>_rad_s`` — planned position and velocity (joint side),
-  stored to 1e-9 (nano) resolution in every format;
+* ``q_<joint>_rad``, ``qd_<joint>_rad_s``, ``qdd_<joint>_rad_s2`` — planned position, velocity
+  and acceleration (joint side), stored to 1e-9 (nano) resolution (CSV, JSON, NPZ; the
+  acceleration is the feed-forward the CiA 402 export turns into a torque offset);
 * ``counts_<joint>`` — absolute motor-encoder counts
   ``round(q_k x counts_per_rad x sign)`` with ``counts_per_rad = pulses_per_rev x decoding x
   ratio / (2 pi)`` (drives.toml; the profile may override the decoding) — computed from the
@@ -31,10 +32,10 @@ import numpy as np
 
 from armlab.deploy import formats
 from armlab.deploy.checks import PreflightReport, preflight
-from armlab.deploy.formats import DECIMALS, SETPOINTS_FORMAT
+from armlab.deploy.formats import DECIMALS, READABLE_SETPOINT_FORMATS, SETPOINTS_FORMAT
 from armlab.deploy.provenance import armlab_version, trajectory_sha256
 from armlab.errors import InputError
-from armlab.io import atomic_write
+from armlab.io import atomic_write_many
 from armlab.robot.controller import ControllerProfile, load_profile
 
 if TYPE_CHECKING:
@@ -80,6 +81,9 @@ class SetpointTable:
         trajectory_method, armlab_version, source, preflight (JSON-able).
     preflight : PreflightReport or None
         The checks that passed (None for a table read back from a file).
+    qdd_rad_s2 : array (n_cycles, n_axes) or None
+        Planned accelerations [rad/s^2] (1e-9 resolution); None for a table read from a file
+        of format ``armlab.setpoints/1``, which had none.
     """
 
     robot: str
@@ -95,6 +99,7 @@ class SetpointTable:
     axis_sign: np.ndarray
     meta: dict = field(default_factory=dict)
     preflight: PreflightReport | None = None
+    qdd_rad_s2: np.ndarray | None = None
 
     # ------------------------------------------------------------------ facts
     @property
@@ -125,11 +130,9 @@ class SetpointTable:
         )
 
     def column_names(self) -> list[str]:
-        """``cycle, t_s`` then per joint ``q_<j>_rad, qd_<j>_rad_s, counts_<j>, dcounts_<j>``."""
-        names = ["cycle", "t_s"]
-        for j in self.joint_names:
-            names += [f"q_{j}_rad", f"qd_{j}_rad_s", f"counts_{j}", f"dcounts_{j}"]
-        return names
+        """``cycle, t_s`` then per joint ``q_<j>_rad, qd_<j>_rad_s, qdd_<j>_rad_s2, counts_<j>,
+        dcounts_<j>`` (no ``qdd`` for a table without accelerations)."""
+        return list(self.columns())
 
     def columns(self) -> dict[str, np.ndarray]:
         """Every column by name (the order of :meth:`column_names`)."""
@@ -137,6 +140,8 @@ class SetpointTable:
         for a, j in enumerate(self.joint_names):
             out[f"q_{j}_rad"] = self.q_rad[:, a]
             out[f"qd_{j}_rad_s"] = self.qd_rad_s[:, a]
+            if self.qdd_rad_s2 is not None:
+                out[f"qdd_{j}_rad_s2"] = self.qdd_rad_s2[:, a]
             out[f"counts_{j}"] = self.counts[:, a]
             out[f"dcounts_{j}"] = self.dcounts[:, a]
         return out
@@ -148,7 +153,10 @@ class SetpointTable:
     def header_meta(self) -> dict:
         """The metadata every format carries (JSON-able)."""
         m = {
-            "format": SETPOINTS_FORMAT,
+            # a table read from an old file has no accelerations: it is written in that format
+            "format": SETPOINTS_FORMAT
+            if self.qdd_rad_s2 is not None
+            else READABLE_SETPOINT_FORMATS[0],
             "robot": self.robot,
             "joints": list(self.joint_names),
             "axis_sign": [int(s) for s in self.axis_sign],
@@ -173,11 +181,16 @@ class SetpointTable:
 
     # ------------------------------------------------------------------ files
     def render(self, format: str = "csv") -> bytes:
-        """The bytes of the file in ``format`` (csv, json, npz, c)."""
+        """The bytes of the file in ``format`` (csv, json, npz; c: the header)."""
         return formats.render_setpoints(self, format)
 
+    def files(self, path: str | os.PathLike, format: str | None = None) -> list[tuple[Path, bytes]]:
+        """``(path, bytes)`` of every file :meth:`write` writes (two for C: ``.h`` and ``.c``)."""
+        path = Path(path)
+        return formats.setpoint_files(self, path, formats.setpoints_format(path, format))
+
     def write(self, path: str | os.PathLike, format: str | None = None) -> Path:
-        """Write the table atomically (temporary file in the same folder, then rename).
+        """Write the table atomically (temporary files in the same folder, then rename).
 
         Parameters
         ----------
@@ -187,16 +200,16 @@ class SetpointTable:
             after ``#`` header lines (robot, cycle period, counts per joint revolution,
             trajectory sha256, armlab version, and the full metadata as one JSON line). JSON:
             ``{"format", "meta", "columns": {name: [...]}}``. NPZ: one array per quantity plus
-            ``meta_json``. C: a header with ``static const int32_t`` count arrays and
-            ``#define`` metadata.
+            ``meta_json``. C: the header at ``path`` (``#define`` metadata, ``extern``
+            declarations) and the data file ``path`` with suffix ``.c`` (the count arrays, each
+            in the narrowest ``<stdint.h>`` type that holds it).
 
         Returns
         -------
         Path
+            ``path`` (for C: the header; the data file is next to it).
         """
-        path = Path(path)
-        fmt = formats.setpoints_format(path, format)
-        return atomic_write(path, formats.render_setpoints(self, fmt))
+        return atomic_write_many(self.files(path, format))[0]
 
 
 def counts_per_rad(robot: Robot, profile: ControllerProfile, index: np.ndarray) -> np.ndarray:
@@ -258,8 +271,8 @@ def setpoint_table(
     n_steps = max(0, int(math.ceil(trajectory.duration / T - 1e-9)))
     cycle = np.arange(n_steps + 1, dtype=np.int64)
     times = trajectory.t[0] + cycle * T
-    q_all, qd_all, _, _ = trajectory.at(times)
-    q, qd = q_all[:, index], qd_all[:, index]
+    q_all, qd_all, qdd_all, _ = trajectory.at(times)
+    q, qd, qdd = q_all[:, index], qd_all[:, index], qdd_all[:, index]
     qc = None
     if q_current is not None:
         qc = np.asarray(q_current, dtype=float).reshape(-1)
@@ -281,6 +294,7 @@ def setpoint_table(
         t_s=times,
         q=q,
         qd=qd,
+        qdd=qdd,
         counts_exact=counts_exact,
         dcounts=dcounts,
         limits=robot.limits.subset(index),
@@ -319,6 +333,7 @@ def setpoint_table(
         axis_sign=sign,
         meta=meta,
         preflight=report,
+        qdd_rad_s2=_round(qdd),
     )
 
 
@@ -370,6 +385,8 @@ def _table_from_columns(meta: dict, cols: dict[str, np.ndarray], where: str) -> 
         qd_rad_s=per("qd_{}_rad_s", False),
         counts=per("counts_{}", True),
         dcounts=per("dcounts_{}", True),
+        # format /1 files have no accelerations; /2 files must have them
+        qdd_rad_s2=per("qdd_{}_rad_s2", False) if meta.get("format") == SETPOINTS_FORMAT else None,
         counts_per_rad=cpr,
         axis_sign=sign,
         meta={

@@ -13,6 +13,8 @@ from __future__ import annotations
 import io
 import json
 import os
+import zipfile
+import zlib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -29,6 +31,10 @@ if TYPE_CHECKING:
 __all__ = ["TRAJECTORY_FORMAT", "save_trajectory", "load_trajectory"]
 
 TRAJECTORY_FORMAT = "armlab.trajectory/1"
+#: the arrays every trajectory file holds (``qddd`` is optional)
+_ARRAYS = ("t", "q", "qd", "qdd", "joint_names", "method", "sha256", "robot_json", "armlab_version")
+#: what numpy / zipfile raise on a truncated or corrupt .npz
+_UNREADABLE = (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error)
 
 
 def _robot_info(robot) -> dict:
@@ -96,7 +102,8 @@ def load_trajectory(path: str | os.PathLike) -> Trajectory:
     Raises
     ------
     InputError
-        Missing or unreadable file, not an armlab trajectory, checksum mismatch.
+        Missing, truncated, corrupt (not a zip, bad CRC) or unreadable file, not an armlab
+        trajectory, checksum mismatch; one line.
     """
     from armlab.trajectory import Trajectory
 
@@ -106,13 +113,19 @@ def load_trajectory(path: str | os.PathLike) -> Trajectory:
     try:
         with np.load(path, allow_pickle=False) as z:
             a = {k: z[k] for k in z.files}
-    except (OSError, ValueError) as exc:
-        raise InputError(f"{path}: not a readable .npz ({exc})") from None
+    except _UNREADABLE as exc:  # truncated, not a zip, corrupt member (CRC), unreadable array
+        why = str(exc).strip().splitlines()[0] if str(exc).strip() else "no details"
+        raise InputError(
+            f"{path}: not a readable .npz, truncated or corrupt ({type(exc).__name__}: {why})"
+        ) from None
     if str(a.get("format", "")) != TRAJECTORY_FORMAT:
         raise InputError(
             f"{path}: not an armlab trajectory file (format "
             f"{str(a.get('format', None))!r}, expected {TRAJECTORY_FORMAT!r})"
         )
+    missing = [k for k in _ARRAYS if k not in a]
+    if missing:
+        raise InputError(f"{path}: corrupt trajectory file (no array(s) {missing})")
     traj = Trajectory(
         a["t"],
         a["q"],
@@ -128,9 +141,13 @@ def load_trajectory(path: str | os.PathLike) -> Trajectory:
             f"{path}: checksum mismatch (file says {str(a['sha256'])[:12]}..., "
             f"content is {sha[:12]}...): the file is corrupt or was edited"
         )
+    try:
+        robot_info = json.loads(str(a["robot_json"]))
+    except ValueError:
+        raise InputError(f"{path}: corrupt trajectory file (robot_json is not JSON)") from None
     traj.meta.update(
         {
-            "robot": json.loads(str(a["robot_json"])),
+            "robot": robot_info,
             "sha256": sha,
             "file": str(path),
             "file_sha256": file_sha256(path),

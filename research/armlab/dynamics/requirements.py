@@ -31,6 +31,7 @@ import numpy as np
 from armlab.errors import InputError
 from armlab.robot.limits import description_limits
 from armlab.trajectory import Trajectory
+from armlab.trajectory.profiles import MotionProfile, trapezoid_peak_speed, trapezoid_ramp_length
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
@@ -50,28 +51,28 @@ def trapezoid_move(
 ) -> Trajectory:
     """One joint's trapezoidal move from rest to rest, sampled every ``dt`` [s].
 
-    Phases: ``+a`` for ``v/a`` s, ``0`` for ``cruise_s`` s, ``-a`` for ``v/a`` s (signs times
-    ``direction``). At a phase boundary the sample takes the acceleration of the phase that
-    starts there, so the first sample has ``qdd = direction x a`` at rest.
+    Phases (a :class:`~armlab.trajectory.profiles.MotionProfile`): ``+a`` for ``v/a`` s, ``0``
+    for ``cruise_s`` s, ``-a`` for ``v/a`` s (signs times ``direction``). At a phase boundary
+    (within 1e-12 s) the sample takes the acceleration of the phase that starts there, so the
+    first sample has ``qdd = direction x a`` at rest; the last one is at rest.
     """
     if speed <= 0 or acceleration <= 0 or dt <= 0 or cruise_s < 0:
         raise InputError("speed, acceleration and dt must be > 0 and cruise_s >= 0")
     q_start = np.asarray(q_start, float)
     ta = speed / acceleration
-    t1, t2 = ta, ta + cruise_s
-    T = t2 + ta
+    prof = MotionProfile(
+        np.array([ta, cruise_s, ta]), np.array([acceleration, 0.0, -acceleration]), np.zeros(3)
+    )
+    T = ta + cruise_s + ta
     n = int(np.floor(T / dt + 1e-9))
     t = dt * np.arange(n + 1)
     if T - t[-1] > 1e-9 * max(1.0, dt):
         t = np.append(t, T)
-    s, a, v = float(direction), acceleration, speed
-    acc = np.where(t < t1 - 1e-12, a, np.where(t < t2 - 1e-12, 0.0, -a))
+    pos, vel, _, _ = prof.evaluate(t)
+    # the acceleration a sample just below a phase boundary (rounding of k dt) would miss
+    acc = prof.evaluate(t + 1e-12)[2]
     acc[-1] = 0.0  # the last sample is the end of the move: at rest
-    tb = np.clip(t, 0, t1)
-    tc = np.clip(t - t1, 0, cruise_s)
-    td = np.clip(t - t2, 0, ta)
-    pos = 0.5 * a * tb**2 + v * tc + v * td - 0.5 * a * td**2
-    vel = a * tb - a * td
+    s = float(direction)
     nj = q_start.size
     q = np.repeat(q_start[None, :], t.size, axis=0)
     qd = np.zeros((t.size, nj))
@@ -135,7 +136,7 @@ def requirement_moves(
     for j, load in enumerate(static.joints):
         q0 = np.clip(load.pose_rad, lo, hi)
         s = load.direction if load.direction != 0 else 1.0
-        ramp = v[j] ** 2 / a[j]  # accelerate + decelerate
+        ramp = float(trapezoid_ramp_length(v[j], a[j]))  # accelerate + decelerate
         room = {1.0: hi[j] - q0[j], -1.0: q0[j] - lo[j]}
         note = ""
         if room[s] < ramp and room[-s] > room[s]:
@@ -143,7 +144,7 @@ def requirement_moves(
         cruise = min(cruise_s, max(0.0, (room[s] - ramp) / v[j]))
         speed = v[j]
         if room[s] < ramp:
-            speed = float(np.sqrt(max(room[s], 0.0) * a[j])) * (1 - 1e-9)
+            speed = float(trapezoid_peak_speed(max(room[s], 0.0), v[j], a[j])) * (1 - 1e-9)
             note = (note + "; " if note else "") + f"range too short: peak speed {speed:.3g} rad/s"
         elif cruise < cruise_s:
             note = (note + "; " if note else "") + f"cruise shortened to {cruise:.3g} s"

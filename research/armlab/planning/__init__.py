@@ -15,11 +15,15 @@ module                 planners
                        (:class:`OptimalProblem`), its transcription
                        (:mod:`.transcription`) and warm start (:mod:`.warmstart`)
 :mod:`.topp`           time-optimal path parameterisation along a fixed joint path
-:mod:`.timescale`      the one back-off: stretch a plan in time until every limit holds
+:mod:`.timescale`      the back-offs: stretch a plan in time until every limit holds
+                       (classical planners); re-solve with tightened limits
+                       (``backoff_solve``: optimal, topp)
 =====================  ===============================================================
 
 Limits come from :func:`armlab.robot.resolve_limits` (the robot's, overridden per call);
-waypoints are checked by :func:`armlab.trajectory.validate_waypoints`.
+waypoints are checked by :func:`armlab.trajectory.validate_waypoints`; trapezoid and double-S
+timing (PTP, steps, Cartesian, the optimiser's warm start) is
+:mod:`armlab.trajectory.profiles`.
 """
 
 from armlab.planning.cartesian import arc3, blend, follow_path, line, track_path

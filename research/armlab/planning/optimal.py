@@ -52,7 +52,8 @@ Guarantee between the nodes (every instant, not only at nodes)
   ``transcription.TORQUE_INTERIOR_POINTS``). After the solve the trajectory is checked on a
   fine grid (default ``dt = T/4000``, about 100 samples per interval); a joint whose torque
   ratio exceeds ``1 + 1e-6`` has its torque limit backed off by that ratio and a margin (0.1 %)
-  and the problem is re-solved from the previous solution (at most ``max_backoff`` rounds). The
+  and the problem is re-solved from the previous solution (at most ``max_backoff`` rounds;
+  :func:`armlab.planning.timescale.backoff_solve`, the loop shared with the TOPP). The
   returned trajectory's ``report`` is that fine-grid check — the torque guarantee is "on the
   fine grid", not a proof between its samples.
 
@@ -71,12 +72,14 @@ non-binding joints' profiles unique), ``"time+smooth"`` (``T + w int sum_i (u_i/
 when the robot has no drives file).
 
 Warm start: the time-synchronised rest-to-rest S-curve of each segment (stopping at the via
-points; :mod:`armlab.planning.warmstart`), refitted to be an exact piecewise polynomial on the
-node grid and slowed down uniformly until its torques fit. (``armlab.trajectory.ptp_sync`` is
-not used: sampled on our grid its profile does not satisfy the integration equations, and an
-inconsistent start measurably slowed IPOPT down.) The solver is IPOPT with the exact Hessian
-(CasADi SX); the inverse dynamics take the inertial parameters as an input, so one compiled
-problem serves every payload of a robot (cached per kinematics, sizes and flags).
+points; :func:`armlab.trajectory.profiles.synchronised_profiles`, the timing PTP motion uses
+too), refitted to be an exact piecewise polynomial on the node grid
+(:mod:`armlab.planning.warmstart`) and slowed down uniformly until its torques fit.
+(``armlab.trajectory.ptp_sync`` is not used: sampled on our grid its profile does not satisfy
+the integration equations, and an inconsistent start measurably slowed IPOPT down.) The solver
+is IPOPT with the exact Hessian (CasADi SX); the inverse dynamics take the inertial parameters
+as an input, so one compiled problem serves every payload of a robot (cached per kinematics,
+sizes and flags).
 
 References: Verscheure et al., IEEE TAC 54(10) 2009 (time-optimal problems as optimisation);
 Betts, *Practical Methods for Optimal Control*, 2010 (direct transcription); Farouki, CAGD 29 2012
@@ -87,20 +90,19 @@ from __future__ import annotations
 
 import time as _time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
 from armlab._lazy import lazy_import
 from armlab.errors import ArmlabError, InfeasibleError, InputError
+from armlab.planning.timescale import CHECK_TOL, backoff_solve, refuse_violation
 from armlab.planning.transcription import Structure, structure
 from armlab.planning.warmstart import (
-    eval_scurves,
     fit_piecewise,
     integrate_piecewise,
     phase_grid,
-    scurve_min_duration,
-    sync_scurves,
+    sample_profiles,
 )
 from armlab.robot import rigid_body
 from armlab.robot.limits import LIMIT_KEYS, Limits, resolve_limits
@@ -108,6 +110,7 @@ from armlab.robot.symbolic import (
     dynamic_parameters,
 )
 from armlab.trajectory.core import Trajectory
+from armlab.trajectory.profiles import synchronised_profiles
 from armlab.trajectory.waypoints import validate_waypoints
 
 if TYPE_CHECKING:
@@ -127,23 +130,8 @@ H_MIN_S = 1e-4
 JUMP_RAMP_S = 5e-5
 #: tiny smoothness weight added to the pure time objective (regularises non-binding joints)
 TIME_REGULARISATION = 1e-7
-CHECK_TOL = 1e-6
 #: samples of the fine feasibility check (~100 per optimisation interval)
 CHECK_SAMPLES = 4000
-BACKOFF_MARGIN = 1e-3
-
-
-def refuse_violation(traj: Trajectory, planner: str, rounds: int) -> None:
-    """Raise :class:`InfeasibleError` if the fine-grid report of a solved plan still breaks a
-    limit after the back-off re-solves: a plan is never handed out with a silent violation."""
-    if traj.report is None or traj.report.ok(CHECK_TOL):
-        return
-    kind, joint, ratio, t_s = max(traj.report.violations(CHECK_TOL), key=lambda v: v[2])
-    raise InfeasibleError(
-        f"{planner}: after {rounds} back-off re-solve(s) the plan still exceeds the {kind} limit "
-        f"of {joint} (peak ratio {ratio:.6f} at t = {t_s:.4f} s on the fine check grid); loosen "
-        "that limit or use more intervals"
-    )
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -211,12 +199,10 @@ def _classical_segment(robot, qa, qb, ls: Limits, acc, ns: int, mode: str):
     v = ls.velocity_rad_s if ls.velocity_rad_s is not None else np.full(n, np.inf)
     j = ls.jerk_rad_s3 if ls.jerk_rad_s3 is not None else np.full(n, np.inf)
     D = qb - qa
-    Tj = scurve_min_duration(D, v, acc, j)
-    T = float(np.max(Tj))
-    vp = sync_scurves(D, T, v, acc, j)
+    T, Tj, profiles = synchronised_profiles(np.abs(D), v, acc, j)
     slow = np.argsort(-Tj)[: max(1, int(np.sum(Tj >= 0.98 * T)))][:3]
-    t = phase_grid(D, vp, T, acc, j, ns, h_min=2 * H_MIN_S, joints=slow)
-    q, qd, qdd = eval_scurves(D, vp, T, acc, j, t)
+    t = phase_grid(profiles, T, ns, h_min=2 * H_MIN_S, joints=slow)
+    q, qd, qdd = sample_profiles(profiles, np.sign(D), t)
     h = np.diff(t)
     if mode == "jerk":
         u_ref = np.diff(qdd, axis=0) / h[:, None]
@@ -525,34 +511,24 @@ class OptimalProblem:
         """
         x0 = self.x0 if self.x0 is not None else self.make_warm_start()
         torque_on = self.limits.torque_Nm is not None
-        limits = self.limits
-        total_iter, total_time, rounds = 0, 0.0, 0
-        last: tuple[Structure, np.ndarray] | None = None  # the last solve that succeeded
         jl = self.limits
-        while True:
-            st, x, info, data = self._solve_once(limits, x0)
-            total_iter += info["iterations"]
-            total_time += info["solve_time_s"]
-            if not info["success"]:
-                if rounds > 0:  # a backed-off re-solve failed: keep the last good one
-                    assert last is not None  # set by the first round, which succeeded
-                    st, x = last
-                    break
-                self._diagnose(st, x, info, data)
-            traj = self._trajectory(st, x)
+
+        def solve(limits: Limits, previous):  # warm: the last good solution
+            st, x, info, data = self._solve_once(limits, x0 if previous is None else previous[1])
+            return (st, x, data), info
+
+        def check(result) -> dict[str, np.ndarray]:
+            traj = self._trajectory(result[0], result[1])
             dt = self._check_dt(traj)
-            report = traj.check_limits(self.robot, dt=dt, limits=jl, torque=torque_on)
-            last = (st, x)
-            worst = {k: r for k, r in report.ratios.items() if k != "position"}
-            over = {k: r for k, r in worst.items() if np.any(r > 1 + CHECK_TOL)}
-            if not over or rounds >= self.max_backoff:
-                break
-            for kind, r in over.items():
-                factor = (1 - BACKOFF_MARGIN) / np.maximum(r, 1.0)
-                factor[r <= 1 + CHECK_TOL] = 1.0
-                limits = limits.tightened(kind, factor, "back-off")
-            x0 = x
-            rounds += 1
+            return traj.check_limits(self.robot, dt=dt, limits=jl, torque=torque_on).ratios
+
+        def fail(result, info) -> NoReturn:
+            st, x, data = result
+            self._diagnose(st, x, info, data)
+
+        out = backoff_solve(solve, jl, check, max_rounds=self.max_backoff, fail=fail)
+        (st, x, _), limits, info, rounds = out.result, out.limits, out.info, out.rounds
+        total_iter, total_time = out.iterations, out.solve_time_s
         traj = self._trajectory(st, x)
         dt = self._check_dt(traj)
         traj.report = traj.check_limits(self.robot, dt=dt, limits=jl, torque=torque_on)
@@ -600,7 +576,7 @@ class OptimalProblem:
         return traj
 
     # ------------------------------------------------------------------ diagnosis
-    def _diagnose(self, st, x, info, data) -> None:
+    def _diagnose(self, st, x, info, data) -> NoReturn:
         lbx, ubx, lbg, ubg, p, xs = data
         status = info["return_status"]
         if self.duration is not None:

@@ -31,14 +31,12 @@ from armlab.robot.limits import resolve_limits
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import (
     MotionProfile,
-    double_s_min_time,
+    double_s_binding,
     double_s_profile,
-    double_s_profile_for_duration,
     rest_profile,
+    synchronised_profiles,
     time_grid,
-    trapezoid_min_time,
     trapezoid_profile,
-    trapezoid_profile_for_duration,
 )
 from armlab.trajectory.waypoints import validate_waypoints
 
@@ -78,28 +76,6 @@ def _velocity_profiles(D, v, a, dt):
             )
         )
     return profs, T + dt, binding
-
-
-def _binding_kind(profile, d, v, a, j) -> str:
-    """Which limit the fastest single-joint profile reaches: its speed limit or not."""
-    if profile == "trapezoid":
-        return "velocity" if d >= v * v / a else "acceleration"
-    ta = a / j + v / a if v * j >= a * a else 2 * math.sqrt(v / j)
-    if d >= v * ta:
-        return "velocity"
-    return "acceleration" if d * j * j >= 2 * a**3 else "jerk"
-
-
-def _min_time(profile, d, v, a, j):
-    if profile == "trapezoid":
-        return trapezoid_min_time(d, v, a)
-    return double_s_min_time(d, v, a, j)
-
-
-def _for_duration(profile, d, T, v, a, j):
-    if profile == "trapezoid":
-        return trapezoid_profile_for_duration(d, T, a, v_max=v)
-    return double_s_profile_for_duration(d, T, a, j, v_max=v)
 
 
 def ptp_sync(
@@ -204,12 +180,11 @@ def ptp_sync(
         sync_used = "phase"
     else:
         assert a is not None  # needed by the trapezoid and S-curve profiles
-        jj = j if j is not None else np.full(robot.n_joints, np.inf)
-        t_i = np.array(
-            [_min_time(profile, d, vv, aa, jv) for d, vv, aa, jv in zip(D, v, a, jj, strict=True)]
-        )
+        # a trapezoid is the double S without a jerk limit
+        jj = j if profile == "scurve" and j is not None else np.full(robot.n_joints, np.inf)
+        T, t_i, profs = synchronised_profiles(D, v, a, jj)  # Jiang 1987, eq. 3-4
         bj = int(np.argmax(t_i))
-        bkind = _binding_kind(profile, D[bj], v[bj], a[bj], jj[bj])
+        bkind = double_s_binding(D[bj], v[bj], a[bj], jj[bj])
         if sync == "phase":
             moving = D > 0
             vs = float(np.min(v[moving] / D[moving]))
@@ -220,12 +195,6 @@ def ptp_sync(
                 base = double_s_profile(1.0, vs, as_, float(np.min(jj[moving] / D[moving])))
             T = base.duration
             profs = [base] * robot.n_joints
-        else:
-            T = float(t_i.max())
-            profs = [
-                _for_duration(profile, d, T, vv, aa, jv) if d > 0 else rest_profile(T)
-                for d, vv, aa, jv in zip(D, v, a, jj, strict=True)
-            ]
         sync_used = sync
 
     normalised = profile != "velocity" and sync_used == "phase"

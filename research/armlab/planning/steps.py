@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from armlab.errors import InputError
+from armlab.trajectory.profiles import trapezoid_peak_speed, trapezoid_ramp_length
 
 __all__ = ["StepPlan", "trapezoid_steps"]
 
@@ -163,9 +164,9 @@ def trapezoid_steps(length: float, v: float, a_acc: float, a_dec: float, period:
         return StepPlan(
             empty, np.zeros(0, dtype="<U6"), 0.0, T, 0.0, a1, a2, 0, 0, 0, 0.0, None, False
         )
-    S1, S2 = V * V / (2 * a1), V * V / (2 * a2)
-    cruise = L >= S1 + S2
-    vp = V if cruise else math.sqrt(2 * L * a1 * a2 / (a1 + a2))
+    # S1 + S2 = V^2 / (2 a1) + V^2 / (2 a2) <= L: a cruise; else the triangle's peak
+    vp = float(trapezoid_peak_speed(L, V, a1, a2))
+    cruise = L >= float(trapezoid_ramp_length(V, a1, a2))
     n1 = max(1, math.ceil(vp / (a1 * T) - 1e-9))
     n2 = max(1, math.ceil(vp / (a2 * T) - 1e-9))
     if vp * T * (n1 + n2) / 2 > L:  # the rounded ramps overshoot: lower the peak

@@ -1,4 +1,4 @@
-"""The uniform time stretch that brings a classical plan within its limits.
+"""The two back-offs of the planners: a uniform time stretch, and re-solving with tightened limits.
 
 The limits of a request are a :class:`armlab.robot.Limits` from
 :func:`armlab.robot.resolve_limits` (the robot's, overridden or switched off per call).
@@ -7,25 +7,50 @@ Stretching a trajectory in time by ``k >= 1`` (``q_k(t) = q(t / k)``) divides th
 by ``k``, the accelerations by ``k^2`` and the jerks by ``k^3``. Inverse dynamics
 ``tau = M(q) qdd + C(q, qd) qd + g(q)`` becomes ``g + (tau - g) / k^2`` at the same path point,
 so the smallest ``k`` that meets every limit follows in closed form from the samples
-(:func:`stretch_needed`). The planners use it to slow down instead of violating a limit, and
-say which limit set the pace (``Trajectory.meta["slowdown"]``).
+(:func:`stretch_needed`). The classical planners use it to slow down instead of violating a
+limit, and say which limit set the pace (``Trajectory.meta["slowdown"]``).
+
+The optimising planners (:mod:`armlab.planning.optimal`, :mod:`armlab.planning.topp`) impose
+their limits on a grid and check the solution on a finer one; where a limit is exceeded by
+more than ``CHECK_TOL`` between the grid points it is multiplied by
+``(1 - BACKOFF_MARGIN) / ratio`` and the problem re-solved (:func:`backoff_solve`, the one
+back-off loop: at most ``max_rounds`` re-solves, a failed re-solve keeps the last good
+solution), and a plan still over a limit after that is refused (:func:`refuse_violation`).
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Generic, NoReturn, TypeVar
 
 import numpy as np
 
-from armlab.errors import LimitViolation
+from armlab.errors import InfeasibleError, LimitViolation
 from armlab.robot import rigid_body
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
     from armlab.trajectory.core import Trajectory
 
-__all__ = ["stretch_needed", "finish", "check_in_range"]
+__all__ = [
+    "stretch_needed",
+    "finish",
+    "check_in_range",
+    "backoff_solve",
+    "Backoff",
+    "over_limits",
+    "tighten_limits",
+    "refuse_violation",
+    "CHECK_TOL",
+    "BACKOFF_MARGIN",
+]
+
+#: a fine-grid peak ratio above ``1 + CHECK_TOL`` breaks a limit (the optimisers' check)
+CHECK_TOL = 1e-6
+#: a broken limit is backed off by its peak ratio and this fraction more
+BACKOFF_MARGIN = 1e-3
 
 
 def check_in_range(robot: Robot, q, what: str) -> None:
@@ -113,3 +138,127 @@ def finish(traj, robot: Robot, limits, *, torque: bool, what: str) -> Trajectory
             f"{what}: {joint} {kind} reaches {ratio:.4g} x its limit at t = {at:.4g} s"
         )
     return traj
+
+
+# ---------------------------------------------------------------------------- back-off loop
+S = TypeVar("S")  # what is tightened: a Limits, or a planner's own scale factors
+R = TypeVar("R")  # what one solve returns
+
+
+@dataclass
+class Backoff(Generic[R, S]):
+    """What :func:`backoff_solve` ends with.
+
+    Attributes
+    ----------
+    result : R
+        The last successful solve.
+    limits : S
+        The (tightened) limits it was solved with.
+    rounds : int
+        Back-off re-solves done.
+    iterations : int
+        Solver iterations over all solves, failed ones included.
+    solve_time_s : float
+        Solve time over all solves in [s].
+    info : dict
+        The solver info of the last solve attempted (a failed re-solve's, if one failed).
+    """
+
+    result: R
+    limits: S
+    rounds: int
+    iterations: int
+    solve_time_s: float
+    info: dict
+
+
+def over_limits(ratios: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The kinds of ``ratios`` (kind -> peak ratios to the limit, any shape) that exceed
+    ``1 + CHECK_TOL`` somewhere; positions are left out (the planners bound them exactly)."""
+    return {k: r for k, r in ratios.items() if k != "position" and np.any(r > 1 + CHECK_TOL)}
+
+
+def tighten_limits(
+    limits, over: dict[str, np.ndarray], rounds: int = 0, margin: float = BACKOFF_MARGIN
+):
+    """``limits`` (a :class:`~armlab.robot.Limits`) with each joint's limit of a kind in
+    ``over`` (kind -> peak ratio per joint) times ``(1 - margin) / ratio`` where the ratio
+    exceeds ``1 + CHECK_TOL``; the sources say "back-off". ``rounds`` is not used (the
+    signature of :func:`backoff_solve`'s ``tighten``)."""
+    for kind, r in over.items():
+        factor = (1 - margin) / np.maximum(r, 1.0)
+        factor[r <= 1 + CHECK_TOL] = 1.0
+        limits = limits.tightened(kind, factor, "back-off")
+    return limits
+
+
+def backoff_solve(
+    solve: Callable[[S, R | None], tuple[R, dict]],
+    limits: S,
+    check: Callable[[R], dict[str, np.ndarray]],
+    *,
+    max_rounds: int,
+    fail: Callable[[R, dict], NoReturn],
+    margin: float = BACKOFF_MARGIN,
+    tighten: Callable[[S, dict[str, np.ndarray], int, float], S] = tighten_limits,
+) -> Backoff[R, S]:
+    """Solve, check on the fine grid, tighten what is exceeded and re-solve: the one back-off
+    loop of the optimising planners (module docstring).
+
+    Parameters
+    ----------
+    solve : callable ``(limits, previous) -> (result, info)``
+        One solve with these limits; ``previous`` is the last successful result (None at
+        first), for a warm start. ``info`` holds ``success`` (bool), ``iterations`` and
+        ``solve_time_s`` [s].
+    limits : Limits or any state
+        What the first solve uses and ``tighten`` changes.
+    check : callable ``result -> {kind: ratios}``
+        Peak ratios to the request's own limits on the fine grid (arrays, any shape).
+    max_rounds : int
+        Re-solves allowed.
+    fail : callable ``(result, info)``
+        Raises the planner's error when the first solve fails.
+    margin : float
+        Extra fraction a broken limit is backed off by.
+    tighten : callable ``(limits, over, rounds, margin) -> limits``
+        The new limits from the kinds over their limit (:func:`over_limits`) after ``rounds``
+        re-solves; default :func:`tighten_limits`.
+
+    Returns
+    -------
+    Backoff
+        The last successful solve, its limits, the rounds, the summed iterations and time.
+    """
+    rounds, iterations, solve_time = 0, 0, 0.0
+    kept: tuple[R, S] | None = None  # the last successful solve and its limits
+    while True:
+        result, info = solve(limits, None if kept is None else kept[0])
+        iterations += int(info.get("iterations", 0))
+        solve_time += float(info.get("solve_time_s", 0.0))
+        if not info["success"]:
+            if kept is None:
+                fail(result, info)
+            break  # a backed-off re-solve failed: keep the last good one
+        kept = (result, limits)
+        over = over_limits(check(result))
+        if not over or rounds >= max_rounds:
+            break
+        limits = tighten(limits, over, rounds, margin)
+        rounds += 1
+    assert kept is not None  # a failed first solve went to fail(), which raises
+    return Backoff(kept[0], kept[1], rounds, iterations, solve_time, info)
+
+
+def refuse_violation(traj: Trajectory, planner: str, rounds: int) -> None:
+    """Raise :class:`InfeasibleError` if the fine-grid report of a solved plan still breaks a
+    limit after the back-off re-solves: a plan is never handed out with a silent violation."""
+    if traj.report is None or traj.report.ok(CHECK_TOL):
+        return
+    kind, joint, ratio, t_s = max(traj.report.violations(CHECK_TOL), key=lambda v: v[2])
+    raise InfeasibleError(
+        f"{planner}: after {rounds} back-off re-solve(s) the plan still exceeds the {kind} limit "
+        f"of {joint} (peak ratio {ratio:.6f} at t = {t_s:.4f} s on the fine check grid); loosen "
+        "that limit or use more intervals"
+    )

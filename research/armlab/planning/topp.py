@@ -39,18 +39,19 @@ Limits are imposed at those points; between them the trajectory is checked on a 
 acceleration between the check points exceed them by up to ~3e-4 otherwise). The path itself
 must stay in the joint ranges (checked densely when the problem is built). Intervals where a
 limit is still exceeded by more than ``1e-6`` are tightened by the excess (plus 0.1 %) and the
-problem re-solved; residues after that tighten the whole limit kind slightly
-(``max_backoff`` rounds). ``traj.report`` is the final fine-grid check: "feasible on the fine
-grid", not a proof between its samples. The convex pass is globally optimal on its grid; the
-jerk pass is a local optimum. Jerk-free results have acceleration steps, replaced by 50 us
-ramps as in :mod:`armlab.planning.optimal`.
+problem re-solved; residues after that tighten the whole limit kind slightly (``max_backoff``
+rounds; the jerk pass backs off whole joint limits, as :mod:`armlab.planning.optimal` does: both
+loops are :func:`armlab.planning.timescale.backoff_solve`). ``traj.report`` is the final
+fine-grid check: "feasible on the fine grid", not a proof between its samples. The convex pass
+is globally optimal on its grid; the jerk pass is a local optimum. Jerk-free results have
+acceleration steps, replaced by 50 us ramps as in :mod:`armlab.planning.optimal`.
 """
 
 from __future__ import annotations
 
 import time as _time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 from scipy import sparse
@@ -58,13 +59,8 @@ from scipy.interpolate import CubicSpline
 
 from armlab._lazy import lazy_import
 from armlab.errors import ArmlabError, InfeasibleError, InputError
-from armlab.planning.optimal import (
-    BACKOFF_MARGIN,
-    CHECK_SAMPLES,
-    CHECK_TOL,
-    JUMP_RAMP_S,
-    refuse_violation,
-)
+from armlab.planning.optimal import CHECK_SAMPLES, JUMP_RAMP_S
+from armlab.planning.timescale import CHECK_TOL, backoff_solve, refuse_violation
 from armlab.robot import rigid_body
 from armlab.robot.limits import LIMIT_KEYS, Limits, resolve_limits
 from armlab.trajectory.core import Trajectory
@@ -569,64 +565,59 @@ class ToppProblem:
         ls0 = self.limits
         jl = ls0
         ls = resolve_limits(ls0, j_max=False)  # the convex pass has no jerk limit
-        total_it, total_t, rounds = 0, 0.0, 0
-        b = None
         K, n = self.s.size - 1, ls.n_joints
         scale = {
             k: np.full((K, n), 1 - LIMIT_MARGIN) for k in ("velocity", "acceleration", "torque")
         }
-        last_b = None
-        while True:  # convex pass with local back-off
-            b, info = self.solve_convex(ls, scale, last_b)
-            total_it += info["iterations"]
-            total_t += info["solve_time_s"]
-            if not info["success"]:
-                if rounds > 0:
-                    b = last_b
-                    break
-                raise InfeasibleError(
-                    f"time_optimal_path: the convex problem failed ({info['return_status']}); "
-                    "a limit cannot be met along this path"
-                )
-            last_b = b
-            traj = self.trajectory_from_b(b)
-            ratios = self.interval_ratios(traj, ls0, self._dt(traj))
-            over = {k: r for k, r in ratios.items() if np.any(r > 1 + CHECK_TOL)}
-            if not over or rounds >= self.max_backoff:
-                break
-            for kind, r in over.items():
-                f: np.ndarray | float
-                if rounds == 0:  # first: tighten only the intervals that overshoot
-                    f = np.where(r > 1 + CHECK_TOL, (1 - BACKOFF_MARGIN) / np.maximum(r, 1.0), 1.0)
-                else:  # then the residue moves around: tighten the whole kind a little
-                    f = (1 - 10 * CHECK_TOL) / float(np.max(r))
-                scale[kind] = scale[kind] * f
-            rounds += 1
+
+        # convex pass with local back-off: the limits of each path interval are scaled
+        def solve_convex(scale, previous):  # warm: the last good (b, trajectory)
+            b, info = self.solve_convex(ls, scale, None if previous is None else previous[0])
+            return (b, self.trajectory_from_b(b) if info["success"] else None), info
+
+        def interval_ratios(result) -> dict[str, np.ndarray]:
+            return self.interval_ratios(result[1], ls0, self._dt(result[1]))
+
+        def convex_failed(result, info) -> NoReturn:
+            raise InfeasibleError(
+                f"time_optimal_path: the convex problem failed ({info['return_status']}); "
+                "a limit cannot be met along this path"
+            )
+
+        convex = backoff_solve(
+            solve_convex,
+            scale,
+            interval_ratios,
+            max_rounds=self.max_backoff,
+            fail=convex_failed,
+            tighten=_tighten_intervals,
+        )
+        (b_convex, traj), rounds = convex.result, convex.rounds
+        total_it, total_t = convex.iterations, convex.solve_time_s
         passes = ["convex"]
-        assert b is not None  # a successful convex round set it (a failed first one raised)
-        b_convex = b
         if ls0.jerk_rad_s3 is not None:
-            ls = ls0
-            jrounds = 0
-            while True:
+
+            def solve_jerk(ls: Limits, previous):  # always warm-started from the convex pass
                 sol, info = self.solve_jerk(ls, b_convex)
-                total_it += info["iterations"]
-                total_t += info["solve_time_s"]
-                if not info["success"]:
-                    if jrounds > 0:
-                        break
-                    raise ArmlabError(
-                        f"time_optimal_path: the jerk pass failed ({info['return_status']})"
-                    )
-                traj = self.trajectory_from_jerk(sol)
-                rep = traj.check_limits(
-                    self.robot, dt=self._dt(traj), limits=jl, torque=ls.torque_Nm is not None
+                return (self.trajectory_from_jerk(sol) if info["success"] else None), info
+
+            def ratios(traj) -> dict[str, np.ndarray]:
+                return traj.check_limits(
+                    self.robot, dt=self._dt(traj), limits=jl, torque=ls0.torque_Nm is not None
+                ).ratios
+
+            def jerk_failed(result, info) -> NoReturn:
+                raise ArmlabError(
+                    f"time_optimal_path: the jerk pass failed ({info['return_status']})"
                 )
-                if not self._backoff(rep, jrounds):
-                    break
-                ls = self._scaled(ls, rep)
-                jrounds += 1
-            rounds += jrounds
+
+            jerk = backoff_solve(
+                solve_jerk, ls0, ratios, max_rounds=self.max_backoff, fail=jerk_failed
+            )
+            traj = jerk.result
+            rounds += jerk.rounds
+            total_it += jerk.iterations
+            total_t += jerk.solve_time_s
             passes.append("jerk")
         dt = self._dt(traj)
         traj.report = traj.check_limits(
@@ -669,20 +660,6 @@ class ToppProblem:
     def _dt(self, traj: Trajectory) -> float:
         return self.check_dt or traj.duration / CHECK_SAMPLES
 
-    def _backoff(self, rep, rounds: int) -> bool:
-        over = [k for k, r in rep.ratios.items() if k != "position" and np.any(r > 1 + CHECK_TOL)]
-        return bool(over) and rounds < self.max_backoff
-
-    @staticmethod
-    def _scaled(ls: Limits, rep) -> Limits:
-        for kind, r in rep.ratios.items():
-            if kind == "position" or ls.get(kind) is None:
-                continue
-            factor = (1 - BACKOFF_MARGIN) / np.maximum(r, 1.0)
-            factor[r <= 1 + CHECK_TOL] = 1.0
-            ls = ls.tightened(kind, factor, "back-off")
-        return ls
-
     # ------------------------------------------------------------------ phase plane
     def limit_curves(self, ls: Limits | None = None) -> dict[str, np.ndarray]:
         """Upper bounds on ``sd(s)`` at the nodes: from the velocity limits alone, and the
@@ -723,6 +700,24 @@ class ToppProblem:
             bmax[k] = _max_b(lo_a, bv[k])
         out["all"] = np.sqrt(bmax)
         return out
+
+
+def _tighten_intervals(
+    scale: dict[str, np.ndarray], over: dict[str, np.ndarray], rounds: int, margin: float
+) -> dict[str, np.ndarray]:
+    """The convex pass's back-off (``tighten`` of :func:`~armlab.planning.timescale.backoff_solve`)
+    on the per-interval limit scales (K, n): at first only the intervals over their limit, by
+    their ratio and ``margin``; after that (the residue moves around) the whole kind a little,
+    by its peak ratio and ``10 CHECK_TOL``."""
+    out = dict(scale)
+    for kind, r in over.items():
+        f: np.ndarray | float
+        if rounds == 0:
+            f = np.where(r > 1 + CHECK_TOL, (1 - margin) / np.maximum(r, 1.0), 1.0)
+        else:
+            f = (1 - 10 * CHECK_TOL) / float(np.max(r))
+        out[kind] = scale[kind] * f
+    return out
 
 
 def _max_b(cons, b_cap: float) -> float:

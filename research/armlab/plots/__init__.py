@@ -1,7 +1,13 @@
 """Every figure armlab draws, in one place (matplotlib is imported inside each function).
 
 Each function takes the result objects of the computing packages (a ``WorkspaceResult``, a
-``Trajectory``, ``JointLoads``, ``CascadeGains``...) and returns a ``matplotlib`` Figure:
+``Trajectory``, ``JointLoads``, ``CascadeGains``...) and returns a ``matplotlib`` Figure.
+
+The figures are made with ``matplotlib.pyplot``, under whatever backend the caller has (armlab
+never switches it): Jupyter's inline backend shows every figure a cell makes, a script shows them
+with ``plt.show()`` or saves them with ``fig.savefig(path)``. Inside ``with offscreen():`` they
+are made with the object API and an Agg canvas instead, for files only (no pyplot, nothing to
+close); the study report and the sweep plots draw that way.
 
 =============================  =========================================================
 module                         figures
@@ -14,6 +20,7 @@ module                         figures
 =============================  =========================================================
 """
 
+from armlab.plots._figure import offscreen
 from armlab.plots.dynamics import plot_joint_loads, plot_operating_points
 from armlab.plots.kinematics import plot_accuracy, plot_accuracy_scatter, plot_workspace
 from armlab.plots.motion import plot_joints, plot_online, plot_tcp_path
@@ -27,6 +34,7 @@ from armlab.plots.servo import (
 )
 
 __all__ = [
+    "offscreen",
     "plot_workspace",
     "plot_accuracy",
     "plot_accuracy_scatter",

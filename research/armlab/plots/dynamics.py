@@ -1,6 +1,6 @@
 """Plots of joint loads: torque, speed and power over time, and motor operating points on the
 speed-torque plane with the DC motor's envelope. Functions return matplotlib Figures
-(headless; nothing is shown)."""
+(made by pyplot: Jupyter shows them; :func:`armlab.plots.offscreen` for files only)."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import numpy as np
 from armlab.dynamics.checks import DriveArrays
 from armlab.dynamics.inverse import RAD_S_TO_RPM, JointLoads, require_drives
 from armlab.errors import InputError
+from armlab.plots._figure import new_figure
 
 if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with armlab.dynamics
     from matplotlib.figure import Figure
@@ -41,10 +42,8 @@ def plot_joint_loads(loads: JointLoads, robot: Robot | None = None, *, joints=No
     joints : sequence of str, optional
         Joints to draw (default all).
     """
-    from matplotlib.figure import Figure
-
     idx = _joint_indices(loads, joints)
-    fig = Figure(figsize=(11, 2.1 * len(idx) + 0.6), layout="constrained")
+    fig = new_figure(figsize=(11, 2.1 * len(idx) + 0.6), layout="constrained")
     axes = fig.subplots(len(idx), 3, squeeze=False, sharex=True)
     for row, j in enumerate(idx):
         series = (
@@ -109,12 +108,10 @@ def plot_operating_points(loads: JointLoads, robot: Robot, *, drives=None, joint
     drive_list = require_drives(robot, drives)
     if loads.motor_torque_Nm is None or loads.motor_speed_rad_s is None:
         raise InputError("loads have no motor-side signals (robot without drives)")
-    from matplotlib.figure import Figure
-
     idx = _joint_indices(loads, joints)
     ncol = min(3, len(idx))
     nrow = int(np.ceil(len(idx) / ncol))
-    fig = Figure(figsize=(4.2 * ncol, 3.4 * nrow), layout="constrained")
+    fig = new_figure(figsize=(4.2 * ncol, 3.4 * nrow), layout="constrained")
     axes = np.atleast_1d(fig.subplots(nrow, ncol, squeeze=False)).ravel()
     for ax, j in zip(axes, idx, strict=False):
         d = drive_list[j]

@@ -1,7 +1,8 @@
-"""Figures of the workspace and accuracy studies (matplotlib Figures; never shown).
+"""Figures of the workspace and accuracy studies (matplotlib Figures).
 
-Headless: the figures are built with :class:`matplotlib.figure.Figure` directly (no pyplot
-state), so they work under any backend; save them with ``fig.savefig(path)``.
+The figures are made by pyplot under the caller's backend (Jupyter shows them; nothing switches
+the backend); save them with ``fig.savefig(path)``, or draw them inside
+:func:`armlab.plots.offscreen` to keep them out of pyplot.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import numpy as np
 
 from armlab.kinematics.accuracy import AccuracyResult
 from armlab.kinematics.workspace import WorkspaceResult
+from armlab.plots._figure import new_figure
 
 if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with the package
     from matplotlib.figure import Figure
@@ -34,9 +36,7 @@ def plot_workspace(
     """
     p = result.points_m[:max_points] * 1000.0
     r = np.hypot(p[:, 0], p[:, 1])
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(11, 5), layout="constrained")
+    fig = new_figure(figsize=(11, 5), layout="constrained")
     side, top = fig.subplots(1, 2)
     side.scatter(r, p[:, 2], s=1, alpha=0.25, color="tab:blue", rasterized=True)
     side.axvline(
@@ -83,9 +83,7 @@ _TITLES = {"angle": "reducer angle errors", "length": "link-length tolerances", 
 def plot_accuracy(result: AccuracyResult, *, bins: int = 60) -> Figure:
     """Histograms of the position error: one row per source (angle, length, both), columns
     dx, dy, dz and the total |dp|, in [mm]; the 95th percentile is marked."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(13, 8), layout="constrained")
+    fig = new_figure(figsize=(13, 8), layout="constrained")
     axes = fig.subplots(3, 4)
     for row, source in enumerate(("angle", "length", "combined")):
         e = result.errors(source) * 1000.0
@@ -112,9 +110,7 @@ def plot_accuracy_scatter(result: AccuracyResult, source: str = "combined") -> F
     """Error per sample (the thesis' figures 3.3-3.10 style): dx, dy, dz and |dp| in [mm]
     against the sample number."""
     e = result.errors(source) * 1000.0
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(11, 6), layout="constrained")
+    fig = new_figure(figsize=(11, 6), layout="constrained")
     axes = fig.subplots(2, 2).ravel()
     data = [e[:, 0], e[:, 1], e[:, 2], np.linalg.norm(e, axis=1)]
     k = np.arange(1, e.shape[0] + 1)

@@ -1,6 +1,7 @@
 """Figures of planned motions: joint signals over time, the tool path in 3-D, online runs.
 
-Every function returns a :class:`matplotlib.figure.Figure` (never shows it); works headless.
+Every function returns a :class:`matplotlib.figure.Figure` made by pyplot (Jupyter shows it;
+:func:`armlab.plots.offscreen` for files only).
 """
 
 from __future__ import annotations
@@ -8,6 +9,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from armlab.plots._figure import new_figure
 
 if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with the package
     from matplotlib.figure import Figure
@@ -28,9 +31,7 @@ def plot_joints(
     robot : Robot, optional
         With ``limits=True``, the velocity and acceleration limits are drawn dashed.
     """
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(9, 7.5), constrained_layout=True)
+    fig = new_figure(figsize=(9, 7.5), constrained_layout=True)
     axes = fig.subplots(3, 1, sharex=True)
     rows = [
         ("q", traj.q, "position [rad]", None),
@@ -61,9 +62,7 @@ def plot_tcp_path(robot: Robot, traj, taught_points=None, *, title: str | None =
 
     P = fk_batch(robot, traj.q)[:, :3, 3]
     pts = traj.meta.get("taught_points") if taught_points is None else taught_points
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(7, 6), constrained_layout=True)
+    fig = new_figure(figsize=(7, 6), constrained_layout=True)
     ax = fig.add_subplot(projection="3d")
     ax.plot(P[:, 0], P[:, 1], P[:, 2], lw=1.5, label="tool centre point")
     ax.scatter(*P[0], color="g", s=30, label="start")
@@ -87,9 +86,7 @@ def plot_tcp_path(robot: Robot, traj, taught_points=None, *, title: str | None =
 
 def plot_online(run, *, title: str | None = None) -> Figure:
     """Arc length, speed and override of an :class:`OnlineRun` over time."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(8, 6), constrained_layout=True)
+    fig = new_figure(figsize=(8, 6), constrained_layout=True)
     ax1, ax2, ax3 = fig.subplots(3, 1, sharex=True)
     ax1.plot(run.t, run.s)
     ax1.set_ylabel("s")

@@ -1,7 +1,8 @@
 """Figures of optimised motions: joint profiles against the request's limits, torque ratio
 over time, and the phase plane ``sd(s)`` of a time-optimal path parameterisation.
 
-Every function returns a :class:`matplotlib.figure.Figure` (never shows it); works headless.
+Every function returns a :class:`matplotlib.figure.Figure` made by pyplot (Jupyter shows it;
+:func:`armlab.plots.offscreen` for files only).
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from armlab.errors import InputError
+from armlab.plots._figure import new_figure
 
 if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with the package
     from matplotlib.figure import Figure
@@ -58,9 +60,7 @@ def plot_limit_profiles(
     signals = {"q": q, "qd": qd, "qdd": qdd, "qddd": qddd}
     t_rel = times - traj.t[0]
     limits = _limits_of(traj, robot)
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(9, 9), constrained_layout=True)
+    fig = new_figure(figsize=(9, 9), constrained_layout=True)
     axes = fig.subplots(4, 1, sharex=True)
     for ax, (key, label, lim_name) in zip(axes, _ROWS, strict=True):
         lim = limits.get(lim_name) if lim_name else None
@@ -106,9 +106,7 @@ def plot_torque_ratio(
     if tau_max.shape != (traj.n_joints,):
         raise InputError(f"tau_max has shape {tau_max.shape}, expected ({traj.n_joints},)")
     ratio = np.abs(tau) / tau_max
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(9, 4), constrained_layout=True)
+    fig = new_figure(figsize=(9, 4), constrained_layout=True)
     ax = fig.subplots()
     for j, name in enumerate(traj.joint_names):
         ax.plot(
@@ -131,22 +129,20 @@ def plot_torque_ratio(
 def plot_phase_plane(traj_or_problem, *, title: str | None = None) -> Figure:
     """Phase plane of a path parameterisation: ``sd(s)`` with its limit curves.
 
+    Draws the solution, the velocity-limit curve ``min_i v_i / |q_i'(s)|`` and the maximum
+    velocity curve of all limits (largest ``sd`` for which some ``sdd`` satisfies every
+    acceleration and torque limit; Verscheure et al. 2009 fig. 2 style).
+
     Parameters
     ----------
     traj_or_problem : Trajectory or ToppProblem
         A result of :func:`~armlab.trajectory.time_optimal_path` (its ``meta["topp"]``).
-
-    Draws the solution, the velocity-limit curve ``min_i v_i / |q_i'(s)|`` and the maximum
-    velocity curve of all limits (largest ``sd`` for which some ``sdd`` satisfies every
-    acceleration and torque limit; Verscheure et al. 2009 fig. 2 style).
     """
     prob = getattr(traj_or_problem, "meta", {}).get("topp", traj_or_problem)
     if not hasattr(prob, "limit_curves"):
         raise InputError("plot_phase_plane needs a time_optimal_path result (meta['topp'])")
     curves = prob.limit_curves()
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(9, 4.5), constrained_layout=True)
+    fig = new_figure(figsize=(9, 4.5), constrained_layout=True)
     ax = fig.subplots()
     s = curves["s"]
     ax.plot(s, curves["velocity"], color="C1", ls="--", lw=1.2, label="velocity limit curve")

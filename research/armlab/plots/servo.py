@@ -1,6 +1,7 @@
 """Figures of the servo design: Bode with margins, step responses, root loci, tracking error.
 
-Every function returns a :class:`matplotlib.figure.Figure` (never shows it); headless-safe.
+Every function returns a :class:`matplotlib.figure.Figure` made by pyplot (Jupyter shows it;
+:func:`armlab.plots.offscreen` for files only).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import numpy as np
 from armlab.control.gains import LOOPS, CascadeGains
 from armlab.control.loops import CascadeModel, _response, freq_grid, margins
 from armlab.control.plant import INERTIA_CASES, JointPlant
+from armlab.plots._figure import new_figure
 
 if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with the package
     from matplotlib.figure import Figure
@@ -28,9 +30,7 @@ def bode_figure(
 ) -> Figure:
     """Open-loop Bode plot of one loop at min/nominal/max inertia, continuous (dashed) and
     discrete (solid), gain crossover and -180 deg marked, margins in the legend."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(8, 6))
+    fig = new_figure(figsize=(8, 6))
     ax_m, ax_p = fig.subplots(2, 1, sharex=True)
     dt = getattr(gains, loop).sample_time_s
     for case in INERTIA_CASES:
@@ -64,9 +64,7 @@ def bode_figure(
 def step_figure(plant: JointPlant, gains: CascadeGains) -> Figure:
     """Closed-loop unit-step responses of the current, speed and position loops at min/nominal/
     max inertia (discrete solid, continuous dashed)."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(11, 3.5))
+    fig = new_figure(figsize=(11, 3.5))
     axes = fig.subplots(1, 3)
     for ax, loop in zip(axes, LOOPS, strict=True):
         lg = getattr(gains, loop)
@@ -110,9 +108,7 @@ def root_locus_figure(
 ) -> Figure:
     """Root locus of ``1 + k L`` for one loop at the nominal inertia; the tuned gain (k = 1)
     marked. Discrete loops are drawn with the unit circle."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(6, 5))
+    fig = new_figure(figsize=(6, 5))
     ax = fig.subplots()
     m = CascadeModel(plant.at("nominal"), gains)
     L = m.open_loop(loop, discrete)
@@ -150,9 +146,7 @@ def root_locus_figure(
 
 def tracking_figure(result) -> Figure:
     """Joint tracking errors and the TCP error over time, with the accuracy tolerance."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(9, 6))
+    fig = new_figure(figsize=(9, 6))
     ax_j, ax_t = fig.subplots(2, 1, sharex=True)
     err = result.error_rad
     for j, name in enumerate(result.joint_names):
@@ -177,9 +171,7 @@ def tracking_figure(result) -> Figure:
 
 def force_figure(results) -> Figure:
     """Force step responses (list of :class:`ForceLoopResult`) on one axis."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(7, 4))
+    fig = new_figure(figsize=(7, 4))
     ax = fig.subplots()
     for r in results:
         ax.plot(

@@ -74,6 +74,13 @@ class ControllerProfile:
         Relative slack on the joint speed limits (planner round-off), e.g. 1e-6.
     continuity_tolerance : float
         Relative slack on the continuity check (velocity change per cycle <= a_max x cycle).
+    home_position_rad : tuple of float or None
+        Joint angle in [rad] of each axis' homing reference (axis order; None: all at the
+        joint zero). The CiA 402 export turns it into the home offset (object 0x607C).
+    modulo_axes : tuple of (str or int) or None
+        Axes the drive runs as modulo (rotary) axes, by joint name or 1-based joint number: the
+        CiA 402 export wraps their target positions into one joint revolution (position range
+        limit 0x607B). None: no modulo axes.
     """
 
     name: str
@@ -93,6 +100,8 @@ class ControllerProfile:
     start_tolerance_counts: float = 1.0
     speed_tolerance: float = 1e-6
     continuity_tolerance: float = 0.05
+    home_position_rad: tuple[float, ...] | None = None
+    modulo_axes: tuple[str | int, ...] | None = None
 
     def __post_init__(self) -> None:
         where = f"controller profile {self.name!r}"
@@ -111,10 +120,22 @@ class ControllerProfile:
             raise InputError(f"{where}: max_pulses_per_cycle must be >= 1")
         if self.decoding is not None and int(self.decoding) not in (1, 2, 4):
             raise InputError(f"{where}: decoding must be 1, 2 or 4, got {self.decoding!r}")
-        for key in ("axis_order", "axis_sign", "counts_per_joint_rev"):
+        for key in (
+            "axis_order",
+            "axis_sign",
+            "counts_per_joint_rev",
+            "home_position_rad",
+            "modulo_axes",
+        ):
             v = getattr(self, key)
             if v is not None:
                 object.__setattr__(self, key, tuple(v))
+        if self.home_position_rad is not None and not all(
+            isinstance(x, (int, float)) and math.isfinite(x) for x in self.home_position_rad
+        ):
+            raise InputError(f"{where}: home_position_rad must be finite numbers [rad]")
+        if self.modulo_axes is not None and len(set(self.modulo_axes)) != len(self.modulo_axes):
+            raise InputError(f"{where}: modulo_axes repeats a joint: {self.modulo_axes}")
         if self.axis_sign is not None and any(s not in (1, -1) for s in self.axis_sign):
             raise InputError(f"{where}: axis_sign entries must be +1 or -1, got {self.axis_sign}")
         if self.counts_per_joint_rev is not None and not all(
@@ -219,6 +240,44 @@ class ControllerProfile:
             decoding = d.encoder.decoding if self.decoding is None else int(self.decoding)
             out.append(d.encoder.pulses_per_rev * decoding * d.reducer.ratio / (2.0 * math.pi))
         return np.asarray(out, dtype=float)
+
+    def home_positions_rad(self, n_axes: int) -> np.ndarray:
+        """Joint angle of each axis' homing reference in [rad], ``(n_axes,)`` (zeros if unset).
+
+        Raises
+        ------
+        InputError
+            ``home_position_rad`` has another length than the controller's axes.
+        """
+        if self.home_position_rad is None:
+            return np.zeros(n_axes)
+        if len(self.home_position_rad) != n_axes:
+            raise InputError(
+                f"controller profile {self.name!r}: home_position_rad has "
+                f"{len(self.home_position_rad)} entries for {n_axes} axes"
+            )
+        return np.asarray(self.home_position_rad, dtype=float)
+
+    def modulo_mask(self, robot: Robot, index: np.ndarray | None = None) -> np.ndarray:
+        """True for each controller axis the drive runs as a modulo axis, ``(n_axes,)`` bool.
+
+        Parameters
+        ----------
+        robot : Robot
+        index : array of int, optional
+            Joint index of each axis (:meth:`axes`); default the robot's joint order.
+
+        Raises
+        ------
+        InputError
+            A joint of ``modulo_axes`` the robot does not have.
+        """
+        if index is None:
+            index = np.arange(robot.n_joints)
+        if self.modulo_axes is None:
+            return np.zeros(len(index), dtype=bool)
+        joints = {robot.joint_index(j) for j in self.modulo_axes}
+        return np.array([int(i) in joints for i in index], dtype=bool)
 
     def to_dict(self) -> dict:
         """JSON-able dict of every field (tuples as lists)."""

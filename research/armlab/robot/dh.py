@@ -28,7 +28,15 @@ import numpy as np
 from armlab.errors import RobotDescriptionError
 from armlab.tomlfile import read_toml
 
-__all__ = ["DHTable", "LumpedMass", "read_dh_table", "urdf_from_dh", "mdh_transforms"]
+__all__ = [
+    "DHTable",
+    "LumpedMass",
+    "VISUAL_MATERIALS",
+    "dh_visuals",
+    "mdh_transforms",
+    "read_dh_table",
+    "urdf_from_dh",
+]
 
 
 @dataclass(frozen=True)
@@ -338,12 +346,131 @@ def _origin_xml(T: np.ndarray) -> str:
     )
 
 
+# ---------------------------------------------------------------------------- visual geometry
+#: Colours of the generated visual geometry, URDF <material> rgba (0..1).
+VISUAL_MATERIALS: dict[str, tuple[float, float, float, float]] = {
+    "armlab_housing": (0.93, 0.55, 0.13, 1.0),
+    "armlab_link": (0.78, 0.79, 0.82, 1.0),
+    "armlab_tool": (0.22, 0.23, 0.26, 1.0),
+}
+
+
+def _arm_length_m(table: DHTable) -> float:
+    """A table's characteristic length in [m]: sum of |a|, |d| and the tool point's distance
+    from the last DH frame (0.822 m for teachbot6); the visual sizes scale with it."""
+    tool = float(np.linalg.norm(table.transform_tool_to_last[:3, 3]))
+    length = float(np.sum(np.abs(table.a_m)) + np.sum(np.abs(table.d_m))) + tool
+    return length if length > 0 else 1.0
+
+
+def _z_to(u: np.ndarray) -> np.ndarray:
+    """The rotation (3, 3) turning +z onto the unit vector ``u`` about ``z x u``."""
+    c = float(np.clip(u[2], -1.0, 1.0))
+    axis = np.cross([0.0, 0.0, 1.0], u)
+    s = float(np.linalg.norm(axis))
+    if s < 1e-12:
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    k = axis / s
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + s * K + (1.0 - c) * (K @ K)
+
+
+def _visual_xml(name: str, T: np.ndarray, shape: str, material: str) -> list[str]:
+    return [
+        f'    <visual name="{escape(name)}">',
+        f"      {_origin_xml(T)}",
+        f"      <geometry>{shape}</geometry>",
+        f'      <material name="{material}"/>',
+        "    </visual>",
+    ]
+
+
+def _rod_xml(name: str, p0, p1, radius_m: float, material: str) -> list[str]:
+    """A cylinder of ``radius_m`` from point p0 to p1 (in the link frame); none if p0 = p1."""
+    p0, p1 = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float)
+    length = float(np.linalg.norm(p1 - p0))
+    if length < 1e-9:
+        return []
+    T = np.eye(4)
+    T[:3, :3] = _z_to((p1 - p0) / length)
+    T[:3, 3] = 0.5 * (p0 + p1)
+    shape = f'<cylinder radius="{_num(radius_m)}" length="{_num(length)}"/>'
+    return _visual_xml(name, T, shape, material)
+
+
+def dh_visuals(table: DHTable, tool_frame: str = "tool0") -> dict[str, list[str]]:
+    """Schematic visual geometry of a DH table: URDF ``<visual>`` lines per link name.
+
+    Everything is derived from the table (no drawing of the real arm exists), with sizes
+    proportional to the arm's length ``L`` (sum of ``|a|``, ``|d|`` and the tool point's distance
+    from the last DH frame; 0.822 m for teachbot6):
+
+    * a **joint housing** per joint: a cylinder along the joint axis ``z_i``, centred where the
+      common normal ``a_{i-1}`` meets the axis (the point ``(a_{i-1}, 0, 0)`` of frame ``i-1``,
+      where the lumped drive masses of teachbot6 sit), carried by the link before the joint;
+      radius ``0.045 L`` tapering linearly to 60 % at the last joint, length ``0.11 L`` (same
+      taper); under joint 1 a base plate (radius 1.5 x the housing's, thickness ``0.03 L``);
+    * **links** as cylinders along the MDH geometry (radius ``0.03 L``, same taper): the common
+      normal ``a_{i-1}`` along ``x_{i-1}`` belongs to link ``i-1``, the offset ``d_i`` along the
+      axis ``z_i`` to link ``i`` (the link that rotates about it); the last link gets a cylinder
+      from its origin to the flange;
+    * the **tool** as a small cylinder (radius ``0.01 L``) from the flange to the tool point,
+      on the tool frame.
+
+    Returns
+    -------
+    dict of str to list of str
+        URDF lines (indented for a ``<link>``) of each link that has visual geometry; the
+        materials are :data:`VISUAL_MATERIALS`.
+    """
+    n = table.n_joints
+    L = _arm_length_m(table)
+    taper = [1.0 - 0.4 * i / max(n - 1, 1) for i in range(n)]  # joint i+1 (0-based i)
+    links = ["base_link"] + [f"link{i}" for i in range(1, n + 1)]
+    out: dict[str, list[str]] = {name: [] for name in [*links, tool_frame]}
+    h_len = 0.11 * L
+    plate = 0.03 * L
+    r_base = 1.5 * 0.045 * L
+    out["base_link"] += _rod_xml(
+        "base_plate",
+        (0, 0, -0.5 * h_len - plate),
+        (0, 0, -0.5 * h_len),
+        r_base,
+        "armlab_housing",
+    )
+    for i in range(n):  # joint i+1 and the links around it
+        parent, child = links[i], links[i + 1]
+        a, alpha, d = float(table.a_m[i]), float(table.alpha_rad[i]), float(table.d_m[i])
+        r_parent, r_child = 0.03 * L * taper[max(i - 1, 0)], 0.03 * L * taper[i]
+        # common normal a_i along x_i, on link i (the parent of joint i+1)
+        out[parent] += _rod_xml(f"{parent}_a", (0, 0, 0), (a, 0, 0), r_parent, "armlab_link")
+        # offset d_(i+1) along z_(i+1), on link i+1, ending at its origin
+        out[child] += _rod_xml(f"{child}_d", (0, 0, -d), (0, 0, 0), r_child, "armlab_link")
+        # the housing of joint i+1 on its parent, along the joint axis, where a_i meets it
+        T_joint = _transform((0, 0, 0), (alpha, 0, 0)) @ _transform((a, 0, 0), (0, 0, 0))
+        r_h = 0.045 * L * taper[i]
+        shape = f'<cylinder radius="{_num(r_h)}" length="{_num(h_len * taper[i])}"/>'
+        out[parent] += _visual_xml(
+            f"{table.joint_names[i]}_housing", T_joint, shape, "armlab_housing"
+        )
+    last = links[-1]
+    p_flange = table.transform_flange_to_last[:3, 3]
+    out[last] += _rod_xml(
+        f"{last}_flange", (0, 0, 0), p_flange, 0.03 * L * taper[-1], "armlab_link"
+    )
+    T_tool = table.transform_tool_to_last
+    p_flange_in_tool = np.linalg.solve(T_tool, np.append(p_flange, 1.0))[:3]
+    out[tool_frame] += _rod_xml("tool", p_flange_in_tool, (0, 0, 0), 0.01 * L, "armlab_tool")
+    return {k: v for k, v in out.items() if v}
+
+
 def urdf_from_dh(
     table: DHTable,
     *,
     effort_Nm: np.ndarray | None = None,
     velocity_rad_s: np.ndarray | None = None,
     tool_frame: str = "tool0",
+    visuals: bool = True,
 ) -> str:
     """Write a URDF for a modified-DH table.
 
@@ -358,6 +485,12 @@ def urdf_from_dh(
     table : DHTable
     effort_Nm, velocity_rad_s : array (n_joints,), optional
         ``<limit effort velocity>`` in [N m] and [rad/s]; velocity defaults to the table's.
+    tool_frame : str
+        Name of the tool point's fixed frame.
+    visuals : bool
+        Give the links ``<visual>`` primitives drawn from the table (:func:`dh_visuals`: joint
+        housings, links, tool). They change neither the kinematics nor the ``<inertial>``
+        elements.
 
     Returns
     -------
@@ -376,12 +509,19 @@ def urdf_from_dh(
         ": do not edit by hand. -->",
         f'<robot name="{escape(table.name)}">',
     ]
+    shapes = dh_visuals(table, tool_frame) if visuals else {}
+    if visuals:
+        for name, rgba in VISUAL_MATERIALS.items():
+            out.append(f'  <material name="{name}">')
+            out.append(f'    <color rgba="{" ".join(_num(c) for c in rgba)}"/>')
+            out.append("  </material>")
     for k, link in enumerate(links):
         lumps = [m for m in table.masses if m.link == k]
         out.append(f'  <link name="{link}">')
         inertial = _inertial_xml(lumps, "    ")
         if inertial:
             out.append(inertial.rstrip("\n"))
+        out += shapes.get(link, [])
         out.append("  </link>")
     for i in range(n):
         T = (
@@ -401,8 +541,13 @@ def urdf_from_dh(
         ]
     fixed = [("flange", table.transform_flange_to_last), (tool_frame, table.transform_tool_to_last)]
     for name, T in fixed:
+        lines = shapes.get(name, [])
+        out += (
+            [f'  <link name="{name}">', *lines, "  </link>"]
+            if lines
+            else [f'  <link name="{name}"/>']
+        )
         out += [
-            f'  <link name="{name}"/>',
             f'  <joint name="{name}_joint" type="fixed">',
             f'    <parent link="{links[-1]}"/>',
             f'    <child link="{name}"/>',

@@ -178,67 +178,159 @@ class Drive:
         return asdict(self)
 
 
-def _build(cls, data: dict, where: str):
+# ----------------------------------------------------------------------------- validation
+# What each numeric field may hold, by its meaning: "pos" > 0, "nonneg" >= 0, "unit" in (0, 1],
+# "count" a positive integer, "decoding" one of 1, 2, 4. Every value must be a finite number
+# (TOML's nan/inf are refused); a field whose default is NaN ("not given": the motor's
+# power_W and peak torque, masses, prices) may be left out, or be None in a JSON design record.
+_RULES: dict[str, dict[str, str]] = {
+    "Motor": {
+        "stall_torque_Nm": "pos",
+        "rated_speed_rpm": "pos",
+        "current_A": "pos",
+        "torque_constant_Nm_A": "pos",
+        "back_emf_V_s_rad": "pos",
+        "resistance_ohm": "pos",
+        "inductance_H": "pos",
+        "rotor_inertia_kg_m2": "nonneg",
+        "viscous_friction_Nm_s_rad": "nonneg",
+        "supply_voltage_V": "pos",
+        "power_W": "pos",
+        "peak_torque_Nm": "pos",
+        "mass_kg": "nonneg",
+        "price": "nonneg",
+    },
+    "Reducer": {
+        "ratio": "pos",
+        "efficiency": "unit",
+        "rated_torque_Nm": "pos",
+        "peak_torque_Nm": "pos",
+        "max_input_speed_rpm": "pos",
+        "inertia_kg_m2": "nonneg",
+        "mass_kg": "nonneg",
+        "price": "nonneg",
+    },
+    "Encoder": {"pulses_per_rev": "count", "decoding": "decoding"},
+    "Drive": {"acceleration_rad_s2": "pos", "jerk_rad_s3": "pos", "derating": "unit"},
+}
+_TEXT_FIELDS = ("model", "source")
+_DECODINGS = (1, 2, 4)
+
+
+def _value_problem(value: Any, rule: str) -> str | None:
+    """Why ``value`` breaks ``rule`` (a phrase after the value), or None if it keeps it."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return "is not a number"
+    if not math.isfinite(value):
+        return "is not a finite number"
+    if rule in ("count", "decoding") and not isinstance(value, int):
+        return "is not an integer"
+    if rule == "decoding":
+        return None if value in _DECODINGS else "is not one of 1, 2, 4 (x1, x2, x4 decoding)"
+    if rule == "nonneg":
+        return None if value >= 0 else "is not >= 0"
+    if rule == "unit":
+        return None if 0 < value <= 1 else "is not in (0, 1]"
+    return None if value > 0 else "is not > 0"  # pos, count
+
+
+def _check_values(rules: dict[str, str], data: dict, where: str, optional=()) -> None:
+    """One :class:`RobotDescriptionError` for the first value of ``data`` breaking its rule:
+    ``<where> <key>: <value> is not > 0``. Keys in ``optional`` may be None (not given)."""
+    for key, value in data.items():
+        if key in _TEXT_FIELDS:
+            if not isinstance(value, str):
+                raise RobotDescriptionError(f"{where}{key}: {value!r} is not a string")
+            continue
+        rule = rules.get(key)
+        if rule is None or (value is None and key in optional):
+            continue
+        problem = _value_problem(value, rule)
+        if problem is not None:
+            raise RobotDescriptionError(f"{where}{key}: {value!r} {problem}")
+
+
+def _build(cls, data: dict, where: str, part: str = ""):
+    """``cls(**data)`` after checking the fields: known, complete, values by their meaning
+    (``_RULES``). Messages start with ``where`` and name the key as ``<part>.<key>``."""
+    head = f"{where} {part}" if part else where
     names = {f.name for f in fields(cls)}
     unknown = set(data) - names
     if unknown:
-        raise RobotDescriptionError(f"{where}: unknown field(s) {sorted(unknown)}")
+        raise RobotDescriptionError(f"{head}: unknown field(s) {sorted(unknown)}")
     missing = [
         f.name
         for f in fields(cls)
         if f.default is MISSING and f.default_factory is MISSING and f.name not in data
     ]
     if missing:
-        raise RobotDescriptionError(f"{where}: missing field(s) {missing}")
-    for k, v in data.items():
-        if isinstance(v, float) and math.isnan(v):
-            raise RobotDescriptionError(f"{where}: {k} is NaN")
+        raise RobotDescriptionError(f"{head}: missing field(s) {missing}")
+    not_given = [
+        f.name for f in fields(cls) if isinstance(f.default, float) and math.isnan(f.default)
+    ]
+    prefix = f"{where} {part}." if part else f"{where} "
+    _check_values(_RULES.get(cls.__name__, {}), data, prefix, optional=not_given)
     try:
         return cls(**data)
     except TypeError as exc:
-        raise RobotDescriptionError(f"{where}: {exc}") from None
+        raise RobotDescriptionError(f"{head}: {exc}") from None
 
 
-def motor_from_dict(data: dict, where: str = "motor") -> Motor:
-    return _build(Motor, data, where)
+def motor_from_dict(data: dict, where: str = "motor", part: str = "") -> Motor:
+    """A :class:`Motor` from a table, every value checked (:class:`RobotDescriptionError`
+    naming ``where``, ``part`` and the key)."""
+    return _build(Motor, data, where, part)
 
 
-def reducer_from_dict(data: dict, where: str = "reducer") -> Reducer:
-    return _build(Reducer, data, where)
+def reducer_from_dict(data: dict, where: str = "reducer", part: str = "") -> Reducer:
+    """A :class:`Reducer` from a table, every value checked (as :func:`motor_from_dict`)."""
+    return _build(Reducer, data, where, part)
 
 
 def read_drives(path: str | Path, joint_names: list[str] | tuple[str, ...]) -> dict[str, Drive]:
     """Read ``drives.toml`` for the given joints.
 
+    Every value is checked by its meaning: torques, speeds, current, constants, resistance,
+    inductance, supply voltage, ratio, accelerations > 0; inertias, friction, masses, prices
+    >= 0; efficiency and derating in (0, 1]; ``pulses_per_rev`` a positive integer;
+    ``decoding`` 1, 2 or 4; NaN and inf nowhere.
+
     Raises
     ------
     RobotDescriptionError
-        If the file is malformed, a joint is missing, or a joint is unknown.
+        If the file is malformed, a joint is missing, listed twice or unknown, a key unknown, or
+        a value breaks its rule; one line naming the file, the joint and the key
+        (``drives.toml joint 'joint1' encoder.pulses_per_rev: 0 is not > 0``).
     """
     path = Path(path)
     data = read_toml(path, "drives file")
     drives: dict[str, Drive] = {}
-    for row in data.get("joint", []):
+    rows = data.get("joint", [])
+    if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
+        raise RobotDescriptionError(f"{path}: 'joint' must be an array of tables ([[joint]])")
+    for row in rows:
         name = row.get("name")
         where = f"{path} joint {name!r}"
         if name not in joint_names:
             raise RobotDescriptionError(
                 f"{where}: no such joint in the robot (joints: {', '.join(joint_names)})"
             )
+        if name in drives:
+            raise RobotDescriptionError(f"{where}: listed twice")
         for part in ("motor", "reducer", "encoder"):
-            if part not in row:
+            if not isinstance(row.get(part), dict):
                 raise RobotDescriptionError(f"{where}: no [{part}] table")
-        motor = motor_from_dict(dict(row["motor"]), f"{where} motor")
-        reducer = reducer_from_dict(dict(row["reducer"]), f"{where} reducer")
-        encoder = _build(Encoder, dict(row["encoder"]), f"{where} encoder")
+        motor = motor_from_dict(dict(row["motor"]), where, "motor")
+        reducer = reducer_from_dict(dict(row["reducer"]), where, "reducer")
+        encoder = _build(Encoder, dict(row["encoder"]), where, "encoder")
+        own = {k: v for k, v in row.items() if k not in ("name", "motor", "reducer", "encoder")}
+        unknown = sorted(set(own) - set(_RULES["Drive"]))
+        if unknown:
+            raise RobotDescriptionError(f"{where}: unknown key(s) {unknown}")
         for key in ("acceleration_rad_s2", "jerk_rad_s3"):
-            v = row.get(key)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise RobotDescriptionError(f"{where}: {key} must be a positive number, not {v!r}")
-        if not 0 < reducer.efficiency <= 1:
-            raise RobotDescriptionError(f"{where}: reducer efficiency must be in (0, 1]")
-        if reducer.ratio <= 0:
-            raise RobotDescriptionError(f"{where}: reducer ratio must be positive")
+            if key not in row:
+                raise RobotDescriptionError(f"{where}: missing key {key}")
+        _check_values(_RULES["Drive"], own, f"{where} ")
         drives[name] = Drive(
             joint=name,
             motor=motor,

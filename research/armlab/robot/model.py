@@ -21,6 +21,7 @@ from armlab.errors import InputError, RobotDescriptionError
 from armlab.robot.dh import DHTable, read_dh_table
 from armlab.robot.drives import Drive, read_drives
 from armlab.robot.limits import Limits, description_limits, resolve_limits
+from armlab.robot.urdf_check import build_model_quietly, check_urdf
 
 __all__ = ["Robot", "Payload", "load_robot", "robot_desc_dir", "list_robots"]
 
@@ -393,7 +394,11 @@ def load_robot(
     Raises
     ------
     RobotDescriptionError
-        Unknown name, missing or malformed URDF/drives file, unsupported joints.
+        Unknown name, missing or malformed URDF/drives file, unsupported joints, a physically
+        invalid URDF (negative or zero mass on a moving link, an inertia that is not positive
+        definite or breaks the triangle inequality, a zero or non-unit joint axis, NaN/inf,
+        lower limit above upper: :mod:`armlab.robot.urdf_check`). The URDF parser's own console
+        output is captured, never printed; its first error line is the message.
     """
     name, urdf, folder = _find_urdf(name_or_path)
     try:
@@ -402,11 +407,8 @@ def load_robot(
         raise RobotDescriptionError(f"{urdf}: cannot read ({exc})") from None
     if "<robot" not in text:
         raise RobotDescriptionError(f"{urdf}: not a URDF (no <robot> element)")
-    try:
-        model = pin.buildModelFromUrdf(str(urdf))
-    except Exception as exc:  # pinocchio raises ValueError/RuntimeError with XML details
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise RobotDescriptionError(f"{urdf}: malformed URDF ({first})") from None
+    check_urdf(text, urdf)  # physical validity; what the C++ parser would drop silently
+    model = build_model_quietly(urdf)
     if lock_joints:
         unknown = [j for j in lock_joints if not model.existJointName(j)]
         if unknown:

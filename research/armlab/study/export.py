@@ -7,28 +7,39 @@ overrides, limits, controller profile -- :mod:`armlab.study.record`), ``trajecto
 the checksums, refuses a failing design unless ``force``, rebuilds the robot and the controller
 from ``design.json`` alone, and writes into ``out_dir``:
 
-=======  ==========================================================
-format   files
-=======  ==========================================================
-csv      ``setpoints.csv``
-json     ``setpoints.json``, ``gains.json`` (with provenance)
-npz      ``setpoints.npz``
-c        ``setpoints.h``, ``gains.h``
-ros2     ``gains_ros2.yaml`` (joint_trajectory_controller gains)
-=======  ==========================================================
+==========  ==========================================================================
+format      files
+==========  ==========================================================================
+csv         ``setpoints.csv``
+json        ``setpoints.json``, ``gains.json`` (with provenance, numbers only)
+npz         ``setpoints.npz``
+c           ``setpoints.h`` + ``setpoints.c``, ``gains.h`` + ``gains.c``
+ros2        ``ros2_controllers.yaml`` (controller_manager + joint_trajectory_controller:
+            gains, constraints; :mod:`armlab.deploy.ros2`)
+trajectory  ``joint_trajectory.json`` (the plan as a FollowJointTrajectory goal)
+cia402      ``cia402_csp.csv``, ``cia402_objects.csv`` (CiA 402 cyclic synchronous
+            position; :mod:`armlab.deploy.cia402`)
+==========  ==========================================================================
 
-Gains files are written when the study has ``gains.json`` (required for ``ros2``). Everything is
-rendered and checked before the first byte is written; each file is written atomically, so a
-refused export (a pre-flight :class:`~armlab.LimitViolation`) leaves nothing behind.
+Gains files are written when the study has ``gains.json`` (required for ``ros2``, whose
+controller drives the joints that have gains, in the robot's order). The ros2
+constraints and the goal's tolerances come from the study's accuracy budget: the tracking
+stage's ``accuracy_m`` (``summary.json``), else the study's ``[tracking] accuracy_m``, else
+armlab's servo share of the thesis' accuracy (0.5 mm); ``ff_velocity_scale`` is 1 when the
+tracking fed the planned velocity forward (or ran without a tracking stage, armlab's default).
+Everything is rendered and checked before the first byte is written; the files are written
+atomically together, so a refused export (a pre-flight :class:`~armlab.LimitViolation`) leaves
+nothing behind.
 """
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
-from armlab.deploy.gains_export import load_gains, render_gains
+from armlab.deploy.gains_export import gains_files, load_gains
 from armlab.deploy.provenance import file_sha256
 from armlab.deploy.table import setpoint_table
 from armlab.deploy.trajfile import load_trajectory
@@ -44,6 +55,7 @@ from armlab.study.record import (
 
 __all__ = [
     "EXPORT_FORMATS",
+    "EXPORT_FILES",
     "TRAJECTORY_FILE",
     "GAINS_FILE",
     "ExportResult",
@@ -51,7 +63,7 @@ __all__ = [
     "profile_differences",
 ]
 
-EXPORT_FORMATS = ("csv", "json", "npz", "c", "ros2")
+EXPORT_FORMATS = ("csv", "json", "npz", "c", "ros2", "trajectory", "cia402")
 TRAJECTORY_FILE = "trajectory.npz"
 GAINS_FILE = "gains.json"
 
@@ -64,8 +76,18 @@ _SETPOINT_FILE = {
 _GAINS_FILE = {
     "json": ("gains.json", "json"),
     "c": ("gains.h", "c"),
-    "ros2": ("gains_ros2.yaml", "ros2"),
+    "ros2": ("ros2_controllers.yaml", "ros2"),
 }
+_GOAL_FILE = "joint_trajectory.json"
+_CIA402_FILES = ("cia402_csp.csv", "cia402_objects.csv")
+#: Every file name ``armlab export`` may write (any format).
+EXPORT_FILES = tuple(
+    dict.fromkeys(
+        [*_SETPOINT_FILE.values(), "setpoints.c"]
+        + [n for n, _ in _GAINS_FILE.values()]
+        + ["gains.c", _GOAL_FILE, *_CIA402_FILES]
+    )
+)
 
 
 @dataclass
@@ -89,6 +111,32 @@ def profile_differences(study: ControllerProfile, other: ControllerProfile) -> l
     return out
 
 
+def _accuracy_budget(summary: dict, record: dict) -> tuple[float, str]:
+    """The study's TCP accuracy budget [m] and where it comes from (module docstring)."""
+    tcp = (summary.get("tracking") or {}).get("tcp") or {}
+    v = tcp.get("accuracy_m")
+    if isinstance(v, (int, float)) and math.isfinite(v) and v > 0:
+        return float(v), "the study's tracking budget (summary.json tracking.tcp.accuracy_m)"
+    doc = ((record.get("study") or {}).get("document") or {}).get("tracking") or {}
+    v = doc.get("accuracy_m")
+    if isinstance(v, (int, float)) and math.isfinite(v) and v > 0:
+        return float(v), "the study's [tracking] accuracy_m"
+    from armlab.control.simulate import POSITIONING_ACCURACY_M, SERVO_SHARE
+
+    return (
+        POSITIONING_ACCURACY_M * SERVO_SHARE,
+        "armlab's servo budget: half of the thesis' 1 mm positioning accuracy",
+    )
+
+
+def _ff_velocity_scale(summary: dict) -> float:
+    """1.0 when the study's tracking fed the planned velocity forward (or did not run)."""
+    ff = (summary.get("tracking") or {}).get("feedforward")
+    if isinstance(ff, list):
+        return 1.0 if "velocity" in ff else 0.0
+    return 1.0
+
+
 def export_study(
     study_dir: str | os.PathLike,
     fmt: str = "csv",
@@ -97,6 +145,7 @@ def export_study(
     *,
     q_current=None,
     force: bool = False,
+    c_real: str = "double",
 ) -> ExportResult:
     """Export a finished study's set-points (and gains) for the real controller.
 
@@ -107,7 +156,8 @@ def export_study(
     ----------
     study_dir : path
         Folder of a finished study (``armlab run``).
-    fmt : {"csv", "json", "npz", "c", "ros2"}
+    fmt : {"csv", "json", "npz", "c", "ros2", "trajectory", "cia402"}
+        See the module docstring for the files of each.
     profile : str, path, ControllerProfile or None
         Controller profile (:func:`armlab.robot.load_profile`); None: the study's own controller
         (its profile with the study's ``[controller]`` keys). Another profile re-checks the table
@@ -118,6 +168,8 @@ def export_study(
         The robot's current pose [rad]: the table must start there.
     force : bool
         Export a design that fails checks; the exported table records the failed checks.
+    c_real : {"double", "float"}
+        C type of the gains (format ``c``).
 
     Returns
     -------
@@ -133,7 +185,9 @@ def export_study(
         nothing is written.
     InputError
         Unknown format, not a study folder, files changed since the run (checksums), the URDF
-        changed, gains tuned for another servo period, a target inside the study folder.
+        changed, gains tuned for another servo period, a target inside the study folder, no
+        gains for ``ros2``, a goal tolerance below one encoder count, a table the drive cannot
+        take (CiA 402 data types).
     """
     study = Path(study_dir)
     fmt = str(fmt).lower()
@@ -173,47 +227,81 @@ def export_study(
                 f"{study_profile.name!r}: " + ", ".join(diff) + " (the table is checked against it)"
             )
     outputs: list[tuple[Path, bytes | str]] = []
+    study_info = record.get("study") or {}
+    source: dict = {
+        "study": study_info.get("source"),
+        "study_sha256": study_info.get("sha256"),
+    }
+    if failed:
+        source["forced_despite"] = failed
+    robot = robot_from_design(record)  # every format needs it (table, lever arms, drives)
 
-    if fmt in _SETPOINT_FILE:
+    table = None
+    if fmt in (*_SETPOINT_FILE, "trajectory", "cia402"):
         tpath = study / TRAJECTORY_FILE
         if not tpath.is_file():
             raise InputError(f"{study}: no {TRAJECTORY_FILE}")
         traj = load_trajectory(tpath)
-        robot = robot_from_design(record)
-        study_info = record.get("study") or {}
-        source: dict = {
-            "study": study_info.get("source"),
-            "study_sha256": study_info.get("sha256"),
-        }
-        if failed:
-            source["forced_despite"] = failed
         table = setpoint_table(robot, traj, prof, q_current=q_current, source=source)
-        outputs.append((out / _SETPOINT_FILE[fmt], table.render(fmt)))
+        if fmt in _SETPOINT_FILE:
+            outputs += table.files(out / _SETPOINT_FILE[fmt], fmt)
 
-    if fmt in _GAINS_FILE:
-        gpath = study / GAINS_FILE
-        if gpath.is_file():
-            gains = load_gains(gpath)
-            periods = {
-                lg.sample_time_s for g in gains.joints.values() for lg in (g.speed, g.position)
-            }
-            if any(abs(p - prof.servo_period_s) > 1e-12 for p in periods):
-                raise InputError(
-                    f"{study}: the gains were tuned for a servo period of "
-                    f"{sorted(periods)} s, controller profile {prof.name!r} has "
-                    f"{prof.servo_period_s} s: run the study with this controller"
-                )
-            name, gfmt = _GAINS_FILE[fmt]
-            outputs.append(
-                (
-                    out / name,
-                    render_gains(
-                        gains, gfmt, source={"file": GAINS_FILE, "sha256": file_sha256(gpath)}
-                    ),
-                )
+    gains = None
+    gpath = study / GAINS_FILE
+    if fmt in (*_GAINS_FILE, "trajectory") and gpath.is_file():
+        gains = load_gains(gpath)
+    if fmt in _GAINS_FILE and gains is not None:
+        periods = {lg.sample_time_s for g in gains.joints.values() for lg in (g.speed, g.position)}
+        if any(abs(p - prof.servo_period_s) > 1e-12 for p in periods):
+            raise InputError(
+                f"{study}: the gains were tuned for a servo period of "
+                f"{sorted(periods)} s, controller profile {prof.name!r} has "
+                f"{prof.servo_period_s} s: run the study with this controller"
             )
-        elif fmt == "ros2":
-            raise InputError(f"{study}: no {GAINS_FILE} to export as ros2_control YAML")
+    elif fmt == "ros2":
+        raise InputError(f"{study}: no {GAINS_FILE} to export as ros2_control YAML")
+    gsource = {"file": GAINS_FILE, "sha256": file_sha256(gpath)} if gains is not None else None
+
+    constraints = None
+    if fmt in ("ros2", "trajectory"):
+        from armlab.deploy.ros2 import jtc_constraints
+
+        accuracy_m, how = _accuracy_budget(summary, record)
+        constraints = jtc_constraints(
+            robot, gains, accuracy_m=accuracy_m, profile=prof, accuracy_source=how
+        )
+
+    if fmt in ("json", "c") and gains is not None:
+        name, gfmt = _GAINS_FILE[fmt]
+        outputs += gains_files(out / name, gains, gfmt, source=gsource, real=c_real)
+    elif fmt == "ros2":
+        assert gains is not None
+        joints = [j for j in robot.joint_names if j in gains.joints]
+        untuned = [j for j in robot.joint_names if j not in gains.joints]
+        if untuned:
+            result.notes.append(
+                f"no gains for joint(s) {', '.join(untuned)}: the ros2 controller leaves them out"
+            )
+        outputs += gains_files(
+            out / _GAINS_FILE["ros2"][0],
+            gains,
+            "ros2",
+            source=gsource,
+            joints=joints,
+            constraints=constraints,
+            ff_velocity_scale=_ff_velocity_scale(summary),
+        )
+    elif fmt == "trajectory":
+        from armlab.deploy.ros2 import render_follow_joint_trajectory
+
+        outputs.append(
+            (out / _GOAL_FILE, render_follow_joint_trajectory(table, constraints, source=source))
+        )
+    elif fmt == "cia402":
+        from armlab.deploy.cia402 import cia402_csp
+
+        assert table is not None
+        outputs += cia402_csp(robot, table, prof, source=source).files(out)
 
     out.mkdir(parents=True, exist_ok=True)
     result.files = list(atomic_write_many(outputs))

@@ -1,7 +1,8 @@
 """A study's report: ``report.md`` with its PNG plots, and the one-screen text summary.
 
-Plots are functions returning matplotlib Figures (headless); the report saves them beside
-``report.md``; they are the package's own plot functions.
+Plots are the package's own plot functions, drawn inside :func:`armlab.plots.offscreen` (object
+API and an Agg canvas: the caller's matplotlib backend is never switched) and saved beside
+``report.md``.
 """
 
 from __future__ import annotations
@@ -174,10 +175,7 @@ def _table(header: list[str], rows: list[list[Any]]) -> list[str]:
 
 def write_report(ctx, summary: dict, out_dir: Path) -> list[Path]:
     """Write ``report.md`` and its PNG plots into ``out_dir``; returns the files written."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    from armlab.plots import offscreen
 
     out_dir = Path(out_dir)
     files: list[Path] = []
@@ -296,16 +294,48 @@ def write_report(ctx, summary: dict, out_dir: Path) -> list[Path]:
     if _figures(ctx):
         lines += ["## Plots", ""]
     for name, caption, make in _figures(ctx):
-        fig = make()
+        with offscreen():  # object API + Agg canvas: the caller's backend and pyplot untouched
+            fig = make()
         path = out_dir / name
         with atomic_open(path, "wb") as f:
             fig.savefig(f, format=path.suffix[1:] or "png", dpi=110)
-        plt.close(fig)
         files.append(path)
         lines += [f"![{caption}]({name})", "", f"*{caption}*", ""]
+    lines += _motion_lines(ctx, out_dir, files)
     report = out_dir / "report.md"
     atomic_write(report, "\n".join(lines))
     return [report, *files]
+
+
+#: The planned motion's 3D animation, written beside report.md (:func:`_motion_lines`).
+MOTION_FILE = "motion.html"
+
+
+def _motion_lines(ctx, out_dir: Path, files: list[Path]) -> list[str]:
+    """Write the planned motion as a self-contained 3D animation (:data:`MOTION_FILE`, see
+    :func:`armlab.viz.animate`) and return the report's lines linking it; when the plan stage
+    did not run, none; when meshcat is missing or fails, one line saying so (never an error)."""
+    if ctx.trajectory is None:
+        return []
+    lines = ["## 3D motion", ""]
+    try:
+        import warnings
+
+        from armlab.viz import animate
+
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            scene = animate(ctx.robot, ctx.trajectory, out_dir / MOTION_FILE)
+    except Exception as exc:  # the study never fails for its 3D view
+        why = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        return lines + [f"3D animation not written: {why}", ""]
+    files.append(out_dir / MOTION_FILE)
+    notes = "; ".join(str(w.message) for w in caught)
+    lines.append(
+        f"[3D animation of the planned motion]({MOTION_FILE}) (open in a browser; "
+        f"{scene.n_frames} frames at {scene.fps:g} fps)" + (f"; {notes}" if notes else ".")
+    )
+    return lines + [""]
 
 
 def _key(stage: str) -> str:

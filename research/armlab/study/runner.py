@@ -134,7 +134,7 @@ def design_verdict(summary: dict[str, Any], stages: tuple[str, ...]) -> dict[str
 
 
 def _progress(total: int, enabled: bool | None, desc: str):
-    from tqdm.auto import tqdm
+    from armlab._progress import tqdm  # tqdm.auto; on in Jupyter
 
     # disable=None: tqdm switches itself off when stderr is not a terminal (CI)
     return tqdm(

@@ -25,10 +25,14 @@ def _is_numeric(series: pd.Series) -> bool:
 def plot_figure_vs_parameter(frame: pd.DataFrame, figure: str, parameter: str) -> Figure:
     """One figure of merit against one parameter: a point per finished study; studies that ended
     in an error are red crosses on the bottom edge; for a grid, the mean over the other
-    parameters as a line. Categorical parameters (motor names) are spread on the x axis."""
-    import matplotlib.pyplot as plt
+    parameters as a line. Categorical parameters (motor names) are spread on the x axis.
 
-    fig, ax = plt.subplots(figsize=(6, 4))
+    The figure is made by pyplot (Jupyter shows it), or inside :func:`armlab.plots.offscreen`
+    with the object API for files only."""
+    from armlab.plots._figure import new_figure
+
+    fig = new_figure(figsize=(6, 4))
+    ax = fig.subplots()
     ok = frame[frame["status"] == "done"]
     err = frame[frame["status"] != "done"]
     x_all = frame[parameter]
@@ -69,11 +73,11 @@ def plot_figure_vs_parameter(frame: pd.DataFrame, figure: str, parameter: str) -
 
 
 def write_sweep_plots(frame: pd.DataFrame, spec: SweepSpec, out_dir: Path) -> list[Path]:
-    """``out_dir/plots/<figure>_vs_<parameter>.png`` for every figure of merit and parameter."""
-    import matplotlib
+    """``out_dir/plots/<figure>_vs_<parameter>.png`` for every figure of merit and parameter.
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    Drawn inside :func:`armlab.plots.offscreen` (object API, Agg canvas): the caller's
+    matplotlib backend is never switched and pyplot keeps no figure."""
+    from armlab.plots._figure import offscreen
 
     folder = Path(out_dir) / "plots"
     folder.mkdir(exist_ok=True)
@@ -82,11 +86,11 @@ def write_sweep_plots(frame: pd.DataFrame, spec: SweepSpec, out_dir: Path) -> li
         if figure not in frame or not pd.to_numeric(frame[figure], errors="coerce").notna().any():
             continue
         for p in spec.parameter_keys:
-            fig = plot_figure_vs_parameter(frame, figure, p)
+            with offscreen():
+                fig = plot_figure_vs_parameter(frame, figure, p)
             path = folder / f"{figure}_vs_{p}.png"
             with atomic_open(path, "wb") as f:
                 fig.savefig(f, format="png", dpi=100)
-            plt.close(fig)
             paths.append(path)
     return paths
 

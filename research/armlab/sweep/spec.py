@@ -45,7 +45,13 @@ from typing import Any
 import numpy as np
 
 from armlab.errors import SpecError
-from armlab.study.spec import apply_overrides, check_key, document_hash, read_study_document
+from armlab.study.spec import (
+    apply_overrides,
+    check_key,
+    demo_study_path,
+    document_hash,
+    read_study_document,
+)
 from armlab.tomlfile import read_toml
 
 __all__ = [
@@ -56,6 +62,7 @@ __all__ = [
     "parse_sweep",
     "parameter_sets",
     "parameter_key",
+    "definition_sha256",
     "MODES",
 ]
 
@@ -113,7 +120,8 @@ class SweepSpec:
 
     ``study_document`` is the base study with ``[set]`` applied, ``study_dir`` the folder its
     relative paths refer to, ``study_hash`` the sha256 of that document (a results folder holds
-    the rows of one base study only).
+    the rows of one base study only), ``study_file`` the file it was read from (the built-in
+    demo's for ``study = "demo"``; its sha256 goes into ``sweep.json``).
     """
 
     name: str
@@ -130,6 +138,7 @@ class SweepSpec:
     study_hash: str
     fixed: dict[str, Any] = field(default_factory=dict)
     source: str = "<dict>"
+    study_file: Path | None = None
 
     @property
     def parameter_keys(self) -> list[str]:
@@ -286,6 +295,7 @@ def parse_sweep(
         study_hash=document_hash(base_doc),
         fixed=fixed,
         source=source,
+        study_file=(demo_study_path() if study_path is None else study_path).resolve(),
     )
 
 
@@ -365,3 +375,19 @@ def parameter_key(params: dict[str, Any]) -> str:
     }
     text = json.dumps(canon, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def definition_sha256(spec: SweepSpec, set_keys: list[str]) -> str:
+    """Checksum of what a sweep computes: its base study document, its parameter keys and the
+    ids of its parameter sets (``set_keys``, :func:`parameter_key`). Two sweep files with the
+    same checksum fill the same rows (the name, figures, mode that draws the same sets, retries
+    do not count)."""
+    text = json.dumps(
+        {
+            "study_hash": spec.study_hash,
+            "parameters": sorted(spec.parameter_keys),
+            "sets": sorted(set_keys),
+        },
+        separators=(",", ":"),
+    )
+    return hashlib.sha256(text.encode()).hexdigest()

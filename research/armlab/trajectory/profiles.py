@@ -22,6 +22,16 @@ Automatic Machines and Robots" §3.2 and §3.4 for the double S):
 A profile stretched in time by ``k`` is the profile built with ``(v / k, a / k^2, j / k^3)``:
 every regime test above is invariant under that scaling, so :meth:`MotionProfile.stretched`
 is exact.
+
+This module is the one implementation of that timing. The primitives are vectorised (arguments
+broadcast, ``inf`` switches a limit off): :func:`trapezoid_peak_speed`,
+:func:`trapezoid_min_times`, :func:`trapezoid_speed_for_duration` and :func:`double_s_ramp`,
+:func:`double_s_peak_speed`, :func:`double_s_min_times`, :func:`double_s_speed_for_duration`
+(``j = inf`` is the trapezoid). The scalar entry points (:func:`trapezoid_min_time`,
+:func:`double_s_min_time`), the profile builders, the time-synchronised set of
+:func:`synchronised_profiles` (Jiang 1987, eq. 1-5: PTP motion and the optimiser's warm start),
+the SHU step table (:mod:`armlab.planning.steps`) and the requirement moves of the drive sizing
+(:mod:`armlab.dynamics.requirements`) all call them.
 """
 
 from __future__ import annotations
@@ -42,6 +52,16 @@ __all__ = [
     "rest_profile",
     "trapezoid_min_time",
     "double_s_min_time",
+    "double_s_binding",
+    "synchronised_profiles",
+    "trapezoid_ramp_length",
+    "trapezoid_peak_speed",
+    "trapezoid_min_times",
+    "trapezoid_speed_for_duration",
+    "double_s_ramp",
+    "double_s_peak_speed",
+    "double_s_min_times",
+    "double_s_speed_for_duration",
     "time_grid",
 ]
 
@@ -230,6 +250,135 @@ class MotionProfile:
         )
 
 
+# ---------------------------------------------------------------------- timing primitives
+# The one implementation of trapezoid and double-S timing. Vectorised: arguments broadcast,
+# results are arrays (0-d for scalars); the scalar entry points and the profile builders below,
+# the PTP synchroniser and the optimiser's warm start all call these.
+def _floats(*xs) -> list[np.ndarray]:
+    return [np.asarray(x, float) for x in np.broadcast_arrays(*xs)]
+
+
+def trapezoid_ramp_length(v, a_acc, a_dec=None) -> np.ndarray:
+    """Distance [unit] of the two ramps of a rest-to-rest trapezoid cruising at ``v`` [unit/s]:
+    ``S1 + S2 = v^2 / 2 (1/a1 + 1/a2)`` (SHU controller paper, table 1); arrays broadcast."""
+    v, a1, a2 = _floats(v, a_acc, a_acc if a_dec is None else a_dec)
+    with np.errstate(invalid="ignore"):
+        return v * v / 2 * (1 / a1 + 1 / a2)
+
+
+def trapezoid_peak_speed(length, v_max, a_acc, a_dec=None) -> np.ndarray:
+    """Peak speed [unit/s] of the shortest rest-to-rest trapezoid over ``length`` >= 0.
+
+    ``v_p = v_max`` if ``L >= S1 + S2`` (:func:`trapezoid_ramp_length`), else the triangle's
+    ``v_p = sqrt(2 L a1 a2 / (a1 + a2))`` (SHU controller paper, table 1). Arrays broadcast;
+    an infinite acceleration gives the pure velocity step.
+    """
+    L, v, a1, a2 = _floats(length, v_max, a_acc, a_acc if a_dec is None else a_dec)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        triangle = np.sqrt(2 * L * a1 * a2 / (a1 + a2))
+    return np.where(L >= trapezoid_ramp_length(v, a1, a2), v, triangle)
+
+
+def trapezoid_min_times(length, v_max, a_acc, a_dec=None) -> np.ndarray:
+    """Shortest durations [s] of rest-to-rest trapezoids over ``length`` >= 0 (arrays broadcast).
+
+    ``T = L / v + v / (2 a1) + v / (2 a2)`` with a cruise phase, ``T = v_p / a1 + v_p / a2``
+    without (SHU controller paper, table 1); ``T = 0`` for ``L <= 0``.
+    """
+    L, v, a1, a2 = _floats(length, v_max, a_acc, a_acc if a_dec is None else a_dec)
+    vp = trapezoid_peak_speed(L, v, a1, a2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cruise = L >= trapezoid_ramp_length(v, a1, a2)
+        T = np.where(cruise, L / v + v / (2 * a1) + v / (2 * a2), vp / a1 + vp / a2)
+    return np.where(L > 0, T, 0.0)
+
+
+def trapezoid_speed_for_duration(length, duration, a_acc, a_dec=None, v_max=np.inf) -> np.ndarray:
+    """Cruise speeds [unit/s] of the trapezoids with ramps ``(a1, a2)`` lasting ``duration`` [s]
+
+    The smaller root of ``L = v T - v^2 h / 2``, ``h = 1/a1 + 1/a2`` (SHU controller paper,
+    table 1, solved for ``v``), in the cancellation-free form ``v = 2 L / (T + sqrt(T^2 - 2 L h))``;
+    at most ``v_max``, and the fastest trapezoid's peak where ``duration`` is not above its
+    minimum. Arrays broadcast; ``0`` for ``L <= 0``.
+    """
+    L, T, a1, a2, v = _floats(length, duration, a_acc, a_acc if a_dec is None else a_dec, v_max)
+    h = 1 / a1 + 1 / a2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        vT = 2 * L / (T + np.sqrt(np.maximum(T * T - 2 * L * h, 0.0)))
+    fastest = T <= trapezoid_min_times(L, v, a1, a2)
+    vT = np.where(fastest, trapezoid_peak_speed(L, v, a1, a2), np.minimum(vT, v))
+    return np.where(L > 0, vT, 0.0)
+
+
+def double_s_ramp(v, a_max, j_max) -> tuple[np.ndarray, np.ndarray]:
+    """``(Tj, Ta)`` [s] of a symmetric double S accelerating from rest to ``v`` (arrays broadcast).
+
+    Biagiotti & Melchiorri §3.4: ``Tj = a / j``, ``Ta = Tj + v / a`` if ``v j >= a^2`` (the
+    acceleration limit is reached); else ``Tj = sqrt(v / j)``, ``Ta = 2 Tj``. ``j = inf`` gives
+    the trapezoid's ``(0, v / a)``, ``a = inf`` the jerk-only ramp; ``v = 0`` gives ``(0, 0)``.
+    """
+    v, a, j = _floats(v, a_max, j_max)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        plateau = np.isinf(j) | (np.isfinite(a) & (v * j >= a * a))
+        tj = np.where(plateau, np.where(np.isinf(j), 0.0, a / j), np.sqrt(v / j))
+        ta = np.where(plateau, tj + v / a, 2 * tj)
+    moving = v > 0
+    return np.where(moving, tj, 0.0), np.where(moving, ta, 0.0)
+
+
+def double_s_peak_speed(length, v_max, a_max, j_max) -> np.ndarray:
+    """Peak speed [unit/s] of the shortest symmetric rest-to-rest double S over ``length`` >= 0.
+
+    The largest ``v <= v_max`` whose ramps fit, ``v Ta(v) <= L`` (Biagiotti & Melchiorri §3.4):
+    ``v^2 / a + v a / j = L`` where the acceleration limit is reached (``v >= a^2 / j``), else
+    ``2 v sqrt(v / j) = L``, i.e. ``v = (L sqrt(j) / 2)^(2/3)``. ``j = inf`` is the trapezoid
+    (:func:`trapezoid_peak_speed`). Arrays broadcast; ``a`` and ``j`` may be ``inf``.
+    """
+    L, v, a, j = _floats(length, v_max, a_max, j_max)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        plateau = a * (-a / j + np.sqrt(a * a / (j * j) + 4 * L / a)) / 2
+        vp = np.where(plateau >= a * a / j, plateau, (L * np.sqrt(j) / 2) ** (2 / 3))
+    return np.where(np.isinf(j), trapezoid_peak_speed(L, v, a), np.minimum(vp, v))
+
+
+def double_s_min_times(length, v_max, a_max, j_max) -> np.ndarray:
+    """Shortest durations [s] of symmetric rest-to-rest double S profiles (arrays broadcast).
+
+    ``T = L / v_p + Ta(v_p)`` with ``v_p`` from :func:`double_s_peak_speed` (Biagiotti &
+    Melchiorri §3.4); the trapezoid's :func:`trapezoid_min_times` where ``j = inf``;
+    ``0`` for ``L <= 0``. ``inf`` switches a limit off (not all three).
+    """
+    L, v, a, j = _floats(length, v_max, a_max, j_max)
+    vp = double_s_peak_speed(L, v, a, j)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        T = np.where(L > 0, L / vp + double_s_ramp(vp, a, j)[1], 0.0)
+    return np.where(np.isinf(j), trapezoid_min_times(L, v, a), T)
+
+
+def double_s_speed_for_duration(length, duration, a_max, j_max, v_max=np.inf) -> np.ndarray:
+    """Peak speeds [unit/s] of the symmetric double S profiles lasting ``duration`` [s].
+
+    The duration ``L / v + Ta(v)`` decreases with the peak speed ``v`` on ``(0, v_p]``
+    (:func:`double_s_peak_speed`; Biagiotti & Melchiorri §3.4), so ``v`` is found by bisection
+    to the last bit; ``v_p`` itself where ``duration`` is not above the minimum; the closed
+    form :func:`trapezoid_speed_for_duration` where ``j = inf``; ``0`` for ``L <= 0``. Arrays
+    broadcast.
+    """
+    L, T, a, j, v = _floats(length, duration, a_max, j_max, v_max)
+    v_hi = double_s_peak_speed(L, v, a, j)
+    lo, hi = np.zeros_like(v_hi), v_hi.copy()
+    for _ in range(200):  # halve until the bracket cannot shrink (~55 halvings near T_min)
+        mid = 0.5 * (lo + hi)
+        if np.all((mid <= lo) | (mid >= hi)):
+            break
+        with np.errstate(invalid="ignore", divide="ignore"):
+            slow = L / mid + double_s_ramp(mid, a, j)[1] > T  # too slow: raise the speed
+        lo, hi = np.where(slow, mid, lo), np.where(slow, hi, mid)
+    vT = np.where(T <= double_s_min_times(L, v, a, j), v_hi, hi)
+    vT = np.where(np.isinf(j), trapezoid_speed_for_duration(L, T, a, a, v), vT)
+    return np.where(L > 0, vT, 0.0)
+
+
 # ---------------------------------------------------------------------- trapezoid
 def rest_profile(duration: float = 0.0) -> MotionProfile:
     """Stand still for ``duration`` [s] (a zero-length move)."""
@@ -239,19 +388,20 @@ def rest_profile(duration: float = 0.0) -> MotionProfile:
 
 
 def trapezoid_min_time(length: float, v: float, a_acc: float, a_dec: float | None = None) -> float:
-    """Shortest duration [s] of a rest-to-rest trapezoid over ``length`` (>= 0)."""
-    a_dec = a_acc if a_dec is None else a_dec
-    if length <= 0:
-        return 0.0
-    if length >= v * v / 2 * (1 / a_acc + 1 / a_dec):
-        return length / v + v / (2 * a_acc) + v / (2 * a_dec)
-    vp = math.sqrt(2 * length * a_acc * a_dec / (a_acc + a_dec))
-    return vp / a_acc + vp / a_dec
+    """Shortest duration [s] of a rest-to-rest trapezoid over ``length`` (>= 0): the scalar
+    :func:`trapezoid_min_times`."""
+    return float(trapezoid_min_times(length, v, a_acc, a_dec))
 
 
-def _trapezoid_phases(length: float, v: float, a1: float, a2: float) -> MotionProfile:
+def _trapezoid_phases(
+    length: float, v: float, a1: float, a2: float, duration: float | None = None
+) -> MotionProfile:
+    """The trapezoid cruising at ``v``; with ``duration`` the cruise absorbs the rounding so
+    that the duration is exact."""
     t1, t2 = v / a1, v / a2
     t3 = max(length - v * v / (2 * a1) - v * v / (2 * a2), 0.0) / v
+    if duration is not None and duration - t1 - t2 > 0:
+        t3 = duration - t1 - t2
     return MotionProfile(
         np.array([t1, t3, t2]),
         np.array([a1, 0.0, -a2]),
@@ -283,10 +433,7 @@ def trapezoid_profile(
     a2 = a1 if a_dec is None else _positive(a_dec, "a_dec")
     if length == 0:
         return rest_profile(0.0)
-    v = v_max
-    if length < v * v / 2 * (1 / a1 + 1 / a2):
-        v = math.sqrt(2 * length * a1 * a2 / (a1 + a2))
-    return _trapezoid_phases(length, v, a1, a2)
+    return _trapezoid_phases(length, float(trapezoid_peak_speed(length, v_max, a1, a2)), a1, a2)
 
 
 def trapezoid_profile_for_duration(
@@ -296,10 +443,8 @@ def trapezoid_profile_for_duration(
     a_dec: float | None = None,
     v_max: float = math.inf,
 ) -> MotionProfile:
-    """The trapezoid with the given accelerations that takes exactly ``duration`` [s].
-
-    The cruise speed solves ``L = v T - v^2 / 2 (1/a1 + 1/a2)`` (the smaller root):
-    ``v = (T - sqrt(T^2 - 2 L h)) / h`` with ``h = 1/a1 + 1/a2``.
+    """The trapezoid with the given accelerations that takes exactly ``duration`` [s]
+    (cruise speed from :func:`trapezoid_speed_for_duration`).
 
     Raises
     ------
@@ -310,57 +455,28 @@ def trapezoid_profile_for_duration(
     a2 = a1 if a_dec is None else _positive(a_dec, "a_dec")
     if length <= 0:
         return rest_profile(duration)
-    t_min = (
-        trapezoid_min_time(length, v_max, a1, a2)
-        if math.isfinite(v_max)
-        else math.sqrt(2 * length * (1 / a1 + 1 / a2))
-    )
+    t_min = trapezoid_min_time(length, v_max, a1, a2)
     if duration < t_min * (1 - 1e-12):
         raise InfeasibleError(
             f"a trapezoid over {length:.6g} takes at least {t_min:.6g} s, not {duration:.6g} s"
         )
-    h = 1 / a1 + 1 / a2
-    disc = max(duration * duration - 2 * length * h, 0.0)
-    v = (duration - math.sqrt(disc)) / h
-    v = min(v, v_max)
-    prof = _trapezoid_phases(length, v, a1, a2)
-    # absorb rounding in the cruise phase so the duration is exact
-    cruise = duration - v / a1 - v / a2
-    if cruise > 0:
-        prof = MotionProfile(
-            np.array([v / a1, cruise, v / a2]),
-            np.array([a1, 0.0, -a2]),
-            np.zeros(3),
-            kind="trapezoid",
-            params={"v": v, "a_acc": a1, "a_dec": a2, "length": length},
-        )
-    return prof
+    v = float(trapezoid_speed_for_duration(length, duration, a1, a2, v_max))
+    return _trapezoid_phases(length, v, a1, a2, duration)
 
 
 # ---------------------------------------------------------------------- double S
-def _double_s_ta(v: float, a: float, j: float) -> tuple[float, float]:
-    """(Tj, Ta) of the acceleration phase reaching speed ``v`` from rest."""
-    if v * j >= a * a:
-        tj = a / j
-        return tj, tj + v / a
-    tj = math.sqrt(v / j)
-    return tj, 2 * tj
-
-
-def _double_s_vlim(length: float, v_max: float, a: float, j: float) -> float:
-    """Largest peak speed with a cruise phase of length >= 0: ``L >= v Ta(v)``."""
-    # a reached: L = v (a/j + v/a)  ->  v^2 / a + v a / j - L = 0
-    v = a * (-a / j + math.sqrt(a * a / (j * j) + 4 * length / a)) / 2
-    if v < a * a / j:  # a not reached: L = 2 v sqrt(v / j)
-        v = (length * math.sqrt(j) / 2) ** (2 / 3)
-    return min(v, v_max)
-
-
-def _double_s_from_v(length: float, v: float, a: float, j: float) -> MotionProfile:
-    tj, ta = _double_s_ta(v, a, j)
-    ap = j * tj  # peak acceleration
+def _double_s_phases(
+    length: float, v: float, a: float, j: float, duration: float | None = None
+) -> MotionProfile:
+    """The symmetric double S with peak speed ``v`` (at most :func:`double_s_peak_speed`): the
+    seven phases of Biagiotti & Melchiorri §3.4, the cruise ``L / v - Ta`` or, with
+    ``duration``, ``duration - 2 Ta``. ``j = inf`` gives the trapezoid."""
+    if math.isinf(j):
+        return _trapezoid_phases(length, v, a, a, duration)
+    tj, ta = (float(x) for x in double_s_ramp(v, a, j))
+    ap = min(j * tj, a)  # peak acceleration: a where it is reached
     tc = ta - 2 * tj  # constant-acceleration time
-    tv = max(length / v - ta, 0.0)
+    tv = max(length / v - ta if duration is None else duration - 2 * ta, 0.0)  # cruise
     d = np.array([tj, tc, tj, tv, tj, tc, tj])
     acc = np.array([0.0, ap, ap, 0.0, 0.0, -ap, -ap])
     jerk = np.array([j, 0.0, -j, 0.0, -j, 0.0, j])
@@ -370,12 +486,9 @@ def _double_s_from_v(length: float, v: float, a: float, j: float) -> MotionProfi
 
 
 def double_s_min_time(length: float, v_max: float, a_max: float, j_max: float) -> float:
-    """Shortest duration [s] of a symmetric rest-to-rest double S over ``length``."""
-    if length <= 0:
-        return 0.0
-    v = _double_s_vlim(length, v_max, a_max, j_max)
-    _, ta = _double_s_ta(v, a_max, j_max)
-    return length / v + ta
+    """Shortest duration [s] of a symmetric rest-to-rest double S over ``length``: the scalar
+    :func:`double_s_min_times`."""
+    return float(double_s_min_times(length, v_max, a_max, j_max))
 
 
 def double_s_profile(length: float, v_max: float, a_max: float, j_max: float) -> MotionProfile:
@@ -398,16 +511,15 @@ def double_s_profile(length: float, v_max: float, a_max: float, j_max: float) ->
     )
     if length == 0:
         return rest_profile(0.0)
-    return _double_s_from_v(length, _double_s_vlim(length, v_max, a_max, j_max), a_max, j_max)
+    v = float(double_s_peak_speed(length, v_max, a_max, j_max))
+    return _double_s_phases(length, v, a_max, j_max)
 
 
 def double_s_profile_for_duration(
     length: float, duration: float, a_max: float, j_max: float, v_max: float = math.inf
 ) -> MotionProfile:
-    """The double S with limits ``(a_max, j_max)`` that takes exactly ``duration`` [s].
-
-    The duration ``L / v + Ta(v)`` decreases monotonically with the peak speed ``v`` while a
-    cruise phase exists, so ``v`` is found by bisection.
+    """The double S with limits ``(a_max, j_max)`` that takes exactly ``duration`` [s]
+    (peak speed from :func:`double_s_speed_for_duration`).
 
     Raises
     ------
@@ -417,25 +529,60 @@ def double_s_profile_for_duration(
     a_max, j_max = _positive(a_max, "a_max"), _positive(j_max, "j_max")
     if length <= 0:
         return rest_profile(duration)
-    v_hi = _double_s_vlim(length, v_max, a_max, j_max)
-    t_min = length / v_hi + _double_s_ta(v_hi, a_max, j_max)[1]
+    t_min = double_s_min_time(length, v_max, a_max, j_max)
     if duration < t_min * (1 - 1e-12):
         raise InfeasibleError(
             f"a double S over {length:.6g} takes at least {t_min:.6g} s, not {duration:.6g} s"
         )
-    if duration <= t_min:
-        return _double_s_from_v(length, v_hi, a_max, j_max)
-    lo, hi = 0.0, v_hi
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if mid <= 0:
-            break
-        t_mid = length / mid + _double_s_ta(mid, a_max, j_max)[1]
-        if t_mid > duration:
-            lo = mid
-        else:
-            hi = mid
-        if hi - lo <= 1e-15 * hi:
-            break
-    # hi is the smallest speed found whose duration is <= the target (relative error 1e-15)
-    return _double_s_from_v(length, hi, a_max, j_max)
+    v = float(double_s_speed_for_duration(length, duration, a_max, j_max, v_max))
+    return _double_s_phases(length, v, a_max, j_max, duration)
+
+
+def double_s_binding(length: float, v_max: float, a_max: float, j_max: float = math.inf) -> str:
+    """The limit that sets the shortest double S over ``length`` (a trapezoid if ``j_max`` is
+    inf): ``"velocity"`` if it cruises at ``v_max``, else ``"acceleration"`` if it reaches
+    ``a_max`` (``v_p j >= a^2``, Biagiotti & Melchiorri §3.4; always for the trapezoid), else
+    ``"jerk"``."""
+    vp = float(double_s_peak_speed(length, v_max, a_max, j_max))
+    if vp >= v_max:
+        return "velocity"
+    if math.isinf(j_max) or vp * j_max >= a_max * a_max:
+        return "acceleration"
+    return "jerk"
+
+
+# ---------------------------------------------------------------------- synchronisation
+def synchronised_profiles(
+    lengths, v_max, a_max, j_max=math.inf
+) -> tuple[float, np.ndarray, list[MotionProfile]]:
+    """Rest-to-rest profiles of several joints that all take the same time (Jiang 1987, eq. 1-5).
+
+    Each joint alone needs ``t_i`` (eq. 3 with its fastest double S, :func:`double_s_min_times`;
+    a trapezoid where ``j_max`` is inf); the common duration is ``T = max t_i`` and every
+    joint keeps its acceleration and jerk and lowers its peak speed until it also takes ``T``
+    (eq. 4; :func:`double_s_speed_for_duration`).
+
+    Parameters
+    ----------
+    lengths : array (n,)
+        Distances >= 0 (joint moves in [rad]).
+    v_max, a_max, j_max : float or array (n,)
+        Limits in [unit/s], [unit/s^2], [unit/s^3]; ``inf`` switches one off (not all three).
+
+    Returns
+    -------
+    (T, t_min, profiles)
+        The common duration [s], each joint's shortest duration (n,) [s] and the n profiles
+        (a resting one for a zero length).
+    """
+    L, v, a, j = (x.reshape(-1) for x in _floats(lengths, v_max, a_max, j_max))
+    t_min = double_s_min_times(L, v, a, j)
+    T = float(t_min.max()) if t_min.size else 0.0
+    vp = double_s_speed_for_duration(L, T, a, j, v)
+    profiles = [
+        _double_s_phases(float(L[i]), float(vp[i]), float(a[i]), float(j[i]), T)
+        if L[i] > 0 and vp[i] > 0
+        else rest_profile(T)
+        for i in range(L.size)
+    ]
+    return T, t_min, profiles
