@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint bench clean setup
+.PHONY: demo test lint docs bench clean setup
 
 setup: $(STAMP)
 
@@ -25,6 +25,11 @@ lint: $(STAMP)
 	$(VENV)/bin/ruff check research tests benchmarks
 	$(VENV)/bin/ruff format --check research tests benchmarks
 	$(VENV)/bin/mypy
+
+# the documentation (docs/, mkdocs.yml) into build/site; warnings are errors
+docs: $(STAMP)
+	$(PY) -m pip install --quiet -e ".[test,docs]"
+	$(VENV)/bin/mkdocs build --strict
 
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e ".[test,bench]"

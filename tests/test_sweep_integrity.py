@@ -28,6 +28,7 @@ from armlab.sweep import (
     load_sweep,
     parameter_key,
     parameter_sets,
+    run_parameter_set,
     run_sweep_spec,
 )
 from conftest import REPO, start_sweep
@@ -60,7 +61,7 @@ def write_sweep(
     stages: list[str] | None = None,
     name: str = "sweep.toml",
 ) -> Path:
-    """A study file and a sweep file over one or two parameters in ``folder``."""
+    """A study file and a sweep file over one parameter in ``folder``."""
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "study.toml").write_text(STUDY.format(robot=robot, samples=samples))
     extra = "" if stages is None else f'[set]\n"study.stages" = {json.dumps(stages)}\n'
@@ -116,9 +117,15 @@ def parts_of(out: Path) -> dict[str, float]:
 def test_rows_and_sweep_json_record_their_inputs_and_a_changed_drives_file_reruns(
     tmp_path, client, capsys
 ):
-    robot = tmp_path / "robot"
-    shutil.copytree(REPO / "robot_desc" / "teachbot6", robot)
-    path = write_sweep(tmp_path, [0.0, 0.5], robot="robot/teachbot6.urdf")
+    from armlab.dynamics.catalogue import default_catalogue_path
+    from armlab.robot.controller import profiles_dir
+
+    # two copies of teachbot6, one row each
+    robots = [tmp_path / "robot_a", tmp_path / "robot_b"]
+    for folder in robots:
+        shutil.copytree(REPO / "robot_desc" / "teachbot6", folder)
+    urdfs = [f"{r.name}/teachbot6.urdf" for r in robots]
+    path = write_sweep(tmp_path, urdfs, key="robot.name", robot=urdfs[0])
     spec = load_sweep(path)
     out = tmp_path / "out"
     df = run_sweep_spec(spec, out, client=client, quiet=True)
@@ -126,30 +133,45 @@ def test_rows_and_sweep_json_record_their_inputs_and_a_changed_drives_file_rerun
     assert meta["armlab_version"] == armlab.__version__
     assert meta["study_file_sha256"] == file_sha256(tmp_path / "study.toml")
     assert meta["sweep_file_sha256"] == file_sha256(path)
-    assert meta["inputs"]["urdf"]["sha256"] == file_sha256(robot / "teachbot6.urdf")
-    assert meta["inputs"]["drives"]["sha256"] == file_sha256(robot / "drives.toml")
+    inputs = {k: v["sha256"] for k, v in meta["inputs"].items()}
+    assert inputs["urdf"] == file_sha256(robots[0] / "teachbot6.urdf")
+    assert inputs["drives"] == file_sha256(robots[0] / "drives.toml")
+    assert inputs["mdh"] == file_sha256(robots[0] / "mdh.toml")
+    assert inputs["catalogue"] == file_sha256(default_catalogue_path())
+    assert inputs["profile"] == file_sha256(profiles_dir() / "reference_dda.toml")
     assert meta["set_keys"] == [parameter_key(s) for s in parameter_sets(spec)]
-    # every row carries the same provenance, computed on the worker that ran it
-    assert set(PROVENANCE_FIELDS) <= set(df.columns)
+    # every row carries its provenance, computed on the worker that ran it
+    assert set(PROVENANCE_FIELDS) <= set(df.columns) and (df["status"] == "done").all()
     assert (df["armlab_version"] == armlab.__version__).all()
-    assert (df["drives_sha256"] == meta["inputs"]["drives"]["sha256"]).all()
-    assert (df["urdf_sha256"] == meta["inputs"]["urdf"]["sha256"]).all()
+    for name in ("urdf", "drives", "mdh", "catalogue", "profile"):
+        assert (df[f"{name}_sha256"] == inputs[name]).all(), name  # identical copies
     assert df["inputs_sha256"].is_unique  # the parameter set is part of it
-    # slower joint 1: the same command reruns every row, with the new drive train
-    drives = robot / "drives.toml"
+    # every worker has loaded robot_b (a worker process keeps the robots it loaded)
+    warm = client.run(
+        run_parameter_set,
+        spec.study_document,
+        str(spec.study_dir),
+        spec.study_source,
+        {"robot.name": urdfs[1]},
+        "warm-up",
+    )
+    assert [row["status"] for row in warm.values()] == ["done", "done"]
+    # slower joint 1 in robot_b: the same command reruns its row only, with the new drives
+    drives = robots[1] / "drives.toml"
     drives.write_text(
         drives.read_text().replace("acceleration_rad_s2 = 3.5", "acceleration_rad_s2 = 1.0", 1)
     )
     capsys.readouterr()
     df2 = run_sweep_spec(load_sweep(path), out, client=client, quiet=True)
     err = capsys.readouterr().err
-    assert "2 row(s) were computed from other inputs (drives.toml (sha256" in err
-    assert (df2["finished_at"].to_numpy() > df["finished_at"].to_numpy()).all()
-    assert (df2["drives_sha256"] == file_sha256(drives)).all()
-    # the workers loaded the robot before the edit: they must not plan with the old limits
-    assert (df2["duration_s"].to_numpy() > df["duration_s"].to_numpy() + 0.1).all()
-    disk = pd.read_parquet(out / "results.parquet")
-    assert len(disk) == 2 and (disk["drives_sha256"] == file_sha256(drives)).all()
+    assert "1 row(s) were computed from other inputs (drives.toml (sha256" in err
+    assert list(df2["finished_at"] == df["finished_at"]) == [True, False]
+    assert list(df2["drives_sha256"]) == [inputs["drives"], file_sha256(drives)]
+    # no worker plans with the robot it loaded before the edit
+    assert df2["duration_s"][1] > df["duration_s"][1] + 0.1
+    assert df2["duration_s"][0] == df["duration_s"][0]
+    disk = pd.read_parquet(out / "results.parquet").set_index("key")
+    assert disk.loc[df2["key"], "drives_sha256"].tolist() == df2["drives_sha256"].tolist()
     # nothing changed since: nothing runs
     df3 = run_sweep_spec(load_sweep(path), out, client=client, quiet=True)
     pd.testing.assert_series_equal(df3["finished_at"], df2["finished_at"])
@@ -262,6 +284,46 @@ def test_the_lock_refuses_a_live_client_and_takes_over_from_a_dead_one(tmp_path)
         SweepLock(out).acquire()
 
 
+# A client that tries to take the lock once, all of them at the same moment, and keeps it.
+RACER = """
+import sys, time
+from pathlib import Path
+from armlab.errors import InputError
+from armlab.sweep.lock import SweepLock
+folder, go = Path(sys.argv[1]), Path(sys.argv[2])
+print("ready", flush=True)
+while not go.exists():
+    time.sleep(0.001)
+try:
+    SweepLock(folder).acquire()
+    print("taken")
+except InputError:
+    print("refused")
+"""
+
+
+def test_clients_racing_for_a_stale_lock_take_it_once(tmp_path):
+    out, go = tmp_path / "out", tmp_path / "go"
+    out.mkdir()
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    (out / ".sweep.lock").write_text(
+        json.dumps({"pid": dead.pid, "host": socket.gethostname(), "started_at": 0})
+    )
+    racers = [
+        subprocess.Popen(
+            [sys.executable, "-c", RACER, str(out), str(go)], stdout=subprocess.PIPE, text=True
+        )
+        for _ in range(3)
+    ]
+    for r in racers:
+        assert r.stdout is not None and r.stdout.readline().strip() == "ready"
+    go.touch()
+    outcome = sorted(r.communicate(timeout=120)[0].strip() for r in racers)
+    assert outcome == ["refused", "refused", "taken"]
+    assert [p.name for p in out.iterdir()] == [".sweep.lock"]
+
+
 # ---------------------------------------------------------------------------- exit status
 def test_exit_status_counts_error_rows_and_failing_designs(tmp_path, client, capsys):
     # mostly errors: no motor holds 25 or 30 kg (the plan refuses those sets)
@@ -310,22 +372,27 @@ def test_kill_9_at_a_random_moment_loses_and_doubles_nothing(tmp_path, client, c
     a random delay; the same command then finishes the sweep. The seed is in every message."""
     seed = random.randrange(1 << 30)
     rng = random.Random(seed)
-    path = write_sweep(tmp_path, [0.0, 0.25, 0.5, 0.75], samples=2000)
+    path = write_sweep(tmp_path, [0.0, 0.25, 0.5, 0.75], samples=20000)  # ~1 s a study
     path.write_text(
         path.read_text() + '[[parameter]]\nkey = "drives.joint2.ratio"\nvalues = [300, 410, 450]\n'
     )
     out = tmp_path / "out"
     keys = {parameter_key(s) for s in parameter_sets(load_sweep(path))}
     assert len(keys) == 12
-    proc = start_sweep([str(path), "--workers", "2"], out, rows=rng.randint(1, 3))
+    proc = start_sweep([str(path), "--workers", "2"], out, rows=1)
     try:
-        # a second client on the folder while the first runs (9 or more studies to go):
-        # refused, one line naming the first
+        # a second client on the folder while the first runs: refused, one line naming it
         capsys.readouterr()
         assert cli([str(path), "--out", str(out)], client) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and f"(pid {proc.pid} on" in err, (seed, err)
-        time.sleep(rng.uniform(0.0, 1.0))
+        # the moment: after a random number of rows, plus a random delay
+        rows = rng.randint(1, 11)
+        deadline = time.monotonic() + 120
+        while len(list((out / "results.parts").glob("*.parquet"))) < rows:
+            assert proc.poll() is None and time.monotonic() < deadline, seed
+            time.sleep(0.005)
+        time.sleep(rng.uniform(0.0, 0.3))
     finally:
         killed = _kill_tree(proc) == -signal.SIGKILL
     # only complete files under their final names: the part files are the record
@@ -335,7 +402,8 @@ def test_kill_9_at_a_random_moment_loses_and_doubles_nothing(tmp_path, client, c
         table = pd.read_parquet(out / "results.parquet")
         assert table["key"].is_unique and set(table["key"]) <= set(before), seed
     json.loads((out / "sweep.json").read_text())
-    assert (out / ".sweep.lock").is_file() == killed, seed  # a killed client leaves its lock
+    if killed and len(before) < 12:  # killed mid-sweep: its lock is left behind
+        assert (out / ".sweep.lock").is_file(), seed
     # the same command again: the dead client's lock is taken over, only the rest runs
     capsys.readouterr()
     assert cli([str(path), "--out", str(out)], client) == 0, seed

@@ -17,7 +17,10 @@ from __future__ import annotations
 import re
 from typing import Any
 
-import griffe
+try:
+    import griffe
+except ImportError:  # the rewrites work without it (tests/test_docs.py); the extension needs it
+    griffe = None
 
 ROLE = re.compile(r":(?:func|class|mod|meth|attr|data|obj|exc|ref|term):`([^`]+)`")
 BORDER = re.compile(r"^(\s*)(=+)((?:\s+=+)+)\s*$")
@@ -84,9 +87,11 @@ def rst_to_markdown(text: str) -> str:
     return re.sub(r"(\S)::\n", r"\1:\n", text)
 
 
-class RstToMarkdown(griffe.Extension):
-    """Rewrite every docstring of the loaded package before mkdocstrings renders it."""
+if griffe is not None:
 
-    def on_object(self, *, obj: Any, **kwargs: Any) -> None:
-        if obj.docstring is not None:
-            obj.docstring.value = rst_to_markdown(obj.docstring.value)
+    class RstToMarkdown(griffe.Extension):
+        """Rewrite every docstring of the loaded package before mkdocstrings renders it."""
+
+        def on_object(self, *, obj: Any, **kwargs: Any) -> None:
+            if obj.docstring is not None:
+                obj.docstring.value = rst_to_markdown(obj.docstring.value)

@@ -403,8 +403,8 @@ def cia402_csp(
         p = round(float(per_rev[a]))
         if abs(per_rev[a] - p) > 1e-6:
             raise InputError(
-                f"joint {names[a]}: {per_rev[a]!r} counts per joint revolution is not a whole "
-                "number, a modulo axis would drift"
+                f"joint {names[a]}: {float(per_rev[a])!r} counts per joint revolution is not "
+                "a whole number, a modulo axis would drift"
             )
         period[a] = p
         target[:, a] = np.mod(target[:, a], p)

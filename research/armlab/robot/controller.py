@@ -3,8 +3,10 @@
 The default profile, ``reference_dda``, is the controller of the SHU controller paper (§1): an
 industrial PC with two 3-axis position cards, DDA interpolation period settable from 1 ms to
 2 s, at most 4095 pulses per axis per DDA period, quadrature counting with x2 or x4 decoding,
-1 ms servo update, 12-bit +-10 V D/A. Profiles live in ``armlab/data/profiles/<name>.toml``;
-any other TOML file with the same keys can be given by path.
+1 ms servo update, 12-bit +-10 V D/A. ``ethercat_cia402_csp`` is an EtherCAT master with CiA 402
+drives in cyclic synchronous position mode (no pulse limit; home positions and modulo axes for
+the CiA 402 export, :mod:`armlab.deploy.cia402`). Profiles live in
+``armlab/data/profiles/<name>.toml``; any other TOML file with the same keys can be given by path.
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """Generate a built-in arm's URDF from its DH table and drives file.
 
 ``python -m armlab.robot.generate teachbot6`` rewrites ``robot_desc/teachbot6/teachbot6.urdf``
-from ``mdh.toml`` (geometry, ranges, speeds, masses) and ``drives.toml`` (effort = available
-output torque, thesis table 4.3 rule).
+from ``mdh.toml`` (geometry, ranges, speeds, masses, the visual primitives drawn from the table)
+and ``drives.toml`` (effort = available output torque, thesis table 4.3 rule).
 """
 
 from __future__ import annotations

@@ -57,6 +57,7 @@ OUTPUT_FILES = (
     "setpoints.csv",
     "gains.json",
     "trajectory.npz",
+    "motion.html",
     "*.png",
     ".*.tmp",
 )
@@ -121,11 +122,17 @@ def load_design(folder: str | os.PathLike) -> dict:
     return record
 
 
+def _nan_for_null(part: dict) -> dict:
+    """A drive part read back from JSON without its ``null`` values (how an unknown, NaN, figure
+    is written): the part's own default -- NaN, "not given" -- applies again."""
+    return {k: v for k, v in part.items() if v is not None}
+
+
 def _drive_from_dict(d: dict, where: str) -> Drive:
     return Drive(
         joint=d["joint"],
-        motor=motor_from_dict(dict(d["motor"]), f"{where} motor"),
-        reducer=reducer_from_dict(dict(d["reducer"]), f"{where} reducer"),
+        motor=motor_from_dict(_nan_for_null(d["motor"]), f"{where} motor"),
+        reducer=reducer_from_dict(_nan_for_null(d["reducer"]), f"{where} reducer"),
         encoder=Encoder(**d["encoder"]),
         acceleration_rad_s2=float(d["acceleration_rad_s2"]),
         jerk_rad_s3=float(d["jerk_rad_s3"]),
@@ -315,27 +322,20 @@ def prepare_out_dir(folder: str | os.PathLike, study_hash: str, *, overwrite: bo
             f"--out {folder}: holds the outputs of another study (or an unfinished run): "
             "choose another folder or pass --overwrite"
         )
-    for p in ours:
+    # the summary goes first (a kill from here on leaves no summary: export refuses the folder)
+    # and the design record last (it tells a re-run that this folder is this study's)
+    order = sorted(ours, key=lambda p: (p.name != SUMMARY_FILE, p.name == DESIGN_FILE, p.name))
+    for p in order:
         p.unlink()
     _clear_default_exports(folder / "export")
     return folder
 
 
-#: Files ``armlab export`` writes into a study's default ``export/`` folder.
-EXPORT_FILES = (
-    "setpoints.csv",
-    "setpoints.json",
-    "setpoints.npz",
-    "setpoints.h",
-    "gains.json",
-    "gains.h",
-    "gains_ros2.yaml",
-)
-
-
 def _clear_default_exports(folder: Path) -> None:
     """Remove what an earlier ``armlab export`` wrote into ``folder`` (the study's default export
     folder): exports of the earlier run must not outlive it. Other files are left alone."""
+    from armlab.study.export import EXPORT_FILES  # export reads this module: import on use
+
     if not folder.is_dir():
         return
     for name in EXPORT_FILES:
