@@ -200,8 +200,10 @@ class ResultStore:
         """Record a finished row: its part file now, the consolidated table when due."""
         key = row["key"]
         self.rows[key] = row
-        atomic_parquet(pd.DataFrame([row]), self.parts / f"{key}.parquet")
+        # dirty before the part file exists: an interrupt right after the part is written must
+        # still rewrite the table in the caller's final flush
         self._dirty = True
+        atomic_parquet(pd.DataFrame([row]), self.parts / f"{key}.parquet")
         if time.monotonic() - self._last_write >= self.consolidate_s:
             self.flush()
 
