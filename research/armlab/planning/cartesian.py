@@ -32,8 +32,8 @@ from armlab.kinematics import fk, has_analytic_ik, ik, ik_all_batch, ik_nearest
 from armlab.planning.paths import ArcPath, BlendPath, CartesianPath, LinePath
 from armlab.planning.timescale import finish, stretch_needed
 from armlab.robot.limits import resolve_limits
-from armlab.trajectory.core import Trajectory
-from armlab.trajectory.profiles import double_s_profile, time_grid, trapezoid_profile
+from armlab.trajectory.core import Trajectory, sample_times
+from armlab.trajectory.profiles import double_s_profile, trapezoid_profile
 from armlab.trajectory.waypoints import validate_waypoints
 
 if TYPE_CHECKING:
@@ -357,14 +357,11 @@ def follow_path(
 
     def build(v, a, j):
         prof = double_s_profile(L, v, a, j) if scurve else trapezoid_profile(L, v, a)
-        # knot pairs where the acceleration steps: the trapezoid's corners, and where the
-        # path's curvature steps (line/arc junctions)
-        corners = prof.time_at(path.junctions)
-        if not scurve:
-            corners = np.concatenate([prof.corners, corners])
-        t = time_grid(
-            prof.duration, dt, corners, ends=not scurve, knots=prof.corners if scurve else ()
-        )
+        # knots where the profile switches and where the path's curvature steps (line/arc
+        # junctions): each piece between knots is smooth (module docstring of
+        # armlab.trajectory.core)
+        knots = np.concatenate([prof.corners, prof.time_at(path.junctions)])
+        t = sample_times(prof.duration, dt, knots)
         s, sd, sdd, sddd = prof.evaluate(t)
         s[-1] = L
         guide = np.column_stack(
@@ -382,15 +379,20 @@ def follow_path(
         traj = Trajectory(t, q, qd, qdd, qddd, joint_names=robot.joint_names, method=method)
         return traj, prof, s
 
+    def needed(traj):  # on the evaluation's peaks (knots, left limits, interior extremes)
+        return stretch_needed(
+            traj.limit_samples(robot=robot if torque else None), robot, lim, torque=torque
+        )
+
     traj, prof, s = build(v, a, j)
-    k, kind, joint = stretch_needed(traj, robot, lim, torque=torque)
+    k, kind, joint = needed(traj)
     for _ in range(6):
         if k <= 1 + 1e-12:
             break
         k *= 1 + 1e-9
         v, a, j = v / k, a / k**2, j / k**3
         traj, prof, s = build(v, a, j)
-        k2, kind2, joint2 = stretch_needed(traj, robot, lim, torque=torque)
+        k2, kind2, joint2 = needed(traj)
         kind, joint = (kind2, joint2) if k2 > 1 else (kind, joint)
         k = k2
     lowered = []

@@ -28,14 +28,13 @@ import numpy as np
 from armlab.errors import InputError
 from armlab.planning.timescale import finish, stretch_needed
 from armlab.robot.limits import resolve_limits
-from armlab.trajectory.core import Trajectory
+from armlab.trajectory.core import Trajectory, sample_times
 from armlab.trajectory.profiles import (
     MotionProfile,
     double_s_binding,
     double_s_profile,
     rest_profile,
     synchronised_profiles,
-    time_grid,
     trapezoid_profile,
 )
 from armlab.trajectory.waypoints import validate_waypoints
@@ -200,12 +199,9 @@ def ptp_sync(
     normalised = profile != "velocity" and sync_used == "phase"
 
     def build(profiles, duration) -> Trajectory:
-        # knot pairs where the acceleration steps, plain knots where only the jerk does
-        corners = np.concatenate([p.corners for p in profiles])
-        steps = profile != "scurve"
-        t = time_grid(
-            duration, dt, corners if steps else (), ends=steps, knots=() if steps else corners
-        )
+        # every joint's switching times are knots: each piece between knots is the Taylor
+        # polynomial of its left knot (constant acceleration or jerk), evaluated exactly
+        t = sample_times(duration, dt, np.concatenate([p.corners for p in profiles]))
         n = t.size
         q = np.empty((n, robot.n_joints))
         qd = np.empty_like(q)
@@ -232,7 +228,9 @@ def ptp_sync(
     slowdown = None
     T0 = T
     for _ in range(10):  # torque peaks move between samples when the grid changes: iterate
-        k, kind, joint = stretch_needed(traj, robot, lim, torque=torque)
+        # on the evaluation's peaks (knots, left limits, interior extremes, refined torques)
+        check = traj.limit_samples(robot=robot if torque else None)
+        k, kind, joint = stretch_needed(check, robot, lim, torque=torque)
         if k <= 1 + 1e-12:
             break
         k *= 1 + 1e-9

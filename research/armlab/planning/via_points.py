@@ -36,8 +36,8 @@ from scipy.interpolate import CubicSpline
 from armlab.errors import InputError, LimitViolation
 from armlab.planning.timescale import check_in_range, finish, stretch_needed
 from armlab.robot.limits import resolve_limits
-from armlab.trajectory.core import Trajectory
-from armlab.trajectory.profiles import time_grid, trapezoid_min_time
+from armlab.trajectory.core import Trajectory, sample_times
+from armlab.trajectory.profiles import trapezoid_min_time
 from armlab.trajectory.waypoints import validate_waypoints
 
 if TYPE_CHECKING:
@@ -151,21 +151,11 @@ class _PiecewisePoly:
         return lo, hi
 
 
-def _sample_times(knots: np.ndarray, dt: float, extra: np.ndarray, corners: bool) -> np.ndarray:
-    """Uniform grid of step ``dt`` plus every knot (the via points are samples) plus the
-    ``extra`` times (velocity and acceleration peaks); times closer than ``1e-6 dt`` merge.
-    With ``corners`` (the acceleration steps at the via points) a knot pair brackets each via
-    point too (see :func:`time_grid`)."""
-    grid = time_grid(float(knots[-1]), dt, knots[1:-1] if corners else (), ends=corners)
-    fixed = np.union1d(knots, extra)
-    # drop extras that crowd a knot, then grid points that crowd any fixed time
-    if extra.size:
-        ok = np.min(np.abs(fixed[:, None] - knots[None, :]), axis=1) >= 1e-6 * dt
-        fixed = np.union1d(knots, fixed[ok])
-        keep = np.concatenate([[True], np.diff(fixed) >= 1e-6 * dt])
-        fixed = fixed[keep]
-    near = np.min(np.abs(grid[:, None] - fixed[None, :]), axis=1) < 1e-6 * dt
-    return np.union1d(grid[~near], fixed)
+def _sample_times(knots: np.ndarray, dt: float, extra: np.ndarray) -> np.ndarray:
+    """Uniform grid of step ``dt`` plus every knot (the via points are samples, where the
+    acceleration may step) plus the ``extra`` times (velocity and acceleration peaks), all
+    kept exactly (:func:`armlab.trajectory.core.sample_times`)."""
+    return sample_times(float(knots[-1]), dt, np.concatenate([knots[1:-1], extra]))
 
 
 def _via_plan(
@@ -270,7 +260,7 @@ def _via_plan(
             )
         pp = _PiecewisePoly(knots, coeffs)
         smooth = degree == 5 or (not given_v and rule == "spline")
-        t = _sample_times(knots, dt, pp.critical_times(), corners=not smooth)
+        t = _sample_times(knots, dt, pp.critical_times())
         q, qd, qdd, qddd = pp.evaluate(t)
         q[np.searchsorted(t, knots)] = W  # the via points exactly
         traj = Trajectory(
@@ -278,8 +268,13 @@ def _via_plan(
         )
         return traj, pp, V
 
+    def needed(traj):  # on the evaluation's peaks (knots, left limits, interior extremes)
+        return stretch_needed(
+            traj.limit_samples(robot=robot if torque else None), robot, lim, torque=torque
+        )
+
     traj, pp, V = build(T)
-    k, kind, joint = stretch_needed(traj, robot, lim, torque=torque)
+    k, kind, joint = needed(traj)
     slowdown = None
     if k > 1 + 1e-12:
         if fixed:
@@ -293,7 +288,7 @@ def _via_plan(
         for _ in range(60):  # scale-invariant rules converge in one pass; given velocities not
             T = T * k * (1 + 1e-9)
             traj, pp, V = build(T)
-            k, kind, joint = stretch_needed(traj, robot, lim, torque=torque)
+            k, kind, joint = needed(traj)
             if k <= 1 + 1e-12:
                 break
         else:

@@ -20,34 +20,6 @@ from armlab.trajectory.core import LIMIT_KINDS, LimitReport, Trajectory
 from armlab.trajectory.profiles import MotionProfile, double_s_profile, trapezoid_profile
 from armlab.trajectory.waypoints import validate_waypoints
 
-#: Planner names reachable as ``armlab.trajectory.<name>`` (their home: armlab.planning).
-PLANNER_NAMES = (
-    "ptp_sync",
-    "trapezoid_steps",
-    "StepPlan",
-    "cubic_via",
-    "quintic_via",
-    "line",
-    "arc3",
-    "blend",
-    "follow_path",
-    "track_path",
-    "JointPath",
-    "CartesianPath",
-    "LinePath",
-    "ArcPath",
-    "BlendPath",
-    "OnlineInterpolator",
-    "OnlineSample",
-    "OnlineRun",
-    "optimal",
-    "build_optimal",
-    "OptimalProblem",
-    "time_optimal_path",
-    "build_topp",
-    "ToppProblem",
-)
-
 __all__ = [
     "Trajectory",
     "LimitReport",
@@ -58,14 +30,14 @@ __all__ = [
     "validate_waypoints",
     "Limits",
     "resolve_limits",
-    *PLANNER_NAMES,
 ]
 
 
 def __getattr__(name: str) -> Any:
-    """``armlab.trajectory.optimal`` and the other planner names, from :mod:`armlab.planning`."""
-    if name in PLANNER_NAMES:
-        import armlab.planning
+    """``armlab.trajectory.optimal`` and the other planners of :data:`armlab.planning.__all__`
+    (their home), looked up on first use."""
+    import armlab.planning
 
+    if name in armlab.planning.__all__:
         return getattr(armlab.planning, name)
     raise AttributeError(f"module 'armlab.trajectory' has no attribute {name!r}")

@@ -1,10 +1,42 @@
 """The :class:`Trajectory`: the one currency between planners and consumers.
 
-A trajectory is sampled: times ``t`` (n_samples,) in [s] and joint positions ``q``, velocities
-``qd``, accelerations ``qdd`` (and jerks ``qddd`` where the planner defines them), each
-``(n_samples, n_joints)`` in [rad], [rad/s], [rad/s^2], [rad/s^3]. Between samples it is
-evaluated by quintic Hermite interpolation of (q, qd, qdd) — exact for the piecewise
-polynomials the planners produce when the samples are their knots.
+A trajectory is stored at its knots: times ``t`` (n_samples,) in [s] and joint positions ``q``,
+velocities ``qd``, accelerations ``qdd`` (and jerks ``qddd`` where the planner defines them),
+each ``(n_samples, n_joints)`` in [rad], [rad/s], [rad/s^2], [rad/s^3].
+
+Evaluation between knots (:meth:`Trajectory.at`, :meth:`~Trajectory.sample`,
+:meth:`~Trajectory.check_limits`)
+------------------------------------------------------------------------------------------
+Convention: the values at a knot are those of the piece that *starts* there (right limits):
+where the acceleration steps (a trapezoid's corner) the knot carries the acceleration of the
+phase that begins at it, where the jerk steps the jerk of that phase. The last knot carries
+the end of the motion. On ``[t_k, t_k+1)``, with ``tau = t - t_k``, ``h = t_k+1 - t_k`` and
+``s = tau / h``, every joint follows the Taylor polynomial of the left knot plus a closure
+onto the right knot's position and velocity (the only values that are continuous at every
+knot; Biagiotti & Melchiorri §2.1: a polynomial fixed by boundary conditions)::
+
+    q(t) = q_k + qd_k tau + qdd_k tau^2 / 2 + qddd_k tau^3 / 6 + K3 s^3 + K4 s^4 + K5 s^5
+
+    d = q_k+1 - (Taylor at s = 1),   e = h (qd_k+1 - (its derivative at s = 1))
+    with qddd:    K3 = 0,        K4 = 5 d - e,  K5 = e - 4 d   (quintic)
+    without:      K3 = 4 d - e,  K4 = e - 3 d,  K5 = 0         (quartic; qddd_k = 0 above)
+
+and ``qd``, ``qdd``, ``qddd`` are its derivatives. It is **exact** for every piecewise
+polynomial whose breakpoints are knots -- constant acceleration (trapezoids), constant jerk
+(S-curves, the optimiser's jerk mode), cubics (via points) without ``qddd``; quintics with
+it -- since these satisfy the closure conditions themselves; it is continuous in position and
+velocity for any other data (Cartesian and TOPP plans: a smooth interpolant). Each derivative
+is the piece's own: nothing is interpolated across a step of the acceleration, and nothing is
+divided by a tiny interval -- a residual ``d`` or ``e`` within the rounding noise of the knot
+data (``_NOISE`` times the joint's largest values and time) is taken as zero, so a knot pair a
+microsecond apart is evaluated by its exact Taylor polynomial. Times outside
+``[t[0], t[-1]]`` are clamped; at a knot time the stored values are returned.
+
+Limits are checked where the evaluation can peak (:meth:`Trajectory.limit_samples`): at the
+knots, at the left limits of every piece, at the interior extremes of position, velocity,
+acceleration and jerk of each piece (roots of the next derivative: exact), on an optional
+uniform grid, and for torques at interior points of each piece refined by parabolic
+interpolation around every local peak (RNEA at each point).
 """
 
 from __future__ import annotations
@@ -21,9 +53,119 @@ from armlab.robot.limits import Limits
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
 
-__all__ = ["Trajectory", "LimitReport", "LIMIT_KINDS"]
+__all__ = [
+    "Trajectory",
+    "LimitReport",
+    "LimitSamples",
+    "LIMIT_KINDS",
+    "sample_times",
+    "MERGE_FRACTION",
+]
 
 LIMIT_KINDS = ("position", "velocity", "acceleration", "jerk", "torque")
+
+#: relative rounding noise of knot data: a closure residual within this times the magnitudes
+#: that enter it is taken as zero (module docstring)
+_NOISE = 256 * np.finfo(float).eps
+#: a regular sample closer than this fraction of the step to a knot or to the end is dropped
+MERGE_FRACTION = 1e-2
+#: interior points per piece at which torques are evaluated before the peak refinement
+TORQUE_POINTS = 3
+
+
+def sample_times(duration: float, dt: float, knots=()) -> np.ndarray:
+    """Sample times [s] from 0 to ``duration``: the regular grid ``0, dt, 2 dt, ...``, the end
+    and the ``knots`` (a planner's switching times, kept exactly).
+
+    A regular sample closer than ``MERGE_FRACTION * dt`` to a knot or to the end is dropped, so
+    there are no near-duplicate samples: the last regular step may be up to
+    ``(1 + MERGE_FRACTION) dt`` long. Knots outside ``(0, duration)`` are ignored; knots closer
+    than the rounding of the times (``8 eps duration``) merge into the later one; a zero
+    duration gives ``[0.0]``.
+    """
+    dt = float(dt)
+    if not np.isfinite(dt) or dt <= 0:
+        raise InputError(f"sample step dt must be a positive number of seconds, not {dt!r}")
+    duration = float(duration)
+    if not np.isfinite(duration):
+        raise InputError(f"duration must be a finite number of seconds, not {duration!r}")
+    if duration <= 0:
+        return np.zeros(1)
+    n = int(np.floor(duration / dt + 1e-9))
+    grid = dt * np.arange(n + 1)
+    k = np.asarray(knots, dtype=float).reshape(-1)
+    fixed = np.unique(np.append(k[(k > 0) & (k < duration)], duration))
+    # knots within rounding of each other (a phase shorter than the time's own noise) merge
+    fixed = fixed[np.append(np.diff(fixed) > 8 * np.finfo(float).eps * duration, True)]
+    i = np.searchsorted(fixed, grid)
+    left = fixed[np.clip(i - 1, 0, fixed.size - 1)]
+    right = fixed[np.clip(i, 0, fixed.size - 1)]
+    near = np.minimum(np.abs(grid - left), np.abs(right - grid)) < MERGE_FRACTION * dt
+    near[0] = False
+    return np.union1d(grid[~near], fixed)
+
+
+@dataclass
+class LimitSamples:
+    """The points where a trajectory's limits are checked (:meth:`Trajectory.limit_samples`).
+
+    Arrays as a :class:`Trajectory`'s -- ``t`` (n,) in [s], ``q``, ``qd``, ``qdd``, ``qddd``
+    (n, n_joints) in [rad], [rad/s], [rad/s^2], [rad/s^3] -- except that ``t`` may repeat (a
+    knot's left limit and its own value) and is not a time grid; ``qddd`` is None when the
+    trajectory defines no jerk; ``tau`` (n, n_joints) in [N m] the RNEA torques when a robot was
+    given. Anything that reads samples of a trajectory (e.g.
+    :func:`armlab.planning.timescale.stretch_needed`) reads these too.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    qddd: np.ndarray | None = None
+    tau: np.ndarray | None = None
+
+
+def _unit_roots(coeffs: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Real roots in (0, 1) of the polynomials ``sum_i coeffs[i] s^i`` (each coefficient an
+    array of one shape, one polynomial per element): (flat element index, root) arrays.
+
+    The degree of each polynomial is its highest coefficient above ``1e-12`` times the sum of
+    their magnitudes; roots from the closed forms up to degree 2, else from the eigenvalues of
+    the companion matrix."""
+    c = np.stack([np.asarray(x, dtype=float).reshape(-1) for x in coeffs], axis=1)
+    scale = np.abs(c).sum(axis=1)
+    big = np.abs(c) > 1e-12 * scale[:, None]
+    deg = np.where(big.any(axis=1), c.shape[1] - 1 - np.argmax(big[:, ::-1], axis=1), 0)
+    rows: list[np.ndarray] = []
+    roots: list[np.ndarray] = []
+    m = np.flatnonzero(deg == 1)
+    rows.append(m)
+    roots.append(-c[m, 0] / c[m, 1])
+    m = np.flatnonzero(deg == 2)
+    if m.size:
+        a, b, cc = c[m, 2], c[m, 1], c[m, 0]
+        disc = b * b - 4 * a * cc
+        ok = disc >= 0
+        m, a, b, cc, disc = m[ok], a[ok], b[ok], cc[ok], disc[ok]
+        qq = -0.5 * (b + np.where(b >= 0, 1.0, -1.0) * np.sqrt(disc))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r1, r2 = qq / a, np.where(qq != 0, cc / qq, np.nan)
+        rows += [m, m]
+        roots += [r1, r2]
+    for d in range(3, c.shape[1]):
+        m = np.flatnonzero(deg == d)
+        if not m.size:
+            continue
+        comp = np.zeros((m.size, d, d))
+        comp[:, np.arange(1, d), np.arange(d - 1)] = 1.0
+        comp[:, :, -1] = -c[m, :d] / c[m, d, None]
+        ev = np.linalg.eigvals(comp)
+        real = np.abs(ev.imag) <= 1e-7 * np.maximum(1.0, np.abs(ev.real))
+        rows.append(np.repeat(m, d)[real.reshape(-1)])
+        roots.append(ev.real[real])
+    row, root = np.concatenate(rows).astype(int), np.concatenate(roots)
+    inside = np.isfinite(root) & (root > 0) & (root < 1)
+    return row[inside], root[inside]
 
 
 @dataclass
@@ -66,6 +208,30 @@ class LimitReport:
             k: dict(zip(self.joint_names, map(float, r), strict=True))
             for k, r in self.ratios.items()
         }
+
+
+def _drop_noise(x: np.ndarray, tol: np.ndarray) -> np.ndarray:
+    """``x`` with the entries within ``tol`` (rounding noise) set to zero."""
+    return np.where(np.abs(x) <= tol, 0.0, x)
+
+
+def _peak_vertices(t: np.ndarray, y: np.ndarray, piece: np.ndarray) -> np.ndarray:
+    """Times [s] of the vertices of the parabolas through every interior local peak of ``y``
+    (n, n_joints) over ``t`` (n,) and its two neighbours, where all three lie in one piece (no
+    knot between them: the signal is smooth there) -- one step of successive parabolic
+    interpolation towards each peak."""
+    if t.size < 3:
+        return np.zeros(0)
+    t0, t1, t2 = t[:-2, None], t[1:-1, None], t[2:, None]
+    y0, y1, y2 = y[:-2], y[1:-1], y[2:]
+    same = (piece[:-2] == piece[1:-1]) & (piece[1:-1] == piece[2:])
+    ok = same[:, None] & (t0 < t1) & (t1 < t2) & (y1 >= y0) & (y1 >= y2) & ((y1 > y0) | (y1 > y2))
+    num = (t1 - t0) ** 2 * (y1 - y2) - (t1 - t2) ** 2 * (y1 - y0)
+    den = (t1 - t0) * (y1 - y2) - (t1 - t2) * (y1 - y0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tv = t1 - 0.5 * num / den
+    ok &= np.isfinite(tv) & (tv > t0) & (tv < t2)
+    return np.unique(np.broadcast_to(tv, ok.shape)[ok])
 
 
 def _as_series(x, n: int, name: str, n_joints: int | None) -> np.ndarray:
@@ -150,47 +316,177 @@ class Trajectory:
         )
 
     # ------------------------------------------------------------------ evaluation
-    def at(self, times) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Evaluate (q, qd, qdd, qddd) at ``times`` (n,) in [s] by quintic Hermite interpolation.
+    def _pieces(self):
+        """Per piece ``[t_k, t_k+1)`` (n_samples - 1, n_joints): ``h`` (n - 1, 1) in [s], the
+        Taylor jerk ``j`` and the closure coefficients ``K3, K4, K5`` of the module docstring."""
+        t = self.t
+        h = np.diff(t)[:, None]
+        q0, q1 = self.q[:-1], self.q[1:]
+        v0, v1 = self.qd[:-1], self.qd[1:]
+        a0 = self.qdd[:-1]
+        j = self.qddd[:-1] if self.qddd is not None else np.zeros_like(q0)
+        d = q1 - (q0 + h * (v0 + h * (a0 / 2 + h * j / 6)))
+        e = h * (v1 - (v0 + h * (a0 + h * j / 2)))
+        # rounding noise of the knot data: each joint's largest values (a planner's sums can
+        # cancel: q = q0 + delta s), and the rounding of the times they were evaluated at
+        t_abs = np.abs(t[1:])[:, None] + h
+        Q, V, A = (np.abs(x).max(axis=0) for x in (self.q, self.qd, self.qdd))
+        J = np.abs(j).max(axis=0) if j.size else 0.0
+        d = _drop_noise(d, _NOISE * (Q + V * t_abs + A * h * h + J * h**3))
+        e = _drop_noise(e, _NOISE * h * (V + A * t_abs + J * h * h))
+        if self.qddd is None:  # quartic closure onto the right knot's q and qd
+            return h, j, 4 * d - e, e - 3 * d, np.zeros_like(d)
+        # quintic closure onto the right knot's q, qd and qdd (continuous with a jerk)
+        f = _drop_noise(h * h * (self.qdd[1:] - (a0 + h * j)), _NOISE * h * h * (A + J * t_abs))
+        return h, j, 10 * d - 4 * e + f / 2, -15 * d + 7 * e - f, 6 * d - 3 * e + f / 2
 
-        Times outside ``[t[0], t[-1]]`` are clamped (the arm rests at its end points).
+    def _evaluate(
+        self, k: np.ndarray, tau: np.ndarray, pieces
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(q, qd, qdd, qddd) of pieces ``k`` (m,) at ``tau`` (m,) [s] after their left knots."""
+        h, j, K3, K4, K5 = (x[k] for x in pieces)
+        tau = tau[:, None]
+        s = tau / h
+        q0, v0, a0 = self.q[k], self.qd[k], self.qdd[k]
+        q = q0 + tau * (v0 + tau * (a0 / 2 + tau * j / 6)) + s**3 * (K3 + s * (K4 + s * K5))
+        qd = v0 + tau * (a0 + tau * j / 2) + s * s * (3 * K3 + s * (4 * K4 + 5 * s * K5)) / h
+        qdd = a0 + tau * j + s * (6 * K3 + s * (12 * K4 + 20 * s * K5)) / h**2
+        qddd = j + (6 * K3 + s * (24 * K4 + 60 * s * K5)) / h**3
+        return q, qd, qdd, qddd
+
+    def at(self, times) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Evaluate (q, qd, qdd, qddd) at ``times`` (n,) in [s] from the piecewise definition
+        (module docstring: the left knot's Taylor polynomial closed onto the right knot).
+
+        Right-continuous: at a knot the values of the piece that starts there (the stored
+        ones). Times outside ``[t[0], t[-1]]`` are clamped (the arm rests at its end points).
+        Without ``qddd`` the jerk returned is that of the evaluation (0 for constant
+        acceleration).
         """
         times = np.clip(np.asarray(times, dtype=float).reshape(-1), self.t[0], self.t[-1])
         if self.n_samples == 1:
             z = np.zeros((times.size, self.n_joints))
             return np.repeat(self.q, times.size, 0), z, z.copy(), z.copy()
         k = np.clip(np.searchsorted(self.t, times, side="right") - 1, 0, self.n_samples - 2)
-        h = (self.t[k + 1] - self.t[k])[:, None]
-        s = ((times - self.t[k])[:, None]) / h
-        p0, p1 = self.q[k], self.q[k + 1]
-        v0, v1 = self.qd[k] * h, self.qd[k + 1] * h
-        a0, a1 = self.qdd[k] * h**2, self.qdd[k + 1] * h**2
-        # quintic Hermite coefficients of p(s) = sum c_i s^i on s in [0, 1]
-        c0, c1, c2 = p0, v0, 0.5 * a0
-        d = p1 - p0 - v0 - 0.5 * a0
-        e = v1 - v0 - a0
-        f = a1 - a0
-        c3 = 10 * d - 4 * e + 0.5 * f
-        c4 = -15 * d + 7 * e - f
-        c5 = 6 * d - 3 * e + 0.5 * f
-        q = c0 + s * (c1 + s * (c2 + s * (c3 + s * (c4 + s * c5))))
-        qd = (c1 + s * (2 * c2 + s * (3 * c3 + s * (4 * c4 + s * 5 * c5)))) / h
-        qdd = (2 * c2 + s * (6 * c3 + s * (12 * c4 + s * 20 * c5))) / h**2
-        qddd = (6 * c3 + s * (24 * c4 + s * 60 * c5)) / h**3
+        q, qd, qdd, qddd = self._evaluate(k, times - self.t[k], self._pieces())
+        end = times >= self.t[-1]  # the end of the motion: its stored values
+        q[end], qd[end], qdd[end] = self.q[-1], self.qd[-1], self.qdd[-1]
+        if self.qddd is not None:
+            qddd[end] = self.qddd[-1]
         return q, qd, qdd, qddd
 
+    def left_limits(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(q, qd, qdd, qddd) at ``t[1:]`` approached from the left (each piece at its end),
+        (n_samples - 1, n_joints) each; q and qd equal the knots' up to rounding noise."""
+        if self.n_samples == 1:
+            z = np.zeros((0, self.n_joints))
+            return z, z.copy(), z.copy(), z.copy()
+        k = np.arange(self.n_samples - 1)
+        return self._evaluate(k, np.diff(self.t), self._pieces())
+
+    def critical_times(self) -> np.ndarray:
+        """Sorted times [s] strictly inside pieces where some joint's position, velocity,
+        acceleration or (with ``qddd``) jerk has a stationary point: the roots of the next
+        derivative of each piece's polynomial (module docstring), so that the evaluation's
+        peaks are among the knots, the left limits and these times."""
+        if self.n_samples == 1:
+            return np.zeros(0)
+        h, j, K3, K4, K5 = self._pieces()
+        C1 = self.qd[:-1] * h
+        C2 = self.qdd[:-1] * h * h / 2
+        C3 = j * h**3 / 6 + K3
+        polys = [
+            [C1, 2 * C2, 3 * C3, 4 * K4, 5 * K5],  # velocity: position extremes
+            [2 * C2, 6 * C3, 12 * K4, 20 * K5],  # acceleration: velocity extremes
+            [6 * C3, 24 * K4, 60 * K5],  # jerk: acceleration extremes
+        ]
+        if self.qddd is not None:
+            polys.append([24 * K4, 120 * K5])  # snap: jerk extremes
+        out = []
+        for p in polys:
+            row, s = _unit_roots(p)
+            piece = row // self.n_joints
+            out.append(self.t[piece] + s * h[piece, 0])
+        times = np.unique(np.concatenate(out))
+        return times[(times > self.t[0]) & (times < self.t[-1])]
+
+    def limit_samples(self, dt: float | None = None, *, robot: Robot | None = None) -> LimitSamples:
+        """The points where the evaluation can peak: every knot, every piece's left limit, the
+        :meth:`critical_times`, a uniform grid of step ``dt`` [s] if given, and with ``robot``
+        the torques (RNEA, :func:`armlab.robot.rigid_body.inverse_dynamics`) at those points
+        and at :data:`TORQUE_POINTS` interior points per piece, refined by one parabolic
+        interpolation step around every interior local peak of ``|tau|`` of each joint.
+
+        Position, velocity, acceleration and jerk peaks are exact (up to root rounding);
+        torque peaks are those of the refined samples.
+        """
+        n = self.n_samples
+        if robot is not None:
+            self._check_robot(robot)
+        if n == 1:
+            out = LimitSamples(self.t.copy(), self.q.copy(), self.qd.copy(), self.qdd.copy())
+            out.qddd = None if self.qddd is None else self.qddd.copy()
+            if robot is not None:
+                out.tau = rigid_body.inverse_dynamics(robot, out.q, out.qd, out.qdd)
+            return out
+        extra = [self.critical_times()]
+        if dt is not None:
+            extra.append(self.t[0] + sample_times(self.duration, dt))
+        if robot is not None:
+            f = np.arange(1, TORQUE_POINTS + 1) / (TORQUE_POINTS + 1)
+            extra.append((self.t[:-1, None] + np.diff(self.t)[:, None] * f).reshape(-1))
+        times = np.unique(np.concatenate(extra))
+        times = times[(times > self.t[0]) & (times < self.t[-1])]
+        times = times[np.searchsorted(self.t, times) == np.searchsorted(self.t, times, "right")]
+        ev = self.at(times)
+        left = self.left_limits()
+        own = self.at(self.t)  # the stored values; the jerk of the piece that starts there
+        # sorted by time; at a knot its left limit first, then its own value
+        t_all = np.concatenate([self.t[1:], self.t, times])
+        order_key = np.concatenate([np.zeros(n - 1), np.ones(n), np.full(times.size, 2.0)])
+        piece = np.concatenate(
+            [
+                np.arange(n - 1),
+                np.arange(n),  # the last knot is a piece of its own
+                np.clip(np.searchsorted(self.t, times, "right") - 1, 0, n - 2),
+            ]
+        )
+        order = np.lexsort((order_key, t_all))
+        arrays: list[np.ndarray | None] = [
+            np.concatenate([left[i], own[i], ev[i]])[order] for i in range(4)
+        ]
+        if self.qddd is None:  # acceleration steps: the jerk is not defined
+            arrays[3] = None
+        q, qd, qdd, qddd = arrays
+        assert q is not None and qd is not None and qdd is not None
+        out = LimitSamples(t_all[order], q, qd, qdd, qddd)
+        if robot is None:
+            return out
+        piece = piece[order]
+        tau = rigid_body.inverse_dynamics(robot, out.q, out.qd, out.qdd)
+        vertex = _peak_vertices(out.t, np.abs(tau), piece)
+        if vertex.size:
+            vq, vqd, vqdd, vqddd = self.at(vertex)
+            out.t = np.concatenate([out.t, vertex])
+            out.q = np.vstack([out.q, vq])
+            out.qd = np.vstack([out.qd, vqd])
+            out.qdd = np.vstack([out.qdd, vqdd])
+            if out.qddd is not None:
+                out.qddd = np.vstack([out.qddd, vqddd])
+            tau = np.vstack([tau, rigid_body.inverse_dynamics(robot, vq, vqd, vqdd)])
+        out.tau = tau
+        return out
+
     def sample(self, dt: float) -> Trajectory:
-        """The trajectory on a uniform grid of step ``dt`` [s] from ``t[0]``; the last sample is
-        the end point (the last step may be shorter). Jerk is kept only if this trajectory has
-        one."""
+        """The trajectory on a uniform grid of step ``dt`` [s] from ``t[0]`` and its end point
+        (:func:`sample_times`: a last regular sample within ``MERGE_FRACTION dt`` of the end
+        merges into it), each value from the piecewise definition (:meth:`at`). Jerk is kept
+        only if this trajectory has one."""
         if not np.isfinite(dt) or dt <= 0:
             raise InputError(f"sample step dt must be a positive number of seconds, not {dt!r}")
-        n = int(np.floor(self.duration / dt + 1e-9))
-        times = self.t[0] + dt * np.arange(n + 1)
-        if self.t[-1] - times[-1] > 1e-9 * max(1.0, dt):
-            times = np.append(times, self.t[-1])
+        times = self.t[0] + sample_times(self.duration, dt)
+        times[-1] = self.t[-1]
         q, qd, qdd, qddd = self.at(times)
-        # Hermite jerk of a jerk-less profile (trapezoid) means nothing
         jerk = qddd if self.qddd is not None else None
         out = Trajectory(times, q, qd, qdd, jerk, joint_names=self.joint_names, method=self.method)
         out.report, out.stats, out.meta = self.report, dict(self.stats), dict(self.meta)
@@ -199,7 +495,9 @@ class Trajectory:
     def concat(self, other: Trajectory, *, tol: float = 1e-9) -> Trajectory:
         """This trajectory followed by ``other`` (shifted in time to start where this one ends).
 
-        The join must be continuous in q and qd to ``tol``.
+        The join must be continuous in q and qd to ``tol``; the knot there keeps this
+        trajectory's q and qd and takes the acceleration (and jerk) of ``other``'s start: the
+        piece that starts at the join is ``other``'s (module docstring).
         """
         if other.n_joints != self.n_joints:
             raise InputError("cannot concatenate trajectories with different joint counts")
@@ -207,14 +505,23 @@ class Trajectory:
         if jump > tol:
             raise InputError(f"trajectories do not join: jump of {jump:.3g} in q or qd")
         t2 = other.t[1:] - other.t[0] + self.t[-1]
+        starts = other.n_samples > 1  # a one-sample other is a rest point: nothing starts
+
+        def join(a: np.ndarray, b: np.ndarray, from_other: bool) -> np.ndarray:
+            last = b[:1] if from_other and starts else a[-1:]
+            return np.vstack([a[:-1], last, b[1:]])
+
+        t = np.concatenate([self.t, t2])
+        # knots that the time shift rounds onto one instant: the later one starts the piece
+        keep = np.append(np.diff(t) > 0, True)
         jerk = None
         if self.qddd is not None and other.qddd is not None:
-            jerk = np.vstack([self.qddd, other.qddd[1:]])
+            jerk = join(self.qddd, other.qddd, True)[keep]
         out = Trajectory(
-            np.concatenate([self.t, t2]),
-            np.vstack([self.q, other.q[1:]]),
-            np.vstack([self.qd, other.qd[1:]]),
-            np.vstack([self.qdd, other.qdd[1:]]),
+            t[keep],
+            join(self.q, other.q, False)[keep],
+            join(self.qd, other.qd, False)[keep],
+            join(self.qdd, other.qdd, True)[keep],
             jerk,
             joint_names=self.joint_names,
             method=self.method if self.method == other.method else f"{self.method}+{other.method}",
@@ -237,24 +544,29 @@ class Trajectory:
     def check_limits(
         self, robot: Robot, *, dt: float | None = None, torque: bool = True, limits=None
     ) -> LimitReport:
-        """Peak ratio to each of the robot's limits per joint.
+        """Peak ratio to each of the robot's limits per joint, on the evaluation.
+
+        The peaks are taken over :meth:`limit_samples`: the knots, the left limit of every
+        piece and each piece's interior extremes (exact for position, velocity, acceleration and
+        jerk), and for torques interior points of every piece refined towards each peak.
 
         Parameters
         ----------
         robot : Robot
         dt : float, optional
-            Resample on this grid [s] first (a fine grid catches peaks between knots).
+            Also evaluate on a uniform grid of this step [s] (see :func:`sample_times`).
         torque : bool
-            Include the torque ratio (RNEA at every sample, payload included).
+            Include the torque ratio (RNEA, payload included).
         limits : Limits, optional
             Use these limits instead of ``robot.limits`` (e.g. a request's, from
             :func:`armlab.robot.resolve_limits`); kinds that are None are not reported.
         """
         self._check_robot(robot)
-        traj = self if dt is None else self.sample(dt)
         lim = robot.limits if limits is None else limits
         if not isinstance(lim, Limits) or lim.n_joints != self.n_joints:
             raise InputError(f"limits must be a Limits of {self.n_joints} joints, not {lim!r}")
+        with_tau = torque and lim.torque_Nm is not None
+        smp = self.limit_samples(dt, robot=robot if with_tau else None)
         report = LimitReport(list(robot.joint_names))
         centre = 0.5 * (lim.upper_rad + lim.lower_rad)
         half = 0.5 * (lim.upper_rad - lim.lower_rad)
@@ -265,12 +577,12 @@ class Trajectory:
             r = np.abs(signal) / np.asarray(scale, dtype=float)
             k = np.argmax(r, axis=0)
             report.ratios[kind] = r[k, np.arange(r.shape[1])]
-            report.at_s[kind] = traj.t[k]
+            report.at_s[kind] = smp.t[k]
 
-        put("position", traj.q - centre, half)
-        put("velocity", traj.qd, lim.velocity_rad_s)
-        put("acceleration", traj.qdd, lim.acceleration_rad_s2)
-        put("jerk", traj.qddd, lim.jerk_rad_s3)
-        if torque and lim.torque_Nm is not None:
-            put("torque", traj.torques(robot), lim.torque_Nm)
+        put("position", smp.q - centre, half)
+        put("velocity", smp.qd, lim.velocity_rad_s)
+        put("acceleration", smp.qdd, lim.acceleration_rad_s2)
+        put("jerk", smp.qddd, lim.jerk_rad_s3)
+        if with_tau:
+            put("torque", smp.tau, lim.torque_Nm)
         return report
