@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint docs bench clean setup
+.PHONY: demo test lint docs bench soak clean setup
 
 setup: $(STAMP)
 
@@ -34,6 +34,12 @@ docs: $(STAMP)
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e ".[test,bench]"
 	for b in benchmarks/bench_*.py; do MPLBACKEND=Agg $(PY) $$b || exit 1; done
+
+# the planner property checks of tests/test_planner_properties.py on many more random cases:
+# up to 100 000 per planner (2 000 per optimiser) or 60 minutes each; counts in out/soak.json
+soak: $(STAMP)
+	MPLBACKEND=Agg OPENBLAS_NUM_THREADS=1 $(PY) tests/soak_planners.py --cases 100000 \
+		--optimiser-cases 2000 --minutes 60 --out out/soak.json
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

@@ -157,8 +157,11 @@ def path_derivatives(robot: Robot, q, sample) -> tuple[np.ndarray, np.ndarray]:
 
     ``J g = [dp/ds; w_s]`` and ``J h = [d2p/ds2; dw_s/ds] - Jdot g`` with the world-aligned
     tool Jacobian; ``Jdot g`` is the classical acceleration of the tool frame at
-    ``(q, g, qdd = 0)`` (Pinocchio ``getFrameClassicalAcceleration``). Least squares for
-    redundant arms (minimum-norm rates).
+    ``(q, g, qdd = 0)`` (Pinocchio ``getFrameClassicalAcceleration``). A redundant arm follows
+    the minimum-norm rates ``g = J^+ xi`` (:class:`_MinNormFlow`), whose derivative along the
+    path is ``h = J^+ (xi' - Jdot g) + (I - J^+ J) Jdot^T lambda`` with ``lambda = (J J^T)^-1
+    xi`` (``g = J^T lambda`` differentiated; ``Jdot`` from Pinocchio's
+    ``getFrameJacobianTimeVariation`` at the velocity ``g``).
     """
     model, data, fid = robot.model, robot.data, robot.tool_frame_id
     Rb = robot.transform_base_to_world[:3, :3]
@@ -171,13 +174,111 @@ def path_derivatives(robot: Robot, q, sample) -> tuple[np.ndarray, np.ndarray]:
     square = nj == 6
     for k in range(n):
         J = pin.computeFrameJacobian(model, data, q[k], fid, pin.LOCAL_WORLD_ALIGNED)
-        gk = np.linalg.solve(J, xi[k]) if square else np.linalg.lstsq(J, xi[k], rcond=None)[0]
+        if square:
+            gk = np.linalg.solve(J, xi[k])
+        else:
+            lam = np.linalg.lstsq(J @ J.T, xi[k], rcond=None)[0]
+            gk = J.T @ lam
         pin.forwardKinematics(model, data, q[k], gk, zero)
         acc = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
         rhs = xi2[k] - np.concatenate([acc.linear, acc.angular])
-        h[k] = np.linalg.solve(J, rhs) if square else np.linalg.lstsq(J, rhs, rcond=None)[0]
+        if square:
+            h[k] = np.linalg.solve(J, rhs)
+        else:
+            pin.computeJointJacobiansTimeVariation(model, data, q[k], gk)
+            Jdot = pin.getFrameJacobianTimeVariation(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
+            hk = np.linalg.lstsq(J, rhs, rcond=None)[0]
+            w = Jdot.T @ lam
+            h[k] = hk + w - np.linalg.lstsq(J, J @ w, rcond=None)[0]
         g[k] = gk
     return g, h
+
+
+class _MinNormFlow:
+    """The joint path of a redundant arm along a Cartesian path: the solution of
+    ``dq/ds = J(q)^+ xi(s)`` from ``q_start`` (``xi = [dp/ds; w_s]`` in base axes, ``J^+`` the
+    minimum-norm inverse), so that the rates of :func:`path_derivatives` are its exact
+    derivatives. Integrated once with classical Runge-Kutta (RK4) steps of at most
+    ``step_m``; :meth:`at` takes one RK4 step from the nearest node below each ``s`` and
+    polishes the pose with minimum-norm Newton steps (:func:`_newton`).
+
+    Raises :class:`UnreachableError` (with ``s`` and the point) where the flow leaves a joint
+    range or turns a joint by more than 0.3 rad per step (a singularity).
+    """
+
+    def __init__(self, robot, path, q_start, step_m: float = 2.5e-4) -> None:
+        self.robot, self.path = robot, path
+        L = path.length
+        m = max(1, math.ceil(L / step_m))
+        self.nodes = np.linspace(0.0, L, m + 1)
+        Rb = robot.transform_base_to_world[:3, :3]
+        self._axes = np.kron(np.eye(2), Rb)
+        q = np.empty((m + 1, robot.n_joints))
+        q[0] = q_start
+        stages = np.concatenate([self.nodes, 0.5 * (self.nodes[:-1] + self.nodes[1:])])
+        xi = self._xi(stages)
+        xi_node, xi_mid = xi[: m + 1], xi[m + 1 :]
+        for k in range(m):
+            q[k + 1] = self._rk4(
+                q[k], self.nodes[k + 1] - self.nodes[k], xi_node[k], xi_mid[k], xi_node[k + 1]
+            )
+            self._check(q[k + 1], q[k], self.nodes[k + 1])
+        self.q = q
+
+    def _xi(self, s) -> np.ndarray:
+        smp = self.path.evaluate(np.asarray(s, float))
+        return np.hstack([smp.dp_ds, smp.w_s]) @ self._axes
+
+    def _rate(self, q, xi) -> np.ndarray:
+        r = self.robot
+        J = pin.computeFrameJacobian(r.model, r.data, q, r.tool_frame_id, pin.LOCAL_WORLD_ALIGNED)
+        return J.T @ np.linalg.lstsq(J @ J.T, xi, rcond=None)[0]
+
+    def _rk4(self, q, ds, xi0, xi_half, xi1) -> np.ndarray:
+        k1 = self._rate(q, xi0)
+        k2 = self._rate(q + ds / 2 * k1, xi_half)
+        k3 = self._rate(q + ds / 2 * k2, xi_half)
+        k4 = self._rate(q + ds * k3, xi1)
+        return q + ds / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+    def _check(self, q, q_before, s: float) -> None:
+        r = self.robot
+        lo, hi = r.limits.lower_rad, r.limits.upper_rad
+        if not np.all(np.isfinite(q)) or np.any(q < lo - 1e-9) or np.any(q > hi + 1e-9):
+            raise UnreachableError(
+                f"{self.path.kind}: the point at {_where(self.path, s)} is unreachable inside "
+                f"the joint ranges of {r.name} along the minimum-norm joint path"
+            )
+        step = np.abs(q - q_before)
+        if step.max() > _JUMP_RAD:
+            j = int(np.argmax(step))
+            raise UnreachableError(
+                f"{self.path.kind}: no continuous IK branch near {_where(self.path, s)}: "
+                f"{r.joint_names[j]} jumps {step[j]:.3g} rad (a singularity)"
+            )
+
+    def at(self, s) -> np.ndarray:
+        """Joint positions (n, n_joints) at arc lengths ``s`` (n,) in [m]."""
+        s = np.clip(np.asarray(s, float).reshape(-1), 0.0, self.path.length)
+        k = np.clip(np.searchsorted(self.nodes, s, side="right") - 1, 0, self.nodes.size - 1)
+        s0 = self.nodes[k]
+        xi = self._xi(np.concatenate([s0, 0.5 * (s0 + s), s]))
+        n = s.size
+        poses = self.path.evaluate(s).poses()
+        out = np.empty((n, self.robot.n_joints))
+        for i in range(n):
+            q = self.q[k[i]]
+            if s[i] > s0[i]:
+                q = self._rk4(q, s[i] - s0[i], xi[i], xi[n + i], xi[2 * n + i])
+            q, ok = _newton(self.robot, poses[i], q.copy())
+            if not ok:
+                self._check(q, q, s[i])  # out of range: names the point
+                raise UnreachableError(
+                    f"{self.path.kind}: the point at {_where(self.path, s[i])} is unreachable "
+                    f"along the minimum-norm joint path of {self.robot.name}"
+                )
+            out[i] = q
+        return out
 
 
 # ---------------------------------------------------------------------- timing
@@ -339,7 +440,9 @@ def follow_path(
     # 1. probe: one branch along the path, its joint-space derivatives
     n_probe = int(np.clip(math.ceil(L / probe_step_m) + 1, 51, 4001))
     s_probe = np.linspace(0.0, L, n_probe)
-    q_probe = track_path(robot, path, s_probe, q0)
+    # a redundant arm: the minimum-norm flow (its rates are the exact derivatives of its path)
+    flow = _MinNormFlow(robot, path, q0) if robot.n_joints > 6 else None
+    q_probe = track_path(robot, path, s_probe, q0) if flow is None else flow.at(s_probe)
     sample = path.evaluate(s_probe)
     g, h = path_derivatives(robot, q_probe, sample)
     G, H = np.abs(g), np.abs(h)
@@ -364,10 +467,13 @@ def follow_path(
         t = sample_times(prof.duration, dt, knots)
         s, sd, sdd, sddd = prof.evaluate(t)
         s[-1] = L
-        guide = np.column_stack(
-            [np.interp(s, s_probe, q_probe[:, i]) for i in range(robot.n_joints)]
-        )
-        q = track_path(robot, path, s, q0, guide=guide)
+        if flow is None:
+            guide = np.column_stack(
+                [np.interp(s, s_probe, q_probe[:, i]) for i in range(robot.n_joints)]
+            )
+            q = track_path(robot, path, s, q0, guide=guide)
+        else:
+            q = flow.at(s)
         smp = path.evaluate(s)
         gs, hs = path_derivatives(robot, q, smp)
         qd = gs * sd[:, None]

@@ -58,8 +58,10 @@ Guarantee between the nodes (every instant, not only at nodes)
   fine grid", not a proof between its samples.
 
 The returned :class:`~armlab.trajectory.Trajectory` holds the exact piecewise polynomial: its
-samples are the knots (jerk mode; the quintic Hermite evaluation of ``Trajectory.at`` reproduces a
-cubic exactly). In acceleration mode each acceleration jump is replaced by a linear ramp of
+samples are the knots (jerk mode; ``Trajectory.at`` evaluates each cubic piece exactly, and the
+last knot is the goal at rest). An excess within the solver's tolerance (up to ``CHECK_TOL``) is
+removed by a uniform time stretch (:mod:`armlab.planning.tolerance`; ``stats`` key
+``tolerance_stretch``). In acceleration mode each acceleration jump is replaced by a linear ramp of
 ``JUMP_RAMP_S`` (50 us): the box-average of the optimum over that width, which keeps velocity,
 acceleration and position within their bounds (an average stays within the range it averages),
 changes positions by ``|jump| ramp^2 / 24`` (< 1e-9 rad) and adds ``JUMP_RAMP_S`` to the duration.
@@ -97,6 +99,7 @@ import numpy as np
 from armlab._lazy import lazy_import
 from armlab.errors import ArmlabError, InfeasibleError, InputError
 from armlab.planning.timescale import CHECK_TOL, backoff_solve, refuse_violation
+from armlab.planning.tolerance import absorb_tolerance
 from armlab.planning.transcription import Structure, structure
 from armlab.planning.warmstart import (
     fit_piecewise,
@@ -455,6 +458,9 @@ class OptimalProblem:
                 Q[k + 1] = Q[k] + hk * Vv[k] + hk**2 / 2 * Aa[k] + hk**3 / 6 * uk
                 Vv[k + 1] = Vv[k] + hk * Aa[k] + hk**2 / 2 * uk
                 Aa[k + 1] = Aa[k] + hk * uk
+            # the goal at rest exactly (the integrated controls end within the solver's
+            # constraint tolerance of it)
+            Q[-1], Vv[-1], Aa[-1] = q[-1], 0.0, 0.0
             J = np.vstack([u, u[-1:]])
             traj = Trajectory(t, Q, Vv, Aa, J, joint_names=names, method="optimal")
         else:
@@ -462,6 +468,7 @@ class OptimalProblem:
                 hk, uk = h[k], u[k]
                 Q[k + 1] = Q[k] + hk * Vv[k] + hk**2 / 2 * uk
                 Vv[k + 1] = Vv[k] + hk * uk
+            Q[-1], Vv[-1] = q[-1], 0.0  # the goal at rest exactly, as above
             traj = _ramped_trajectory(t, Q, Vv, u, names)
         traj.meta["knot_times_s"] = t
         return traj
@@ -531,6 +538,9 @@ class OptimalProblem:
         total_iter, total_time = out.iterations, out.solve_time_s
         traj = self._trajectory(st, x)
         dt = self._check_dt(traj)
+        # an excess within the solver's tolerance: a uniform stretch by k <= 1 + CHECK_TOL
+        traj, k_tol = absorb_tolerance(traj, self.robot, jl, torque=torque_on, dt=dt)
+        traj.meta["knot_times_s"] = traj.meta["knot_times_s"] * k_tol
         traj.report = traj.check_limits(self.robot, dt=dt, limits=jl, torque=torque_on)
         binding = [
             (k, traj.joint_names[i], float(r[i]))
@@ -551,7 +561,8 @@ class OptimalProblem:
             "backoff_rounds": rounds,
             "objective": self.objective,
             "mode": self.mode,
-            "duration_s": float(np.sum(h)),
+            "duration_s": float(np.sum(h)) * k_tol,
+            "tolerance_stretch": k_tol,
             "binding": binding,
             "report_dt_s": dt,
             "ok": traj.report.ok(CHECK_TOL),

@@ -61,6 +61,7 @@ from armlab._lazy import lazy_import
 from armlab.errors import ArmlabError, InfeasibleError, InputError
 from armlab.planning.optimal import CHECK_SAMPLES, JUMP_RAMP_S
 from armlab.planning.timescale import CHECK_TOL, backoff_solve, refuse_violation
+from armlab.planning.tolerance import absorb_tolerance
 from armlab.robot import rigid_body
 from armlab.robot.limits import LIMIT_KEYS, Limits, resolve_limits
 from armlab.trajectory.core import Trajectory
@@ -620,9 +621,11 @@ class ToppProblem:
             total_t += jerk.solve_time_s
             passes.append("jerk")
         dt = self._dt(traj)
-        traj.report = traj.check_limits(
-            self.robot, dt=dt, limits=jl, torque=ls0.torque_Nm is not None
-        )
+        # an excess within the solver's tolerance: a uniform stretch by k <= 1 + CHECK_TOL
+        torque_on = ls0.torque_Nm is not None
+        traj, k_tol = absorb_tolerance(traj, self.robot, jl, torque=torque_on, dt=dt)
+        traj.meta["sd"] = np.asarray(traj.meta["sd"]) / k_tol
+        traj.report = traj.check_limits(self.robot, dt=dt, limits=jl, torque=torque_on)
         binding = [
             (k, traj.joint_names[i], float(r[i]))
             for k, r in traj.report.ratios.items()
@@ -639,6 +642,7 @@ class ToppProblem:
             "passes": passes,
             "backoff_rounds": rounds,
             "duration_s": traj.duration,
+            "tolerance_stretch": k_tol,
             "binding": binding,
             "report_dt_s": dt,
             "ok": traj.report.ok(CHECK_TOL),

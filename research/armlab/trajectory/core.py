@@ -12,25 +12,33 @@ where the acceleration steps (a trapezoid's corner) the knot carries the acceler
 phase that begins at it, where the jerk steps the jerk of that phase. The last knot carries
 the end of the motion. On ``[t_k, t_k+1)``, with ``tau = t - t_k``, ``h = t_k+1 - t_k`` and
 ``s = tau / h``, every joint follows the Taylor polynomial of the left knot plus a closure
-onto the right knot's position and velocity (the only values that are continuous at every
-knot; Biagiotti & Melchiorri §2.1: a polynomial fixed by boundary conditions)::
+onto the right knot's position and velocity -- the values continuous at every knot -- and, for
+a trajectory with jerks (whose acceleration is continuous), its acceleration (Biagiotti &
+Melchiorri §2.1: polynomials fixed by boundary conditions)::
 
     q(t) = q_k + qd_k tau + qdd_k tau^2 / 2 + qddd_k tau^3 / 6 + K3 s^3 + K4 s^4 + K5 s^5
 
-    d = q_k+1 - (Taylor at s = 1),   e = h (qd_k+1 - (its derivative at s = 1))
-    with qddd:    K3 = 0,        K4 = 5 d - e,  K5 = e - 4 d   (quintic)
-    without:      K3 = 4 d - e,  K4 = e - 3 d,  K5 = 0         (quartic; qddd_k = 0 above)
+    d = q_k+1 - T(1),  e = h (qd_k+1 - T'(1) / h),  f = h^2 (qdd_k+1 - T''(1) / h^2)
+    (T: the Taylor part, in s; the residuals of the knot data)
+    without qddd (qddd_k = 0 above; quartic, onto q and qd):
+        r = d - e / 3,                  K3 = e / 3 + 4 r,         K4 = -3 r,   K5 = 0
+    with qddd (the acceleration is continuous; quintic, onto q, qd and qdd):
+        e' = e - f / 2,  r = d - f / 6 - e' / 2,
+        K3 = f / 6 + e' + 10 r,         K4 = -e' / 2 - 15 r,      K5 = 6 r
 
 and ``qd``, ``qdd``, ``qddd`` are its derivatives. It is **exact** for every piecewise
 polynomial whose breakpoints are knots -- constant acceleration (trapezoids), constant jerk
 (S-curves, the optimiser's jerk mode), cubics (via points) without ``qddd``; quintics with
 it -- since these satisfy the closure conditions themselves; it is continuous in position and
 velocity for any other data (Cartesian and TOPP plans: a smooth interpolant). Each derivative
-is the piece's own: nothing is interpolated across a step of the acceleration, and nothing is
-divided by a tiny interval -- a residual ``d`` or ``e`` within the rounding noise of the knot
-data (``_NOISE`` times the joint's largest values and time) is taken as zero, so a knot pair a
-microsecond apart is evaluated by its exact Taylor polynomial. Times outside
-``[t[0], t[-1]]`` are clamped; at a knot time the stored values are returned.
+is the piece's own: nothing is interpolated across a step of the acceleration, and no rounding
+noise is divided by a tiny interval -- the residuals are taken in order of derivative (each
+basis polynomial leaves the lower residuals' conditions alone: ``s^3 / 6``, ``s^3 - s^4 / 2``,
+``10 s^3 - 15 s^4 + 6 s^5``), and one within the rounding noise propagated from the knot data
+(``_NOISE`` times each joint's largest values and time) is taken as zero, so a knot pair a
+microsecond apart is evaluated by its exact Taylor polynomial and a position rounding is never
+divided by ``h^2``. Times outside ``[t[0], t[-1]]`` are clamped; at a knot the stored values
+are returned (the jerk of the piece that starts there).
 
 Limits are checked where the evaluation can peak (:meth:`Trajectory.limit_samples`): at the
 knots, at the left limits of every piece, at the interior extremes of position, velocity,
@@ -41,6 +49,7 @@ interpolation around every local peak (RNEA at each point).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -64,13 +73,13 @@ __all__ = [
 
 LIMIT_KINDS = ("position", "velocity", "acceleration", "jerk", "torque")
 
-#: relative rounding noise of knot data: a closure residual within this times the magnitudes
-#: that enter it is taken as zero (module docstring)
+#: relative rounding noise of knot data: a closure coefficient within this times the
+#: magnitudes that enter it is taken as zero (module docstring)
 _NOISE = 256 * np.finfo(float).eps
 #: a regular sample closer than this fraction of the step to a knot or to the end is dropped
 MERGE_FRACTION = 1e-2
-#: interior points per piece at which torques are evaluated before the peak refinement
-TORQUE_POINTS = 3
+#: steps of successive parabolic interpolation towards each torque peak inside a piece
+REFINE_STEPS = 3
 
 
 def sample_times(duration: float, dt: float, knots=()) -> np.ndarray:
@@ -80,8 +89,8 @@ def sample_times(duration: float, dt: float, knots=()) -> np.ndarray:
     A regular sample closer than ``MERGE_FRACTION * dt`` to a knot or to the end is dropped, so
     there are no near-duplicate samples: the last regular step may be up to
     ``(1 + MERGE_FRACTION) dt`` long. Knots outside ``(0, duration)`` are ignored; knots closer
-    than the rounding of the times (``8 eps duration``) merge into the later one; a zero
-    duration gives ``[0.0]``.
+    than the rounding of the times (``8 eps duration``) to each other or to an end merge into
+    the later one (the end); a zero duration gives ``[0.0]``.
     """
     dt = float(dt)
     if not np.isfinite(dt) or dt <= 0:
@@ -94,9 +103,11 @@ def sample_times(duration: float, dt: float, knots=()) -> np.ndarray:
     n = int(np.floor(duration / dt + 1e-9))
     grid = dt * np.arange(n + 1)
     k = np.asarray(knots, dtype=float).reshape(-1)
-    fixed = np.unique(np.append(k[(k > 0) & (k < duration)], duration))
-    # knots within rounding of each other (a phase shorter than the time's own noise) merge
-    fixed = fixed[np.append(np.diff(fixed) > 8 * np.finfo(float).eps * duration, True)]
+    # knots within rounding of each other or of an end (a phase shorter than the times' own
+    # noise) merge into the later one
+    tiny = 8 * np.finfo(float).eps * duration
+    fixed = np.unique(np.append(k[(k > tiny) & (k < duration - tiny)], duration))
+    fixed = fixed[np.append(np.diff(fixed) > tiny, True)]
     i = np.searchsorted(fixed, grid)
     left = fixed[np.clip(i - 1, 0, fixed.size - 1)]
     right = fixed[np.clip(i, 0, fixed.size - 1)]
@@ -133,6 +144,18 @@ def _unit_roots(coeffs: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     their magnitudes; roots from the closed forms up to degree 2, else from the eigenvalues of
     the companion matrix."""
     c = np.stack([np.asarray(x, dtype=float).reshape(-1) for x in coeffs], axis=1)
+    # no root in [0, 1] where the Bernstein coefficients share one strict sign (convex hull;
+    # Farouki, CAGD 29 2012): most pieces, whose derivative does not vanish inside
+    D = c.shape[1] - 1
+    to_bernstein = np.array(
+        [
+            [math.comb(k, i) / math.comb(D, i) if i <= k else 0.0 for i in range(D + 1)]
+            for k in range(D + 1)
+        ]
+    )
+    b = c @ to_bernstein.T
+    index = np.flatnonzero(~(np.all(b > 0, axis=1) | np.all(b < 0, axis=1)))
+    c = c[index]
     scale = np.abs(c).sum(axis=1)
     big = np.abs(c) > 1e-12 * scale[:, None]
     deg = np.where(big.any(axis=1), c.shape[1] - 1 - np.argmax(big[:, ::-1], axis=1), 0)
@@ -165,7 +188,7 @@ def _unit_roots(coeffs: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         roots.append(ev.real[real])
     row, root = np.concatenate(rows).astype(int), np.concatenate(roots)
     inside = np.isfinite(root) & (root > 0) & (root < 1)
-    return row[inside], root[inside]
+    return index[row[inside]], root[inside]
 
 
 @dataclass
@@ -215,22 +238,36 @@ def _drop_noise(x: np.ndarray, tol: np.ndarray) -> np.ndarray:
     return np.where(np.abs(x) <= tol, 0.0, x)
 
 
-def _peak_vertices(t: np.ndarray, y: np.ndarray, piece: np.ndarray) -> np.ndarray:
-    """Times [s] of the vertices of the parabolas through every interior local peak of ``y``
-    (n, n_joints) over ``t`` (n,) and its two neighbours, where all three lie in one piece (no
-    knot between them: the signal is smooth there) -- one step of successive parabolic
-    interpolation towards each peak."""
+def _peak_vertices(
+    t: np.ndarray, y: np.ndarray, piece: np.ndarray, *, any_triple: bool = False
+) -> np.ndarray:
+    """Times [s] of the maxima of the parabolas through three consecutive samples of ``y``
+    (n, n_joints) over ``t`` (n,) that lie in one piece (no knot between them: the signal is
+    smooth there) -- one step of successive parabolic interpolation towards each peak.
+
+    Triples whose middle sample is a local peak; with ``any_triple`` every concave triple whose
+    parabola peaks between its ends (a peak next to a knot, whose samples fall on one side of
+    it). Only triples reaching 0.9 of the joint's largest ``y`` are refined.
+    """
     if t.size < 3:
         return np.zeros(0)
     t0, t1, t2 = t[:-2, None], t[1:-1, None], t[2:, None]
     y0, y1, y2 = y[:-2], y[1:-1], y[2:]
     same = (piece[:-2] == piece[1:-1]) & (piece[1:-1] == piece[2:])
-    ok = same[:, None] & (t0 < t1) & (t1 < t2) & (y1 >= y0) & (y1 >= y2) & ((y1 > y0) | (y1 > y2))
+    ok = (
+        same[:, None]
+        & (t0 < t1)
+        & (t1 < t2)
+        & (np.maximum(np.maximum(y0, y1), y2) >= 0.9 * y.max(axis=0))
+    )
+    if not any_triple:
+        ok &= (y1 >= y0) & (y1 >= y2) & ((y1 > y0) | (y1 > y2))
     num = (t1 - t0) ** 2 * (y1 - y2) - (t1 - t2) ** 2 * (y1 - y0)
     den = (t1 - t0) * (y1 - y2) - (t1 - t2) * (y1 - y0)
     with np.errstate(divide="ignore", invalid="ignore"):
         tv = t1 - 0.5 * num / den
-    ok &= np.isfinite(tv) & (tv > t0) & (tv < t2)
+        concave = (y2 - y1) / (t2 - t1) < (y1 - y0) / (t1 - t0)
+    ok &= concave & np.isfinite(tv) & (tv > t0) & (tv < t2)
     return np.unique(np.broadcast_to(tv, ok.shape)[ok])
 
 
@@ -332,13 +369,22 @@ class Trajectory:
         t_abs = np.abs(t[1:])[:, None] + h
         Q, V, A = (np.abs(x).max(axis=0) for x in (self.q, self.qd, self.qdd))
         J = np.abs(j).max(axis=0) if j.size else 0.0
-        d = _drop_noise(d, _NOISE * (Q + V * t_abs + A * h * h + J * h**3))
-        e = _drop_noise(e, _NOISE * h * (V + A * t_abs + J * h * h))
+        nd = _NOISE * (Q + V * t_abs + A * h * h + J * h**3)  # noise of d
+        ne = _NOISE * h * (V + A * t_abs + J * h * h)  # noise of e
         if self.qddd is None:  # quartic closure onto the right knot's q and qd
-            return h, j, 4 * d - e, e - 3 * d, np.zeros_like(d)
-        # quintic closure onto the right knot's q, qd and qdd (continuous with a jerk)
-        f = _drop_noise(h * h * (self.qdd[1:] - (a0 + h * j)), _NOISE * h * h * (A + J * t_abs))
-        return h, j, 10 * d - 4 * e + f / 2, -15 * d + 7 * e - f, 6 * d - 3 * e + f / 2
+            # e (s^3 / 3: the velocity) first, then what the position still misses
+            # (4 s^3 - 3 s^4: no velocity); each within its noise is zero
+            e = _drop_noise(e, ne)
+            r = _drop_noise(d - e / 3, nd + ne / 3)
+            return h, j, e / 3 + 4 * r, -3 * r, np.zeros_like(d)
+        # quintic closure onto the right knot's q, qd and qdd (continuous with a jerk): the
+        # acceleration residual (s^3 / 6), then the velocity's (s^3 - s^4 / 2: no acceleration),
+        # then the position's (10 s^3 - 15 s^4 + 6 s^5: neither)
+        nf = _NOISE * h * h * (A + J * t_abs)  # noise of f
+        f = _drop_noise(h * h * (self.qdd[1:] - (a0 + h * j)), nf)
+        e = _drop_noise(e - f / 2, ne + nf / 2)
+        r = _drop_noise(d - f / 6 - e / 2, nd + nf / 6 + (ne + nf / 2) / 2)
+        return h, j, f / 6 + e + 10 * r, -e / 2 - 15 * r, 6 * r
 
     def _evaluate(
         self, k: np.ndarray, tau: np.ndarray, pieces
@@ -414,8 +460,9 @@ class Trajectory:
         """The points where the evaluation can peak: every knot, every piece's left limit, the
         :meth:`critical_times`, a uniform grid of step ``dt`` [s] if given, and with ``robot``
         the torques (RNEA, :func:`armlab.robot.rigid_body.inverse_dynamics`) at those points
-        and at :data:`TORQUE_POINTS` interior points per piece, refined by one parabolic
-        interpolation step around every interior local peak of ``|tau|`` of each joint.
+        and at the middle of every piece, refined by :data:`REFINE_STEPS` steps of successive
+        parabolic interpolation around every local peak of ``|tau|`` of each joint inside a
+        piece.
 
         Position, velocity, acceleration and jerk peaks are exact (up to root rounding);
         torque peaks are those of the refined samples.
@@ -432,9 +479,8 @@ class Trajectory:
         extra = [self.critical_times()]
         if dt is not None:
             extra.append(self.t[0] + sample_times(self.duration, dt))
-        if robot is not None:
-            f = np.arange(1, TORQUE_POINTS + 1) / (TORQUE_POINTS + 1)
-            extra.append((self.t[:-1, None] + np.diff(self.t)[:, None] * f).reshape(-1))
+        if robot is not None:  # the middle of every piece: a peak inside has three points
+            extra.append(self.t[:-1] + np.diff(self.t) / 2)
         times = np.unique(np.concatenate(extra))
         times = times[(times > self.t[0]) & (times < self.t[-1])]
         times = times[np.searchsorted(self.t, times) == np.searchsorted(self.t, times, "right")]
@@ -462,18 +508,26 @@ class Trajectory:
         out = LimitSamples(t_all[order], q, qd, qdd, qddd)
         if robot is None:
             return out
-        piece = piece[order]
+        piece, key = piece[order], order_key[order]
         tau = rigid_body.inverse_dynamics(robot, out.q, out.qd, out.qdd)
-        vertex = _peak_vertices(out.t, np.abs(tau), piece)
-        if vertex.size:
+        for step in range(REFINE_STEPS):  # successive parabolic interpolation to each peak
+            vertex = _peak_vertices(out.t, np.abs(tau), piece, any_triple=step == 0)
+            vertex = vertex[~np.isin(vertex, out.t)]
+            if not vertex.size:
+                break
             vq, vqd, vqdd, vqddd = self.at(vertex)
-            out.t = np.concatenate([out.t, vertex])
-            out.q = np.vstack([out.q, vq])
-            out.qd = np.vstack([out.qd, vqd])
-            out.qdd = np.vstack([out.qdd, vqdd])
+            t_all = np.concatenate([out.t, vertex])
+            key = np.concatenate([key, np.full(vertex.size, 2.0)])
+            new_piece = np.clip(np.searchsorted(self.t, vertex, "right") - 1, 0, n - 2)
+            order = np.lexsort((key, t_all))
+            out.t, key = t_all[order], key[order]
+            piece = np.concatenate([piece, new_piece])[order]
+            out.q = np.vstack([out.q, vq])[order]
+            out.qd = np.vstack([out.qd, vqd])[order]
+            out.qdd = np.vstack([out.qdd, vqdd])[order]
             if out.qddd is not None:
-                out.qddd = np.vstack([out.qddd, vqddd])
-            tau = np.vstack([tau, rigid_body.inverse_dynamics(robot, vq, vqd, vqdd)])
+                out.qddd = np.vstack([out.qddd, vqddd])[order]
+            tau = np.vstack([tau, rigid_body.inverse_dynamics(robot, vq, vqd, vqdd)])[order]
         out.tau = tau
         return out
 
@@ -490,6 +544,27 @@ class Trajectory:
         jerk = qddd if self.qddd is not None else None
         out = Trajectory(times, q, qd, qdd, jerk, joint_names=self.joint_names, method=self.method)
         out.report, out.stats, out.meta = self.report, dict(self.stats), dict(self.meta)
+        return out
+
+    def stretched(self, k: float) -> Trajectory:
+        """The same motion ``k`` times slower, ``q_k(t) = q(t0 + (t - t0) / k)``: times from
+        ``t[0]`` times ``k``, velocities over ``k``, accelerations over ``k^2``, jerks over
+        ``k^3`` -- exact for the evaluation (each piece's polynomial is stretched). Method,
+        stats and meta are copied (times in ``meta`` are the caller's to scale); no report."""
+        k = float(k)
+        if not np.isfinite(k) or k <= 0:
+            raise InputError(f"stretch factor must be a finite number > 0, not {k!r}")
+        jerk = None if self.qddd is None else self.qddd / k**3
+        out = Trajectory(
+            self.t[0] + (self.t - self.t[0]) * k,
+            self.q,
+            self.qd / k,
+            self.qdd / k**2,
+            jerk,
+            joint_names=self.joint_names,
+            method=self.method,
+        )
+        out.stats, out.meta = dict(self.stats), dict(self.meta)
         return out
 
     def concat(self, other: Trajectory, *, tol: float = 1e-9) -> Trajectory:
