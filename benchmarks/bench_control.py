@@ -1,10 +1,12 @@
 """Benchmark of armlab.control: tuning time per joint, 6-joint closed-loop simulation speed.
 
 Run headless: ``MPLBACKEND=Agg .venv/bin/python benchmarks/bench_control.py``.
-Prints three tables: robust tuning per teachbot6 joint (time, crossovers, worst margins),
-simulation speed (simulated seconds per wall second, 6 joints at the 1 kHz servo rate; "loop" is
-the servo loop alone, "call" the whole call with set-point evaluation, feed-forward and the TCP
-forward kinematics of every sample), and our
+Prints four tables: ``tune_arm`` on the python-control models (the original evaluation, kept
+as the reference: "before") beside the closed-form numpy engine ("after") with the largest
+relative difference of any gain or margin between them; robust tuning per teachbot6 joint
+(time, crossovers, worst margins); simulation speed (simulated seconds per wall second,
+6 joints at the 1 kHz servo rate; "loop" is the servo loop alone, "call" the whole call with
+set-point evaluation, feed-forward and the TCP forward kinematics of every sample); and our
 margin evaluation beside python-control's ``stability_margins`` (the peer) on the same loops.
 """
 
@@ -23,6 +25,7 @@ PARAMS = {
     "feedforwards": ["none", "velocity", "velocity+acceleration+gravity", "computed_torque"],
     "repeats": 3,  # simulation runs per row (best wall time kept)
     "margin_grid": 1500,
+    "tune_repeats": 3,  # tune_arm runs per engine (best wall time kept)
 }
 os.environ.setdefault("OPENBLAS_NUM_THREADS", PARAMS["blas_threads"])
 os.environ.setdefault("OMP_NUM_THREADS", PARAMS["blas_threads"])
@@ -41,10 +44,49 @@ from armlab.control import (  # noqa: E402
     inertia_range,
     joint_plant,
     simulate_tracking,
+    tune_arm,
     tune_cascade,
 )
 from armlab.control.loops import freq_grid  # noqa: E402
 from armlab.trajectory import ptp_sync  # noqa: E402
+
+_COMPARED = (
+    "kp",
+    "ki",
+    "phase_margin_deg",
+    "gain_margin_dB",
+    "phase_margin_discrete_deg",
+    "gain_margin_discrete_dB",
+    "crossover_rad_s",
+)
+
+
+def engine_table(robot) -> None:
+    """``tune_arm`` wall and CPU time per engine (inertia range included), best of repeats,
+    and the largest relative difference of the gains and margins from the reference."""
+    print(f"\n## tune_arm({robot.name}): python-control models (before) vs closed form (after)\n")
+    print("| engine | wall [s] | CPU [s] | max rel. diff. of gains and margins vs reference |")
+    print("|---|---|---|---|")
+    results = {}
+    for engine in ("python-control", "numpy"):
+        best, cpu, gains = float("inf"), float("inf"), None
+        for _ in range(PARAMS["tune_repeats"]):
+            t0, c0 = time.perf_counter(), time.process_time()
+            gains = tune_arm(robot, n_inertia_samples=PARAMS["n_inertia_samples"], engine=engine)
+            best = min(best, time.perf_counter() - t0)
+            cpu = min(cpu, time.process_time() - c0)
+        results[engine] = (best, cpu, gains)
+    ref = results["python-control"][2]
+    for engine, (best, cpu, gains) in results.items():
+        worst = 0.0
+        for name in robot.joint_names:
+            for loop, lg in gains[name].loops().items():
+                other = ref[name].loops()[loop]
+                for key in _COMPARED:
+                    a, b = getattr(lg, key), getattr(other, key)
+                    if np.isfinite(a) and np.isfinite(b) and b != 0:
+                        worst = max(worst, abs(a - b) / abs(b))
+        print(f"| {engine} | {best:.3f} | {cpu:.3f} | {worst:.1e} |")
 
 
 def main() -> None:
@@ -57,6 +99,9 @@ def main() -> None:
     t0 = time.perf_counter()
     inertias = inertia_range(robot, n_samples=PARAMS["n_inertia_samples"])
     t_inertia = time.perf_counter() - t0
+
+    # ------------------------------------------------------------------ before / after
+    engine_table(robot)
 
     # ------------------------------------------------------------------ tuning
     print(

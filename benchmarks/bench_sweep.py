@@ -7,7 +7,11 @@ Runs side by side, on the same parameter sets:
 * a plain ``concurrent.futures.ProcessPoolExecutor`` (spawned processes) running the same task
   function -- the floor any local pool could reach.
 
-Then the overhead per task of each backend, from tasks that do nothing. Every worker is warmed
+Then the overhead per task of each backend, from tasks that do nothing. First, studies per
+second of one worker (this process, sequential) with the servo tuning on python-control's
+models (the evaluation before issue 15, ``engine="python-control"``) and in closed form
+(``engine="numpy"``, the default), with the mean time per study (``--engines-only``: this
+table alone). Every worker is warmed
 up first (armlab imported, robot loaded, CasADi functions built), so the figures are steady-state
 throughput. Goal: 2 workers >= 1.8x the rate of 1 worker on the default study (on 2 cores).
 
@@ -146,8 +150,35 @@ def pool_run(n_workers: int, doc, base, source, sets) -> tuple[float, float]:
     return rate, per_task
 
 
+def engine_rates(doc, base, source, sets) -> None:
+    """Studies per second of one worker per tuning engine, and the mean time per study."""
+    from armlab.control import tuning
+    from armlab.sweep import run_parameter_set
+
+    default = tuning.tune_cascade.__kwdefaults__["engine"]
+    print(f"\none worker, {len(sets)} studies sequentially, per servo-tuning engine")
+    print(f"{'engine':<16}{'studies/s/worker':>18}{'s per study':>16}")
+    try:
+        for engine in ("python-control", "numpy"):
+            tuning.tune_cascade.__kwdefaults__["engine"] = engine
+            _check([run_parameter_set(doc, base, source, sets[0][1], sets[0][0])])  # warm
+            t0 = time.perf_counter()
+            rows = [run_parameter_set(doc, base, source, s, k) for k, s in sets]
+            rate = len(sets) / (time.perf_counter() - t0)
+            _check(rows)
+            elapsed = float(np.mean([r["elapsed_s"] for r in rows]))
+            print(f"{engine:<16}{rate:>18.3f}{elapsed:>16.2f}")
+    finally:
+        tuning.tune_cascade.__kwdefaults__["engine"] = default
+
+
 def main() -> None:
+    import sys
+
     doc, base, source, sets = _sets()
+    engine_rates(doc, base, source, sets)
+    if "--engines-only" in sys.argv[1:]:
+        return
     t0 = time.perf_counter()
     from armlab.sweep import run_parameter_set
 

@@ -9,6 +9,9 @@
    the same fine grid (dt = T/4000, our ``Trajectory.check_limits``).
 3. The full problem with all four limits (no peer does it): success rate and solve time over
    random 3-waypoint requests. Goal: 100 % success, median solve < 1 s on one core.
+4. The rest-to-rest v/a/j PTP in closed form (``synchronised_scurves``) vs Ruckig: the same
+   durations, time per problem (goal <= 10 x Ruckig) and batched rate (goal >= 100 000/s);
+   ``--scurves-only`` runs this table alone.
 
 Run:  ``MPLBACKEND=Agg .venv/bin/python benchmarks/bench_trajectory.py [--quick]``
 """
@@ -272,11 +275,83 @@ def bench_full(robot, extra, rng, n):
     )
 
 
+# ----------------------------------------------------------------------------- 4. S-curves
+SCURVE_PROBLEMS = 300  # single problems timed one by one against Ruckig
+SCURVE_BATCH = 100_000  # problems per batched call
+
+
+def bench_scurve_batch(quick: bool = False) -> None:
+    """Rest-to-rest v/a/j PTP (2 waypoints) in closed form vs Ruckig (issue 15): duration
+    agreement, time per single problem (ours: :func:`synchronised_scurves` of one problem;
+    Ruckig: ``calculate`` alone, inputs set beforehand), and problems per second batched (ours:
+    one call on ``(n_problems, n_joints)``; Ruckig: a Python loop). Goals: single <= 10 x
+    Ruckig, batched >= 100 000 problems/s."""
+    from ruckig import InputParameter, Ruckig
+    from ruckig import Trajectory as RTrajectory
+
+    from armlab.trajectory.profiles import synchronised_scurves
+
+    n_single = 40 if quick else SCURVE_PROBLEMS
+    n_batch = 10_000 if quick else SCURVE_BATCH
+    print()
+    print("closed-form synchronised S-curves vs Ruckig (2 waypoints, v/a/j, rest to rest)")
+    hdr = (
+        f"{'robot':<11}{'n':>7}  {'T ratio max|-1|':>15}  {'ours [us] med':>13}  "
+        f"{'Ruckig [us] med':>15}  {'x Ruckig':>8}  {'batch [problems/s]':>18}  "
+        f"{'Ruckig loop [problems/s]':>24}"
+    )
+    print(hdr)
+    print("-" * len(hdr))
+    for name in ROBOTS:
+        robot, extra = load(name)
+        v, a, j, _ = limits_of(robot, extra)
+        nj = robot.n_joints
+        rng = np.random.default_rng(SEED + 4)
+        W = np.array([[draw_q(robot, rng), draw_q(robot, rng)] for _ in range(n_single)])
+        otg, inp, rt = Ruckig(nj), InputParameter(nj), RTrajectory(nj)
+        inp.current_velocity = inp.current_acceleration = [0.0] * nj
+        inp.target_velocity = inp.target_acceleration = [0.0] * nj
+        inp.max_velocity, inp.max_acceleration, inp.max_jerk = v.tolist(), a.tolist(), j.tolist()
+        ours_t, peer_t, dev, peer_T = [], [], [], []
+        for w in W:
+            inp.current_position, inp.target_position = w[0].tolist(), w[1].tolist()
+            t0 = time.perf_counter()
+            otg.calculate(inp, rt)
+            peer_t.append(time.perf_counter() - t0)
+            d = (w[1] - w[0])[None]
+            t0 = time.perf_counter()
+            b = synchronised_scurves(d, v, a, j)
+            ours_t.append(time.perf_counter() - t0)
+            dev.append(abs(b.duration[0] / rt.duration - 1))
+            peer_T.append(rt.duration)
+        D = np.concatenate([W[:, 1] - W[:, 0]] * (n_batch // n_single + 1))[:n_batch]
+        synchronised_scurves(D[:100], v, a, j)
+        t0 = time.perf_counter()
+        synchronised_scurves(D, v, a, j)
+        batch_rate = n_batch / (time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        for w in W:
+            inp.current_position, inp.target_position = w[0].tolist(), w[1].tolist()
+            otg.calculate(inp, rt)
+        loop_rate = n_single / (time.perf_counter() - t0)
+        med_o, med_p = np.median(ours_t) * 1e6, np.median(peer_t) * 1e6
+        print(
+            f"{name:<11}{n_single:>7}  {max(dev):>15.1e}  {med_o:>13.1f}  {med_p:>15.1f}  "
+            f"{med_o / med_p:>8.1f}  {batch_rate:>18,.0f}  {loop_rate:>24,.0f}"
+        )
+
+
 # ----------------------------------------------------------------------------- main
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="a few cases per benchmark")
+    ap.add_argument(
+        "--scurves-only", action="store_true", help="only the closed-form S-curve table"
+    )
     args = ap.parse_args()
+    if args.scurves_only:
+        bench_scurve_batch(args.quick)
+        return
     cases = QUICK if args.quick else CASES
     rng = np.random.default_rng(SEED)
     rows = []
@@ -378,6 +453,7 @@ def main() -> None:
         f"{all_ok}/{all_n} feasible successes (100 %), median solve {np.median(all_solve):.3f} s"
         f" (< 1 s)"
     )
+    bench_scurve_batch(args.quick)
 
 
 if __name__ == "__main__":

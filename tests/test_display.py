@@ -159,6 +159,7 @@ def test_every_cli_argument_has_plain_help():
     assert [p.prog for p in parsers] == [
         "armlab",
         "armlab info",
+        "armlab drives",
         "armlab run",
         "armlab sweep",
         "armlab export",

@@ -285,31 +285,85 @@ def test_static_load_no_acceleration_is_pure_gravity(teachbot6):
         static_load(teachbot6, acceleration_rad_s2=np.ones(3))
 
 
-def test_static_load_report_thesis_comparison(static):
-    d = static.to_dict()
-    assert set(d) == {f"joint{i}" for i in range(1, 7)}
-    for v in d.values():
-        assert set(v) >= {
-            "torque_Nm",
-            "gravity_Nm",
-            "acceleration_Nm",
-            "pose",
-            "payload_kg",
-            "power_W",
-        }
-        assert len(v["pose"]) == 6 and v["payload_kg"] == 0.5
-    json.dumps(d)
+# The thesis arm written out by hand, independently of the URDF generator and Pinocchio: the
+# modified-DH table (HEU thesis 3.2: a_{i-1} [m], alpha_{i-1} [deg], theta offset [deg], d_i
+# [m]) and the table-4.1 lumps where robot_desc/teachbot6/README.md places them (link, kg,
+# position in that link's DH frame [m]); payload 0.5 kg at the tool point, 200 mm along z6.
+_MDH = [
+    (0.0, 0, 0, 0.0),
+    (0.120, -90, -90, 0.0),
+    (0.220, 0, 0, 0.0),
+    (0.080, -90, 0, 0.202),
+    (0.0, 90, 0, 0.0),
+    (0.0, -90, 0, 0.0),
+]
+_LUMPS = [
+    (1, 4.35, (0.12, 0, 0)),
+    (2, 1.5, (0.11, 0, 0)),
+    (2, 1.876, (0.22, 0, 0)),
+    (3, 2.215, (0.08, 0, 0)),
+    (4, 0.5, (0, 0, -0.101)),
+    (4, 1.72, (0, 0, 0)),
+    (5, 0.63, (0, 0.08, 0)),
+    (6, 0.5, (0, 0, 0.2)),
+]
+
+
+def _lumped_gravity(q) -> np.ndarray:
+    """Holding torque of the lumped masses, ``g_j = sum_i m_i g [z_j x (p_i - o_j)]_z`` over
+    the lumps outboard of joint j, with the frames of the MDH product (Craig)."""
+    T, frames = np.eye(4), []
+    for (a, alpha, offset, d), qi in zip(_MDH, q, strict=True):
+        al, th = math.radians(alpha), qi + math.radians(offset)
+        ca, sa, ct, st = math.cos(al), math.sin(al), math.cos(th), math.sin(th)
+        T = T @ np.array(
+            [
+                [ct, -st, 0, a],
+                [st * ca, ct * ca, -sa, -sa * d],
+                [st * sa, ct * sa, ca, ca * d],
+                [0, 0, 0, 1],
+            ]
+        )
+        frames.append(T)
+    tau = np.zeros(6)
+    for j, F in enumerate(frames):
+        for link, m, p in _LUMPS:
+            if link - 1 >= j:
+                Fl = frames[link - 1]
+                pw = Fl[:3, :3] @ np.asarray(p, float) + Fl[:3, 3]
+                tau[j] += m * G * np.cross(F[:3, 2], pw - F[:3, 3])[2]
+    return tau
+
+
+def test_static_load_matches_a_hand_written_lumped_mass_model(teachbot6, static):
+    """The worst-case gravity torques of the report are those of the thesis' lumped masses on
+    the thesis' MDH chain, computed here without the URDF or Pinocchio: equal at random poses,
+    and the report's worst poses are maxima of the hand-written model (a local search from
+    them finds nothing larger). The thesis comparison lists exactly the joints more than 10 %
+    off table 4.2, by the report's own numbers."""
+    rng = np.random.default_rng(3)
+    lo, hi = teachbot6.limits.lower_rad, teachbot6.limits.upper_rad
+    for q in rng.uniform(lo, hi, size=(20, 6)):
+        np.testing.assert_allclose(
+            _lumped_gravity(q), armlab.robot.rigid_body.gravity_torques(teachbot6, q), atol=1e-9
+        )
+    from scipy.optimize import minimize
+
+    for j, joint in enumerate(static.joints):
+        at_pose = abs(_lumped_gravity(joint.pose_rad)[j])
+        assert static.gravity_Nm[j] == pytest.approx(at_pose, abs=1e-9)
+        best = minimize(
+            lambda q, j=j: -abs(_lumped_gravity(q)[j]),
+            joint.pose_rad,
+            bounds=list(zip(lo, hi, strict=True)),
+            method="L-BFGS-B",
+        )
+        assert -best.fun <= at_pose + 1e-6 * max(1.0, at_pose), joint
     md = static.to_markdown()
-    for value in THESIS_TABLE_4_2["torque_Nm"] + THESIS_TABLE_4_2["power_W"]:
-        assert f"| {value:g} |" in md
-    assert "Differences larger than 10 %" in md
-    # every joint off by more than 10 % has an explanation
     thesis = np.array(THESIS_TABLE_4_2["torque_Nm"])
-    off = np.flatnonzero(np.abs(static.torque_Nm / thesis - 1) > 0.10)
-    assert off.size >= 3
-    for j in off:
-        assert f"**joint{j + 1}**" in md
-    assert "torsion allowance" in md and "150 deg" in md and "friction" in md
+    off = set(np.flatnonzero(np.abs(static.torque_Nm / thesis - 1) > 0.10))
+    listed = {j for j in range(6) if f"**joint{j + 1}**" in md}
+    assert listed == off
 
 
 def test_joint4_difference_comes_from_the_tool_length(teachbot6, static):

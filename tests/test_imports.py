@@ -52,3 +52,18 @@ def test_lazy_names_still_work():
         [sys.executable, "-c", code], capture_output=True, text=True, check=True
     ).stdout
     assert float(out.strip().splitlines()[-1]) != 0.0  # gravity on the shoulder
+
+
+@pytest.mark.parametrize("module", ["armlab", "armlab.dynamics"])
+def test_package_import_alone_loads_no_heavy_dependency(module):
+    """Each alone, in a fresh interpreter: no CasADi, matplotlib or Dask, and no
+    ``scipy.optimize`` (~0.3 s; the static-load search imports it when it runs)."""
+    code = (
+        "import json, sys\n"
+        f"import {module}\n"
+        f"print(json.dumps([m for m in {HEAVY + ('scipy.optimize',)!r} if m in sys.modules]))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout
+    assert json.loads(out.strip().splitlines()[-1]) == []

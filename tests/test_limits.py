@@ -100,7 +100,7 @@ back_emf_V_s_rad = 0.2
 resistance_ohm = 1.0
 inductance_H = 0.001
 rotor_inertia_kg_m2 = 1e-5
-supply_voltage_V = 48.0
+supply_voltage_V = 72.0  # above the back-EMF at rated speed (0.2 x 314 rad/s = 62.8 V)
 [joint.reducer]
 model = "r"
 ratio = 211

@@ -1,4 +1,4 @@
-"""The ``armlab`` command line: ``info``, ``run``, ``sweep``, ``export``.
+"""The ``armlab`` command line: ``info``, ``run``, ``drives``, ``sweep``, ``export``.
 
 Exit status: 0 the design passes (or the command succeeded), 1 the study ran and the design fails
 (the failed checks on stderr; also an export refused for a failing design), 2 bad input or usage:
@@ -19,9 +19,10 @@ __all__ = ["main", "info_text", "build_parser"]
 
 #: ``armlab --help``'s description: plain text (the module docstring is reST for the API docs).
 SUMMARY = (
-    "armlab: design, sizing, motion planning and servo tuning of small 6-axis robot arms. "
-    "Commands: info (a robot's data), run (one study), sweep (many studies on Dask), export "
-    "(set-point tables and gains of a finished study)."
+    "armlab: design, sizing, motion planning and servo tuning of serial robot arms. "
+    "Commands: info (a robot's data), run (one study), drives (select a drive train from the "
+    "catalogue), sweep (many studies on Dask), export (set-point tables and gains of a "
+    "finished study)."
 )
 
 EXIT_STATUS = """\
@@ -32,13 +33,33 @@ exit status:
   2  bad input or usage (one line on stderr, no traceback)"""
 
 
-def info_text(robot_name: str) -> str:
-    """The text ``armlab info ROBOT`` prints: joints, ranges, limits, drives, reach, mass."""
+def info_text(
+    robot_name: str,
+    *,
+    tool_frame: str | None = None,
+    lock_joints: list[str] | tuple[str, ...] = (),
+    drives: str | None = None,
+) -> str:
+    """The text ``armlab info ROBOT`` prints: joints, ranges, limits, drives, reach, mass.
+
+    ``tool_frame``, ``lock_joints`` and ``drives`` (a drives file) are the study's ``[robot]``
+    keys of the same names. Ranges of revolute joints are in [deg], of prismatic joints in [m];
+    columns widen to the longest joint and part names.
+    """
     from armlab.kinematics import max_reach_m
     from armlab.robot import load_robot
+    from armlab.robot.drives import read_drives
+    from armlab.robot.limits import description_limits, resolve_limits
 
-    robot = load_robot(robot_name)
+    robot = load_robot(robot_name, tool_frame=tool_frame, lock_joints=list(lock_joints))
+    if drives is not None:
+        robot.drives = read_drives(drives, robot.joint_names)
+        robot.limits = resolve_limits(
+            description_limits(robot.model, robot.joint_names), robot.drives, model=robot.model
+        )
     lim = robot.limits
+    prismatic = _prismatic(robot)
+    w = max(10, *(len(n) + 2 for n in robot.joint_names))
     lines = [
         f"robot      {robot.name}  ({robot.urdf_path})",
         f"joints     {robot.n_joints}; tool frame {robot.tool_frame}; "
@@ -47,40 +68,140 @@ def info_text(robot_name: str) -> str:
         f"reach      {max_reach_m(robot) * 1000:.1f} mm max radius of the tool point from the "
         "base axis",
         "",
-        f"{'joint':<10}{'range [deg]':>18}{'v [rad/s]':>11}{'a [rad/s2]':>12}{'j [rad/s3]':>12}"
-        f"{'effort [Nm]':>13}",
+        f"{'joint':<{w}}{'type':<6}{'range':>20}{'velocity':>13}{'acceleration':>14}"
+        f"{'jerk':>14}{'effort':>10}",
+        f"{'':<{w}}{'R | P':<6}{'[deg | m]':>20}{'[rad|m /s]':>13}{'[rad|m /s2]':>14}"
+        f"{'[rad|m /s3]':>14}{'[Nm | N]':>10}",
     ]
 
     def cell(values, i: int, width: int) -> str:
         return f"{'-':>{width}}" if values is None else f"{values[i]:>{width}.4g}"
 
     for i, name in enumerate(robot.joint_names):
-        rng = f"{math.degrees(lim.lower_rad[i]):.0f} .. {math.degrees(lim.upper_rad[i]):.0f}"
+        if prismatic[i]:
+            kind, rng = "P", f"{lim.lower_rad[i]:.4g} .. {lim.upper_rad[i]:.4g} m"
+        else:
+            deg = (math.degrees(lim.lower_rad[i]), math.degrees(lim.upper_rad[i]))
+            kind, rng = "R", f"{deg[0]:.0f} .. {deg[1]:.0f} deg"
         lines.append(
-            f"{name:<10}{rng:>18}{cell(lim.velocity_rad_s, i, 11)}"
-            f"{cell(lim.acceleration_rad_s2, i, 12)}{cell(lim.jerk_rad_s3, i, 12)}"
-            f"{cell(lim.torque_Nm, i, 13)}"
+            f"{name:<{w}}{kind:<6}{rng:>20}{cell(lim.velocity_rad_s, i, 13)}"
+            f"{cell(lim.acceleration_rad_s2, i, 14)}{cell(lim.jerk_rad_s3, i, 14)}"
+            f"{cell(lim.torque_Nm, i, 10)}"
         )
+    lines += ["", "limit sources (acceleration): " + _sources(lim.sources.get("acceleration"))]
     if robot.drives is not None:
+        mw = max(8, *(len(d.motor.model) + 2 for d in robot.drives.values()))
+        rw = max(9, *(len(d.reducer.model) + 2 for d in robot.drives.values()))
         lines += [
             "",
-            f"{'joint':<10}{'motor':<22}{'stall [Nm]':>11}{'speed [rpm]':>12}"
-            f"{'reducer':<16}{'ratio':>7}{'eta':>6}{'counts/rev':>12}",
+            f"{'joint':<{w}}{'motor':<{mw}}{'stall [Nm]':>11}{'speed [rpm]':>12}  "
+            f"{'reducer':<{rw}}{'ratio':>7}{'eta':>6}{'counts/rev':>12}",
         ]
         for name in robot.joint_names:
             d = robot.drives[name]
             lines.append(
-                f"{name:<10}{d.motor.model[:21]:<22}{d.motor.stall_torque_Nm:>11.4g}"
-                f"{d.motor.rated_speed_rpm:>12.0f}  {d.reducer.model[:14]:<14}"
+                f"{name:<{w}}{d.motor.model:<{mw}}{d.motor.stall_torque_Nm:>11.4g}"
+                f"{d.motor.rated_speed_rpm:>12.0f}  {d.reducer.model:<{rw}}"
                 f"{d.reducer.ratio:>7g}{d.reducer.efficiency:>6.2f}"
                 f"{d.encoder.counts_per_joint_rev(d.reducer.ratio):>12.0f}"
             )
     return "\n".join(lines)
 
 
+def _prismatic(robot) -> list[bool]:
+    """True for each prismatic joint (Pinocchio ``JointModelP*``: PX, PY, PZ, unaligned)."""
+    joints = robot.model.joints
+    return [joints[j].shortname().startswith("JointModelP") for j in range(1, len(joints))]
+
+
+def _sources(sources) -> str:
+    if not sources:
+        return "-"
+    unique = list(dict.fromkeys(sources))
+    return "; ".join(unique)
+
+
 def _cmd_info(args) -> int:
-    print(info_text(args.robot))
+    print(
+        info_text(
+            args.robot,
+            tool_frame=args.tool_frame,
+            lock_joints=_split(args.lock_joints),
+            drives=args.drives,
+        )
+    )
     return 0
+
+
+def _split(text: str | None) -> list[str]:
+    """``"a,b c"`` -> ``["a", "b", "c"]`` (comma or space separated names)."""
+    if not text:
+        return []
+    return [x for x in text.replace(",", " ").split() if x]
+
+
+def _cmd_drives(args) -> int:
+    """``armlab drives ROBOT STUDY --out drives.toml``: select the drive train of ROBOT from
+    the catalogue against STUDY's planned motion and worst static poses; write it as a drives
+    file (nothing is written when any joint has no passing entry)."""
+    from pathlib import Path
+
+    from armlab.io import atomic_write
+    from armlab.robot.drives import drives_toml
+    from armlab.study.spec import load_study
+    from armlab.study.stages import selection_for_study
+
+    robot = args.robot
+    if Path(robot).exists():  # a path on the command line is relative to the shell's folder
+        robot = str(Path(robot).resolve())
+    spec = load_study(args.study, {"robot.name": robot})
+    ctx = selection_for_study(spec)
+    sel = ctx.selection
+    text = drives_toml(ctx.robot.drives, header=_drives_header(ctx, args.study))
+    out = Path(args.out)
+    if out.exists() and not args.overwrite:
+        print(
+            f"armlab: error: --out {out}: exists (pass --overwrite to replace it)", file=sys.stderr
+        )
+        return 2
+    atomic_write(out, text)
+    print(sel.to_markdown())
+    print(f"drives file: {out}")
+    return 0
+
+
+def _drives_header(ctx, study) -> str:
+    """The comment block of a drives file written by ``armlab drives``: provenance, the chosen
+    parts with their binding checks and runners-up, the assumptions, the limit sources."""
+    import armlab
+
+    sel = ctx.selection
+    lim = ctx.robot.limits
+    lines = [
+        f"Drive train of {ctx.robot.name} selected by armlab {armlab.__version__} "
+        f"(armlab drives) from the catalogue {sel.catalogue_path}",
+        f"against the study {study}: its planned motion plus a 1 s hold at each joint's worst",
+        "static pose; lightest passing motor + reducer per joint. Schema: docs/drives.md.",
+        "Every value below is the catalogue's (see its sources); edit freely.",
+        "",
+    ]
+    for js in sel.joints:
+        c = js.chosen
+        if c is None:
+            continue
+        ru = js.runner_up
+        lines.append(
+            f"{js.joint}: {c.motor.model} + {c.reducer.model}; binding {c.binding.describe()}; "
+            f"runner-up {'none' if ru is None else ru.motor.model + ' + ' + ru.reducer.model}"
+        )
+    for a in sel.assumptions:
+        lines.append(f"ASSUMED: {a}")
+    for kind in ("acceleration", "jerk"):
+        lines.append(
+            f"{kind}_rad_s{'2' if kind == 'acceleration' else '3'}: "
+            + _sources(lim.sources.get(kind))
+        )
+    return "\n".join(lines) + "\n"
 
 
 def _cmd_run(args) -> int:
@@ -193,10 +314,49 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument(
         "robot",
         metavar="ROBOT",
-        help=f"built-in robot name ({robots}) or the path of a URDF (a drives.toml and an "
-        "mdh.toml beside it are read too)",
+        help=f"built-in robot name ({robots}), the path of a URDF (a drives.toml and an "
+        "mdh.toml beside it are read too) or erd:<path> for a URDF of example-robot-data",
+    )
+    s.add_argument(
+        "--tool-frame",
+        default=None,
+        metavar="FRAME",
+        help="tool frame (a study's [robot] tool_frame; default tool0 or the last frame)",
+    )
+    s.add_argument(
+        "--lock-joints",
+        default=None,
+        metavar="NAMES",
+        help="joints locked at 0, comma separated (a study's [robot] lock_joints)",
+    )
+    s.add_argument(
+        "--drives",
+        default=None,
+        metavar="FILE",
+        help="drives file instead of the drives.toml beside the URDF (a study's [robot] drives)",
     )
     s.set_defaults(func=_cmd_info)
+    s = sub.add_parser(
+        "drives",
+        formatter_class=fmt,
+        help="select a drive train from the catalogue and write it as a drives file",
+        description="Plan STUDY's motion on ROBOT, then choose for every joint the lightest "
+        "catalogue motor + reducer that passes every sizing check on that motion plus a 1 s "
+        "hold at the joint's worst static pose; print the choice with its binding check and "
+        "runner-up, and write it as a drives file (docs/drives.md) to edit and name in a "
+        "study ([robot] drives). Nothing is written if a joint has no passing entry: the "
+        "error names the joint and the check every candidate fails.",
+        epilog=EXIT_STATUS,
+    )
+    s.add_argument(
+        "robot",
+        metavar="ROBOT",
+        help="built-in robot name, URDF path or erd:<path> (replaces the study's [robot] name)",
+    )
+    s.add_argument("study", metavar="STUDY.toml", help="the study whose motion the drives carry")
+    s.add_argument("--out", required=True, metavar="FILE", help="the drives file to write")
+    s.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    s.set_defaults(func=_cmd_drives)
     s = sub.add_parser(
         "run",
         help="run one study (default: the built-in teachbot6 study)",

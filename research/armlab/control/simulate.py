@@ -1,35 +1,58 @@
-"""Closed-loop simulation of all joints' cascades on the nonlinear arm (Pinocchio ABA).
+"""Closed-loop simulation of all joints' cascades on the nonlinear arm, like the drive hardware.
 
-What runs each servo period T (1 ms, the card of the SHU controller paper, §1), all joints at
-once (vectorised):
+What runs each servo period ``T`` (the controller profile's ``servo_period_s``: 1 ms on the card
+of the SHU controller paper, §1), all joints at once (vectorised):
 
-1. encoder: ``theta_m = floor(N q counts_per_rad) / counts_per_rad`` (motor side, x4 decoding);
+1. encoder: ``theta_m = floor(theta counts_per_rad) / counts_per_rad`` on the motor shaft, with
+   the profile's decoding (:meth:`armlab.robot.controller.ControllerProfile.counts_per_rad`);
    speed ``w_m = (theta_m,k - theta_m,k-1) / T``;
 2. position loop (incremental P/PI/PID): ``w* = C_p(N q_d - theta_m) [+ N qd_d]``, limited to the
    motor's speed limit;
 3. speed loop (incremental PI): ``i* = C_w(w* - w_m) + i_ff``, limited to the peak current, then
-   the 12-bit +-10 V D/A (``quantise=True``); the value is applied one period later (the
-   computation delay the tuning assumed);
-4. current loop (amplifier, 20 kHz in reality): its **closed-loop continuous model** with the
-   back-EMF, ``L di/dt = kp (i* - i) + x_I - R i - Ke w``, ``dx_I/dt = ki (i* - i)``, integrated
-   exactly (matrix exponential) over the period with i* and w held, giving the period's mean
-   current; the supply voltage limits the current to ``(+-U - Ke w) / R``;
-5. arm: ``tau = N (Kt i_mean - B N qd)`` and Pinocchio's ABA on a copy of the model whose
-   ``armature`` holds the reflected rotor + reducer inertia ``(J_rotor + J_reducer) N^2``;
-   ``q += qd T + qdd T^2 / 2``, ``qd += qdd T`` (exact for the period's constant acceleration).
+   the profile's D/A (``dac_bits`` over ``+-dac_range_V``; ``quantise=True``); the value reaches
+   the amplifier one period later (the computation delay the tuning assumed);
+4. current loop (amplifier): the tuned **discrete** PI at its own sample time (50 us, 20 kHz),
+   with its computation delay, run ``T / T_i`` times per servo period; its output voltage is
+   limited to the supply ``+-U`` (``voltage_limit=True``) -- the incremental form's saturation is
+   the anti-windup the tuner assumed (:mod:`armlab.control.discrete`). The armature circuit
+   ``L di/dt = u - R i - Ke w_m`` is integrated exactly over each sub-step (``u`` held by the
+   PWM, ``w_m`` held over the servo period): the back-EMF eats the voltage the current needs;
+5. drive train (``losses=True``): the motor torque ``Kt i`` reaches the joint through
+   :mod:`armlab.robot.drivetrain` -- motor viscous friction, reducer efficiency by quadrant
+   (motoring ``eta``, back-driven ``1/eta_b``), joint Coulomb and viscous friction. The rotor
+   inertia is solved implicitly: the Pinocchio model gets the armature ``k J N^2`` with
+   ``k = eta`` (motoring) or ``1/eta_b`` (back-driven), the torque ``k N (T_m - b_m w_m) -
+   tau_f`` -- the same equation as :func:`~armlab.robot.drivetrain.joint_torque_delivered`,
+   solved for the acceleration (an explicit rotor term would be unstable: the reflected rotor
+   inertia is up to 15 x the arm's). At rest the reducer's static friction holds: the joint
+   gets the torque it needs to stay put (its bias torque ``C qd + g``) if that lies inside the
+   band the reducer can transmit, ``[eta N T, N T / eta_b] -+ F_c``, else the nearer edge; for
+   ``|qd| < v_s`` the torque blends linearly from that to the moving one (a regularised
+   stiction; ``v_s`` is the speed the difference stops in one period, so the explicit step
+   stays stable);
+6. arm: Pinocchio's ABA; ``q += qd T + qdd T^2 / 2``, ``qd += qdd T``.
 
-Why the current loop is not sub-stepped: its crossover is ~10^4 rad/s (period 50 us), it settles
-in < 0.5 ms, i.e. inside one 1 ms period, and it is 30-40 x faster than the speed loop; the
-exact integration of its linear closed loop keeps its lag and its back-EMF coupling at the
-1 kHz rate while the 20 kHz sampling itself (a 75 us lag) is negligible for the outer loops.
-Sub-stepping it would cost 20 ABA calls per period; this way one ABA per period is enough and
-six joints run at well over 10 x real time.
+Where the efficiency applies matters: the torque that accelerates the rotor never passes the
+reducer's mesh. On the demo cycle, applying ``eta`` to the whole motor torque instead would
+give a TCP error of 0.54 mm instead of 0.37 mm (measured for issue 14).
+
+Speed: sub-steps in which no joint's amplifier reaches its supply are linear in the state at
+their start; the simulation jumps over them with precomputed maps (:func:`_linear_period`) and
+runs the 20 kHz sub-steps one by one only from a sub-step that saturates (the same result to
+round-off, ``tests/test_simulation_hw.py``).
+
+``losses=False, voltage_limit=False`` is the ideal drive (no efficiency, no friction besides the
+motor's viscous term, an amplifier with unlimited voltage): the model of the simulation before
+issue 14, kept to measure what each effect costs.
 
 Feed-forward (thesis 5.2), any combination of:
-``"velocity"`` (w* += N qd_d), ``"acceleration"`` (i_ff += J_nominal N qdd_d / Kt),
-``"gravity"`` (i_ff += g(q_d) / (N Kt)), ``"friction"`` (viscous), ``"computed_torque"``
-(i_ff = (M(q_d) qdd_d + C qd_d + g + armature + viscous) / (N Kt): the model-based
-``tau = D(q) qdd_d + C + F + G`` of thesis 5.2 with the feedback left to the cascade).
+``"velocity"`` (w* += N qd_d), ``"acceleration"`` (nominal arm inertia x qdd_d at the joint and
+the rotor's ``J N qdd_d`` at the motor), ``"gravity"`` (g(q_d) at the joint), ``"friction"``
+(the drive-train friction: joint Coulomb + viscous, motor viscous), ``"efficiency"`` (the joint
+torque of the other terms goes through the reducer's efficiency by quadrant,
+:func:`~armlab.robot.drivetrain.motor_torque`, instead of ``/ N``), ``"computed_torque"``
+(``tau = D(q) qdd_d + C + G`` of thesis 5.2 at the joint + the rotor's inertia, the feedback left
+to the cascade).
 
 Positioning accuracy: the thesis' Monte-Carlo accuracy analysis (HEU thesis, ch. 3) concludes
 that about 1 mm total is achievable; the servo is given half of that budget
@@ -45,12 +68,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
-from scipy.linalg import expm
 
 from armlab.control.discrete import IncrementalPID
 from armlab.control.gains import ArmGains, CascadeGains
 from armlab.errors import InputError
+from armlab.robot import drivetrain as dtm
 from armlab.robot import rigid_body
+from armlab.robot.controller import ControllerProfile, load_profile
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
@@ -61,13 +85,21 @@ __all__ = [
     "POSITIONING_ACCURACY_M",
     "SERVO_SHARE",
     "FEEDFORWARDS",
+    "diagnose_tracking",
 ]
 
 #: Total positioning accuracy the thesis' Monte-Carlo analysis finds achievable, in [m].
 POSITIONING_ACCURACY_M = 1.0e-3
 #: Share of that budget given to the servo tracking error.
 SERVO_SHARE = 0.5
-FEEDFORWARDS = ("velocity", "acceleration", "gravity", "friction", "computed_torque")
+FEEDFORWARDS = (
+    "velocity",
+    "acceleration",
+    "gravity",
+    "friction",
+    "efficiency",
+    "computed_torque",
+)
 
 
 @dataclass
@@ -83,7 +115,7 @@ class TrackingResult:
     qd : ndarray (n_samples, n_joints)
         Simulated joint speeds in [rad/s].
     current_A : ndarray (n_samples, n_joints)
-        Mean motor current over each period in [A].
+        Mean motor current over each servo period in [A].
     da_V : ndarray (n_samples, n_joints)
         D/A output (current set-point) in [V].
     tcp_error_m : ndarray (n_samples,)
@@ -94,6 +126,19 @@ class TrackingResult:
         Tolerance on the TCP error in [m] (servo share of the positioning accuracy).
     wall_time_s : float
         Time the simulation loop took in [s].
+    voltage_V : ndarray (n_samples, n_joints)
+        Mean armature voltage the amplifier applied over each servo period in [V].
+    saturated_share : ndarray (n_samples, n_joints)
+        Share of each servo period the amplifier spent at its voltage limit (0..1).
+    peak_voltage_demand_V : ndarray (n_joints,)
+        Largest |voltage| the current loop asked for (before the supply limit) in [V].
+    peak_current_A : ndarray (n_joints,)
+        Largest |current| at any current-loop sample in [A].
+    supply_voltage_V : ndarray (n_joints,)
+        The amplifier's supply (voltage limit) per joint in [V].
+    model : dict
+        What the simulation included (``voltage_limit``, ``losses``, ``quantise``, the
+        controller profile, periods).
     """
 
     t: np.ndarray
@@ -108,6 +153,12 @@ class TrackingResult:
     accuracy_m: float
     wall_time_s: float = math.nan
     meta: dict = field(default_factory=dict)
+    voltage_V: np.ndarray | None = None
+    saturated_share: np.ndarray | None = None
+    peak_voltage_demand_V: np.ndarray | None = None
+    peak_current_A: np.ndarray | None = None
+    supply_voltage_V: np.ndarray | None = None
+    model: dict = field(default_factory=dict)
 
     @property
     def error_rad(self) -> np.ndarray:
@@ -137,15 +188,49 @@ class TrackingResult:
         """Simulated seconds per wall-clock second."""
         return float((self.t[-1] - self.t[0]) / self.wall_time_s)
 
+    @property
+    def sample_time_s(self) -> float:
+        return float(self.t[1] - self.t[0]) if self.t.size > 1 else math.nan
+
+    @property
+    def saturation_time_s(self) -> np.ndarray:
+        """Time each joint's amplifier spent at its voltage limit, (n_joints,) in [s]."""
+        if self.saturated_share is None:
+            return np.zeros(len(self.joint_names))
+        return self.saturated_share.sum(axis=0) * self.sample_time_s
+
+    @property
+    def peak_voltage_V(self) -> np.ndarray:
+        """Largest |mean armature voltage| over a servo period, (n_joints,) in [V]."""
+        if self.voltage_V is None:
+            return np.full(len(self.joint_names), math.nan)
+        return np.abs(self.voltage_V).max(axis=0)
+
     def to_dict(self) -> dict:
-        """summary.json "tracking": per joint max_error_rad; tcp max_error_m (+ context)."""
+        """summary.json "tracking": per joint max_error_rad, peak voltage and current, time in
+        saturation; tcp max_error_m (+ context)."""
+        n = len(self.joint_names)
+
+        def per(x, k):
+            return float(x[k]) if x is not None else None
+
+        sat = self.saturation_time_s
+        dur = float(self.t[-1] - self.t[0]) if self.t.size > 1 else math.nan
+        joints = {}
+        for k, name in enumerate(self.joint_names):
+            joints[name] = {
+                "max_error_rad": float(self.max_error_rad[k]),
+                "final_error_rad": float(self.final_error_rad[k]),
+                "peak_voltage_V": per(self.peak_voltage_V, k),
+                "peak_voltage_demand_V": per(self.peak_voltage_demand_V, k),
+                "supply_voltage_V": per(self.supply_voltage_V, k),
+                "peak_current_A": per(self.peak_current_A, k),
+                "time_in_saturation_s": float(sat[k]),
+                "saturation_share": float(sat[k] / dur) if dur > 0 else 0.0,
+            }
+        assert len(joints) == n
         return {
-            "joints": {
-                n: {"max_error_rad": float(e), "final_error_rad": float(f)}
-                for n, e, f in zip(
-                    self.joint_names, self.max_error_rad, self.final_error_rad, strict=True
-                )
-            },
+            "joints": joints,
             "tcp": {
                 "max_error_m": self.tcp_max_error_m,
                 "final_error_m": float(self.tcp_error_m[-1]),
@@ -153,9 +238,10 @@ class TrackingResult:
                 "within_accuracy": self.within_accuracy,
             },
             "feedforward": list(self.feedforward),
-            "duration_s": float(self.t[-1] - self.t[0]),
-            "sample_time_s": float(self.t[1] - self.t[0]) if self.t.size > 1 else math.nan,
+            "duration_s": dur,
+            "sample_time_s": self.sample_time_s,
             "quantise": bool(self.meta.get("quantise", True)),
+            "model": dict(self.model),
         }
 
 
@@ -182,6 +268,46 @@ def _cascades(robot, gains) -> list[CascadeGains]:
     return [table[n] for n in robot.joint_names]
 
 
+def _whole(x: float, what: str) -> int:
+    k = int(round(x))
+    if k < 0 or abs(x - k) > 1e-6:
+        raise InputError(f"{what} must be a whole number >= 0, got {x}")
+    return k
+
+
+def _feedforward_current(robot, dt, cas, ff, q_d, qd_d, qdd_d) -> np.ndarray:
+    """Feed-forward current (n, n_joints) [A] from the selected terms (module docstring)."""
+    n, nj = q_d.shape
+    N, Kt = dt.ratio, dt.torque_constant_Nm_A
+    tau = np.zeros((n, nj))  # joint side, through the reducer
+    t_motor = np.zeros((n, nj))  # motor side, before the reducer
+    if "computed_torque" in ff:
+        tau += rigid_body.inverse_dynamics(robot, q_d, qd_d, qdd_d)
+    else:
+        if "gravity" in ff:
+            tau += rigid_body.gravity_torques(robot, q_d)
+        if "acceleration" in ff:
+            J_arm = np.array(
+                [c.plant.inertia_joint_kg_m2["nominal"] if c.plant else 0.0 for c in cas]
+            )
+            tau += J_arm * qdd_d
+    if "computed_torque" in ff or "acceleration" in ff:
+        t_motor += dt.inertia_motor_side_kg_m2 * N * qdd_d
+    if "friction" in ff:
+        t_motor += dt.viscous_Nm_s_rad * N * qd_d
+        fric = dtm.joint_friction(qd_d, qdd_d, dt)
+    else:
+        fric = np.zeros((n, nj))
+    if "efficiency" in ff:
+        # the joint torque (with the friction if selected) through the reducer by quadrant
+        tau_out = tau + fric
+        motoring = tau_out * qd_d >= 0.0
+        t_in = np.where(motoring, tau_out / (N * dt.efficiency), tau_out * dt.back_efficiency / N)
+    else:
+        t_in = (tau + fric) / N
+    return (t_in + t_motor) / Kt
+
+
 def simulate_tracking(
     robot: Robot,
     trajectory,
@@ -192,30 +318,47 @@ def simulate_tracking(
     t_after_s: float = 0.2,
     accuracy_m: float | None = None,
     tcp: bool = True,
+    controller: ControllerProfile | str | None = None,
+    voltage_limit: bool = True,
+    losses: bool = True,
 ) -> TrackingResult:
     """Simulate every joint's cascade tracking ``trajectory`` on the nonlinear arm.
 
     Parameters
     ----------
     robot : Robot
-        With drives; its model (payload included) is copied and given the armature.
+        With drives; its model (payload included) is copied and given the rotor armature.
     trajectory : Trajectory
-        Set-points, evaluated at the servo period of the gains (speed loop sample time).
+        Set-points, evaluated at the servo period.
     gains : ArmGains or dict of str to CascadeGains
+        Tuned at the controller's servo period (checked).
     feedforward : str or iterable of str
         Subset of :data:`FEEDFORWARDS`, or ``"none"``.
     quantise : bool
-        12-bit D/A and encoder quantisation.
+        The profile's D/A resolution and the encoder's counts.
     t_after_s : float
         Time simulated after the trajectory ends (settling), in [s].
     accuracy_m : float, optional
         TCP tolerance; default ``POSITIONING_ACCURACY_M * SERVO_SHARE`` (0.5 mm).
     tcp : bool
         Compute the TCP error (forward kinematics of every sample).
+    controller : ControllerProfile or str, optional
+        Servo period, D/A and encoder decoding; default the reference controller of the SHU
+        controller paper (``reference_dda``), recorded in :attr:`TrackingResult.model`.
+    voltage_limit : bool
+        Limit the amplifier's output to the supply voltage (with the back-EMF).
+    losses : bool
+        Reducer efficiency and friction of the drive-train model.
 
     Returns
     -------
     TrackingResult
+
+    Raises
+    ------
+    InputError
+        No drives, wrong joint count, unknown feed-forward, gains tuned at another servo period
+        than the controller's, a current-loop period that does not divide the servo period.
     """
     from time import perf_counter
 
@@ -227,98 +370,94 @@ def simulate_tracking(
         )
     ff = _feedforwards(feedforward)
     cas = _cascades(robot, gains)
-    T = cas[0].speed.sample_time_s
+    prof = load_profile(controller)
+    T = float(prof.servo_period_s)
     for g in cas:
         for lg in (g.speed, g.position):
             if abs(lg.sample_time_s - T) > 1e-12:
                 raise InputError(
-                    f"{g.joint}: {lg.loop} loop sample time {lg.sample_time_s} s "
-                    f"differs from {T} s: one servo period for all joints"
+                    f"{g.joint}: {lg.loop} loop tuned at {lg.sample_time_s:g} s, controller "
+                    f"{prof.name!r} servo_period_s is {T:g} s: retune at the servo period"
                 )
+    Ti = cas[0].current.sample_time_s
+    n_sub = _whole(T / Ti, f"servo period / current-loop sample time ({T:g} / {Ti:g})")
+    if n_sub < 1 or any(abs(g.current.sample_time_s - Ti) > 1e-15 for g in cas):
+        raise InputError("every joint's current loop must share one sample time <= servo period")
+    d_cur = [_whole(g.current.delay_samples, f"{g.joint} current delay_samples") for g in cas]
     nj = robot.n_joints
-    drives = [robot.drives[n] for n in robot.joint_names]
-    N = np.array([d.reducer.ratio for d in drives], float)
-    Kt = np.array([d.motor.torque_constant_Nm_A for d in drives])
-    Ke = np.array([d.motor.back_emf_V_s_rad for d in drives])
-    R = np.array([d.motor.resistance_ohm for d in drives])
-    L = np.array([d.motor.inductance_H for d in drives])
-    Bm = np.array([d.motor.viscous_friction_Nm_s_rad or 0.0 for d in drives])
-    U = np.array([d.motor.supply_voltage_V for d in drives])
-    cpr = np.array([d.encoder.pulses_per_rev * d.encoder.decoding / (2 * math.pi) for d in drives])
-    J_rot = np.array(
-        [d.motor.rotor_inertia_kg_m2 + (d.reducer.inertia_kg_m2 or 0.0) for d in drives]
-    )
+    dt = dtm.drive_train(robot)
+    N, Kt, Ke = dt.ratio, dt.torque_constant_Nm_A, dt.back_emf_V_s_rad
+    R = dt.resistance_ohm
+    L = np.array([robot.drives[n].motor.inductance_H for n in robot.joint_names])
+    U = dt.supply_voltage_V
+    Jm = dt.inertia_motor_side_kg_m2
+    bm = dt.viscous_Nm_s_rad
+    cpr = prof.counts_per_rad(robot) / N  # counts per motor radian
     per_volt = np.array([g.speed.output_per_volt or (g.speed.output_max / 10.0) for g in cas])
-    da_range = cas[0].speed.da_range_V
-    da_bits = cas[0].speed.da_bits
+    da_range, da_bits = float(prof.dac_range_V), int(prof.dac_bits)
 
     model = robot.model.copy()  # gravity in the base frame, as robot.model's
-    model.armature = J_rot * N**2
+    arm0 = model.armature.copy()
+    refl = Jm * N**2
+    model.armature = arm0 + refl
     data = model.createData()
-    # rigid_body evaluates robot.model: add the armature the simulated model has on top of it
-    d_armature = model.armature - robot.model.armature
 
     # ---------------------------------------------------------------- set-points
     t_end = trajectory.t[0] + trajectory.duration + max(0.0, t_after_s)
     n = int(math.floor((t_end - trajectory.t[0]) / T + 1e-9)) + 1
     t = trajectory.t[0] + T * np.arange(n)
     q_d, qd_d, qdd_d, _ = trajectory.at(t)
-    i_ff = np.zeros((n, nj))
-    if ff:
-        if "computed_torque" in ff:
-            tau = rigid_body.inverse_dynamics(robot, q_d, qd_d, qdd_d) + d_armature * qdd_d
-            tau += Bm * N**2 * qd_d
-            i_ff += tau / (N * Kt)
-        else:
-            if "gravity" in ff:
-                i_ff += rigid_body.gravity_torques(robot, q_d) / (N * Kt)
-            if "acceleration" in ff:
-                Jn = np.array(
-                    [
-                        c.plant.inertia_motor_kg_m2["nominal"] if c.plant else J_rot[j]
-                        for j, c in enumerate(cas)
-                    ]
-                )
-                i_ff += Jn * N * qdd_d / Kt
-            if "friction" in ff:
-                i_ff += Bm * N * qd_d / Kt
+    i_ff = _feedforward_current(robot, dt, cas, ff, q_d, qd_d, qdd_d) if ff else np.zeros((n, nj))
     w_ff = N * qd_d if ("velocity" in ff or "computed_torque" in ff) else np.zeros((n, nj))
 
     # ---------------------------------------------------------------- controllers
     # incremental PIDs, u = sat(u1 + q0 e + q1 e1 + q2 e2) + u_ff (thesis ch. 5)
     pos = IncrementalPID.from_gains([g.position for g in cas])
     spd = IncrementalPID.from_gains([g.speed for g in cas])
-    kp_i = np.array([g.current.kp for g in cas])
-    ki_i = np.array([g.current.ki for g in cas])
-    # exact discretisation of the closed current loop, per joint states (i, x_I, int i) and
-    # inputs (i*, w_m = N v): coef[r, c, j] maps S = (i, x_I, i*, v) of joint j to
-    # r = (i_next, x_I_next, mean current over the period); an elementwise product and a sum
-    # update all joints (no BLAS call in the loop: tiny BLAS calls cost more than they do)
-    coef = np.zeros((3, 4, nj))
-    for j in range(nj):
-        A = np.array(
-            [[-(kp_i[j] + R[j]) / L[j], 1.0 / L[j], 0.0], [-ki_i[j], 0.0, 0.0], [1.0, 0.0, 0.0]]
-        )
-        B = np.array([[kp_i[j] / L[j], -Ke[j] / L[j]], [ki_i[j], 0.0], [0.0, 0.0]])
-        M = np.zeros((5, 5))
-        M[:3, :3], M[:3, 3:] = A * T, B * T
-        E = expm(M)
-        coef[:, :2, j] = E[:3, :2]
-        coef[:, 2, j] = E[:3, 3]
-        coef[:, 3, j] = E[:3, 4] * N[j]
-        coef[2, :, j] /= T  # integral of i over the period -> mean current
+    cq0 = np.array([g.current.q0 for g in cas])
+    cq1 = np.array([g.current.q1 for g in cas])
+    cq2 = np.array([g.current.q2 for g in cas])
+    if voltage_limit:
+        u_lo = np.maximum(np.array([g.current.output_min for g in cas]), -U)
+        u_hi = np.minimum(np.array([g.current.output_max for g in cas]), U)
+    else:
+        u_lo, u_hi = np.full(nj, -np.inf), np.full(nj, np.inf)
+    # exact armature circuit over a current-loop sub-step of length Ti, u and w_m held:
+    # i+ = x + (i - x) a, mean = x + (i - x) c, x = (u - Ke w_m) / R
+    tau_e = L / R
+    a_sub = np.exp(-Ti / tau_e)
+    c_sub = tau_e / Ti * (1.0 - a_sub)
+    d_max = max(d_cur)
+    d_arr = np.array(d_cur)
+    one_delay = bool(np.all(d_arr == 1))
+    # a servo period with no sub-step at the voltage limit is linear in the state at its start:
+    # precomputed maps (_linear_period) replace the sub-step loop there
+    fast = _LINEAR_PERIODS and one_delay
+    W = _linear_period(cq0, cq1, cq2, a_sub, c_sub, R, n_sub) if fast else np.zeros(0)
 
     # ---------------------------------------------------------------- initial state
     q = q_d[0].copy()
     v = qd_d[0].copy()
     g0 = rigid_body.gravity_torques(robot, q)
-    i_hold = (g0 + Bm * N**2 * v) / (N * Kt)
-    i_cmd = i_hold.copy()  # applied during the first period
-    S = np.zeros((4, nj))  # (i, x_I, i*, v) of every joint
-    S[0] = i_hold
-    S[1] = R * i_hold + Ke * N * v
-    spd.reset(u0=i_hold - i_ff[0])
-    th_prev = N * q
+    w0 = N * v
+    # the motor torque that holds or moves the arm at the start: at rest the reducer's static
+    # friction holds any torque inside its loss band, the ideal one included (module docstring)
+    tm0 = g0 / N + bm * w0
+    if losses:
+        tm_moving, _ = dtm.motor_torque(g0[None], v[None], np.zeros((1, nj)), dt)
+        # at rest the controller starts from its feed-forward if the reducer holds with it
+        b1, b2 = g0 * dt.back_efficiency / N, g0 / (N * dt.efficiency)
+        t_ff = Kt * i_ff[0]
+        held = (t_ff >= np.minimum(b1, b2) - 1e-12) & (t_ff <= np.maximum(b1, b2) + 1e-12)
+        tm0 = np.where(v != 0.0, tm_moving[0], np.where(held, t_ff, tm0))
+    i = tm0 / Kt
+    i_cmd = i.copy()  # applied during the first period
+    u_prev = R * i + Ke * w0  # the current PI's output that holds i
+    u_hist = [u_prev.copy() for _ in range(d_max)]  # outputs waiting for their delay
+    ce1 = np.zeros(nj)
+    ce2 = np.zeros(nj)
+    spd.reset(u0=i - i_ff[0])
+    th_prev = N * (q - v * T)  # the reading one period before: the start speed is measured
     if quantise:
         th_prev = np.floor(th_prev * cpr) / cpr
     Nq_d = N * q_d
@@ -328,17 +467,23 @@ def simulate_tracking(
     da_lsb = 1.0 / da_scale
     v_lo, v_hi = -da_range, da_range - da_lsb
     inv_pv = 1.0 / per_volt
-    U_R, Ke_R = U / R, Ke * N / R  # voltage limit on the current: +-U/R - Ke N v/R
-    NKt, NBmN = N * Kt, N * Bm * N
     hT2 = 0.5 * T * T
+    eta, eta_b = dt.efficiency, dt.back_efficiency
+    Fc, Fv = dt.coulomb_friction_Nm, dt.joint_viscous_Nm_s_rad
+    a_prev = np.zeros(nj)
 
     out_q = np.empty((n, nj))
     out_v = np.empty((n, nj))
     out_i = np.empty((n, nj))
+    out_u = np.empty((n, nj))
+    out_sat = np.zeros((n, nj))
     out_da = np.empty((n, nj))
-    aba = pin.aba
+    peak_u = np.abs(u_prev)
+    peak_i = np.abs(i)
+    aba, nle = pin.aba, pin.nonLinearEffects
     pos_step, spd_step = pos.step, spd.step
-    mn, mx, floor, rint = np.minimum, np.maximum, np.floor, np.rint
+    mn, mx, floor, rint, absf = np.minimum, np.maximum, np.floor, np.rint, np.abs
+    inv_sub = 1.0 / n_sub
     t0 = perf_counter()
     for k in range(n):
         out_q[k] = q
@@ -355,19 +500,80 @@ def simulate_tracking(
         if quantise:
             volts = mn(mx(rint(volts * da_scale) * da_lsb, v_lo), v_hi)
         out_da[k] = volts
-        # current loop over the period with the previous command (computation delay)
-        S[2] = i_cmd
-        S[3] = v
-        nxt = (coef * S).sum(axis=1)
-        i_hi = U_R - Ke_R * v
-        i_lo = i_hi - 2.0 * U_R
-        i_mean = mn(mx(nxt[2], i_lo), i_hi)
-        S[0] = mn(mx(nxt[0], i_lo), i_hi)
-        S[1] = mn(mx(nxt[1], -U), U)  # amplifier PI anti-windup
+        # current loop at its own rate over the period, with the previous command
+        # (computation delay of the speed loop); the back-EMF of the period's speed
+        emf = Ke * (N * v)
+        i_sum = np.zeros(nj)
+        u_sum = np.zeros(nj)
+        sat_n = np.zeros(nj)
+        k_sub = 0
+        while k_sub < n_sub:
+            m = n_sub - k_sub
+            if fast:
+                # the next m sub-steps if linear (no voltage limit reached): jump to the first
+                # sub-step that reaches the limit, or to the end of the period
+                z0 = np.stack([i, u_prev, ce1, ce2, i_cmd, emf], axis=1)[:, None, :, None]
+                lin = (W[:, :m] @ z0)[..., 0]  # (nj, m, 6)
+                u_dem = lin[:, :, 1]
+                if voltage_limit:
+                    viol = ((u_dem > u_hi[:, None]) | (u_dem < u_lo[:, None])).any(axis=0)
+                    jump = int(np.argmax(viol)) if viol.any() else m
+                else:
+                    jump = m
+                if jump > 0:
+                    peak_u = mx(peak_u, absf(u_dem[:, :jump]).max(axis=1))
+                    peak_i = mx(peak_i, absf(lin[:, :jump, 0]).max(axis=1))
+                    last = lin[:, jump - 1]
+                    i, u_prev, ce1, ce2 = last[:, 0], last[:, 1], last[:, 2], last[:, 3]
+                    i_sum = i_sum + last[:, 4]
+                    u_sum = u_sum + last[:, 5]
+                    u_hist = [u_prev]
+                    k_sub += jump
+                    if k_sub >= n_sub:
+                        break
+            # one sub-step as the amplifier runs it, with the voltage limit
+            k_sub += 1
+            e = i_cmd - i
+            u = u_prev + cq0 * e + cq1 * ce1 + cq2 * ce2
+            peak_u = mx(peak_u, absf(u))
+            if voltage_limit:
+                over = (u > u_hi) | (u < u_lo)
+                sat_n += over
+                u = mn(mx(u, u_lo), u_hi)
+            ce2, ce1, u_prev = ce1, e, u
+            u_hist.append(u)
+            ua = u_hist.pop(0) if one_delay else _delayed(u_hist, d_arr)
+            x = (ua - emf) / R
+            i_sum += x + (i - x) * c_sub
+            u_sum += ua
+            i = x + (i - x) * a_sub
+            peak_i = mx(peak_i, absf(i))
+        i_mean = i_sum * inv_sub
         out_i[k] = i_mean
+        out_u[k] = u_sum * inv_sub
+        out_sat[k] = sat_n * inv_sub
         i_cmd = volts * per_volt
-        # arm
-        a = aba(model, data, q, v, NKt * i_mean - NBmN * v)
+        # drive train -> joint torque, the rotor inertia implicit in the armature
+        t_in = Kt * i_mean - bm * (N * v)
+        if losses:
+            # quadrant of the reducer input torque left after the rotor's acceleration
+            motoring = (t_in - Jm * N * a_prev) * v >= 0.0
+            kq = np.where(motoring, eta, 1.0 / eta_b)
+            moving = kq * N * t_in - Fv * v - Fc * np.sign(v)
+            # at rest: static friction holds the torque the joint needs (bias, qdd = 0) if it
+            # lies inside the band the reducer can transmit, [eta N T, N T / eta_b] -+ F_c
+            bias = nle(model, data, q, v)
+            b1, b2 = eta * N * t_in, N * t_in / eta_b
+            rest = mn(mx(bias, mn(b1, b2) - Fc), mx(b1, b2) + Fc) - Fv * v
+            m_eff = arm0 + kq * refl + 1e-12
+            v_s = mx(absf(moving - rest) * T / m_eff, 1e-9)
+            fade = mn(absf(v) / v_s, 1.0)
+            tau = rest + (moving - rest) * fade
+            model.armature = arm0 + kq * refl
+        else:
+            tau = N * t_in
+        a = aba(model, data, q, v, tau)
+        a_prev = a
         q = q + v * T + hT2 * a
         v = v + a * T
     wall = perf_counter() - t0
@@ -394,4 +600,154 @@ def simulate_tracking(
         accuracy_m=acc,
         wall_time_s=wall,
         meta={"quantise": quantise, "n_steps": n},
+        voltage_V=out_u,
+        saturated_share=out_sat,
+        peak_voltage_demand_V=peak_u,
+        peak_current_A=peak_i,
+        supply_voltage_V=U.copy(),
+        model={
+            "voltage_limit": bool(voltage_limit),
+            "losses": bool(losses),
+            "quantise": bool(quantise),
+            "controller": prof.name,
+            "controller_source": "given" if controller is not None else "default (reference_dda)",
+            "servo_period_s": T,
+            "current_sample_time_s": Ti,
+            "dac_bits": da_bits,
+            "dac_range_V": da_range,
+        },
     )
+
+
+#: use the precomputed linear maps over servo periods without voltage saturation (tests turn
+#: it off to compare with the sub-step loop)
+_LINEAR_PERIODS = True
+
+
+def _linear_period(q0, q1, q2, a, c, R, n_sub: int) -> np.ndarray:
+    """The current loop over up to ``n`` sub-steps as linear maps, per joint ``(nj, n, 6, 6)``.
+
+    One sub-step (PI with a one-sample delay, exact armature circuit), state
+    ``z = (i, u_prev, e1, e2, i*, emf)`` (the last two constant over a servo period)::
+
+        e = i* - i;  u = u_prev + q0 e + q1 e1 + q2 e2;  x = (u_prev - emf) / R
+        i+ = a i + (1 - a) x;  mean current += c i + (1 - c) x;  mean voltage += u_prev
+
+    Row ``j`` maps a start state to the state after ``j + 1`` sub-steps with the last two
+    entries replaced by the sums of the sub-steps' mean currents and applied voltages (exact
+    while no sub-step reaches the voltage limit; ``u_prev`` is the voltage the PI asked for).
+    """
+    nj = len(q0)
+    out = np.zeros((nj, n_sub, 6, 6))
+    for j in range(nj):
+        M = np.eye(6)
+        M[0] = [a[j], (1 - a[j]) / R[j], 0, 0, 0, -(1 - a[j]) / R[j]]
+        M[1] = [-q0[j], 1.0, q1[j], q2[j], q0[j], 0.0]
+        M[2] = [-1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        M[3] = [0.0, 0.0, 1.0, 0.0, 0.0, 0.0]
+        r_i = np.array([c[j], (1 - c[j]) / R[j], 0, 0, 0, -(1 - c[j]) / R[j]])
+        r_u = np.array([0.0, 1.0, 0, 0, 0, 0])
+        P = np.eye(6)
+        s_i, s_u = np.zeros(6), np.zeros(6)
+        for k in range(n_sub):
+            s_i = s_i + r_i @ P
+            s_u = s_u + r_u @ P
+            P = M @ P
+            out[j, k, :4] = P[:4]
+            out[j, k, 4] = s_i
+            out[j, k, 5] = s_u
+    return out
+
+
+def _delayed(hist: list, d: np.ndarray) -> np.ndarray:
+    """The voltage each joint applies now: its output ``d`` current-loop samples ago
+    (``hist[-1]`` is the newest); drops outputs no joint needs any more."""
+    out = np.array([hist[-1 - dj][j] for j, dj in enumerate(d)])
+    while len(hist) > int(d.max()) + 1:
+        hist.pop(0)
+    return out
+
+
+def diagnose_tracking(robot: Robot, trajectory, gains, result: TrackingResult, **options) -> dict:
+    """Why a tracking simulation misses its budget, and what fixes it -- measured, not asserted.
+
+    Re-simulates the same motion with one effect removed at a time (the supply-voltage limit,
+    the reducer's efficiency and friction) and once with the feed-forward of friction and
+    efficiency added (a fix that needs no hardware change).
+
+    Parameters
+    ----------
+    robot, trajectory, gains :
+        As given to :func:`simulate_tracking`.
+    result : TrackingResult
+        The full-model result to diagnose.
+    **options :
+        The other :func:`simulate_tracking` options of ``result`` (feed-forward, quantise,
+        controller, ...).
+
+    Returns
+    -------
+    dict
+        ``tcp_max_error_m`` per variant (``full``, ``no_voltage_limit``, ``no_losses``,
+        ``with_loss_feedforward``), ``limiting_factor`` (a phrase naming the effect and the
+        joints), ``offer`` (the measured effect of the feed-forward, and what else would be
+        needed).
+    """
+    opts = {k: v for k, v in options.items() if k not in ("voltage_limit", "losses", "tcp")}
+    ff = tuple(result.feedforward)
+    variants = {
+        "no_voltage_limit": simulate_tracking(
+            robot, trajectory, gains, voltage_limit=False, **opts
+        ),
+        "no_losses": simulate_tracking(robot, trajectory, gains, losses=False, **opts),
+    }
+    extra = tuple(f for f in ("friction", "efficiency") if f not in ff)
+    if extra:
+        ff_fix = ff + extra if ff else ("velocity", "acceleration", "gravity") + extra
+        opts_fix = {**opts, "feedforward": ff_fix}
+        variants["with_loss_feedforward"] = simulate_tracking(robot, trajectory, gains, **opts_fix)
+    err = {"full": result.tcp_max_error_m}
+    err.update({k: r.tcp_max_error_m for k, r in variants.items()})
+    budget = result.accuracy_m
+    gain_v = err["full"] - err["no_voltage_limit"]
+    gain_l = err["full"] - err["no_losses"]
+    sat = result.saturation_time_s
+    sat_joints = [n for n, s in zip(result.joint_names, sat, strict=True) if s > 0]
+    worst = result.joint_names[int(np.argmax(result.max_error_rad))]
+    if max(gain_v, gain_l) < 0.1 * err["full"]:
+        factor = (
+            f"the feedback itself (an ideal drive tracks within "
+            f"{min(err['no_voltage_limit'], err['no_losses']) * 1e3:.3g} mm too; largest joint "
+            f"error on {worst}): servo bandwidth or feed-forward"
+        )
+    elif gain_v >= gain_l:
+        factor = (
+            f"amplifier supply voltage (saturated on {', '.join(sat_joints) or 'no joint'}; "
+            f"{err['no_voltage_limit'] * 1e3:.3g} mm without the limit)"
+        )
+    else:
+        factor = (
+            f"reducer efficiency and friction ({err['no_losses'] * 1e3:.3g} mm with an "
+            f"ideal reducer; largest joint error on {worst})"
+        )
+    if "with_loss_feedforward" in err:
+        e = err["with_loss_feedforward"]
+        verdict = "within" if e <= budget else "still above"
+        offer = (
+            f"feed-forward of friction and efficiency measured: {e * 1e3:.3g} mm ({verdict} "
+            f"the {budget * 1e3:.3g} mm budget; [tracking] feedforward += {list(extra)})"
+        )
+    else:
+        offer = "feed-forward of friction and efficiency is already on"
+    if "with_loss_feedforward" not in err or err["with_loss_feedforward"] > budget:
+        offer += (
+            "; next: retune within the saturation (lower position bandwidth) or plan inside "
+            "the motor envelope (plan.drive_limits = true)"
+        )
+    return {
+        "tcp_max_error_m": err,
+        "accuracy_m": budget,
+        "limiting_factor": factor,
+        "offer": offer,
+        "saturation_time_s": {n: float(s) for n, s in zip(result.joint_names, sat, strict=True)},
+    }

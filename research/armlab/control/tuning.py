@@ -40,10 +40,12 @@ import numpy as np
 
 from armlab.control.gains import ArmGains, CascadeGains, LoopGains, PlantSummary
 from armlab.control.loops import (
+    CascadeArrays,
     CascadeModel,
     _response,
     freq_grid,
     margins,
+    margins_from_log,
     pid_response,
     step_figures,
 )
@@ -222,6 +224,105 @@ def _bisect_max(feasible, lo: float, hi: float, n: int = 40) -> float | None:
         if b - a < 1e-3:
             break
     return math.exp(a)
+
+
+def _log_polar(R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(log|R|, unwrapped phase) along the last axis."""
+    with np.errstate(divide="ignore"):
+        return np.log(np.abs(R)), np.unwrap(np.angle(R), axis=-1)
+
+
+def _pid_polar(case: _Case, lgs: list[LoopGains]):
+    """(log|C|, phase of C) of candidate PI/P controllers (m, n) on the continuous and the
+    discrete grid, from the gains directly (:func:`pid_response`'s ``C``)."""
+    if any(lg.kd for lg in lgs):  # a derivative term: the general evaluation
+        return (
+            _log_polar(np.stack([pid_response(lg, case.w_c, False) for lg in lgs])),
+            _log_polar(np.stack([pid_response(lg, case.w_d, True) for lg in lgs])),
+        )
+    kp = np.array([lg.kp for lg in lgs])[:, None]
+    ki = np.array([lg.ki for lg in lgs])[:, None]
+    im = -ki / case.w_c[None, :]  # C(jw) = kp - j ki / w
+    cont = (0.5 * np.log(kp * kp + im * im), np.arctan2(im, kp))
+    if "den_d" not in case.extra:
+        th = case.w_d * case.extra["dt_d"]
+        den = 1.0 - np.exp(-1j * th)
+        case.extra["den_d"] = (np.cos(th), np.sin(th), np.cos(2 * th), np.sin(2 * th))
+        case.extra["den_d"] += _log_polar(den)
+    c1, s1, c2, s2, lden, pden = case.extra["den_d"]
+    q0 = np.array([lg.q0 for lg in lgs])[:, None]
+    q1 = np.array([lg.q1 for lg in lgs])[:, None]
+    q2 = np.array([lg.q2 for lg in lgs])[:, None]
+    re = q0 + q1 * c1 + q2 * c2  # q0 + q1 z^-1 + q2 z^-2 at z = e^{j w T}
+    im = -(q1 * s1 + q2 * s2)
+    with np.errstate(divide="ignore"):
+        lnum = 0.5 * np.log(re * re + im * im)
+    pnum = np.arctan2(im, re)
+    if not (np.all(q2 == 0.0) and np.all(np.abs(q1) < q0)):  # else Re > 0: no wrap
+        pnum = np.unwrap(pnum, axis=-1)
+    return cont, (lnum - lden, pnum - pden)
+
+
+def _worst_many(case: _Case, lgs: list[LoopGains], spec: TuningSpec):
+    """:func:`_worst` of several candidate controllers at once; ``case`` holds the responses
+    of every inertia case stacked, (k, n). Returns arrays (ok, pm, gm, wmin, wmax) (m,).
+
+    ``log|C P| = log|C| + log|P|`` and the phases add: the plant's part is computed once per
+    case (``case.extra``), only the controller's per candidate."""
+    if "polar" not in case.extra:
+        case.extra["polar"] = (
+            _log_polar(case.P_c),
+            _log_polar(case.P_d),
+            np.log(case.w_c),
+            np.log(case.w_d),
+        )
+    (lPc, pPc), (lPd, pPd), lwc, lwd = case.extra["polar"]
+    m, k = len(lgs), case.P_c.shape[0]
+    (lCc, pCc), (lCd, pCd) = _pid_polar(case, lgs)
+    n_c, n_d = case.w_c.size, case.w_d.size
+    pm_c, gm_c, wc, _ = margins_from_log(
+        lwc,
+        (lCc[:, None] + lPc[None]).reshape(m * k, n_c),
+        (pCc[:, None] + pPc[None]).reshape(m * k, n_c),
+    )
+    pm_d, gm_d, _, _ = margins_from_log(
+        lwd,
+        (lCd[:, None] + lPd[None]).reshape(m * k, n_d),
+        (pCd[:, None] + pPd[None]).reshape(m * k, n_d),
+    )
+    wc = np.where(np.isnan(wc), 0.0, wc).reshape(m, k)  # no crossover
+    pm = np.minimum(pm_c.reshape(m, k).min(axis=1), pm_d.reshape(m, k).min(axis=1))
+    gm = np.minimum(gm_c.reshape(m, k).min(axis=1), gm_d.reshape(m, k).min(axis=1))
+    ok = (pm >= spec.phase_margin_deg + _PM_PAD) & (gm >= spec.gain_margin_dB + _GM_PAD)
+    return ok, pm, gm, wc.min(axis=1), wc.max(axis=1)
+
+
+def _bisect_max_many(feasible, lo: float, hi: float, m: int, n: int = 40) -> list[float | None]:
+    """:func:`_bisect_max` for ``m`` candidate shapes in lockstep: ``feasible(xs, idx)`` tells
+    for the values ``xs`` of the shapes ``idx`` (lists) whether each is feasible. The same
+    steps as the scalar search, so the same results."""
+    everyone = list(range(m))
+    f_lo = feasible([lo] * m, everyone)
+    f_hi = feasible([hi] * m, everyone)
+    out: list[float | None] = [None if not f_lo[i] else (hi if f_hi[i] else None) for i in everyone]
+    active = [i for i in everyone if f_lo[i] and not f_hi[i]]
+    a = {i: math.log(lo) for i in active}
+    b = {i: math.log(hi) for i in active}
+    for _ in range(n):
+        if not active:
+            break
+        mids = [0.5 * (a[i] + b[i]) for i in active]
+        feas = feasible([math.exp(x) for x in mids], active)
+        for i, x, f in zip(active, mids, feas, strict=True):
+            if f:
+                a[i] = x
+            else:
+                b[i] = x
+        if all(b[i] - a[i] < 1e-3 for i in active):
+            break
+    for i in active:
+        out[i] = math.exp(a[i])
+    return out
 
 
 def _loop(
@@ -430,28 +531,227 @@ def _tune_position(
     raise SpecError(f"{p0.joint}: spec overshoot_pct={spec.overshoot_pct} cannot be met")
 
 
+# ---------------------------------------------------------------------------- per loop, numpy
+# The searches above, on the closed-form responses of :class:`CascadeArrays` (all inertia
+# cases stacked) and with every candidate shape bisected in lockstep (:func:`_bisect_max_many`):
+# the same decisions, so the same gains, without building python-control objects.
+def _stacked(ca: CascadeArrays, loop: str, dt: float, n_grid: int) -> _Case:
+    w_c = freq_grid(None, n=n_grid)
+    w_d = freq_grid(dt, n=n_grid)
+    return _Case(
+        w_c,
+        ca.plant_response(loop, w_c, False),
+        w_d,
+        ca.plant_response(loop, w_d, True),
+        extra={"dt_d": dt},
+    )
+
+
+def _tune_current_fast(plants: dict[str, JointPlant], spec: TuningSpec, n_grid: int) -> LoopGains:
+    p0 = plants["nominal"]
+    dt = spec.current_sample_time_s
+    ca = CascadeArrays(p0, {"current": _loop("current", "PI", 1.0, 1.0, dt, spec, p0)}, plants)
+    case = _stacked(ca, "current", dt, n_grid)
+    ratios = (0.5, 0.7, 1.0, 1.4, 2.0)
+
+    def make(kp, r):
+        Ti = r * p0.Te
+        return _loop("current", "PI", kp, kp / Ti, dt, spec, p0)
+
+    def feasible(kps, idx):
+        return _worst_many(
+            case, [make(kp, ratios[i]) for kp, i in zip(kps, idx, strict=True)], spec
+        )[0]
+
+    kps = _bisect_max_many(feasible, p0.L * 1.0, p0.L * 10.0 / dt, len(ratios))
+    cand = [make(kp, r) for kp, r in zip(kps, ratios, strict=True) if kp is not None]
+    best = None
+    if cand:
+        wmins = _worst_many(case, cand, spec)[3]
+        for wmin, lg in zip(wmins, cand, strict=True):
+            if best is None or wmin > best[0]:
+                best = (wmin, lg)
+    if best is None:
+        raise SpecError(
+            f"{p0.joint}: no current-loop PI meets phase_margin_deg>="
+            f"{spec.phase_margin_deg} and gain_margin_dB>={spec.gain_margin_dB} "
+            f"at current_sample_time_s={spec.current_sample_time_s}"
+        )
+    return best[1]
+
+
+def _tune_speed_fast(
+    plants, current: LoopGains, spec: TuningSpec, n_grid: int, ca: CascadeArrays
+) -> LoopGains:
+    p0 = plants["nominal"]
+    dt = spec.speed_sample_time_s
+    ca.gains["current"] = current
+    ca.gains["speed"] = _loop("speed", "PI", 1.0, 1.0, dt, spec, p0)
+    wci_min = math.inf
+    for m in ca.margins("current", False, n=n_grid):
+        wci_min = min(wci_min, m.crossover_rad_s)
+    case = _stacked(ca, "speed", dt, n_grid)
+    w_cap = wci_min / spec.separation_current_speed
+    J_max = max(p.J for p in plants.values())
+    betas = list(np.geomspace(0.05, 0.5, 8))
+
+    def make(kp, beta):
+        return _loop("speed", "PI", kp, kp * beta * kp * p0.Kt / J_max, dt, spec, p0)
+
+    def feasible(kps, idx):
+        ok, _, _, _, wmax = _worst_many(
+            case, [make(kp, betas[i]) for kp, i in zip(kps, idx, strict=True)], spec
+        )
+        return ok & (wmax <= w_cap)
+
+    kp_lo = J_max * 1.0 / p0.Kt
+    kps = _bisect_max_many(feasible, kp_lo, J_max * 10.0 / dt / p0.Kt, len(betas))
+    found = [(beta, make(kp, beta)) for kp, beta in zip(kps, betas, strict=True) if kp is not None]
+    best: tuple[float, LoopGains] | None = None
+    if found:
+        wmins = _worst_many(case, [f[1] for f in found], spec)[3]
+        rows = [(float(w), beta, lg) for w, (beta, lg) in zip(wmins, found, strict=True)]
+        w_best = max(f[0] for f in rows)
+        top = max((f for f in rows if f[0] >= 0.85 * w_best), key=lambda f: f[1])
+        best = (top[0], top[2])
+    if best is None:
+        raise SpecError(
+            f"{p0.joint}: no speed-loop PI meets phase_margin_deg>="
+            f"{spec.phase_margin_deg}, gain_margin_dB>={spec.gain_margin_dB} and "
+            f"separation_current_speed={spec.separation_current_speed} over the "
+            f"inertia range at speed_sample_time_s={spec.speed_sample_time_s}"
+        )
+    return best[1]
+
+
+def _tune_position_fast(
+    plants, speed: LoopGains, spec: TuningSpec, n_grid: int, ca: CascadeArrays
+) -> LoopGains:
+    """``ca``: the speed search's arrays (its discrete drive depends on the current loop
+    only, and is reused)."""
+    p0 = plants["nominal"]
+    dt = spec.position_sample_time_s
+    ca.gains["speed"] = speed
+    ca.gains["position"] = _loop("position", "P", 1.0, 0.0, dt, spec, p0)
+    ww_min = math.inf
+    for m in ca.margins("speed", False, n=n_grid):
+        ww_min = min(ww_min, m.crossover_rad_s)
+    case = _stacked(ca, "position", dt, n_grid)
+    w_cap = ww_min / spec.separation_speed_position
+
+    def make(kp):
+        return _loop("position", "P", kp, 0.0, dt, spec, p0)
+
+    def feasible(kps, idx):
+        ok, _, _, _, wmax = _worst_many(case, [make(kp) for kp in kps], spec)
+        return ok & (wmax <= w_cap)
+
+    kp_max = _bisect_max_many(feasible, 1e-2, 10.0 / dt, 1)[0]
+    target = spec.target_bandwidth_rad_s
+    if kp_max is None:
+        raise SpecError(
+            f"{p0.joint}: no position-loop gain meets phase_margin_deg>="
+            f"{spec.phase_margin_deg} and gain_margin_dB>={spec.gain_margin_dB}"
+        )
+    P_nom = case.P_c[list(plants).index("nominal")]
+
+    def wc_nominal(kp):
+        return margins(case.w_c, kp * P_nom).crossover_rad_s
+
+    kp = _position_target(p0, spec, target, kp_max, wc_nominal)
+    # overshoot (all cases, both models): reduce kp until it holds
+    for _ in range(30):
+        lg = make(kp)
+        ca.gains["position"] = lg
+        worst = 0.0
+        for disc in (False, True):
+            for os_, _ in ca.step_figures("position", disc, 12.0 / kp):
+                worst = max(worst, os_ if math.isfinite(os_) else math.inf)
+        if worst <= spec.overshoot_pct:
+            return lg
+        if target is not None:
+            raise SpecError(
+                f"{p0.joint}: spec overshoot_pct={spec.overshoot_pct} cannot be met "
+                f"at position_bandwidth_rad_s={target:.4g} (overshoot "
+                f"{worst:.3g} %)"
+            )
+        kp *= 0.9
+    raise SpecError(f"{p0.joint}: spec overshoot_pct={spec.overshoot_pct} cannot be met")
+
+
+def _position_target(p0, spec: TuningSpec, target, kp_max: float, wc_nominal) -> float:
+    """kp for the requested position bandwidth (bisection on the nominal crossover), or
+    ``kp_max`` without one; :class:`SpecError` if the bandwidth is out of reach."""
+    if target is None:
+        return kp_max
+    w_best = wc_nominal(kp_max)
+    if target > w_best * (1 + 1e-3):
+        name = (
+            "position_bandwidth_rad_s"
+            if spec.position_bandwidth_rad_s is not None
+            else "rise_time_s"
+        )
+        val = getattr(spec, name)
+        raise SpecError(
+            f"{p0.joint}: spec {name}={val!r} is impossible: the position loop reaches at "
+            f"most {w_best:.4g} rad/s with phase_margin_deg>={spec.phase_margin_deg}, "
+            f"gain_margin_dB>={spec.gain_margin_dB} and separation_speed_position="
+            f"{spec.separation_speed_position} over the inertia range"
+        )
+    a, b = math.log(1e-3), math.log(kp_max)
+    for _ in range(60):
+        mid = 0.5 * (a + b)
+        if wc_nominal(math.exp(mid)) < target:
+            a = mid
+        else:
+            b = mid
+    return math.exp(b)
+
+
 # ---------------------------------------------------------------------------- checks
-def check_cascade(
-    plant: JointPlant,
-    gains: CascadeGains,
-    *,
-    n_grid: int = 1500,
-    inner_overshoot_pct: float | None = None,
-) -> CascadeGains:
-    """Recompute every loop's figures on the python-control models over the inertia range.
+ENGINES = ("numpy", "python-control")
 
-    For each loop and each inertia case (min, nominal, max): crossover, phase and gain margins,
-    step overshoot and 2 % settling time, continuous and discrete, and closed-loop stability.
-    The headline figures are the worst case (crossover: at the nominal inertia).
 
-    Returns
-    -------
-    CascadeGains
-        A copy with the figures and ``robustness`` rows filled in.
-    """
-    loops = {name: LoopGains.from_dict(lg.to_dict()) for name, lg in gains.loops().items()}
+def _check_rows_numpy(plant: JointPlant, loops: dict, n_grid: int) -> dict[str, list[dict]]:
+    """Per loop the robustness rows of :func:`check_cascade` from :class:`CascadeArrays`."""
+    ca = CascadeArrays(plant, loops, INERTIA_CASES)
+    out = {}
+    for name in loops:
+        rows: list[dict[str, Any]] = [
+            {"label": case, "inertia_kg_m2": plant.J_motor(case)} for case in INERTIA_CASES
+        ]
+        for disc in (False, True):
+            sfx = "_discrete" if disc else ""
+            mgs = ca.margins(name, disc, n=n_grid)
+            span = 12.0 if name == "position" else 40.0
+            t_end = [
+                span / m.crossover_rad_s
+                if math.isfinite(m.crossover_rad_s) and m.crossover_rad_s > 0
+                else 1.0
+                for m in mgs
+            ]
+            figs = ca.step_figures(name, disc, t_end)
+            stable = ca.stable(name, disc)
+            for row, mg, (os_, ts), st in zip(rows, mgs, figs, stable, strict=True):
+                row.update(
+                    {
+                        f"crossover{sfx}_rad_s": mg.crossover_rad_s,
+                        f"phase_margin{sfx}_deg": mg.phase_margin_deg,
+                        f"gain_margin{sfx}_dB": mg.gain_margin_dB,
+                        f"overshoot{sfx}_pct": os_,
+                        f"settling_time{sfx}_s": ts,
+                        f"stable{sfx}": st,
+                    }
+                )
+        out[name] = rows
+    return out
+
+
+def _check_rows_reference(plant: JointPlant, loops: dict, n_grid: int) -> dict[str, list[dict]]:
+    """The same rows from python-control's models (:class:`CascadeModel`): the reference."""
     models = {case: CascadeModel(plant.at(case), loops) for case in INERTIA_CASES}
-    for name, lg in loops.items():
+    out = {}
+    for name in loops:
         rows = []
         for case in INERTIA_CASES:
             m = models[case]
@@ -475,6 +775,45 @@ def check_cascade(
                     }
                 )
             rows.append(row)
+        out[name] = rows
+    return out
+
+
+def _engine(engine: str) -> str:
+    if engine not in ENGINES:
+        raise SpecError(f"engine={engine!r} is not one of {ENGINES}")
+    return engine
+
+
+def check_cascade(
+    plant: JointPlant,
+    gains: CascadeGains,
+    *,
+    n_grid: int = 1500,
+    inner_overshoot_pct: float | None = None,
+    engine: str = "numpy",
+) -> CascadeGains:
+    """Recompute every loop's figures over the inertia range.
+
+    For each loop and each inertia case (min, nominal, max): crossover, phase and gain margins,
+    step overshoot and 2 % settling time, continuous and discrete, and closed-loop stability.
+    The headline figures are the worst case (crossover: at the nominal inertia).
+    ``engine="numpy"`` evaluates the loops in closed form (:class:`CascadeArrays`, all cases at
+    once); ``"python-control"`` on python-control's models (:class:`CascadeModel`), the
+    reference.
+
+    Returns
+    -------
+    CascadeGains
+        A copy with the figures and ``robustness`` rows filled in.
+    """
+    loops = {name: LoopGains.from_dict(lg.to_dict()) for name, lg in gains.loops().items()}
+    if _engine(engine) == "numpy":
+        all_rows = _check_rows_numpy(plant, loops, n_grid)
+    else:
+        all_rows = _check_rows_reference(plant, loops, n_grid)
+    for name, lg in loops.items():
+        rows = all_rows[name]
         nom = rows[INERTIA_CASES.index("nominal")]
         lg.crossover_rad_s = nom["crossover_rad_s"]
         lg.crossover_discrete_rad_s = nom["crossover_discrete_rad_s"]
@@ -493,7 +832,9 @@ def check_cascade(
 
 
 # ---------------------------------------------------------------------------- public
-def tune_cascade(robot: Robot, joint, *, inertias=None, n_grid: int = 600, **spec) -> CascadeGains:
+def tune_cascade(
+    robot: Robot, joint, *, inertias=None, n_grid: int = 600, engine: str = "numpy", **spec
+) -> CascadeGains:
     """Tune one joint's current, speed and position loops, robust over its inertia range.
 
     Parameters
@@ -506,6 +847,10 @@ def tune_cascade(robot: Robot, joint, *, inertias=None, n_grid: int = 600, **spe
         Precomputed :func:`armlab.control.plant.inertia_range` (shared by :func:`tune_arm`).
     n_grid : int
         Frequency points of the search (the final check uses 1500).
+    engine : {"numpy", "python-control"}
+        ``"numpy"``: the loops in closed form, every inertia case and candidate at once
+        (:class:`armlab.control.loops.CascadeArrays`); ``"python-control"``: the original
+        evaluation on python-control's models, kept as the reference (same gains to rounding).
     **spec
         Fields of :class:`TuningSpec` (``position_bandwidth_rad_s``, ``phase_margin_deg``, ...).
 
@@ -526,10 +871,17 @@ def tune_cascade(robot: Robot, joint, *, inertias=None, n_grid: int = 600, **spe
         inertias = inertia_range(robot, n_samples=sp.n_inertia_samples, seed=sp.seed)
     base = joint_plant(robot, name, inertias=inertias)
     plants = {c: base.at(c) for c in INERTIA_CASES}
+    fast = _engine(engine) == "numpy"
     try:
-        cur = _tune_current(plants, sp, n_grid)
-        spd = _tune_speed(plants, cur, sp, n_grid)
-        pos = _tune_position(plants, cur, spd, sp, n_grid)
+        if fast:
+            cur = _tune_current_fast(plants, sp, n_grid)
+            ca = CascadeArrays(base, {}, plants)
+            spd = _tune_speed_fast(plants, cur, sp, n_grid, ca)
+            pos = _tune_position_fast(plants, spd, sp, n_grid, ca)
+        else:
+            cur = _tune_current(plants, sp, n_grid)
+            spd = _tune_speed(plants, cur, sp, n_grid)
+            pos = _tune_position(plants, cur, spd, sp, n_grid)
     except ArmlabError:
         raise
     except (np.linalg.LinAlgError, ValueError, ZeroDivisionError) as e:
@@ -538,7 +890,7 @@ def tune_cascade(robot: Robot, joint, *, inertias=None, n_grid: int = 600, **spe
     g = CascadeGains(
         joint=name, current=cur, speed=spd, position=pos, plant=summary, spec=sp.to_dict()
     )
-    g = check_cascade(base, g)
+    g = check_cascade(base, g, engine=engine)
     _assert_meets(g, sp)
     return g
 
@@ -605,18 +957,21 @@ def tune_arm(robot: Robot, *, controller: ControllerProfile | None = None, **spe
         its D/A range and bits are the speed loop's output (:func:`controller_spec`). None: the
         sample times and D/A of ``spec`` (or :class:`TuningSpec`'s defaults).
     **spec
-        Fields of :class:`TuningSpec`.
+        Fields of :class:`TuningSpec`; and ``engine`` (``"numpy"``, the default, or
+        ``"python-control"``: see :func:`tune_cascade`).
 
     Returns
     -------
     ArmGains
         ``.joints[name]`` in joint order; ``to_json()`` is a study's ``gains.json``.
     """
+    engine: dict[str, Any] = {"engine": str(spec.pop("engine"))} if "engine" in spec else {}
     if controller is not None:
         spec = controller_spec(controller, spec)
     sp = TuningSpec.from_kwargs("", **spec)
     inertias = inertia_range(robot, n_samples=sp.n_inertia_samples, seed=sp.seed)
     joints = {
-        name: tune_cascade(robot, name, inertias=inertias, **spec) for name in robot.joint_names
+        name: tune_cascade(robot, name, inertias=inertias, **engine, **spec)
+        for name in robot.joint_names
     }
     return ArmGains(joints=joints, robot=robot.name, spec=sp.to_dict())

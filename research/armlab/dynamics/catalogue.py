@@ -4,11 +4,19 @@ A TOML file (default: ``armlab/data/catalogue.toml``) with ``[[motor]]`` and ``[
 entries whose fields are those of :class:`armlab.robot.Motor` / :class:`armlab.robot.Reducer`
 (``mass_kg`` and ``price`` required), plus ``derating`` on a motor (extra factor on its torque
 limits, default 1) and ``thesis_joints`` (joints of teachbot6 that use the part in thesis
-table 4.3). The file's header records where every number comes from.
+table 4.3). The file's header records where every number comes from, and every entry's
+``source`` names its data sheet (ASSUMED / ESTIMATED where a value is not from one).
+
+The shipped catalogue spans the thesis' small DC motors and harmonic reducers up to UR5 / Panda
+class parts: maxon EC flat / EC-i and Kollmorgen AKM motors (about 0.05-5 N m continuous),
+Harmonic Drive CSF/CSG, Nabtesco RV-E cycloidal, Neugart PLE and maxon GP planetary reducers (up
+to a few hundred N m). Entries are usable by model name in a drives file (``motor = "..."``) and
+in a study's ``[drives.<joint>]`` (:meth:`Catalogue.motor`, :meth:`Catalogue.reducer`).
 """
 
 from __future__ import annotations
 
+import difflib
 import math
 import os
 from dataclasses import dataclass, field
@@ -45,17 +53,26 @@ class Catalogue:
     currency: str = ""
     path: str = ""
 
-    def motor(self, model: str) -> Motor:
+    def motor(self, model: str, where: str = "") -> Motor:
+        """The motor ``model`` (:class:`RobotDescriptionError` naming ``where``, the key that
+        asked, and the nearest names)."""
         for m in self.motors:
             if m.model == model:
                 return m
-        raise RobotDescriptionError(f"{self.path}: no motor {model!r} in the catalogue")
+        raise _unknown("motor", model, [m.model for m in self.motors], where or self.path)
 
-    def reducer(self, model: str) -> Reducer:
+    def reducer(self, model: str, where: str = "") -> Reducer:
+        """The reducer ``model`` (as :meth:`motor`)."""
         for r in self.reducers:
             if r.model == model:
                 return r
-        raise RobotDescriptionError(f"{self.path}: no reducer {model!r} in the catalogue")
+        raise _unknown("reducer", model, [r.model for r in self.reducers], where or self.path)
+
+
+def _unknown(kind: str, model: str, known: list[str], where: str) -> RobotDescriptionError:
+    near = difflib.get_close_matches(model, known, n=3, cutoff=0.4)
+    hint = f" (closest: {'; '.join(near)})" if near else f" ({len(known)} {kind}s in it)"
+    return RobotDescriptionError(f"{where}: no {kind} {model!r} in the catalogue{hint}")
 
 
 def load_catalogue(path: str | os.PathLike | None = None) -> Catalogue:

@@ -4,18 +4,14 @@ Everything here works on columns: a column is one (joint, drive) pair, so the sa
 the six joints of a robot (six columns) or a hundred catalogue combinations for one joint
 (a hundred columns holding the same joint signals).
 
-Motor side of a joint (rules used everywhere in :mod:`armlab.dynamics`)
------------------------------------------------------------------------
-With the joint (reducer output) torque ``tau`` from inverse dynamics, joint speed ``qd`` and
-acceleration ``qdd``, reducer ratio ``N`` and efficiency ``eta``:
-
-* motor speed ``w_m = N qd``;
-* the reducer input torque is ``tau / (N eta)`` when the motor **drives** the load
-  (``tau qd >= 0``, holding included) and ``tau eta / N`` when the load **back-drives** the motor
-  (``tau qd < 0``, generating: the losses then help the motor). Holding counts as driving, which
-  is the thesis rule of table 4.3 (available torque = stall torque x ratio x efficiency);
-* the motor torque adds the rotor + reducer-input inertia and the motor's viscous friction:
-  ``T_m = T_in + (J_rotor + J_reducer) N qdd + b_m w_m``.
+Motor side of a joint
+---------------------
+One model, :mod:`armlab.robot.drivetrain` (its docstring has the equations): joint friction,
+reducer efficiency by quadrant (motoring ``/ eta``, back-driven ``x eta_b``; holding counts as
+motoring, the thesis rule of table 4.3), reflected rotor + reducer inertia and motor friction;
+the envelope is ``derating x min(T_peak, Kt (U - Ke |w|) / R)`` in both quadrants (no credit
+for regeneration). ``DriveArrays`` is :class:`armlab.robot.drivetrain.DriveTrain`;
+:func:`motor_side` and :func:`envelope_torque` are kept as thin names for it.
 """
 
 from __future__ import annotations
@@ -26,8 +22,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from armlab.errors import InputError
+from armlab.robot import drivetrain
 from armlab.robot.controller import ControllerProfile, load_profile
-from armlab.robot.drives import Drive, available_torque_Nm
+from armlab.robot.drives import available_torque_Nm
+from armlab.robot.drivetrain import DriveTrain
 
 __all__ = [
     "Check",
@@ -134,61 +132,8 @@ class SizingOptions:
         return math.inf if m is None else float(m)
 
 
-@dataclass(frozen=True)
-class DriveArrays:
-    """The numbers of several drives as arrays ``(n_columns,)`` (SI)."""
-
-    ratio: np.ndarray
-    efficiency: np.ndarray
-    derating: np.ndarray
-    inertia_motor_side_kg_m2: np.ndarray  # rotor + reducer input
-    viscous_Nm_s_rad: np.ndarray
-    stall_torque_Nm: np.ndarray
-    peak_torque_Nm: np.ndarray  # peak rating if given, else the stall torque
-    rated_speed_rad_s: np.ndarray  # table speed if given, else the no-load speed
-    torque_constant_Nm_A: np.ndarray
-    back_emf_V_s_rad: np.ndarray
-    resistance_ohm: np.ndarray
-    supply_voltage_V: np.ndarray
-    power_W: np.ndarray
-    reducer_rated_torque_Nm: np.ndarray
-    reducer_peak_torque_Nm: np.ndarray
-    reducer_max_input_speed_rad_s: np.ndarray
-    counts_per_motor_rev: np.ndarray
-    pulses_per_rev: np.ndarray
-
-    @classmethod
-    def from_drives(cls, drives: list[Drive]) -> DriveArrays:
-        def arr(f):
-            return np.array([float(f(d)) for d in drives])
-
-        def peak(d: Drive) -> float:
-            p = d.motor.peak_torque_Nm
-            return p if math.isfinite(p) and p > 0 else d.motor.stall_torque_Nm
-
-        return cls(
-            ratio=arr(lambda d: d.reducer.ratio),
-            efficiency=arr(lambda d: d.reducer.efficiency),
-            derating=arr(lambda d: d.derating),
-            inertia_motor_side_kg_m2=arr(
-                lambda d: d.motor.rotor_inertia_kg_m2 + d.reducer.inertia_kg_m2
-            ),
-            viscous_Nm_s_rad=arr(lambda d: d.motor.viscous_friction_Nm_s_rad),
-            stall_torque_Nm=arr(lambda d: d.motor.stall_torque_Nm),
-            peak_torque_Nm=arr(peak),
-            # the same motor speed bounds the joint velocity limit (armlab.robot.resolve_limits)
-            rated_speed_rad_s=arr(lambda d: d.motor.speed_limit_rad_s),
-            torque_constant_Nm_A=arr(lambda d: d.motor.torque_constant_Nm_A),
-            back_emf_V_s_rad=arr(lambda d: d.motor.back_emf_V_s_rad),
-            resistance_ohm=arr(lambda d: d.motor.resistance_ohm),
-            supply_voltage_V=arr(lambda d: d.motor.supply_voltage_V),
-            power_W=arr(lambda d: d.motor.power_W),
-            reducer_rated_torque_Nm=arr(lambda d: d.reducer.rated_torque_Nm),
-            reducer_peak_torque_Nm=arr(lambda d: d.reducer.peak_torque_Nm),
-            reducer_max_input_speed_rad_s=arr(lambda d: d.reducer.max_input_speed_rad_s),
-            counts_per_motor_rev=arr(lambda d: d.encoder.pulses_per_rev * d.encoder.decoding),
-            pulses_per_rev=arr(lambda d: d.encoder.pulses_per_rev),
-        )
+#: the drive-train arrays (one home: :class:`armlab.robot.drivetrain.DriveTrain`)
+DriveArrays = DriveTrain
 
 
 def counts_per_joint_rev_of(drives: DriveArrays, controller: ControllerProfile) -> np.ndarray:
@@ -212,47 +157,33 @@ def counts_per_joint_rev_of(drives: DriveArrays, controller: ControllerProfile) 
     return per_motor_rev * drives.ratio
 
 
-def motor_side(tau, qd, qdd, drives: DriveArrays) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Motor torque and speed from joint signals (rules in the module docstring).
+def motor_side(tau, qd, qdd, drives: DriveTrain) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Motor torque and speed from joint signals (:func:`armlab.robot.drivetrain.motor_torque`).
 
     Parameters
     ----------
     tau, qd, qdd : array (n_samples, n_columns)
-        Joint torque [N m], speed [rad/s], acceleration [rad/s^2].
-    drives : DriveArrays
+        Rigid-body joint torque [N m] (joint friction is added by the model), speed [rad/s],
+        acceleration [rad/s^2].
+    drives : DriveTrain
         ``n_columns`` drives.
 
     Returns
     -------
     motor_torque_Nm, motor_speed_rad_s : array (n_samples, n_columns)
     motoring : bool array (n_samples, n_columns)
-        True where the motor drives the load (``tau qd >= 0``).
+        True where the motor drives the load (``(tau + friction) qd >= 0``).
     """
-    N, eta = drives.ratio, drives.efficiency
-    motoring = tau * qd >= 0.0
-    t_in = np.where(motoring, tau / (N * eta), tau * (eta / N))
-    w_m = N * qd
-    t_m = t_in + (drives.inertia_motor_side_kg_m2 * N) * qdd + drives.viscous_Nm_s_rad * w_m
-    return t_m, w_m, motoring
+    t_m, motoring = drivetrain.motor_torque(tau, qd, qdd, drives)
+    return t_m, drivetrain.motor_speed(qd, drives), motoring
 
 
-def envelope_torque(w_m, t_m, drives: DriveArrays) -> np.ndarray:
-    """Torque the DC motor can give at each operating point, in [N m] (>= 0 or negative
-    beyond the no-load speed).
-
-    ``T_max = derating x min(T_peak, Kt (U -+ Ke |w|) / R)``: ``-`` while driving
-    (``T w >= 0``: the back-EMF eats the supply voltage), ``+`` while generating. The armature
-    equation ``U = R i + Ke w`` with ``T = Kt i`` (HEU thesis, ch. 5).
-    """
-    kt, ke, r, u = (
-        drives.torque_constant_Nm_A,
-        drives.back_emf_V_s_rad,
-        drives.resistance_ohm,
-        drives.supply_voltage_V,
-    )
-    sign = np.where(t_m * w_m >= 0.0, -1.0, 1.0)
-    volt = kt * (u + sign * ke * np.abs(w_m)) / r
-    return drives.derating * np.minimum(drives.peak_torque_Nm, volt)
+def envelope_torque(w_m, t_m, drives: DriveTrain) -> np.ndarray:
+    """Torque the DC motor can give at each operating point, in [N m]:
+    :func:`armlab.robot.drivetrain.envelope_torque` (``derating x min(T_peak, Kt (U - Ke |w|)
+    / R)``, the same line in both quadrants; ``t_m`` is accepted for the old signature and
+    not used)."""
+    return drivetrain.envelope_torque(w_m, drives)
 
 
 def _margin(value, limit):
@@ -326,14 +257,12 @@ def evaluate_checks(
     )
     peak_wm = np.abs(w_m).max(axis=0)
     out["reducer_input_speed"] = (peak_wm, drives.reducer_max_input_speed_rad_s)
-    rms = np.sqrt((w * t_m**2).sum(axis=0) / max(float(w.sum()), _TINY))
-    if float(w.sum()) <= _TINY:
-        rms = np.abs(t_m).max(axis=0)
-    out["motor_rms_torque"] = (rms, drives.stall_torque_Nm * drives.derating)
+    rms = drivetrain.rms_torque(t_m, np.asarray(weights, float))
+    out["motor_rms_torque"] = (rms, drives.continuous_torque_Nm)
     out["motor_peak_torque"] = (np.abs(t_m).max(axis=0), drives.peak_torque_Nm * drives.derating)
     out["motor_speed"] = (peak_wm, drives.rated_speed_rad_s)
-    t_env = envelope_torque(w_m, t_m, drives)
-    ratio = np.abs(t_m) / np.maximum(t_env, _TINY)
+    t_env = drivetrain.envelope_torque(w_m, drives)
+    ratio = drivetrain.envelope_ratio(t_m, w_m, drives)
     k = np.argmax(ratio, axis=0)
     cols = np.arange(ratio.shape[1])
     out["motor_envelope"] = (np.abs(t_m[k, cols]), np.maximum(t_env[k, cols], 0.0))

@@ -6,12 +6,13 @@ evaluated for all samples at once by :func:`armlab.robot.rigid_body.inverse_dyna
 ``pinocchio.rneaInParallel``). ``robot.model.gravity`` is the gravity expressed in the base
 frame (:class:`~armlab.robot.Robot`), so a tilted ``transform_base_to_world`` is honoured.
 
-The motor side (torque, speed, motoring/generating) follows the rules of
-:mod:`armlab.dynamics.checks`: ``w_m = N qd``;
-``T_m = tau / (N eta)`` while driving (``tau qd >= 0``, holding included) or ``tau eta / N``
-while back-driven, ``+ (J_rotor + J_reducer) N qdd + b_m w_m``. The rotor inertia is therefore
-counted on the motor side only: the model's ``armature`` is expected to be zero (as robot_desc
-arms load); a model with armature would count it twice.
+The motor side (torque, speed, motoring/generating) is the drive-train model of
+:mod:`armlab.robot.drivetrain`, the one used everywhere: ``w_m = N qd``; joint friction
+``F_c s + F_v qd`` added to the RNEA torque; ``T_m = tau_out / (N eta)`` while driving
+(``tau_out qd >= 0``, holding included) or ``tau_out eta_b / N`` while back-driven,
+``+ (J_rotor + J_reducer) N qdd + b_m w_m``. The rotor inertia is therefore counted on the
+motor side only: the model's ``armature`` is expected to be zero (as robot_desc arms load); a
+model with armature would count it twice.
 """
 
 from __future__ import annotations
@@ -130,7 +131,7 @@ class JointLoads:
     motor_torque_Nm, motor_speed_rad_s : array or None
         Motor shaft torque [N m] and speed [rad/s] (None without drives).
     motoring : bool array or None
-        True where the motor drives the load (``tau qd >= 0``).
+        True where the motor drives the load (``(tau + friction) qd >= 0``).
     reflected_inertia_kg_m2 : array (n_joints,) or None
         ``(J_rotor + J_reducer) N^2`` seen at each joint.
     payload_kg : float

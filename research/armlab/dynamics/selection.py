@@ -7,6 +7,11 @@ the joint's encoder, acceleration and jerk limits from the robot. The joint load
 robot's model as it is: the link masses (which include the described drives, thesis table 4.1)
 are **not** updated for the chosen parts — a lighter drive would also unload the joints inboard
 of it, which this one-pass selection does not iterate.
+
+Per joint the result names the chosen pair, its binding check (smallest margin) and the
+runner-up; when no pair passes, the checks every pair fails (:meth:`JointSelection.why_none`,
+:meth:`Selection.require`). A study selecting for an arm without drives sizes the planned
+motion plus a hold at each joint's worst static pose (:func:`hold_trajectories`).
 """
 
 from __future__ import annotations
@@ -16,8 +21,11 @@ import os
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from armlab.dynamics.catalogue import Catalogue, load_catalogue
 from armlab.dynamics.checks import (
+    CHECK_NAMES,
     Check,
     Checked,
     DriveArrays,
@@ -27,15 +35,28 @@ from armlab.dynamics.checks import (
 )
 from armlab.dynamics.inverse import as_trajectories, inverse_dynamics
 from armlab.dynamics.sizing import lever_arms_m
-from armlab.errors import InputError
+from armlab.errors import InfeasibleError, InputError
 from armlab.robot.drives import Drive, Encoder, Motor, Reducer, available_torque_Nm
+from armlab.trajectory import Trajectory
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
 
-__all__ = ["Candidate", "JointSelection", "Selection", "select_drives"]
+__all__ = [
+    "Candidate",
+    "JointSelection",
+    "Selection",
+    "select_drives",
+    "hold_trajectories",
+    "ASSUMED_ENCODER",
+]
 
 OBJECTIVES = ("mass", "price")
+
+#: The encoder of a selected drive when the robot has none to keep: ASSUMED, the thesis'
+#: 1000 pulses per motor revolution with x4 decoding (HEU thesis table 4.3 note). A selection
+#: states it (:attr:`Selection.assumptions`); the drives file it writes can be edited.
+ASSUMED_ENCODER = Encoder(pulses_per_rev=1000, decoding=4)
 
 
 @dataclass
@@ -81,10 +102,12 @@ class Candidate(Checked):
 class JointSelection:
     """The choice for one joint.
 
-    ``chosen`` is the best passing candidate (None if none passes); ``closest`` the candidate
+    ``chosen`` is the best passing candidate (None if none passes); ``runner_up`` the next
+    passing one by the same objective (None if only one passes); ``closest`` the candidate
     whose worst check fails least when none passes; ``current`` the robot's own drive under
     the same loads (with catalogue mass/price when the catalogue tags it as this joint's
-    thesis part); ``n_candidates`` / ``n_passing`` count the combinations.
+    thesis part); ``n_candidates`` / ``n_passing`` count the combinations;
+    ``failed_by_all`` names the checks every candidate fails (empty when one passes).
     """
 
     joint: str
@@ -93,19 +116,41 @@ class JointSelection:
     current: Candidate | None
     n_candidates: int
     n_passing: int
+    runner_up: Candidate | None = None
+    failed_by_all: tuple[str, ...] = ()
 
     @property
     def ok(self) -> bool:
         return self.chosen is not None
 
+    def why_none(self) -> str:
+        """One line: why no catalogue entry passes for this joint ("" if one does)."""
+        if self.ok:
+            return ""
+        head = f"no catalogue entry passes for {self.joint}"
+        if self.failed_by_all:
+            head += f": all {self.n_candidates} motor + reducer pairs fail " + ", ".join(
+                self.failed_by_all
+            )
+        else:
+            head += f": each of the {self.n_candidates} pairs fails some check"
+        c = self.closest
+        if c is not None:
+            worst = c.binding
+            head += f" (closest {c.motor.model} + {c.reducer.model}: {worst.describe()})"
+        return head
+
     def to_dict(self) -> dict:
         return {
             "ok": self.ok,
             "chosen": None if self.chosen is None else self.chosen.to_dict(),
+            "runner_up": None if self.runner_up is None else self.runner_up.to_dict(),
             "closest": None if self.closest is None else self.closest.to_dict(),
             "current": None if self.current is None else self.current.to_dict(),
             "n_candidates": self.n_candidates,
             "n_passing": self.n_passing,
+            "failed_by_all": list(self.failed_by_all),
+            "why_none": self.why_none() or None,
         }
 
 
@@ -118,10 +163,20 @@ class Selection:
     objective: str
     joints: list[JointSelection]
     currency: str = ""
+    catalogue_path: str = ""
+    assumptions: tuple[str, ...] = ()
 
     @property
     def ok(self) -> bool:
         return all(j.ok for j in self.joints)
+
+    def require(self) -> Selection:
+        """``self`` when every joint has a passing entry, else :class:`InfeasibleError` naming
+        the first joint without one and the check every candidate fails."""
+        for js in self.joints:
+            if not js.ok:
+                raise InfeasibleError(f"drive selection: {js.why_none()}")
+        return self
 
     def joint(self, name) -> JointSelection:
         for j in self.joints:
@@ -131,10 +186,13 @@ class Selection:
 
     def drives(self, robot: Robot) -> dict[str, Drive]:
         """The chosen drives as ``{joint: Drive}`` (for :func:`size`); the robot's own drive
-        where nothing passed."""
+        where nothing passed (:class:`InfeasibleError` naming the joint and the check every
+        candidate fails when the robot has none)."""
         out = {}
         for j, js in enumerate(self.joints):
             if js.chosen is None:
+                if robot.drives is None:
+                    raise InfeasibleError(f"drive selection: {js.why_none()}")
                 out[js.joint] = robot.drive(js.joint)
             else:
                 out[js.joint] = _drive(
@@ -147,6 +205,8 @@ class Selection:
             "objective": self.objective,
             "payload_kg": self.payload_kg,
             "currency": self.currency,
+            "catalogue": self.catalogue_path,
+            "assumptions": list(self.assumptions),
             "ok": self.ok,
             "joints": {j.joint: j.to_dict() for j in self.joints},
         }
@@ -161,8 +221,8 @@ class Selection:
             "chosen parts).",
             "",
             f"| joint | chosen motor + reducer | mass [kg] | price{cur} | available [N m] |"
-            f" binding check (margin) | passing | current parts: ok? mass [kg] |",
-            "|---|---|---|---|---|---|---|---|",
+            f" binding check (margin) | runner-up | passing | current parts: ok? mass [kg] |",
+            "|---|---|---|---|---|---|---|---|---|",
         ]
         for js in self.joints:
             c = js.chosen
@@ -174,12 +234,12 @@ class Selection:
                     else f"none passes; closest {near.motor.model} + {near.reducer.model} "
                     f"fails {', '.join(x.name for x in near.checks if not x.ok)}"
                 )
-                row = f"| {js.joint} | {text} | - | - | - | - |"
+                row = f"| {js.joint} | {text} | - | - | - | - | - |"
             else:
                 row = (
                     f"| {js.joint} | {c.motor.model} + {c.reducer.model} | {c.mass_kg:.3g} |"
                     f" {c.price:.0f} | {c.available_torque_Nm:.3g} | {c.binding.name} "
-                    f"({100 * c.binding.margin:+.0f} %) |"
+                    f"({100 * c.binding.margin:+.0f} %) | {_runner_up_text(js.runner_up)} |"
                 )
             now = js.current
             if now is None:
@@ -189,19 +249,37 @@ class Selection:
                 mass = f"{now.mass_kg:.3g}" if math.isfinite(now.mass_kg) else "?"
                 tail = ("pass" if not failing else "fails " + ", ".join(failing)) + f"; {mass}"
             lines.append(f"{row} {js.n_passing}/{js.n_candidates} | {tail} |")
+        if self.assumptions:
+            lines += ["", *(f"- ASSUMED: {a}" for a in self.assumptions)]
         return "\n".join(lines) + "\n"
+
+
+def _runner_up_text(c: Candidate | None) -> str:
+    if c is None:
+        return "none"
+    return f"{c.motor.model} + {c.reducer.model} ({c.mass_kg:.3g} kg; {c.binding.name})"
+
+
+def hold_trajectories(robot: Robot, static) -> list[Trajectory]:
+    """One single-sample trajectory per joint: the arm held still at that joint's worst static
+    pose (:func:`armlab.dynamics.static_load`), standing for 1 s of holding each
+    (:func:`armlab.dynamics.inverse.sample_weights`). Added to a planned motion, they make the
+    duty cycle a selection must carry: the motion and the worst-case static load."""
+    out = []
+    for x in static.joints:
+        q = np.asarray(x.pose_rad, float).reshape(1, -1)
+        zero = np.zeros_like(q)
+        out.append(Trajectory(np.zeros(1), q, zero, zero, method=f"hold ({x.joint} worst pose)"))
+    return out
 
 
 def _drive(robot, j: int, motor: Motor, reducer: Reducer, derating: float) -> Drive:
     name = robot.joint_names[j]
     lim = robot.limits
-    encoder = (
-        robot.drives[name].encoder
-        if robot.drives is not None
-        else Encoder(pulses_per_rev=1000, decoding=4)
-    )
-    acc = math.inf if lim.acceleration_rad_s2 is None else float(lim.acceleration_rad_s2[j])
-    jerk = math.inf if lim.jerk_rad_s3 is None else float(lim.jerk_rad_s3[j])
+    encoder = robot.drives[name].encoder if robot.drives is not None else ASSUMED_ENCODER
+    # unknown (NaN): derived from the drive train when the robot's limits are resolved
+    acc = math.nan if lim.acceleration_rad_s2 is None else float(lim.acceleration_rad_s2[j])
+    jerk = math.nan if lim.jerk_rad_s3 is None else float(lim.jerk_rad_s3[j])
     return Drive(
         joint=name,
         motor=motor,
@@ -280,6 +358,11 @@ def select_drives(
         ]
         passing = sorted((c for c in cands if c.ok), key=key)
         closest = None if passing else max(cands, key=lambda c: c.binding.margin)
+        failed_by_all: tuple[str, ...] = ()
+        if not passing:  # the checks no candidate passes (a check a part has no rating for:
+            # not failed)
+            failing = [{ch.name for ch in c.checks if not ch.ok} for c in cands]
+            failed_by_all = tuple(n for n in CHECK_NAMES if all(n in f for f in failing))
         current = None
         if robot.drives is not None:
             d = robot.drives[name]
@@ -310,7 +393,15 @@ def select_drives(
                 current=current,
                 n_candidates=len(cands),
                 n_passing=len(passing),
+                runner_up=passing[1] if len(passing) > 1 else None,
+                failed_by_all=failed_by_all,
             )
+        )
+    assumptions = []
+    if robot.drives is None:
+        assumptions.append(
+            f"encoder {ASSUMED_ENCODER.pulses_per_rev} pulses/rev x{ASSUMED_ENCODER.decoding} "
+            "decoding on every motor (the thesis' encoder; the robot has none to keep)"
         )
     return Selection(
         robot_name=robot.name,
@@ -318,4 +409,6 @@ def select_drives(
         objective=objective,
         joints=joints,
         currency=catalogue.currency,
+        catalogue_path=catalogue.path,
+        assumptions=tuple(assumptions),
     )

@@ -31,7 +31,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
-from scipy.optimize import minimize
 
 from armlab.errors import InputError
 from armlab.robot import rigid_body
@@ -123,6 +122,8 @@ class StaticLoadProblem:
 
     def solve(self, *, tol: float = 1e-12, max_iter: int = 200) -> tuple[np.ndarray, float, float]:
         """Run the local searches; returns (pose, f at the pose, direction s)."""
+        from scipy.optimize import minimize  # here, not at import: scipy.optimize costs ~0.3 s
+
         best = (self.starts[0].copy(), -math.inf, 1.0)
         for q0, s in zip(self.starts, self.start_signs, strict=True):
             res = minimize(

@@ -14,7 +14,8 @@ module                 planners
 :mod:`.optimal`        time-synchronised optimal trajectories: the problem
                        (:class:`OptimalProblem`), its transcription
                        (:mod:`.transcription`) and warm start (:mod:`.warmstart`)
-:mod:`.topp`           time-optimal path parameterisation along a fixed joint path
+:mod:`.topp`           time-optimal path parameterisation along a fixed joint path;
+                       its default first pass is :mod:`.reachability` (Pham & Pham 2018)
 :mod:`.timescale`      the back-offs: stretch a plan in time until every limit holds
                        (classical planners); re-solve with tightened limits
                        (``backoff_solve``: optimal, topp)

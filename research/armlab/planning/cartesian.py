@@ -42,6 +42,9 @@ if TYPE_CHECKING:
 __all__ = ["line", "arc3", "blend", "follow_path", "path_derivatives", "track_path"]
 
 _JUMP_RAD = 0.3  # largest joint step between probe points (<= probe_step_m apart)
+#: a time stretch above this after the probe's rates means the path's joint-space derivatives
+#: vary faster than the probe resolves (a jerk 1000 times its estimate): refused, not crawled
+MAX_STRETCH = 10.0
 
 
 # ---------------------------------------------------------------------- IK along a path
@@ -497,6 +500,13 @@ def follow_path(
             break
         k *= 1 + 1e-9
         v, a, j = v / k, a / k**2, j / k**3
+        if v < 1e-3 * speed or k > MAX_STRETCH:  # the path's derivatives outran the probe
+            raise UnreachableError(
+                f"{method}: the {kind} limit of {joint} needs the motion {k:.3g} times slower "
+                f"than the probe's rates (path speed {v:.3g} m/s for {speed:.3g} requested): "
+                "the joint rates change faster than the probe resolves -- the path passes "
+                "(too) close to a singularity"
+            )
         traj, prof, s = build(v, a, j)
         k2, kind2, joint2 = needed(traj)
         kind, joint = (kind2, joint2) if k2 > 1 else (kind, joint)

@@ -66,6 +66,25 @@ removed by a uniform time stretch (:mod:`armlab.planning.tolerance`; ``stats`` k
 acceleration and position within their bounds (an average stays within the range it averages),
 changes positions by ``|jump| ramp^2 / 24`` (< 1e-9 rad) and adds ``JUMP_RAMP_S`` to the duration.
 
+Planning inside the motor's envelope (``drive_limits=True``, issue 14)
+--------------------------------------------------------------------
+The motor torque the motion needs -- the drive-train model of :mod:`armlab.robot.drivetrain`:
+joint friction, reducer efficiency by quadrant (motoring / back-driven), reflected rotor and
+reducer inertia, motor friction -- stays within the voltage line
+``|T_m| <= derating Kt (U - Ke |w_m|) / R`` (both quadrants; no credit for regeneration), within
+``derating x T_peak``, and its RMS over the plan within ``derating x T_stall``; the motor speed
+stays within the velocity limits (motor speed limit / ratio). The robot's torque box (the
+thesis' available torque, the same motor in its static form) is then off unless ``tau_max`` is
+given. The quadrant switch is handled with the **direction of motion**, known per segment from
+the waypoints: each joint moves monotonically within a segment (velocity-sign bounds; a joint
+whose waypoints do not change holds still, and a via point where a joint reverses is passed
+with that joint at rest). With it the envelope is a set of smooth rows at the nodes
+(:func:`armlab.planning.transcription._drive_rows`; exact where the bound can bind, conservative
+elsewhere); the RMS row uses a smooth quadrant blend. The fine-grid check is the exact numeric
+model (:func:`armlab.planning.timescale.drive_check`), and the back-off tightens the envelope
+or RMS bound of a joint that exceeds it (:func:`~armlab.planning.timescale.tighten_drive`).
+``stats["drive_ratios"]`` holds the final check.
+
 Objectives: ``"time"`` (``sum T_s``, plus ``1e-7`` times the smoothness term to make the
 non-binding joints' profiles unique), ``"time+smooth"`` (``T + w int sum_i (u_i/u_ref,i)^2 dt``,
 ``u`` the jerk — or acceleration — normalised by its limit), and, for a fixed ``duration``,
@@ -98,7 +117,15 @@ import numpy as np
 
 from armlab._lazy import lazy_import
 from armlab.errors import ArmlabError, InfeasibleError, InputError
-from armlab.planning.timescale import CHECK_TOL, backoff_solve, refuse_violation
+from armlab.planning.timescale import (
+    CHECK_TOL,
+    absorb_drive_tolerance,
+    backoff_solve,
+    drive_check,
+    refuse_drive_violation,
+    refuse_violation,
+    tighten_drive,
+)
 from armlab.planning.tolerance import absorb_tolerance
 from armlab.planning.transcription import Structure, structure
 from armlab.planning.warmstart import (
@@ -107,7 +134,7 @@ from armlab.planning.warmstart import (
     phase_grid,
     sample_profiles,
 )
-from armlab.robot import rigid_body
+from armlab.robot import drivetrain, rigid_body
 from armlab.robot.limits import LIMIT_KEYS, Limits, resolve_limits
 from armlab.robot.symbolic import (
     dynamic_parameters,
@@ -163,6 +190,23 @@ def _check_static_torque(robot, w: np.ndarray, ls: Limits, exact: np.ndarray) ->
             )
 
 
+def _check_static_drive(robot, w: np.ndarray, ls: Limits, exact: np.ndarray, train) -> None:
+    """InfeasibleError naming the joint if a motor cannot hold an exact waypoint at rest
+    (holding is the motoring quadrant: ``|g| / (N eta) <= derating min(T_peak, Kt U / R)``)."""
+    idx = np.flatnonzero(exact)
+    gs = rigid_body.gravity_torques(robot, w[idx])
+    z = np.zeros_like(gs)
+    t_m, _ = drivetrain.motor_torque(gs, z, z, train)
+    r = drivetrain.envelope_ratio(t_m, z, train)
+    k, i = np.unravel_index(int(np.argmax(r)), r.shape)
+    if r[k, i] > 1.0:
+        raise InfeasibleError(
+            f"motor envelope: the motor of {ls.joint_names[i]} needs {abs(t_m[k, i]):.4g} N m to "
+            f"hold waypoint {idx[k]} against gravity, above the "
+            f"{float(drivetrain.envelope_torque(0.0, train)[i]):.4g} N m it can give at rest"
+        )
+
+
 def _energy_weights(robot) -> tuple[np.ndarray, str]:
     """``R / (k_t N eta)^2`` per joint so that ``w tau^2`` is the copper loss in [W]."""
     n = robot.n_joints
@@ -177,17 +221,26 @@ def _energy_weights(robot) -> tuple[np.ndarray, str]:
     return w, "J"
 
 
-def _surrogate_acc(robot, w0, ls: Limits) -> np.ndarray:
-    """An acceleration scale for the warm start when no acceleration limit is given."""
+def _surrogate_acc(robot, w0, ls: Limits, train=None) -> np.ndarray:
+    """An acceleration scale for the warm start when no acceleration limit is given (from the
+    torque limit, or with ``drive_limits`` the thesis' available torque of the drives)."""
     if ls.acceleration_rad_s2 is not None:
         return ls.acceleration_rad_s2
     if ls.jerk_rad_s3 is not None:
         return np.full(robot.n_joints, np.inf)
-    assert ls.torque_Nm is not None  # build_optimal refuses velocity limits alone
     M = rigid_body.mass_matrix(robot, w0)
     g = np.abs(rigid_body.gravity_torques(robot, w0))
-    spare = np.maximum(ls.torque_Nm - g, 0.1 * ls.torque_Nm)
-    return 0.5 * spare / np.maximum(np.diag(M), 1e-6)
+    inertia = np.diag(M).copy()
+    if ls.torque_Nm is not None:
+        tau = ls.torque_Nm
+    else:  # drive_limits: the motor at half the speed limit, and the reflected inertia
+        assert train is not None  # build_optimal refuses velocity limits alone
+        v = ls.velocity_rad_s if ls.velocity_rad_s is not None else train.rated_speed_rad_s
+        w_half = 0.5 * np.minimum(v * train.ratio, train.rated_speed_rad_s)
+        tau = train.ratio * train.efficiency * drivetrain.envelope_torque(w_half, train)
+        inertia += train.efficiency * train.reflected_inertia_kg_m2
+    spare = np.maximum(tau - g, 0.1 * tau)
+    return 0.5 * spare / np.maximum(inertia, 1e-6)
 
 
 def _classical_segment(robot, qa, qb, ls: Limits, acc, ns: int, mode: str):
@@ -236,6 +289,39 @@ def _timescale_for_torque(robot, q, qd, qdd, tau_max) -> float:
     return float(np.sqrt(need)) * 1.02 if need > 1.0 else 1.0
 
 
+def _timescale_for_drive(robot, q, qd, qdd, train) -> float:
+    """Smallest factor ``alpha >= 1`` (of a geometric search, step 5 %) with which the warm
+    start's samples fit the motor envelope (voltage line and peak torque); the plan's RMS is
+    left to the optimiser. A start that never fits is returned at ``alpha = 20``."""
+    if train is None:
+        return 1.0
+    g = rigid_body.gravity_torques(robot, q)
+    d = rigid_body.inverse_dynamics(robot, q, qd, qdd) - g
+    alpha = 1.0
+    for _ in range(62):
+        a2 = alpha**2
+        t_m, _ = drivetrain.motor_torque(g + d / a2, qd / alpha, qdd / a2, train)
+        r = drivetrain.envelope_ratio(t_m, drivetrain.motor_speed(qd / alpha, train), train)
+        if float(np.max(r)) <= 0.99:
+            break
+        alpha *= 1.05
+    return alpha
+
+
+def _node_directions(w: np.ndarray, seg_n: tuple[int, ...]) -> np.ndarray:
+    """Direction of motion of each joint at each node ``(N+1, n)``: the sign of its waypoint
+    change in the node's segment; at a via point the common sign of both segments, else 0
+    (at rest); 0 at the start and the goal."""
+    sig_seg = np.sign(np.where(np.abs(np.diff(w, axis=0)) > 1e-12, np.diff(w, axis=0), 0.0))
+    nodes = np.concatenate([[0], np.cumsum(seg_n)])
+    out = np.zeros((int(nodes[-1]) + 1, w.shape[1]))
+    for s_, (a, b) in enumerate(zip(nodes[:-1], nodes[1:], strict=True)):
+        out[a + 1 : b] = sig_seg[s_]
+        if s_ > 0:
+            out[a] = np.where(sig_seg[s_ - 1] == sig_seg[s_], sig_seg[s_], 0.0)
+    return out
+
+
 # ----------------------------------------------------------------------------- problem
 @dataclass
 class OptimalProblem:
@@ -264,6 +350,8 @@ class OptimalProblem:
     warm_durations_s: np.ndarray | None = None
     scales: dict = field(default_factory=dict)
     stats: dict = field(default_factory=dict)
+    drive_limits: bool = False
+    train: drivetrain.DriveTrain | None = None
 
     # ------------------------------------------------------------------ layout helpers
     @property
@@ -288,7 +376,19 @@ class OptimalProblem:
             limits.torque_Nm is not None,
             self.duration is not None,
             self.max_iter,
+            self.drive_limits,
         )
+
+    def node_directions(self) -> np.ndarray:
+        """Direction of motion of each joint at each node, ``(N+1, n)`` (``drive_limits``)."""
+        return _node_directions(self.waypoints, self.segment_intervals)
+
+    def _column_directions(self) -> np.ndarray:
+        """``(n, n_columns)``: the direction at each point of the drive rows (the nodes in
+        jerk mode; left then right end of every interval in acceleration mode)."""
+        sig = self.node_directions()
+        cols = sig if self.mode == "jerk" else np.vstack([sig[:-1], sig[1:]])
+        return cols.T
 
     @property
     def segment_of_interval(self) -> np.ndarray:
@@ -324,7 +424,7 @@ class OptimalProblem:
     def make_warm_start(self) -> np.ndarray:
         """The synchronised S-curve plan (stopping at each via point) on the node grid."""
         w, ls, n = self.waypoints, self.limits, self.n
-        acc = _surrogate_acc(self.robot, w[0], ls)
+        acc = _surrogate_acc(self.robot, w[0], ls, self.train)
         qs, vs, us, hs, T_list = [w[:1]], [np.zeros((1, n))], [], [], []
         as_: list[Any] = [None]  # accelerations per segment (index 0 unused)
         for s, ns in enumerate(self.segment_intervals):
@@ -333,6 +433,8 @@ class OptimalProblem:
             )
             # slow down uniformly until the torques fit: t*alpha, qd/alpha, qdd/alpha^2, ...
             alpha = _timescale_for_torque(self.robot, q, qd, qdd, ls.torque_Nm)
+            if self.drive_limits:
+                alpha = max(alpha, _timescale_for_drive(self.robot, q, qd, qdd, self.train))
             order = 3 if self.mode == "jerk" else 2
             T, t, qd, qdd, u = T * alpha, t * alpha, qd / alpha, qdd / alpha**2, u / alpha**order
             qs.append(q[1:])
@@ -369,7 +471,7 @@ class OptimalProblem:
         return self.x0
 
     # ------------------------------------------------------------------ bounds
-    def _bounds(self, st: Structure, limits: Limits):
+    def _bounds(self, st: Structure, limits: Limits, drive_scale=None):
         n, N = self.n, self.N
         inf = np.inf
         ls = limits
@@ -388,6 +490,11 @@ class OptimalProblem:
         jmax = ls.jerk_rad_s3 if ls.jerk_rad_s3 is not None else np.full(n, inf)
         lo_v, hi_v = np.tile(-vmax, (N + 1, 1)), np.tile(vmax, (N + 1, 1))
         lo_v[[0, -1]] = hi_v[[0, -1]] = 0.0
+        if self.drive_limits:  # each joint monotone within a segment (module docstring)
+            sig = self.node_directions()
+            lo_v = np.where(sig > 0, 0.0, lo_v)
+            hi_v = np.where(sig < 0, 0.0, hi_v)
+            lo_v[sig == 0] = hi_v[sig == 0] = 0.0
         lbx, ubx = [lo_q.reshape(-1), lo_v.reshape(-1)], [hi_q.reshape(-1), hi_v.reshape(-1)]
         if self.mode == "jerk":
             lo_a, hi_a = np.tile(-amax, (N + 1, 1)), np.tile(amax, (N + 1, 1))
@@ -419,9 +526,34 @@ class OptimalProblem:
         m = kind == "duration"
         if np.any(m):
             lbg[m] = ubg[m] = self.duration
+        if st.drive_rows:
+            self._drive_bounds(st, lbg, ubg, drive_scale)
         return np.concatenate(lbx), np.concatenate(ubx), lbg, ubg
 
-    def _params(self, limits: Limits) -> np.ndarray:
+    def _drive_bounds(self, st: Structure, lbg, ubg, drive_scale) -> None:
+        """Bounds of the motor-envelope and RMS rows (:data:`DRIVE_ROW_TAGS`): switched on by
+        the direction of motion (upper rows of the motoring branch where ``sigma >= 0``, lower
+        ones where ``sigma <= 0``, the back-driven branch always) and scaled by the back-off."""
+        tr = self.train
+        assert tr is not None and st.g_tag is not None and st.g_col is not None
+        env_s, rms_s = drive_scale if drive_scale is not None else (1.0, 1.0)
+        env_s = np.broadcast_to(np.asarray(env_s, float), (self.n,))
+        line = tr.derating * tr.torque_constant_Nm_A * tr.supply_voltage_V / tr.resistance_ohm
+        peak = tr.derating * tr.peak_torque_Nm
+        kind, joint = st.g_kind, st.g_joint
+        m = np.flatnonzero(kind == "motor_envelope")
+        j, tag = joint[m], st.g_tag[m]
+        sig = self._column_directions()[j, st.g_col[m]]
+        bound = np.where(np.char.startswith(tag.astype(str), "A"), line[j], peak[j]) * env_s[j]
+        upper = np.char.endswith(tag.astype(str), "+")
+        motoring = np.char.find(tag.astype(str), "1") == 1
+        active = ~motoring | np.where(upper, sig >= 0, sig <= 0)
+        lbg[m] = np.where(active & ~upper, -bound, -np.inf)
+        ubg[m] = np.where(active & upper, bound, np.inf)
+        r = kind == "motor_rms"
+        lbg[r], ubg[r] = -np.inf, 1.0
+
+    def _params(self, limits: Limits, drive_scale=None) -> np.ndarray:
         n = self.n
         tau = limits.torque_Nm if limits.torque_Nm is not None else np.ones(n)
         if self.objective == "time":
@@ -437,8 +569,21 @@ class OptimalProblem:
         sc = self.scales
         st = self._structure(limits)
         pi = dynamic_parameters(self.robot) if st.n_pi else np.zeros(0)
+        drive: list[np.ndarray] = []
+        if st.drive_rows:
+            tr = self.train
+            assert tr is not None
+            _, rms_s = drive_scale if drive_scale is not None else (1.0, 1.0)
+            rms_s = np.broadcast_to(np.asarray(rms_s, float), (n,))
+            eps = 1e-2 * tr.available_joint_torque_Nm  # quadrant blend width of the RMS row
+            drive = [
+                tr.symbolic_coefficients().T.reshape(-1),  # coefficient-major, joint-minor
+                self._column_directions().reshape(-1, order="F"),  # as casadi's vec
+                eps,
+                (tr.continuous_torque_Nm * rms_s) ** 2,
+            ]
         return np.concatenate(
-            [tau, [w], ref, ew, sc["v"], sc["a"], sc["u"], sc["T"], self.fractions, pi]
+            [tau, [w], ref, ew, sc["v"], sc["a"], sc["u"], sc["T"], self.fractions, pi, *drive]
         )
 
     # ------------------------------------------------------------------ trajectory
@@ -477,10 +622,10 @@ class OptimalProblem:
         return self.check_dt or traj.duration / CHECK_SAMPLES
 
     # ------------------------------------------------------------------ solve
-    def _solve_once(self, limits: Limits, x0: np.ndarray):
+    def _solve_once(self, limits: Limits, x0: np.ndarray, drive_scale=None):
         st = self._structure(limits)
-        lbx, ubx, lbg, ubg = self._bounds(st, limits)
-        p = self._params(limits)
+        lbx, ubx, lbg, ubg = self._bounds(st, limits, drive_scale)
+        p = self._params(limits, drive_scale)
         sv = self._scale_vector()
         lbx, ubx = lbx / sv, ubx / sv
         x0 = np.clip(x0 / sv, lbx, ubx)
@@ -519,35 +664,60 @@ class OptimalProblem:
         x0 = self.x0 if self.x0 is not None else self.make_warm_start()
         torque_on = self.limits.torque_Nm is not None
         jl = self.limits
+        train = self.train if self.drive_limits else None
 
-        def solve(limits: Limits, previous):  # warm: the last good solution
-            st, x, info, data = self._solve_once(limits, x0 if previous is None else previous[1])
+        def solve(state, previous):  # warm: the last good solution
+            limits, scale = (state[0], state[1:]) if train is not None else (state, None)
+            warm = x0 if previous is None else previous[1]
+            st, x, info, data = self._solve_once(limits, warm, scale)
             return (st, x, data), info
 
         def check(result) -> dict[str, np.ndarray]:
             traj = self._trajectory(result[0], result[1])
             dt = self._check_dt(traj)
-            return traj.check_limits(self.robot, dt=dt, limits=jl, torque=torque_on).ratios
+            ratios = traj.check_limits(self.robot, dt=dt, limits=jl, torque=torque_on).ratios
+            if train is not None:
+                ratios = {**ratios, **drive_check(traj, self.robot, train, dt)}
+            return ratios
 
         def fail(result, info) -> NoReturn:
             st, x, data = result
             self._diagnose(st, x, info, data)
 
-        out = backoff_solve(solve, jl, check, max_rounds=self.max_backoff, fail=fail)
-        (st, x, _), limits, info, rounds = out.result, out.limits, out.info, out.rounds
+        out: Any
+        if train is None:
+            out = backoff_solve(solve, jl, check, max_rounds=self.max_backoff, fail=fail)
+            limits = out.limits
+        else:
+            ones = np.ones(self.n)
+            out = backoff_solve(
+                solve,
+                (jl, ones, ones),
+                check,
+                max_rounds=self.max_backoff,
+                fail=fail,
+                tighten=tighten_drive,
+            )
+            limits = out.limits[0]
+        (st, x, _), info, rounds = out.result, out.info, out.rounds
         total_iter, total_time = out.iterations, out.solve_time_s
         traj = self._trajectory(st, x)
         dt = self._check_dt(traj)
         # an excess within the solver's tolerance: a uniform stretch by k <= 1 + CHECK_TOL
         traj, k_tol = absorb_tolerance(traj, self.robot, jl, torque=torque_on, dt=dt)
+        drive_ratios: dict[str, np.ndarray] = {}
+        if train is not None:
+            traj, k_drive, drive_ratios = absorb_drive_tolerance(traj, self.robot, train, dt)
+            k_tol *= k_drive
         traj.meta["knot_times_s"] = traj.meta["knot_times_s"] * k_tol
         traj.report = traj.check_limits(self.robot, dt=dt, limits=jl, torque=torque_on)
         binding = [
             (k, traj.joint_names[i], float(r[i]))
-            for k, r in traj.report.ratios.items()
+            for k, r in {**traj.report.ratios, **drive_ratios}.items()
             for i in range(len(r))
             if r[i] >= 1 - 2e-3 and k != "position"
         ]
+        drive_ok = all(float(np.max(r)) <= 1 + 1e-9 for r in drive_ratios.values())
         q, v, a, u, h = self._unpack(st, x)
         stats = {
             # casadi's stubs omit the module's __version__
@@ -556,7 +726,7 @@ class OptimalProblem:
             "solve_time_s": total_time,
             "build_time_s": info["build_time_s"],
             "n_intervals": self.N,
-            "success": traj.report.ok(CHECK_TOL),  # solved and feasible on the fine grid
+            "success": traj.report.ok(CHECK_TOL) and drive_ok,  # feasible on the fine grid
             "return_status": info["return_status"],
             "backoff_rounds": rounds,
             "objective": self.objective,
@@ -565,8 +735,11 @@ class OptimalProblem:
             "tolerance_stretch": k_tol,
             "binding": binding,
             "report_dt_s": dt,
-            "ok": traj.report.ok(CHECK_TOL),
+            "ok": traj.report.ok(CHECK_TOL) and drive_ok,
+            "drive_limits": train is not None,
         }
+        if train is not None:
+            stats["drive_ratios"] = {k: r.tolist() for k, r in drive_ratios.items()}
         if self.objective == "energy" or torque_on:
             ew, unit = _energy_weights(self.robot)
             fine = traj.sample(dt)
@@ -575,6 +748,7 @@ class OptimalProblem:
         self.stats = stats
         traj.stats = stats
         refuse_violation(traj, "optimal", rounds)
+        refuse_drive_violation(drive_ratios, traj, "optimal", rounds)
         traj.meta.update(
             {
                 "waypoints": self.waypoints.copy(),
@@ -600,6 +774,7 @@ class OptimalProblem:
                 tau_max=_kw(self.limits.torque_Nm),
                 via_tolerance=self.via_tolerance,
                 n_intervals=self.segment_intervals,
+                drive_limits=self.drive_limits,
             )
             tmin = fastest.stats["duration_s"]
             if self.duration < tmin * (1 + 1e-6):
@@ -612,6 +787,15 @@ class OptimalProblem:
         viol = np.maximum(np.maximum(lbg - g, g - ubg), 0.0)
         kinds = st.g_kind
         limit_rows = np.isin(kinds, ["velocity", "position", "torque"])
+        drive_rows = np.isin(kinds, ["motor_envelope", "motor_rms"])
+        if np.any(drive_rows & (viol > 1e-6)):
+            r = int(np.argmax(np.where(drive_rows, viol, -1)))
+            what = "envelope" if kinds[r] == "motor_envelope" else "RMS torque rating"
+            raise InfeasibleError(
+                f"motor {what}: no trajectory keeps the motor of "
+                f"{self.limits.joint_names[st.g_joint[r]]} within its {what} (drive_limits; "
+                f"solver: {status})"
+            )
         if self.limits.torque_Nm is not None:
             tau_rows = kinds == "torque"
             rat = np.abs(g[tau_rows])
@@ -699,12 +883,15 @@ def build_optimal(
     check_dt: float | None = None,
     max_backoff: int = 4,
     max_iter: int = 1000,
+    drive_limits: bool = False,
 ) -> OptimalProblem:
     """Build (do not solve) the problem of :func:`optimal`; same parameters."""
     if payload_kg is not None:
         robot = robot.with_payload(payload_kg)
     if objective not in OBJECTIVES:
         raise InputError(f"objective {objective!r} unknown; choose one of {OBJECTIVES}")
+    # the envelope replaces the robot's torque box (module docstring)
+    train, tau_max = drivetrain.planning_drive_train(robot, drive_limits, tau_max, where="optimal")
     w = _check_waypoints(robot, waypoints)
     asked = (v_max, a_max, j_max, tau_max)
     ls = resolve_limits(
@@ -716,9 +903,15 @@ def build_optimal(
         need=[k for k, v in zip(LIMIT_KEYS, asked, strict=True) if v is None],  # the robot's
         where=f"optimal on {robot.name}",
     )
-    if ls.acceleration_rad_s2 is None and ls.jerk_rad_s3 is None and ls.torque_Nm is None:
+    if (
+        ls.acceleration_rad_s2 is None
+        and ls.jerk_rad_s3 is None
+        and ls.torque_Nm is None
+        and train is None
+    ):
         raise InputError(
-            "velocity limits alone have no minimum-time solution: give a_max, j_max or tau_max"
+            "velocity limits alone have no minimum-time solution: give a_max, j_max, tau_max "
+            "or drive_limits"
         )
     fixed = objective in ("jerk", "energy")
     if fixed:
@@ -740,6 +933,8 @@ def build_optimal(
     if np.any(tol > 0):
         exact[1:-1] = False
     _check_static_torque(robot, w, ls, exact)
+    if train is not None:
+        _check_static_drive(robot, w, ls, exact, train)
     nseg = w.shape[0] - 1
     if n_intervals is None:
         n_intervals = max(16, 48 // nseg) if nseg > 1 else 32
@@ -761,6 +956,8 @@ def build_optimal(
         check_dt=check_dt,
         max_backoff=int(max_backoff),
         max_iter=int(max_iter),
+        drive_limits=bool(drive_limits),
+        train=train,
     )
 
 
@@ -781,6 +978,7 @@ def optimal(
     check_dt: float | None = None,
     max_backoff: int = 4,
     max_iter: int = 1000,
+    drive_limits: bool = False,
 ) -> Trajectory:
     """Time-synchronised optimal trajectory through joint waypoints.
 
@@ -810,13 +1008,19 @@ def optimal(
         Step of the fine feasibility check in [s] (default ``T / 4000``).
     max_backoff : int
         Re-solves allowed when the fine check finds a torque above its limit.
+    drive_limits : bool
+        Plan inside each motor's envelope (module docstring): the motor torque of the
+        drive-train model within the voltage line and the peak torque, its RMS within the
+        continuous rating. The robot's torque box is then off unless ``tau_max`` is given;
+        each joint moves monotonically within a segment. Needs the robot's drives.
 
     Returns
     -------
     Trajectory
         With ``.report`` (fine-grid :class:`LimitReport` against the request's limits),
         ``.stats`` (solver, iterations, solve_time_s, n_intervals, success, duration_s,
-        binding limits ``[(kind, joint, ratio)]``, energy) and ``.meta`` (waypoint times, ...).
+        binding limits ``[(kind, joint, ratio)]``, energy; with ``drive_limits`` the fine-grid
+        ``drive_ratios``) and ``.meta`` (waypoint times, ...).
 
     Raises
     ------
@@ -844,5 +1048,6 @@ def optimal(
         check_dt=check_dt,
         max_backoff=max_backoff,
         max_iter=max_iter,
+        drive_limits=drive_limits,
     )
     return prob.solve()

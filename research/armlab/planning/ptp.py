@@ -16,17 +16,33 @@ Profiles here:
   (``sync="time"``: same accelerations, lower cruise speeds), or all joints follow one
   normalised profile (``sync="phase"``: straight line in joint space, as eq. 5).
 * ``"scurve"`` — the same with a jerk-limited double S per joint.
+
+Replanning from where the arm is (``qd_start``, ``qdd_start``, ``qd_goal``, as Ruckig's
+current velocity / acceleration and target velocity): ``"trapezoid"`` with ``sync="time"``.
+Each joint's shortest move from its speed to its goal speed is bang-coast-bang
+(:func:`~armlab.trajectory.profiles.trapezoid_min_time_from_state`); a joint moving towards
+its goal may be unable to take some longer durations without reversing
+(:func:`~armlab.trajectory.profiles.trapezoid_blocked_from_state`), so the common duration is
+the smallest one at or above every joint's minimum that lies in no joint's gap, and each joint
+then takes exactly that long (:func:`~armlab.trajectory.profiles.trapezoid_from_state`). The
+trapezoid's acceleration steps at ``t = 0`` like at its other corners, so ``qdd_start`` is
+only checked against the limit. A start or goal speed above a joint's velocity limit, or a
+start acceleration above its acceleration limit, is refused (:class:`InputError` naming the
+keyword and the joint): brake first. Torque limits are met by lowering the acceleration
+limit (the boundary speeds stay), and a speed that cannot be braked within the joint's range
+ends in :class:`LimitViolation`.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from armlab.errors import InputError
+from armlab.errors import InputError, LimitViolation
 from armlab.planning.timescale import finish, stretch_needed
+from armlab.robot import rigid_body
 from armlab.robot.limits import resolve_limits
 from armlab.trajectory.core import Trajectory, sample_times
 from armlab.trajectory.profiles import (
@@ -35,6 +51,9 @@ from armlab.trajectory.profiles import (
     double_s_profile,
     rest_profile,
     synchronised_profiles,
+    trapezoid_blocked_from_state,
+    trapezoid_from_state,
+    trapezoid_min_time_from_state,
     trapezoid_profile,
 )
 from armlab.trajectory.waypoints import validate_waypoints
@@ -77,6 +96,60 @@ def _velocity_profiles(D, v, a, dt):
     return profs, T + dt, binding
 
 
+def _state(robot, x, name: str, limit, kind: str) -> np.ndarray:
+    """A start/goal speed or acceleration (n_joints,), finite and within its limit."""
+    if x is None:
+        return np.zeros(robot.n_joints)
+    arr = np.asarray(x, float)
+    if arr.shape != (robot.n_joints,):
+        raise InputError(f"ptp_sync {name} must have shape ({robot.n_joints},), not {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"ptp_sync {name} must be finite")
+    if limit is not None:
+        over = np.abs(arr) > np.asarray(limit) * (1 + 1e-12)
+        if np.any(over):
+            k = int(np.flatnonzero(over)[0])
+            raise InputError(
+                f"ptp_sync {name}: {robot.joint_names[k]} at {arr[k]:.6g} is beyond its "
+                f"{kind} limit {float(np.asarray(limit)[k]):.6g} (brake first)"
+            )
+    return arr
+
+
+def _from_state_profiles(delta, v0, v1, v, a):
+    """Time-synchronised bang-coast-bang moves from speeds ``v0`` to ``v1``: (profiles, T,
+    binding joint, its limit kind, whether a joint's gap moved T)."""
+    n = delta.size
+    moving = (np.abs(delta) > 0) | (v0 != 0) | (v1 != 0)
+    t_min = np.array(
+        [
+            trapezoid_min_time_from_state(delta[i], v0[i], v1[i], v[i], a[i]) if moving[i] else 0.0
+            for i in range(n)
+        ]
+    )
+    gaps = [
+        trapezoid_blocked_from_state(delta[i], v0[i], v1[i], v[i], a[i]) if moving[i] else None
+        for i in range(n)
+    ]
+    T = float(t_min.max())
+    gap_moved = False
+    for _ in range(n + 1):  # each gap can push T at most once
+        inside = [g for g in gaps if g is not None and g[0] < T < g[1]]
+        if not inside:
+            break
+        T = max(g[1] for g in inside)
+        gap_moved = True
+    profs = [
+        trapezoid_from_state(delta[i], v0[i], v1[i], v[i], a[i], T)
+        if moving[i]
+        else rest_profile(T)
+        for i in range(n)
+    ]
+    bj = int(np.argmax(t_min))
+    cruise = abs(profs[bj].params.get("v", 0.0)) >= v[bj] * (1 - 1e-12)
+    return profs, T, bj, ("velocity" if cruise else "acceleration"), gap_moved
+
+
 def ptp_sync(
     robot: Robot,
     q_start,
@@ -89,6 +162,9 @@ def ptp_sync(
     dt: float | None = None,
     sync: str = "time",
     torque: bool = True,
+    qd_start=None,
+    qdd_start=None,
+    qd_goal=None,
 ) -> Trajectory:
     """Joint-space point-to-point motion in which every joint arrives at the same instant.
 
@@ -114,6 +190,10 @@ def ptp_sync(
         ``"velocity"`` is always phase-synchronous.
     torque : bool
         Also keep the inverse-dynamics torques within ``effort`` (slowing down if needed).
+    qd_start, qdd_start, qd_goal : array (n_joints,), optional
+        Replanning from a moving state: the joint speeds [rad/s] and accelerations [rad/s^2]
+        now, and the speeds [rad/s] wanted at the goal (default: rest). ``"trapezoid"``
+        with ``sync="time"`` only (module docstring); each within its limit.
 
     Returns
     -------
@@ -150,10 +230,22 @@ def ptp_sync(
     )
     v, a, j = lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3
     assert v is not None  # resolve_limits raises when a needed limit is missing
+    v0 = _state(robot, qd_start, "qd_start", v, "velocity")
+    v1 = _state(robot, qd_goal, "qd_goal", v, "velocity")
+    _state(robot, qdd_start, "qdd_start", a, "acceleration")
+    from_state = bool(np.any(v0 != 0) or np.any(v1 != 0))
+    if from_state and (profile != "trapezoid" or sync != "time"):
+        raise InputError(
+            f"ptp_sync: qd_start/qd_goal (replanning from a moving state) need "
+            f"profile='trapezoid' and sync='time', not profile={profile!r}, sync={sync!r}"
+        )
     delta = q1 - q0
     D = np.abs(delta)
     D[D < 1e-12] = 0.0
     method = f"ptp_{profile}"
+    if from_state:
+        assert a is not None
+        return _ptp_from_state(robot, q0, q1, v0, v1, v, a, lim, dt, torque, method)
     if not np.any(D > 0):
         traj = Trajectory(
             [0.0],
@@ -250,6 +342,75 @@ def ptp_sync(
         q_goal=q1.tolist(),
         joint_profiles=None if normalised else [p.to_dict() for p in profs],
         normalised_profile=profs[0].to_dict() if normalised else None,
+        slowdown=slowdown,
+    )
+    return finish(traj, robot, lim, torque=torque, what=method)
+
+
+def _ptp_from_state(robot, q0, q1, v0, v1, v, a, lim, dt, torque, method) -> Trajectory:
+    """:func:`ptp_sync` from a moving state (module docstring)."""
+    delta = q1 - q0
+    delta = np.where(np.abs(delta) < 1e-12, 0.0, delta)
+
+    def build(profiles, duration) -> Trajectory:
+        t = sample_times(duration, dt, np.concatenate([p.corners for p in profiles]))
+        n = t.size
+        q = np.empty((n, robot.n_joints))
+        qd, qdd = np.empty_like(q), np.empty_like(q)
+        for i, p in enumerate(profiles):
+            s, sd, sdd, _ = p.evaluate(t)
+            q[:, i], qd[:, i], qdd[:, i] = q0[i] + s, sd, sdd
+        q[-1] = q1  # exact arrival
+        qd[0], qd[-1] = v0, v1  # exact boundary speeds
+        return Trajectory(t, q, qd, qdd, None, joint_names=robot.joint_names, method=method)
+
+    tau_max = lim.torque_Nm
+    if torque and tau_max is not None:  # the start speed alone, before any acceleration
+        h = rigid_body.nonlinear_effects(robot, q0[None], v0[None])[0]
+        over = np.abs(h) > np.asarray(tau_max) * (1 + 1e-9)
+        if np.any(over):
+            jk = int(np.flatnonzero(over)[0])
+            raise LimitViolation(
+                f"{method}: {robot.joint_names[jk]} needs {h[jk]:.4g} N m at the start speed "
+                f"qd_start before any acceleration, above its torque limit "
+                f"{float(np.asarray(tau_max)[jk]):.4g} N m"
+            )
+    a_used = np.asarray(a, float).copy()
+    profs, T, bj, bkind, gap = _from_state_profiles(delta, v0, v1, v, a_used)
+    traj = build(profs, T)
+    T0 = T
+    slowdown: dict[str, Any] | None = None
+    k_prev = math.inf
+    for _ in range(6):  # torque: lower the acceleration limit, the boundary speeds stay
+        check = traj.limit_samples(robot=robot if torque else None)
+        k, kind, joint = stretch_needed(check, robot, lim, torque=torque)
+        if k <= 1 + 1e-12 or (k > 0.9 * k_prev and k > 1.01) or T > 50 * T0:
+            # done, or the excess does not shrink with the acceleration (torque of the
+            # start speed itself): finish() names it
+            break
+        # the factor assumes every torque term scales with 1/k^2; the start speed's do not,
+        # so after the first round the (small) remaining excess is over-corrected
+        power = 2.0 if math.isinf(k_prev) else 6.0
+        k_prev = k
+        a_used = a_used / (k * (1 + 1e-9)) ** power
+        profs, T, bj, bkind, gap = _from_state_profiles(delta, v0, v1, v, a_used)
+        traj = build(profs, T)
+        if slowdown is None:
+            slowdown = {"kind": kind, "joint": joint}
+        slowdown["factor"] = T / T0 if T0 > 0 else 1.0
+        slowdown["acceleration_scale"] = float(np.min(a_used / a))
+    traj.meta.update(
+        profile="trapezoid",
+        sync="time",
+        duration_s=float(T),
+        dt_s=dt,
+        binding={"joint": robot.joint_names[bj], "limit": bkind, "gap": gap},
+        q_start=q0.tolist(),
+        q_goal=q1.tolist(),
+        qd_start=v0.tolist(),
+        qd_goal=v1.tolist(),
+        joint_profiles=[p.to_dict() for p in profs],
+        normalised_profile=None,
         slowdown=slowdown,
     )
     return finish(traj, robot, lim, torque=torque, what=method)

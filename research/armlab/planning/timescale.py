@@ -28,9 +28,10 @@ from typing import TYPE_CHECKING, Generic, NoReturn, TypeVar
 import numpy as np
 
 from armlab.errors import InfeasibleError, LimitViolation
-from armlab.robot import rigid_body
+from armlab.robot import drivetrain, rigid_body
 
 if TYPE_CHECKING:
+    from armlab.robot.drivetrain import DriveTrain
     from armlab.robot.model import Robot
     from armlab.trajectory.core import Trajectory
 
@@ -43,6 +44,11 @@ __all__ = [
     "over_limits",
     "tighten_limits",
     "refuse_violation",
+    "drive_check",
+    "tighten_drive",
+    "absorb_drive_tolerance",
+    "refuse_drive_violation",
+    "DriveState",
     "CHECK_TOL",
     "BACKOFF_MARGIN",
 ]
@@ -261,4 +267,91 @@ def refuse_violation(traj: Trajectory, planner: str, rounds: int) -> None:
         f"{planner}: after {rounds} back-off re-solve(s) the plan still exceeds the {kind} limit "
         f"of {joint} (peak ratio {ratio:.6f} at t = {t_s:.4f} s on the fine check grid); loosen "
         "that limit or use more intervals"
+    )
+
+
+# ---------------------------------------------------------------------------- drive limits
+#: what the planners' back-off tightens with ``drive_limits``: the request's limits, and per
+#: joint the scale of the motor-envelope bounds and of the RMS bound
+DriveState = tuple  # (Limits, envelope scale (n,), rms scale (n,))
+
+
+def drive_check(traj: Trajectory, robot: Robot, train: DriveTrain, dt: float) -> dict:
+    """Peak ratios of a trajectory to its motors' envelope, per joint: the independent
+    per-sample check of ``drive_limits`` (:func:`armlab.robot.drivetrain.drive_ratios` kinds).
+
+    ``motor_envelope`` and ``motor_speed`` on :meth:`Trajectory.limit_samples` (every knot,
+    the critical times, the uniform grid ``dt`` [s] and the refined torque peaks) with the exact
+    numeric drive-train model; ``motor_rms`` on the uniform grid ``dt`` with trapezoidal
+    weights (:func:`armlab.dynamics.inverse.sample_weights`).
+    """
+    from armlab.dynamics.inverse import sample_weights
+
+    samples = traj.limit_samples(dt, robot=robot)
+    assert samples.tau is not None  # a robot was given
+    t_m, _ = drivetrain.motor_torque(samples.tau, samples.qd, samples.qdd, train)
+    w_m = drivetrain.motor_speed(samples.qd, train)
+    fine = traj.sample(dt)
+    tau = rigid_body.inverse_dynamics(robot, fine.q, fine.qd, fine.qdd)
+    ratios = drivetrain.drive_ratios(tau, fine.qd, fine.qdd, sample_weights(fine.t), train)
+    ratios["motor_envelope"] = np.maximum(
+        ratios["motor_envelope"], drivetrain.envelope_ratio(t_m, w_m, train).max(axis=0)
+    )
+    ratios["motor_speed"] = np.maximum(
+        ratios["motor_speed"], np.abs(w_m).max(axis=0) / train.rated_speed_rad_s
+    )
+    return ratios
+
+
+def tighten_drive(state: DriveState, over: dict, rounds: int, margin: float) -> DriveState:
+    """The back-off of ``drive_limits`` (``tighten`` of :func:`backoff_solve`): the request's
+    limit kinds as :func:`tighten_limits` (a motor-speed excess tightens the velocity limit);
+    the envelope and RMS scales of each joint over its limit by ``(1 - margin) / ratio`` (a
+    ratio capped at 2: beyond the no-load speed the ratio is infinite)."""
+    limits, env, rms = state
+    plain = {k: r for k, r in over.items() if k not in drivetrain.DRIVE_KINDS}
+    if "motor_speed" in over and limits.velocity_rad_s is not None:
+        v = over["motor_speed"]
+        plain["velocity"] = np.maximum(plain["velocity"], v) if "velocity" in plain else v
+    limits = tighten_limits(limits, plain, rounds, margin)
+
+    def factor(r):
+        r = np.minimum(np.asarray(r, float), 2.0)
+        return np.where(r > 1 + CHECK_TOL, (1 - margin) / np.maximum(r, 1.0), 1.0)
+
+    if "motor_envelope" in over:
+        env = env * factor(over["motor_envelope"])
+    if "motor_rms" in over:
+        rms = rms * factor(over["motor_rms"])
+    return limits, env, rms
+
+
+def absorb_drive_tolerance(traj: Trajectory, robot: Robot, train: DriveTrain, dt: float):
+    """``(trajectory, k, ratios)``: an excess of the motor envelope within ``CHECK_TOL`` removed
+    by the smallest of a few uniform stretches (``1 + 1e-7 .. 1e-5``) that brings every drive
+    ratio to 1 (slowing down does not lower every torque -- gravity stays, and it can raise
+    ``|tau|`` where the dynamic part opposes it -- so each stretch is checked again)."""
+    ratios = drive_check(traj, robot, train, dt)
+    worst = max(float(np.max(r)) for r in ratios.values())
+    if worst <= 1.0 or worst > 1.0 + CHECK_TOL:
+        return traj, 1.0, ratios
+    for k in (1 + 1e-7, 1 + 1e-6, 1 + 1e-5):
+        cand = traj.stretched(k)
+        r = drive_check(cand, robot, train, dt * k)
+        if max(float(np.max(x)) for x in r.values()) <= 1.0:
+            return cand, k, r
+    return traj, 1.0, ratios
+
+
+def refuse_drive_violation(ratios: dict, traj: Trajectory, planner: str, rounds: int) -> None:
+    """:func:`~armlab.planning.timescale.refuse_violation` for the motor-envelope ratios."""
+    bad = [(k, i, float(r[i])) for k, r in ratios.items() for i in range(len(r))]
+    bad = [b for b in bad if b[2] > 1 + CHECK_TOL]
+    if not bad:
+        return
+    kind, i, ratio = max(bad, key=lambda b: b[2])
+    raise InfeasibleError(
+        f"{planner}: after {rounds} back-off re-solve(s) the plan still exceeds the {kind} "
+        f"limit of {traj.joint_names[i]} (peak ratio {ratio:.6f} on the fine check grid); use "
+        "more intervals or a lower payload"
     )

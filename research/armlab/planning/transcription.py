@@ -6,9 +6,13 @@ all scaled; constraints: the exact polynomial integration of each interval, the 
 bounds that keep velocity, acceleration and position inside their limits between the knots,
 and -- with torque limits -- the inverse dynamics of the symbolic twin
 (:func:`armlab.robot.symbolic.parametric_inverse_dynamics_function`, gravity in the base frame)
-at the knots. The compiled NLP depends only on the robot's kinematic tree, the sizes and the
-flags, so it is built once and cached (:func:`structure`); the payload, limits, scales and grid
-fractions are parameters. The problem and its solve are in :mod:`armlab.planning.optimal`.
+at the knots. With ``drive_rows`` (``drive_limits=True``) the motor torque of the drive-train
+model (:func:`armlab.robot.drivetrain.motor_torque_branches`, the CasADi twin) is bounded by
+the motor's envelope at the same points (:func:`_drive_rows`), and its RMS over the plan by the
+continuous rating. The compiled NLP depends only on the robot's kinematic tree, the sizes and
+the flags, so it is built once and cached (:func:`structure`); the payload, limits, drive data,
+directions of motion, scales and grid fractions are parameters. The problem and its solve are
+in :mod:`armlab.planning.optimal`.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from armlab._lazy import lazy_import
+from armlab.robot.drivetrain import motor_torque_branches
 from armlab.robot.symbolic import kinematics_key, parametric_inverse_dynamics_function
 
 if TYPE_CHECKING:
@@ -27,7 +32,13 @@ if TYPE_CHECKING:
 else:
     ca = lazy_import("casadi")  # CasADi loads at the first symbolic build
 
-__all__ = ["Structure", "structure", "build_structure", "ipopt_options"]
+__all__ = ["Structure", "structure", "build_structure", "ipopt_options", "DRIVE_ROW_TAGS"]
+
+#: the envelope rows per joint and column (``_drive_rows``): ``A`` the voltage line, ``P`` the
+#: peak torque; ``1`` the motoring branch, ``2`` the back-driven one; ``+`` upper, ``-`` lower
+DRIVE_ROW_TAGS = ("A1+", "A2+", "A1-", "A2-", "P1+", "P2+", "P1-", "P2-")
+#: coefficients per joint of the drive rows (:meth:`DriveTrain.symbolic_coefficients` order)
+N_DRIVE_COEFFS = 9
 
 #: expression graph of the NLP: "MX" (maps of the SX inverse dynamics; fast to build) or "SX"
 SYMBOLIC = "SX"
@@ -58,6 +69,10 @@ class Structure:
     nx: int
     slices: dict[str, slice]
     build_time_s: float
+    drive_rows: bool = False
+    g_tag: np.ndarray | None = None  # DRIVE_ROW_TAGS of the motor_envelope rows ("" elsewhere)
+    g_col: np.ndarray | None = None  # their column (drive_columns order)
+    n_drive_columns: int = 0
 
     @property
     def N(self) -> int:
@@ -95,6 +110,7 @@ def build_structure(
     torque_rows: bool,
     fixed_duration: bool,
     max_iter: int,
+    drive_rows: bool = False,
 ) -> Structure:
     t0 = _time.perf_counter()
     # SX or MX, chosen by a module constant; both share the symbolic API, and typing it as the
@@ -126,7 +142,15 @@ def build_structure(
     s_T = X.sym("s_T", nseg)
     frac = X.sym("fractions", N)  # h_k = T_seg(k) * fraction_k
     p_pi = X.sym("inertial_parameters", n_pi)  # payload is a parameter, not structure
-    p = ca.vertcat(p_tau, p_w, p_uref, p_ew, s_v, s_a, s_u, s_T, frac, p_pi)
+    n_cols = (N + 1 if mode == "jerk" else 2 * N) if drive_rows else 0
+    p_dc = X.sym("drive_coefficients", n * N_DRIVE_COEFFS if drive_rows else 0)
+    p_sig = X.sym("direction", n, n_cols)  # sign of qd per joint and column (0: at rest)
+    p_eps = X.sym("quadrant_smoothing_Nm", n if drive_rows else 0)
+    p_cont2 = X.sym("continuous_torque_sq", n if drive_rows else 0)
+    p = ca.vertcat(
+        p_tau, p_w, p_uref, p_ew, s_v, s_a, s_u, s_T, frac, p_pi, p_dc, ca.vec(p_sig), p_eps,
+        p_cont2,
+    )  # fmt: skip
 
     def rnea(qq, vv, aa):
         m = qq.shape[1]
@@ -144,7 +168,7 @@ def build_structure(
 
     Hr = ca.repmat(H.T, n, 1)
     Qa, Qb, Va, Vb = Q[:, :N], Q[:, 1:], V[:, :N], V[:, 1:]
-    rows: list[tuple] = []  # (expr, kind, per-joint)
+    rows: list[tuple] = []  # (expr, kind, per-joint[, tag, first column])
     if A is not None:  # jerk mode
         Aa, Ab = A[:, :N], A[:, 1:]
         rows.append((Qb - (Qa + Hr * Va + Hr**2 / 2 * Aa + Hr**3 / 6 * U), "dynamics", True))
@@ -157,7 +181,7 @@ def build_structure(
         rows.append((Qb - (Qa + Hr * Va + Hr**2 / 2 * U), "dynamics", True))
         rows.append(((Vb - (Va + Hr * U)) / rv, "dynamics", True))
         rows.append((Qa + Va * Hr / 2, "position", True))
-    need_tau = torque_rows or objective == "energy"
+    need_tau = torque_rows or objective == "energy" or drive_rows
     tau_nodes: list[Any] = []
     if need_tau:
         if mode == "jerk":
@@ -180,17 +204,33 @@ def build_structure(
             for tn in tau_nodes + inner:
                 rows.append((tn / ca.repmat(p_tau, 1, tn.shape[1]), "torque", True))
     scalar_rows: list[tuple] = []
+    if drive_rows:
+        if mode == "jerk":
+            cols = [(tau_nodes[0], V, A)]
+            weights = [ca.horzcat(H[0] / 2, (H[:-1] + H[1:]).T / 2, H[-1] / 2)]
+        else:
+            cols = [(tau_nodes[0], Va, U), (tau_nodes[1], Vb, U)]
+            weights = [H.T / 2, H.T / 2]
+        drive, rms = _drive_rows(cols, weights, p_dc, p_sig, p_eps, n)
+        rows += drive
+        rows.append((rms / (ca.sum1(T) * p_cont2), "motor_rms", True))
     if fixed_duration:
         scalar_rows.append((ca.sum1(T), "duration"))
-    g_parts, kinds, joints = [], [], []
-    for expr, kind, _ in rows:
+    g_parts, kinds, joints, tags, gcols = [], [], [], [], []
+    for row in rows:
+        expr, kind = row[0], row[1]
+        tag, first = (row[3], row[4]) if len(row) > 3 else ("", 0)
         g_parts.append(ca.vec(expr))
         kinds += [kind] * expr.numel()
         joints += list(np.tile(np.arange(n), expr.shape[1]))
+        tags += [tag] * expr.numel()
+        gcols += list(first + np.repeat(np.arange(expr.shape[1]), n))
     for expr, kind in scalar_rows:
         g_parts.append(expr)
         kinds.append(kind)
         joints.append(-1)
+        tags.append("")
+        gcols.append(-1)
     g = ca.vertcat(*g_parts)
 
     Un = U / ca.repmat(p_uref, 1, N)
@@ -222,11 +262,60 @@ def build_structure(
         nx=int(x.numel()),
         slices=slices,
         build_time_s=_time.perf_counter() - t0,
+        drive_rows=drive_rows,
+        g_tag=np.array(tags),
+        g_col=np.array(gcols),
+        n_drive_columns=n_cols,
     )
 
 
-def structure(robot, n, seg_n, mode, objective, torque_rows, fixed_duration, max_iter) -> Structure:
-    need_tau = torque_rows or objective == "energy"
+def _drive_rows(cols, weights, p_dc, p_sig, p_eps, n: int) -> tuple[list[tuple], Any]:
+    """The motor-envelope rows and the RMS numerator of ``drive_limits``.
+
+    ``cols``: ``(tau, qd, qdd)`` matrices (n, m) at the constrained points; ``weights``: the time
+    each column stands for (1, m), trapezoidal. Per joint and column, with the direction of
+    motion ``sigma`` (a parameter; the velocity bounds keep it true), the two quadrant branches
+    of the motor torque (:func:`~armlab.robot.drivetrain.motor_torque_branches`) with the
+    Coulomb friction along ``sigma`` -- both directions where ``sigma = 0`` (upper rows +1,
+    lower rows -1: conservative) -- and ``k_w = derating Kt Ke / R x N sigma qd`` (= the
+    derated back-EMF term, ``|w_m|`` by the sign bounds) give the rows of
+    :data:`DRIVE_ROW_TAGS`: ``e + k_w <= derating Kt U / R``, ``e - k_w >= -...``, ``|e| <=
+    derating T_peak``; :meth:`~armlab.planning.optimal.OptimalProblem._bounds` switches each
+    on by ``sigma`` (module :mod:`armlab.robot.drivetrain`: max of the branches moving forward,
+    min backwards). The RMS numerator ``sum_k w_k T_k^2`` uses the smooth quadrant blend
+    ``T_in = tau_out / N (eta_b + (1/eta - eta_b) p)``, ``p = 1 - sigma^2 (1 - logistic(sigma
+    tau_out / eps))``; the fine-grid check afterwards is exact.
+    """
+    dc = [p_dc[i * n : (i + 1) * n] for i in range(N_DRIVE_COEFFS)]
+    rows: list[tuple] = []
+    rms = 0
+    first = 0
+    for (tn, vv, aa), w in zip(cols, weights, strict=True):
+        m = tn.shape[1]
+        coeffs = [ca.repmat(c, 1, m) for c in dc]
+        sig = p_sig[:, first : first + m]
+        c_up = sig + (1 - sig**2)  # sigma where moving, +1 at rest
+        c_lo = sig - (1 - sig**2)  # sigma where moving, -1 at rest
+        e1u, e2u = motor_torque_branches(tn, vv, aa, c_up, coeffs)
+        e1l, e2l = motor_torque_branches(tn, vv, aa, c_lo, coeffs)
+        kw = coeffs[8] * coeffs[0] * sig * vv
+        exprs = (e1u + kw, e2u + kw, e1l - kw, e2l - kw, e1u, e2u, e1l, e2l)
+        for expr, tag in zip(exprs, DRIVE_ROW_TAGS, strict=True):
+            rows.append((expr, "motor_envelope", True, tag, first))
+        N_, eta, eta_b, J, b_m, f_c, f_v = coeffs[:7]
+        tau_out = tn + f_c * sig + f_v * vv
+        eps = ca.repmat(p_eps, 1, m)
+        p = 1 - sig**2 * (0.5 - 0.5 * ca.tanh(sig * tau_out / (2 * eps)))  # logistic, no overflow
+        t_m = tau_out / N_ * (eta_b + (1 / eta - eta_b) * p) + J * N_ * aa + b_m * N_ * vv
+        rms = rms + ca.mtimes(t_m**2, w.T)
+        first += m
+    return rows, rms
+
+
+def structure(
+    robot, n, seg_n, mode, objective, torque_rows, fixed_duration, max_iter, drive_rows=False
+) -> Structure:
+    need_tau = torque_rows or objective == "energy" or drive_rows
     kkey = kinematics_key(robot) if need_tau else None
     key = (
         kkey,
@@ -237,6 +326,7 @@ def structure(robot, n, seg_n, mode, objective, torque_rows, fixed_duration, max
         torque_rows,
         fixed_duration,
         max_iter,
+        drive_rows,
         HESSIAN,
         TORQUE_INTERIOR_POINTS,
         SYMBOLIC,
@@ -246,7 +336,16 @@ def structure(robot, n, seg_n, mode, objective, torque_rows, fixed_duration, max
         rnea_p = parametric_inverse_dynamics_function(robot) if need_tau else None
         n_pi = rnea_p.size1_in(3) if rnea_p is not None else 0
         st = build_structure(
-            rnea_p, n_pi, n, seg_n, mode, objective, torque_rows, fixed_duration, max_iter
+            rnea_p,
+            n_pi,
+            n,
+            seg_n,
+            mode,
+            objective,
+            torque_rows,
+            fixed_duration,
+            max_iter,
+            drive_rows,
         )
         if len(_STRUCTURES) >= _STRUCTURES_MAX:
             _STRUCTURES.pop(next(iter(_STRUCTURES)))

@@ -8,10 +8,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from armlab.dynamics.checks import DriveArrays
 from armlab.dynamics.inverse import RAD_S_TO_RPM, JointLoads, require_drives
 from armlab.errors import InputError
 from armlab.plots._figure import new_figure
+from armlab.robot import drivetrain
 
 if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with armlab.dynamics
     from matplotlib.figure import Figure
@@ -94,9 +94,10 @@ def plot_joint_loads(loads: JointLoads, robot: Robot | None = None, *, joints=No
 def plot_operating_points(loads: JointLoads, robot: Robot, *, drives=None, joints=None) -> Figure:
     """Motor operating points on the speed-torque plane with each motor's envelope.
 
-    The envelope (:func:`armlab.dynamics.checks.envelope_torque`) is
-    ``derating x min(T_peak, Kt (U -+ Ke |w|) / R)`` in the four quadrants; the continuous
-    (stall) torque and the table speed are drawn dashed.
+    The envelope (:func:`armlab.robot.drivetrain.envelope_torque`, the bound the sizing
+    check and ``drive_limits`` use) is ``derating x min(T_peak, Kt (U - Ke |w|) / R)``, the
+    same line in both quadrants (no credit for regeneration); the continuous (stall) torque
+    and the table speed are drawn dashed.
 
     Parameters
     ----------
@@ -115,23 +116,15 @@ def plot_operating_points(loads: JointLoads, robot: Robot, *, drives=None, joint
     axes = np.atleast_1d(fig.subplots(nrow, ncol, squeeze=False)).ravel()
     for ax, j in zip(axes, idx, strict=False):
         d = drive_list[j]
-        arr = DriveArrays.from_drives([d])
+        arr = drivetrain.DriveTrain.from_drives([d])
         w = loads.motor_speed_rad_s[:, j]
         t = loads.motor_torque_Nm[:, j]
         w_nl = float(arr.supply_voltage_V[0] / arr.back_emf_V_s_rad[0])
         ws = np.linspace(-w_nl, w_nl, 401)
-        kt, ke, r, u = (
-            float(arr.torque_constant_Nm_A[0]),
-            float(arr.back_emf_V_s_rad[0]),
-            float(arr.resistance_ohm[0]),
-            float(arr.supply_voltage_V[0]),
-        )
-        peak, der = float(arr.peak_torque_Nm[0]), float(arr.derating[0])
-        upper = der * np.minimum(peak, kt * (u - ke * ws) / r)  # T > 0: driving when w > 0
-        lower = -der * np.minimum(peak, kt * (u + ke * ws) / r)  # T < 0: driving when w < 0
-        ax.plot(ws * RAD_S_TO_RPM, upper, color="C3", lw=1.2, label="envelope")
-        ax.plot(ws * RAD_S_TO_RPM, lower, color="C3", lw=1.2)
-        stall = der * float(arr.stall_torque_Nm[0])
+        env = drivetrain.envelope_torque(ws[:, None], arr)[:, 0]
+        ax.plot(ws * RAD_S_TO_RPM, env, color="C3", lw=1.2, label="envelope")
+        ax.plot(ws * RAD_S_TO_RPM, -env, color="C3", lw=1.2)
+        stall = float(arr.derating[0]) * float(arr.stall_torque_Nm[0])
         ax.axhline(stall, color="C1", ls="--", lw=0.8, label="continuous")
         ax.axhline(-stall, color="C1", ls="--", lw=0.8)
         rated = float(arr.rated_speed_rad_s[0]) * RAD_S_TO_RPM

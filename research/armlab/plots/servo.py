@@ -169,6 +169,49 @@ def tracking_figure(result) -> Figure:
     return fig
 
 
+def drive_model_figure(results: dict) -> Figure:
+    """TCP error of one motion under several drive models, and the full model's armature
+    voltages against the supply.
+
+    Parameters
+    ----------
+    results : dict of str to TrackingResult
+        Label -> result; the entry whose ``model`` has both ``losses`` and ``voltage_limit``
+        (the full model) is the one whose voltages are drawn.
+    """
+    fig = new_figure(figsize=(9, 6.5))
+    ax_t, ax_u = fig.subplots(2, 1, sharex=True)
+    full = None
+    for label, r in results.items():
+        e = r.tcp_max_error_m * 1e3
+        ax_t.plot(r.t, r.tcp_error_m * 1e3, lw=0.8, label=f"{label}: max {e:.3g} mm")
+        if r.model.get("losses") and r.model.get("voltage_limit") and full is None:
+            full = r
+    if results:
+        acc = next(iter(results.values())).accuracy_m * 1e3
+        ax_t.axhline(acc, color="tab:red", ls="--", lw=0.8, label=f"budget {acc:.2g} mm")
+    ax_t.set_ylabel("TCP error [mm]")
+    ax_t.legend(fontsize=7)
+    ax_t.grid(True, alpha=0.3)
+    ax_t.set_title("tracking under the drive model (efficiency, friction, supply voltage)")
+    if full is not None and full.voltage_V is not None and full.supply_voltage_V is not None:
+        for j, name in enumerate(full.joint_names):
+            sat = full.saturation_time_s[j]
+            ax_u.plot(
+                full.t,
+                full.voltage_V[:, j] / full.supply_voltage_V[j],
+                lw=0.7,
+                label=f"{name} (U = {full.supply_voltage_V[j]:g} V, saturated {sat:.3g} s)",
+            )
+        for y in (-1.0, 1.0):
+            ax_u.axhline(y, color="k", ls="--", lw=0.6)
+        ax_u.legend(fontsize=6, ncol=2)
+    ax_u.set_ylabel("armature voltage / supply\n(mean over each servo period)")
+    ax_u.set_xlabel("t [s]")
+    ax_u.grid(True, alpha=0.3)
+    return fig
+
+
 def force_figure(results) -> Figure:
     """Force step responses (list of :class:`ForceLoopResult`) on one axis."""
     fig = new_figure(figsize=(7, 4))

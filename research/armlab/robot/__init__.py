@@ -1,4 +1,5 @@
-"""Robot descriptions: DH tables, URDF generation, drive trains, controller profiles and the
+"""Robot descriptions: DH tables, URDF generation, drive trains (and their model,
+:mod:`armlab.robot.drivetrain`), controller profiles and the
 :class:`Robot`."""
 
 from armlab.robot.controller import (
@@ -9,6 +10,7 @@ from armlab.robot.controller import (
 )
 from armlab.robot.dh import DHTable, LumpedMass, mdh_transforms, read_dh_table, urdf_from_dh
 from armlab.robot.drives import Drive, Encoder, Motor, Reducer, read_drives
+from armlab.robot.drivetrain import DriveTrain, drive_train
 from armlab.robot.limits import Limits, description_limits, resolve_limits
 from armlab.robot.model import (
     Payload,
@@ -35,6 +37,8 @@ __all__ = [
     "Motor",
     "Reducer",
     "read_drives",
+    "DriveTrain",
+    "drive_train",
     "Limits",
     "description_limits",
     "resolve_limits",

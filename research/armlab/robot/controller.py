@@ -5,7 +5,9 @@ industrial PC with two 3-axis position cards, DDA interpolation period settable 
 2 s, at most 4095 pulses per axis per DDA period, quadrature counting with x2 or x4 decoding,
 1 ms servo update, 12-bit +-10 V D/A. ``ethercat_cia402_csp`` is an EtherCAT master with CiA 402
 drives in cyclic synchronous position mode (no pulse limit; home positions and modulo axes for
-the CiA 402 export, :mod:`armlab.deploy.cia402`). Profiles live in
+the CiA 402 export, :mod:`armlab.deploy.cia402`). ``dda_n_axis`` is the reference controller's
+cards for any number of axes (a 7-axis arm); ``generic_1khz`` a generic 1 kHz position
+interface, also without an axis count. Profiles live in
 ``armlab/data/profiles/<name>.toml``; any other TOML file with the same keys can be given by path.
 """
 
@@ -27,6 +29,12 @@ if TYPE_CHECKING:
 __all__ = ["ControllerProfile", "DEFAULT_PROFILE", "load_profile", "list_profiles", "profiles_dir"]
 
 DEFAULT_PROFILE = "reference_dda"
+
+#: The hint of an axis-count mismatch: the profiles that drive any number of axes.
+_OTHER_AXIS_COUNT = (
+    " (for another axis count: [controller] profile = dda_n_axis or generic_1khz, which take "
+    "the robot's joint order)"
+)
 
 
 def profiles_dir() -> Path:
@@ -187,12 +195,12 @@ class ControllerProfile:
             if len(index) != robot.n_joints:
                 raise InputError(
                     f"{where}: axis_order names {len(index)} joints, robot "
-                    f"{robot.name} has {robot.n_joints}"
+                    f"{robot.name} has {robot.n_joints}{_OTHER_AXIS_COUNT}"
                 )
         if self.max_axes is not None and len(index) > self.max_axes:
             raise InputError(
                 f"{where}: the controller drives {self.max_axes} axes, robot "
-                f"{robot.name} has {len(index)} joints"
+                f"{robot.name} has {len(index)} joints{_OTHER_AXIS_COUNT}"
             )
         if self.axis_sign is None:
             sign = np.ones(len(index), dtype=np.int64)

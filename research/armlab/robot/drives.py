@@ -5,6 +5,7 @@ SI inside; the only non-SI fields are named with their unit (``rated_speed_rpm``
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import MISSING, asdict, dataclass, fields
 from pathlib import Path
@@ -19,6 +20,7 @@ __all__ = [
     "Encoder",
     "Drive",
     "read_drives",
+    "drives_toml",
     "RPM_TO_RAD_S",
     "available_torque_Nm",
 ]
@@ -29,7 +31,13 @@ RPM_TO_RAD_S = 2.0 * math.pi / 60.0
 def available_torque_Nm(stall_torque_Nm, ratio, efficiency, derating=1.0) -> Any:
     """Thesis rule (table 4.3): available joint torque = stall torque x ratio x efficiency
     x derating, in [N m]. Scalars or numpy arrays (one value per joint); the result is a float
-    or an array accordingly (hence ``Any``)."""
+    or an array accordingly (hence ``Any``).
+
+    It is the drive-train model (:mod:`armlab.robot.drivetrain`) at rest in the motoring
+    quadrant: holding a load counts as motoring (power would flow motor -> load), so the joint
+    torque a motor torque ``T`` delivers at ``qd = qdd = 0`` is ``T x ratio x efficiency``
+    (joint Coulomb friction is not counted at rest with no acceleration; reflected inertia and
+    viscous terms vanish), with ``T`` the derated stall torque."""
     return stall_torque_Nm * ratio * efficiency * derating
 
 
@@ -104,7 +112,15 @@ class Reducer:
     """A speed reducer (harmonic or planetary).
 
     ``ratio`` is motor speed / joint speed; torques at the output in [N m]; ``inertia_kg_m2``
-    at the input shaft.
+    at the input shaft (default 0: not given, stated in drives.toml).
+
+    Losses (the drive-train model, :mod:`armlab.robot.drivetrain`, is the one place they are
+    used): ``efficiency`` is the motoring efficiency (power flows motor -> load: input torque
+    = output torque / (ratio x efficiency)); ``back_efficiency`` the back-driven one (load ->
+    motor: input torque = output torque x back_efficiency / ratio), NaN when not given: it is
+    then **derived** equal to ``efficiency`` (:attr:`back_driven_efficiency` says so).
+    ``coulomb_friction_Nm`` [N m] and ``viscous_friction_Nm_s_rad`` [N m s/rad] are friction at
+    the **output** (joint side: reducer and joint bearings), default 0 (not given).
     """
 
     model: str
@@ -117,11 +133,21 @@ class Reducer:
     mass_kg: float = math.nan
     price: float = math.nan
     source: str = ""
+    back_efficiency: float = math.nan
+    coulomb_friction_Nm: float = 0.0
+    viscous_friction_Nm_s_rad: float = 0.0
 
     @property
     def max_input_speed_rad_s(self) -> float:
         """Maximum input (motor-side) speed in [rad/s]."""
         return self.max_input_speed_rpm * RPM_TO_RAD_S
+
+    @property
+    def back_driven_efficiency(self) -> float:
+        """Efficiency when the load back-drives the motor: ``back_efficiency`` if given, else
+        derived equal to the motoring ``efficiency``."""
+        b = self.back_efficiency
+        return float(b) if math.isfinite(b) else float(self.efficiency)
 
 
 @dataclass(frozen=True)
@@ -144,7 +170,9 @@ class Drive:
     ----------
     joint : str
     acceleration_rad_s2, jerk_rad_s3 : float
-        Joint-side limits in [rad/s^2] and [rad/s^3].
+        Joint-side limits in [rad/s^2] and [rad/s^3]. Left out (NaN): derived from the drive
+        train (peak torque, reflected and link inertia, current slew) unless the study's
+        ``[limits]`` gives them; the limit sources say which.
     derating : float
         Extra factor on the available torque (0.8 for the thesis' joint 2).
     """
@@ -153,8 +181,8 @@ class Drive:
     motor: Motor
     reducer: Reducer
     encoder: Encoder
-    acceleration_rad_s2: float
-    jerk_rad_s3: float
+    acceleration_rad_s2: float = math.nan
+    jerk_rad_s3: float = math.nan
     derating: float = 1.0
 
     @property
@@ -209,6 +237,9 @@ _RULES: dict[str, dict[str, str]] = {
         "inertia_kg_m2": "nonneg",
         "mass_kg": "nonneg",
         "price": "nonneg",
+        "back_efficiency": "unit",
+        "coulomb_friction_Nm": "nonneg",
+        "viscous_friction_Nm_s_rad": "nonneg",
     },
     "Encoder": {"pulses_per_rev": "count", "decoding": "decoding"},
     "Drive": {"acceleration_rad_s2": "pos", "jerk_rad_s3": "pos", "derating": "unit"},
@@ -278,8 +309,17 @@ def _build(cls, data: dict, where: str, part: str = ""):
 
 def motor_from_dict(data: dict, where: str = "motor", part: str = "") -> Motor:
     """A :class:`Motor` from a table, every value checked (:class:`RobotDescriptionError`
-    naming ``where``, ``part`` and the key)."""
-    return _build(Motor, data, where, part)
+    naming ``where``, ``part`` and the key), and the supply voltage above the back-EMF at the
+    rated speed (``U > Ke w_rated``: else the motor cannot reach its rated speed at all)."""
+    motor = _build(Motor, data, where, part)
+    emf = motor.back_emf_V_s_rad * motor.rated_speed_rad_s
+    if motor.supply_voltage_V <= emf:
+        prefix = f"{where} {part}." if part else f"{where} "
+        raise RobotDescriptionError(
+            f"{prefix}supply_voltage_V: {motor.supply_voltage_V:g} V is not above the back-EMF "
+            f"at the rated speed (back_emf_V_s_rad x rated_speed_rpm = {emf:.4g} V)"
+        )
+    return motor
 
 
 def reducer_from_dict(data: dict, where: str = "reducer", part: str = "") -> Reducer:
@@ -290,10 +330,19 @@ def reducer_from_dict(data: dict, where: str = "reducer", part: str = "") -> Red
 def read_drives(path: str | Path, joint_names: list[str] | tuple[str, ...]) -> dict[str, Drive]:
     """Read ``drives.toml`` for the given joints.
 
+    The schema (required and optional keys, units, defaults) is documented in ``docs/drives.md``.
     Every value is checked by its meaning: torques, speeds, current, constants, resistance,
-    inductance, supply voltage, ratio, accelerations > 0; inertias, friction, masses, prices
-    >= 0; efficiency and derating in (0, 1]; ``pulses_per_rev`` a positive integer;
-    ``decoding`` 1, 2 or 4; NaN and inf nowhere.
+    inductance, supply voltage, ratio, accelerations > 0; inertias, friction (motor viscous,
+    reducer Coulomb and viscous), masses, prices >= 0; efficiency, back_efficiency and derating
+    in (0, 1]; ``pulses_per_rev`` a positive integer; ``decoding`` 1, 2 or 4; NaN and inf
+    nowhere; the supply voltage above the back-EMF at the rated speed.
+
+    ``motor`` and ``reducer`` may be a catalogue model name instead of a table
+    (``motor = "maxon EC-i 40 70 W 48 V"``): the part of the drive catalogue (the file's
+    top-level ``catalogue`` path, relative to the drives file, else armlab's), a motor with its
+    derating. ``acceleration_rad_s2`` and ``jerk_rad_s3`` may be left out: they are then NaN
+    here and derived from the drive train when the robot's limits are resolved
+    (:func:`armlab.robot.limits.drive_train_limits`) unless the study gives them.
 
     Raises
     ------
@@ -317,30 +366,86 @@ def read_drives(path: str | Path, joint_names: list[str] | tuple[str, ...]) -> d
             )
         if name in drives:
             raise RobotDescriptionError(f"{where}: listed twice")
+        named = {}
         for part in ("motor", "reducer", "encoder"):
-            if not isinstance(row.get(part), dict):
+            if part != "encoder" and isinstance(row.get(part), str):
+                named[part] = _catalogue_part(path, data, part, row[part], f"{where} {part}")
+            elif not isinstance(row.get(part), dict):
                 raise RobotDescriptionError(f"{where}: no [{part}] table")
-        motor = motor_from_dict(dict(row["motor"]), where, "motor")
-        reducer = reducer_from_dict(dict(row["reducer"]), where, "reducer")
+        motor, catalogue_derating = (
+            named["motor"]
+            if "motor" in named
+            else (motor_from_dict(dict(row["motor"]), where, "motor"), 1.0)
+        )
+        reducer = (
+            named["reducer"][0]
+            if "reducer" in named
+            else reducer_from_dict(dict(row["reducer"]), where, "reducer")
+        )
         encoder = _build(Encoder, dict(row["encoder"]), where, "encoder")
         own = {k: v for k, v in row.items() if k not in ("name", "motor", "reducer", "encoder")}
         unknown = sorted(set(own) - set(_RULES["Drive"]))
         if unknown:
             raise RobotDescriptionError(f"{where}: unknown key(s) {unknown}")
-        for key in ("acceleration_rad_s2", "jerk_rad_s3"):
-            if key not in row:
-                raise RobotDescriptionError(f"{where}: missing key {key}")
         _check_values(_RULES["Drive"], own, f"{where} ")
         drives[name] = Drive(
             joint=name,
             motor=motor,
             reducer=reducer,
             encoder=encoder,
-            acceleration_rad_s2=float(row["acceleration_rad_s2"]),
-            jerk_rad_s3=float(row["jerk_rad_s3"]),
-            derating=float(row.get("derating", 1.0)),
+            # left out: NaN, derived from the drive train unless the study gives it
+            acceleration_rad_s2=float(row.get("acceleration_rad_s2", math.nan)),
+            jerk_rad_s3=float(row.get("jerk_rad_s3", math.nan)),
+            derating=float(row.get("derating", catalogue_derating)),
         )
     missing = [n for n in joint_names if n not in drives]
     if missing:
         raise RobotDescriptionError(f"{path}: no drive for joint(s) {missing}")
     return drives
+
+
+def _catalogue_part(path: Path, data: dict, kind: str, model: str, where: str) -> tuple[Any, float]:
+    """(part, derating) of a catalogue model named in a drives file (``motor = "..."``)."""
+    from armlab.dynamics.catalogue import load_catalogue
+
+    cat_key = data.get("catalogue")
+    if cat_key is not None and not isinstance(cat_key, str):
+        raise RobotDescriptionError(f"{path} catalogue: {cat_key!r} is not a path")
+    catalogue = load_catalogue(None if cat_key is None else path.parent / cat_key)
+    part = catalogue.motor(model, where) if kind == "motor" else catalogue.reducer(model, where)
+    return part, catalogue.derating.get(model, 1.0) if kind == "motor" else 1.0
+
+
+# ----------------------------------------------------------------------------- writing
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value)  # shortest text that reads back to the same float
+    return json.dumps(str(value), ensure_ascii=False)  # a TOML basic string
+
+
+def _given(value: Any) -> bool:
+    """False for a number that is "not given" (NaN) or not a limit (inf): left out."""
+    return not (isinstance(value, float) and not math.isfinite(value))
+
+
+def drives_toml(drives: dict[str, Drive], header: str = "") -> str:
+    """The text of a drives file (``docs/drives.md``) holding ``drives``: every field of each
+    motor, reducer and encoder, floats written so that :func:`read_drives` reads back the same
+    numbers exactly; a NaN field (not given) is left out. ``header`` lines become comments."""
+    lines = [f"# {line}".rstrip() for line in header.splitlines()]
+    lines += ["version = 1", ""]
+    for name, drive in drives.items():
+        data = asdict(drive)
+        lines += ["[[joint]]", f"name = {_toml_value(name)}"]
+        for key, value in data.items():
+            if key not in ("joint", "motor", "reducer", "encoder") and _given(value):
+                lines.append(f"{key} = {_toml_value(value)}")
+        for part in ("motor", "reducer", "encoder"):
+            lines += ["", f"[joint.{part}]"]
+            lines += [f"{k} = {_toml_value(v)}" for k, v in data[part].items() if _given(v)]
+        lines.append("")
+    return "\n".join(lines)

@@ -12,7 +12,9 @@ Every limit a planner, a checker, the limit report or the set-point pre-flight u
    table speed, else the no-load speed ``U / Ke``), so that a plan inside the limits passes the
    motor- and reducer-speed checks; acceleration and jerk from drives.toml; torque = the
    available torque (stall x ratio x efficiency x derating, thesis table 4.3) in place of the
-   URDF effort.
+   URDF effort. A drive that gives no acceleration or jerk (``NaN``: left out of the drives
+   file) has them **derived** after layer 3 when the study gives none either
+   (:func:`drive_train_limits`: peak torque, reflected and link inertia; the source says so).
 3. **study overrides** (``[limits]`` of a study: ``velocity_rad_s``, ``acceleration_rad_s2``,
    ``jerk_rad_s3``, ``effort_Nm``): may only *tighten* a limit the hardware gives; a value above
    it is a :class:`~armlab.SpecError` naming the key, the joint and the hardware limit. Where the
@@ -39,7 +41,13 @@ import numpy as np
 
 from armlab.errors import InputError, SpecError
 
-__all__ = ["Limits", "LIMIT_KEYS", "description_limits", "resolve_limits"]
+__all__ = [
+    "Limits",
+    "LIMIT_KEYS",
+    "description_limits",
+    "resolve_limits",
+    "drive_train_limits",
+]
 
 #: kind -> (field, unit, planner keyword, study key of ``[limits]``)
 LIMIT_KEYS: dict[str, tuple[str, str, str, str]] = {
@@ -59,6 +67,16 @@ SRC_MOTOR_RATED = "motor rated speed / ratio (drives.toml)"
 SRC_MOTOR_NO_LOAD = "motor no-load speed U/Ke / ratio (drives.toml)"
 SRC_REDUCER = "reducer max input speed / ratio (drives.toml)"
 SRC_AVAILABLE = "available torque (stall x ratio x efficiency x derating, drives.toml)"
+SRC_DERIVED_ACCELERATION = (
+    "derived from the drive train: (peak joint torque - max gravity torque) / "
+    "(reflected inertia + max link inertia)"
+)
+SRC_DERIVED_JERK = (
+    "derived from the drive train: motor torque slew Kt U / L x ratio x efficiency / "
+    "(reflected inertia + max link inertia)"
+)
+#: Source of a drive value left out of the drives file, until it is derived or overridden.
+_TO_DERIVE = "not in the drives file (derived unless the study gives it)"
 _UNKNOWN = "unknown"
 _OFF = "off"
 
@@ -361,6 +379,9 @@ def _apply_drives(cur: dict, src: dict, drives, names) -> None:
                     f"{names[j]}: the {kind} limit is already set ({src[kind][j]}); drives apply "
                     "to the description's limits only"
                 )
+            if math.isnan(value):  # left out of the drives file: derived after the overrides
+                src[kind][j] = _TO_DERIVE
+                continue
             cur[kind][j], src[kind][j] = value, f"drives.toml {LIMIT_KEYS[kind][0]}"
         cur["torque"][j], src["torque"][j] = d.available_torque_Nm, SRC_AVAILABLE
 
@@ -387,6 +408,82 @@ def _apply_overrides(cur: dict, src: dict, overrides: Mapping, names) -> None:
             cur[kind][j], src[kind][j] = new[j], f"study [limits] {key}"
 
 
+def _joint_loads(model, n_samples: int = 256, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(largest link inertia ``M_jj`` [kg m^2], largest ``|gravity torque|`` [N m]) per joint
+    over ``n_samples`` uniform random poses in the joint ranges (seeded: reproducible)."""
+    import pinocchio as pin
+
+    rng = np.random.default_rng(seed)
+    lo = np.asarray(model.lowerPositionLimit, float)
+    hi = np.asarray(model.upperPositionLimit, float)
+    data = model.createData()
+    inertia = np.zeros(model.nv)
+    gravity = np.zeros(model.nv)
+    for q in rng.uniform(lo, hi, size=(n_samples, model.nq)):
+        inertia = np.maximum(inertia, np.diag(pin.crba(model, data, q)))
+        gravity = np.maximum(gravity, np.abs(pin.computeGeneralizedGravity(model, data, q)))
+    return inertia, gravity
+
+
+def drive_train_limits(drives, names: Sequence[str], model) -> tuple[np.ndarray, np.ndarray]:
+    """Acceleration [rad/s^2] and jerk [rad/s^3] limits per joint derived from the drive train,
+    for a robot whose description and drives file give none.
+
+    With joint-side peak torque ``T_pk = min(motor peak x derating x N x eta, reducer peak)``
+    (motor peak: the peak rating, else the stall torque), reflected inertia
+    ``J_r = (J_rotor + J_reducer) N^2``, and, over 256 seeded random poses, the largest link
+    inertia ``M_jj`` and gravity torque ``|g_j|``::
+
+        a_max = (T_pk - max |g_j|) / (J_r + max M_jj)
+        j_max = Kt U / L x N x eta x derating / (J_r + max M_jj)
+
+    (the joint accelerates from rest at its worst pose against gravity; the torque can rise no
+    faster than the armature current, ``di/dt <= U / L``, HEU thesis ch. 5 armature equation).
+
+    Raises
+    ------
+    InputError
+        A joint whose peak torque cannot hold its worst gravity torque (nothing to derive).
+    """
+    inertia, gravity = _joint_loads(model)
+    acc, jerk = [], []
+    for j, d in enumerate(_drive_list(drives, names)):
+        m, r = d.motor, d.reducer
+        peak_motor = m.peak_torque_Nm if math.isfinite(m.peak_torque_Nm) else m.stall_torque_Nm
+        gain = r.ratio * r.efficiency * d.derating
+        peak = min(peak_motor * gain, r.peak_torque_Nm)
+        total = d.reflected_inertia_kg_m2 + float(inertia[j])
+        if peak <= gravity[j] or total <= 0:
+            raise InputError(
+                f"{names[j]}: cannot derive an acceleration limit from the drive train: peak "
+                f"torque {peak:.4g} N m <= worst gravity torque {gravity[j]:.4g} N m; give "
+                "[limits] acceleration_rad_s2 in the study or acceleration_rad_s2 in the drives "
+                "file"
+            )
+        acc.append((peak - gravity[j]) / total)
+        slew = m.torque_constant_Nm_A * m.supply_voltage_V / m.inductance_H
+        jerk.append(slew * gain / total)
+    return np.array(acc), np.array(jerk)
+
+
+def _apply_derived(cur: dict, src: dict, drives, names, model) -> None:
+    """Acceleration and jerk the drives file leaves out and the study does not give: derived
+    (:func:`drive_train_limits`), in place."""
+    todo = {
+        kind: [j for j in range(len(names)) if src[kind][j] == _TO_DERIVE]
+        for kind in ("acceleration", "jerk")
+    }
+    if not any(todo.values()):
+        return
+    acc, jerk = drive_train_limits(drives, names, model)
+    for kind, values, note in (
+        ("acceleration", acc, SRC_DERIVED_ACCELERATION),
+        ("jerk", jerk, SRC_DERIVED_JERK),
+    ):
+        for j in todo[kind]:
+            cur[kind][j], src[kind][j] = float(values[j]), note
+
+
 def resolve_limits(
     limits,
     drives=None,
@@ -399,6 +496,7 @@ def resolve_limits(
     tau_max=None,
     need: Sequence[str] = (),
     where: str = "",
+    model=None,
 ) -> Limits:
     """The effective :class:`Limits`: description -> drive train -> study overrides -> speed
     scale -> per-call keywords (module docstring).
@@ -427,6 +525,10 @@ def resolve_limits(
         Kinds the caller cannot work without; any missing ones raise one error.
     where : str
         What is asking, for the messages (``"ptp_sync on teachbot6"``).
+    model : pinocchio.Model, optional
+        The robot's model: with it, an acceleration or jerk limit that neither the drives nor
+        the overrides give is derived from the drive train (:func:`drive_train_limits`);
+        without it such a limit stays unknown.
 
     Returns
     -------
@@ -454,6 +556,8 @@ def resolve_limits(
             _apply_drives(cur, src, drives, names)
         if overrides:
             _apply_overrides(cur, src, overrides, names)
+        if drives is not None and model is not None:
+            _apply_derived(cur, src, drives, names, model)
         values = {LIMIT_KEYS[k][0]: (None if np.any(np.isnan(a)) else a) for k, a in cur.items()}
         base = base._with(values, {k: tuple(v) for k, v in src.items()})
     base = base.scaled(speed_scale)

@@ -23,7 +23,15 @@ from armlab.robot.drives import Drive, read_drives
 from armlab.robot.limits import Limits, description_limits, resolve_limits
 from armlab.robot.urdf_check import build_model_quietly, check_urdf
 
-__all__ = ["Robot", "Payload", "load_robot", "robot_desc_dir", "list_robots"]
+__all__ = [
+    "Robot",
+    "Payload",
+    "load_robot",
+    "robot_desc_dir",
+    "list_robots",
+    "ERD_PREFIX",
+    "example_robot_data_urdf",
+]
 
 
 def robot_desc_dir() -> Path:
@@ -163,7 +171,9 @@ class Robot:
             payload = Payload(float(y.mass), y.lever.copy(), y.inertia.copy())
         self.payload = payload
         self.attach_payload(payload.mass_kg, payload.com_m, payload.inertia_kg_m2)
-        self.limits = resolve_limits(description_limits(model, self.joint_names), drives)
+        self.limits = resolve_limits(
+            description_limits(model, self.joint_names), drives, model=model
+        )
         self.data = model.createData()
 
     # ------------------------------------------------------------------ base and gravity
@@ -342,9 +352,40 @@ class Robot:
         return self.drives[self.joint_names[self.joint_index(joint)]]
 
 
+#: Prefix of a URDF shipped by the ``example-robot-data`` package
+#: (``erd:ur_description/urdf/ur5_robot.urdf``).
+ERD_PREFIX = "erd:"
+
+
+def example_robot_data_urdf(relative: str) -> Path:
+    """The path of a URDF of the ``example-robot-data`` package (a test dependency of armlab),
+    ``relative`` to its ``robots/`` folder (``ur_description/urdf/ur5_robot.urdf``).
+
+    Raises
+    ------
+    RobotDescriptionError
+        The package is not installed or holds no such file.
+    """
+    from importlib.metadata import PackageNotFoundError, distribution
+
+    try:
+        dist = distribution("example-robot-data")
+    except PackageNotFoundError:
+        raise RobotDescriptionError(
+            f"{ERD_PREFIX}{relative}: the example-robot-data package is not installed "
+            "(pip install example-robot-data)"
+        ) from None
+    path = Path(str(dist.locate_file(f"cmeel.prefix/share/example-robot-data/robots/{relative}")))
+    if not path.is_file():
+        raise RobotDescriptionError(f"{ERD_PREFIX}{relative}: no such file in example-robot-data")
+    return path
+
+
 def _find_urdf(name_or_path: str | os.PathLike) -> tuple[str, Path, Path | None]:
     """(name, urdf path, description folder or None)."""
     s = str(name_or_path)
+    if s.startswith(ERD_PREFIX):
+        s = str(example_robot_data_urdf(s[len(ERD_PREFIX) :]))
     path = Path(s)
     if path.suffix.lower() == ".urdf" or os.sep in s or path.exists():
         if path.is_dir():
@@ -379,8 +420,9 @@ def load_robot(
     Parameters
     ----------
     name_or_path : str or path
-        A folder name under ``robot_desc/`` or the path of any URDF. A ``drives.toml`` (and an
-        ``mdh.toml``) beside the URDF are read too.
+        A folder name under ``robot_desc/``, the path of any URDF, or ``erd:<path>`` for a URDF
+        of the ``example-robot-data`` package (``erd:ur_description/urdf/ur5_robot.urdf``). A
+        ``drives.toml`` (and an ``mdh.toml``) beside the URDF are read too.
     payload_kg : float, optional
         Replace the description's payload mass (its centre of mass is kept; for a plain URDF it
         is put at the tool frame). None keeps the description's payload.

@@ -136,6 +136,15 @@ def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
                 lambda: tracking_figure(ctx.tracking),
             )
         )
+        out.append(
+            (
+                "tracking_drive_model.png",
+                "TCP error with and without the reducer's efficiency and friction and the "
+                "amplifier's supply limit (the verdict uses both), and with their feed-forward; "
+                "below, the full model's armature voltages against the supply",
+                lambda: _drive_model_figure(ctx),
+            )
+        )
     loads = getattr(ctx.sizing, "loads", None)
     if loads is not None:
         for plot_loads, name, caption in (
@@ -152,6 +161,38 @@ def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
         ):
             out.append((name, caption, functools.partial(plot_loads, loads, robot)))
     return out
+
+
+def _drive_model_figure(ctx):
+    """The study's motion re-simulated under each drive model (only when the report is drawn:
+    three simulations more than the tracking stage ran)."""
+    from armlab.control import simulate_tracking
+    from armlab.plots.servo import drive_model_figure
+
+    res = ctx.tracking
+    opts: dict[str, Any] = {
+        "feedforward": tuple(res.feedforward) or "none",
+        "quantise": bool(res.meta.get("quantise", True)),
+        "t_after_s": float(res.t[-1] - res.t[0] - ctx.trajectory.duration),
+        "accuracy_m": res.accuracy_m,
+        "controller": ctx.controller,
+    }
+    runs = {
+        "ideal drive": simulate_tracking(
+            ctx.robot, ctx.trajectory, ctx.gains, losses=False, voltage_limit=False, **opts
+        ),
+        "+ efficiency and friction": simulate_tracking(
+            ctx.robot, ctx.trajectory, ctx.gains, voltage_limit=False, **opts
+        ),
+        "+ supply limit (full model)": res,
+    }
+    extra = tuple(f for f in ("friction", "efficiency") if f not in res.feedforward)
+    if extra:
+        ff = tuple(res.feedforward) + extra
+        runs[f"full model, feed-forward + {', '.join(extra)}"] = simulate_tracking(
+            ctx.robot, ctx.trajectory, ctx.gains, **{**opts, "feedforward": ff}
+        )
+    return drive_model_figure(runs)
 
 
 # ---------------------------------------------------------------------------- report.md
@@ -375,9 +416,58 @@ def _section_lines(key: str, block: dict) -> list[str]:
                 f"{'within' if ok else 'OUTSIDE'} the budget.",
                 "",
             ]
+        model = block.get("model", {})
+        if model:
+            lines += [
+                "Drive model: "
+                + ", ".join(
+                    [
+                        "supply-voltage limit with back-EMF"
+                        if model.get("voltage_limit")
+                        else "NO supply-voltage limit",
+                        "reducer efficiency and friction"
+                        if model.get("losses")
+                        else "NO reducer losses",
+                        f"controller `{model.get('controller')}` "
+                        f"({model.get('dac_bits')}-bit +-{_fmt(model.get('dac_range_V'))} V D/A, "
+                        "current loop every "
+                        f"{_fmt(1e6 * model.get('current_sample_time_s', 0))} us)",
+                    ]
+                )
+                + ".",
+                "",
+            ]
+        diag = block.get("diagnosis")
+        if isinstance(diag, dict):
+            lines += [
+                f"Limiting factor: {diag.get('limiting_factor')}.",
+                f"What fixes it: {diag.get('offer')}.",
+                "",
+            ]
         return lines + _table(
-            ["joint", "max error [rad]", "final error [rad]"],
-            [[j, b.get("max_error_rad"), b.get("final_error_rad")] for j, b in items],
+            [
+                "joint",
+                "max error [rad]",
+                "final error [rad]",
+                "peak voltage [V]",
+                "asked [V]",
+                "supply [V]",
+                "saturated [s]",
+                "peak current [A]",
+            ],
+            [
+                [
+                    j,
+                    b.get("max_error_rad"),
+                    b.get("final_error_rad"),
+                    b.get("peak_voltage_V"),
+                    b.get("peak_voltage_demand_V"),
+                    b.get("supply_voltage_V"),
+                    b.get("time_in_saturation_s"),
+                    b.get("peak_current_A"),
+                ]
+                for j, b in items
+            ],
         )
     if key == "export":
         cycle_ms = 1e3 * block.get("cycle_s", math.nan)

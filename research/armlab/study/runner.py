@@ -275,6 +275,12 @@ def run_spec(
                     raise fail(stage, exc) from None
             record(stage, key, block, t0)
             bar.update()
+        if ctx.drives_selected:  # the sizing stage gave the robot its drive train
+            summary["robot"].update(robot_block(ctx))
+            summary["robot"]["drives_from"] = "catalogue selection (sizing stage)"
+            if out is not None:
+                record_ = design_record(ctx.robot, ctx.controller, spec)
+                ctx.files[DESIGN_FILE] = str(write_json(out / DESIGN_FILE, record_))
         if out is not None and (spec.study.report if report is None else report):
             from armlab.study.report import write_report
 

@@ -3,7 +3,8 @@
 A study file has these tables (every key optional unless marked; units in the key names)::
 
     [study]      name, seed, stages (subset of STAGES, in chain order), report (bool)
-    [robot]      name (required: built-in name or URDF path), tool_frame, lock_joints,
+    [robot]      name (required: built-in name, URDF path or erd:<path in example-robot-data>),
+                 drives (drives file path), tool_frame, lock_joints,
                  base_xyz_m, base_rpy_deg (mounting of the base in the world)
     [payload]    mass_kg, com_m (centre of mass in the tool frame)
     [waypoints]  unit ("deg" | "rad"), joint (n x n_joints) OR cartesian (n x 6: x, y, z in m,
@@ -13,8 +14,11 @@ A study file has these tables (every key optional unless marked; units in the ke
     [plan]       planner, profile, objective, duration_s, speed_scale, torque_limits,
                  jerk_limits, check_dt_s, speed_m_s, blend_radius_m
     [drives.<joint>]  ratio, motor, reducer, efficiency, derating, pulses_per_rev, decoding
+                 (catalogue names; a robot without drives: motor, reducer, pulses_per_rev
+                 for every joint build its drive train)
     [kinematics] workspace_samples, accuracy_samples
-    [sizing]     catalogue, select
+    [sizing]     catalogue, select (true: choose motor + reducer per joint from the catalogue;
+                 a robot without a drive train then runs the later stages on the selection)
     [control]    position_bandwidth_rad_s | rise_time_s, phase_margin_deg, gain_margin_dB,
                  overshoot_pct, method, current_sample_time_s, n_inertia_samples
     [tracking]   feedforward, quantise, t_after_s, accuracy_m
@@ -195,7 +199,13 @@ class StudyOptions:
 class RobotSpec:
     """``[robot]``: which arm (built-in name or URDF path, relative to the study file)."""
 
-    name: str = _key(_str(), doc="built-in robot name or URDF path")
+    name: str = _key(_str(), doc="built-in robot name, URDF path or erd:<example-robot-data path>")
+    drives: str | None = _key(
+        _str(),
+        None,
+        "drives file (docs/drives.md), relative to the study file; replaces the "
+        "drives.toml beside the URDF",
+    )
     tool_frame: str | None = _key(_str(), None, "tool frame (default tool0 or the last frame)")
     lock_joints: tuple[str, ...] = _key(_str_list(), (), "joints locked at 0")
     base_xyz_m: tuple[float, ...] | None = _key(
@@ -253,6 +263,9 @@ class PlanSpec:
     )
     speed_scale: float = _key(_float(0.0, 1.0, lo_open=True), 1.0, "time scaling in (0, 1]")
     torque_limits: bool = _key(_bool, True, "optimal/path: honour torque limits")
+    drive_limits: bool = _key(
+        _bool, False, "optimal/path: plan inside each motor's envelope (voltage line, peak, RMS)"
+    )
     jerk_limits: bool | None = _key(
         _bool, None, "optimal/path: honour the jerk limits (default: the planner's own default)"
     )
@@ -263,7 +276,12 @@ class PlanSpec:
 
 @dataclass(frozen=True)
 class DriveOverride:
-    """``[drives.<joint>]``: change a joint's drive train (catalogue names or numbers)."""
+    """``[drives.<joint>]``: change a joint's drive train (catalogue names or numbers).
+
+    For a robot without a drive train, every joint needs ``motor`` and ``reducer`` (catalogue
+    names) and ``pulses_per_rev``; they then build it (``decoding`` default 4, acceleration and
+    jerk from ``[limits]`` or derived from the drive train, docs/drives.md).
+    """
 
     ratio: float | None = _key(_float(0.0, lo_open=True), None, "reducer ratio")
     motor: str | None = _key(_str(), None, "motor model (catalogue or the robot's)")
@@ -287,7 +305,12 @@ class SizingSpec:
     """``[sizing]``: the drive catalogue (built-in name or TOML path) and whether to select."""
 
     catalogue: str | None = _key(_str(), None, "catalogue name or TOML path")
-    select: bool = _key(_bool, False, "choose motor + reducer per joint from the catalogue")
+    select: bool = _key(
+        _bool,
+        False,
+        "choose motor + reducer per joint from the catalogue (a robot without a drive train: "
+        "the selection becomes its drive train for tuning, tracking and export)",
+    )
 
 
 @dataclass(frozen=True)
@@ -329,7 +352,7 @@ class TrackingSpec:
     feedforward: tuple[str, ...] | str | None = _key(
         _feedforward,
         None,
-        'list of velocity, acceleration, gravity, friction, computed_torque; or "none"',
+        'list of velocity, acceleration, gravity, friction, efficiency, computed_torque; or "none"',
     )
     quantise: bool = _key(_bool, True, "12-bit D/A and encoder quantisation")
     t_after_s: float | None = _key(_float(0.0), None, "time simulated after the end, s")
@@ -392,8 +415,10 @@ class StudySpec:
     def resolve(self, name_or_path: str) -> str:
         """A path relative to the study file made absolute; a bare name stays as it is."""
         p = Path(name_or_path)
-        if p.is_absolute() or (
-            "/" not in name_or_path and "\\" not in name_or_path and not p.suffix
+        if (
+            name_or_path.startswith("erd:")
+            or p.is_absolute()
+            or ("/" not in name_or_path and "\\" not in name_or_path and not p.suffix)
         ):
             return name_or_path
         return str((self.base_dir / p).resolve())
@@ -476,6 +501,11 @@ def parse_study(
         raise SpecError(f"plan.planner: 'arc3' needs exactly 3 Cartesian waypoints, got {n_wp}")
     if plan.planner == "blend" and plan.blend_radius_m is None:
         raise SpecError("plan.blend_radius_m: missing (required by planner 'blend')")
+    if plan.drive_limits and plan.planner not in ("optimal", "path"):
+        raise SpecError(
+            f"plan.drive_limits: only the 'optimal' and 'path' planners plan inside the motor "
+            f"envelope, not {plan.planner!r}"
+        )
     stages = parts["study"].stages
     order = [s for s in STAGES if s in stages]
     if list(stages) != order or len(set(stages)) != len(stages):

@@ -92,6 +92,7 @@ class StudyContext:
     sizing: Any = None
     requirement_sizing: Any = None
     selection: Any = None
+    drives_selected: bool = False
     gains: Any = None
     tracking: Any = None
     setpoints: Any = None
@@ -158,7 +159,6 @@ def build_robot(spec: StudySpec) -> Robot:
     tighten a hardware limit (:class:`SpecError` naming the key, joint and hardware limit).
     """
     from armlab.robot.drives import Drive
-    from armlab.robot.limits import description_limits, resolve_limits
 
     base = _load_cached(
         spec.resolve(spec.robot.name), spec.robot.tool_frame, tuple(spec.robot.lock_joints)
@@ -172,9 +172,13 @@ def build_robot(spec: StudySpec) -> Robot:
         mass = robot.payload.mass_kg if p.mass_kg is None else p.mass_kg
         com = robot.payload.com_m if p.com_m is None else np.asarray(p.com_m)
         robot.attach_payload(mass, com)
+    if spec.robot.drives is not None:  # the study's drives file replaces the description's
+        from armlab.robot.drives import read_drives
+
+        robot.drives = read_drives(spec.resolve(spec.robot.drives), robot.joint_names)
     if spec.drives:
         if robot.drives is None:
-            raise SpecError(f"drives: robot {robot.name} has no drives.toml to change")
+            robot.drives = _drives_from_study(robot, spec)
         drives = dict(robot.drives)
         for joint, change in spec.drives.items():
             where = f"drives.{joint}"
@@ -209,12 +213,99 @@ def build_robot(spec: StudySpec) -> Robot:
                 new = replace(new, derating=change.derating)
             drives[joint] = new
         robot.drives = drives
+    _resolve_robot_limits(robot, spec)
+    return robot
+
+
+def selection_for_study(spec: StudySpec) -> StudyContext:
+    """Plan a study's motion and select its drive train from the catalogue (``armlab drives``):
+    the robot, kinematics, plan and static-load stages, then :func:`select_and_install` -- also
+    for a robot that has drives (their encoders are kept). The context holds the robot with the
+    selected drives, the trajectory, the selection and the sizing on the selection's duty cycle.
+
+    Raises
+    ------
+    ArmlabError
+        Bad input (names the study key), an infeasible plan, or a joint without a passing
+        catalogue entry (:class:`armlab.InfeasibleError` naming the joint and the check).
+    """
+    from armlab.dynamics import SizingOptions, size
+
+    ctx = StudyContext(spec=spec)
+    ctx.controller = controller_profile(spec)
+    ctx.robot = build_robot(spec)
+    for stage in ("kinematics", "plan", "static_load"):
+        STAGE_FUNCTIONS[stage](ctx)
+    options = SizingOptions(controller=ctx.controller)
+    duty = select_and_install(ctx, options)
+    ctx.sizing = size(ctx.robot, duty, dt=spec.plan.check_dt_s, options=options)
+    return ctx
+
+
+def _resolve_robot_limits(robot, spec: StudySpec) -> None:
+    """``robot.limits`` from its description, drive train and the study's ``[limits]``; a drive
+    value the drives file left out becomes the resolved (derived or study) one."""
+    from armlab.robot.limits import description_limits, resolve_limits
+
     robot.limits = resolve_limits(
         description_limits(robot.model, robot.joint_names),
         robot.drives,
         overrides=vars(spec.limits),
+        model=robot.model,
     )
-    return robot
+    if robot.drives is not None:
+        robot.drives = _complete_drives(robot.drives, robot.limits)
+
+
+def _complete_drives(drives: dict, limits) -> dict:
+    """The drives with an acceleration or jerk left out of the drives file (NaN) replaced by
+    the robot's resolved limit (derived from the drive train, or the study's)."""
+    out = {}
+    for j, name in enumerate(limits.joint_names):
+        d = drives[name]
+        for key in ("acceleration_rad_s2", "jerk_rad_s3"):
+            value = getattr(limits, key)
+            if math.isnan(getattr(d, key)) and value is not None:
+                d = replace(d, **{key: float(value[j])})
+        out[name] = d
+    return out
+
+
+def _drives_from_study(robot, spec: StudySpec) -> dict:
+    """A drive train built from ``[drives.<joint>]`` catalogue names alone, for a robot without
+    one: every joint needs ``motor``, ``reducer`` and ``pulses_per_rev`` (decoding default 4, as
+    in a drives file); acceleration and jerk are left to the limits (study or derived)."""
+    from armlab.robot.drives import Drive, Encoder
+
+    missing = [j for j in robot.joint_names if j not in spec.drives]
+    if missing:
+        raise SpecError(
+            f"drives.{missing[0]}: missing; robot {robot.name} has no drive train, so every "
+            f"joint needs [drives.<joint>] motor, reducer and pulses_per_rev (or give "
+            "[robot] drives = <drives file> or [sizing] select = true)"
+        )
+    cat = _catalogue(spec)
+    out = {}
+    for joint in robot.joint_names:
+        change = spec.drives[joint]
+        where = f"drives.{joint}"
+        for key in ("motor", "reducer", "pulses_per_rev"):
+            if getattr(change, key) is None:
+                raise SpecError(
+                    f"{where}.{key}: missing (robot {robot.name} has no drive train to change)"
+                )
+        motor = cat.motor(str(change.motor), f"{where}.motor")
+        reducer = cat.reducer(str(change.reducer), f"{where}.reducer")
+        out[joint] = Drive(
+            joint=joint,
+            motor=motor,
+            reducer=reducer,
+            encoder=Encoder(int(change.pulses_per_rev or 0), int(change.decoding or 4)),
+            acceleration_rad_s2=math.nan,
+            jerk_rad_s3=math.nan,
+            derating=cat.derating.get(motor.model, 1.0),
+        )
+    return out
 
 
 def robot_block(ctx: StudyContext) -> dict:
@@ -411,6 +502,7 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
         limits: dict[str, Any] = {
             "tau_max": None if torque else False,
             "j_max": None if ctx.jerk_limited else False,
+            "drive_limits": plan.drive_limits,  # the envelope replaces the torque box
         }
         if plan.planner == "path":  # the cubic spline through the waypoints, time-optimally
             return T.time_optimal_path(robot, Q, **limits)
@@ -472,7 +564,8 @@ def stage_plan(ctx: StudyContext) -> dict:
     assert ctx.waypoints_q is not None  # plan_trajectory needs them
     ctx.trajectory = traj
     robot = ctx.robot
-    torque = robot.limits.torque_Nm is not None
+    # with plan.drive_limits the motor envelope replaces the torque box (checked below)
+    torque = robot.limits.torque_Nm is not None and not spec.plan.drive_limits
     # a trajectory already sampled at least as finely as the check step is checked at its own
     # samples: they are the planner's exact values (resampling would interpolate across the
     # acceleration steps of a trapezoid)
@@ -488,6 +581,16 @@ def stage_plan(ctx: StudyContext) -> dict:
                 f"t = {at:.4g} s)"
             )
         failed.append(f"plan: {kind} of {joint} is {ratio:.4g} x its limit at t = {at:.4g} s")
+    drive: dict[str, list[float]] = {}
+    if spec.plan.drive_limits:  # the independent per-sample check of the motor envelope
+        from armlab.planning.timescale import drive_check
+        from armlab.robot.drivetrain import drive_train
+
+        ratios = drive_check(traj, planning_robot(ctx), drive_train(robot), spec.plan.check_dt_s)
+        drive = {k: r.tolist() for k, r in ratios.items()}
+        for k, r in ratios.items():
+            for j in np.flatnonzero(r > 1 + 1e-6):
+                failed.append(f"plan: {k} of {robot.joint_names[j]} is {r[j]:.4g} x its limit")
     kind, joint, ratio = report.worst()
     return {
         "status": "ok",
@@ -504,6 +607,7 @@ def stage_plan(ctx: StudyContext) -> dict:
         "peak_joint": {k: report.joint_names[int(np.argmax(r))] for k, r in report.ratios.items()},
         "ratios": report.to_dict(),
         "feasible": report.ok(tol=1e-6),
+        "drive_ratios": drive,
         "worst": {"kind": kind, "joint": joint, "ratio": ratio},
         "stats": _jsonable(getattr(traj, "stats", {})),
     }
@@ -563,7 +667,50 @@ def stage_static_load(ctx: StudyContext) -> dict:
 
 def _needs_drives(ctx: StudyContext) -> None:
     if ctx.robot.drives is None:
-        raise NotApplicable(f"{ctx.robot.name} has no drives.toml (motor, reducer, encoder)")
+        raise NotApplicable(
+            f"{ctx.robot.name} has no drive train (no drives.toml: give [robot] drives = "
+            "<drives file>, [drives.<joint>] catalogue names, or [sizing] select = true)"
+        )
+
+
+def selection_duty(ctx: StudyContext) -> list:
+    """The duty cycle a selection is made for: the planned motion plus a 1 s hold at each
+    joint's worst static pose (:func:`armlab.dynamics.selection.hold_trajectories`; the static
+    load stage's result, computed here if that stage did not run)."""
+    from armlab.dynamics import static_load
+    from armlab.dynamics.selection import hold_trajectories
+
+    static = ctx.static_load
+    if static is None:
+        static = static_load(ctx.robot, seed=ctx.spec.study.seed)
+    return [ctx.trajectory, *hold_trajectories(ctx.robot, static)]
+
+
+def select_and_install(ctx: StudyContext, options) -> list:
+    """Select every joint's motor + reducer from the catalogue against :func:`selection_duty`
+    and make them the robot's drive train (limits resolved again: motor speed / ratio, available
+    torque, derived acceleration and jerk where the study gives none). Returns the duty cycle.
+
+    Raises
+    ------
+    InfeasibleError
+        A joint for which no catalogue entry passes, naming the check every candidate fails.
+    """
+    from armlab.dynamics import select_drives
+
+    duty = selection_duty(ctx)
+    sel = select_drives(
+        ctx.robot,
+        duty,
+        catalogue=_catalogue(ctx.spec),
+        dt=ctx.spec.plan.check_dt_s,
+        options=options,
+    )
+    ctx.selection = sel
+    ctx.robot.drives = sel.require().drives(ctx.robot)
+    _resolve_robot_limits(ctx.robot, ctx.spec)
+    ctx.drives_selected = True
+    return duty
 
 
 def _sizing_failures(report) -> list[str]:
@@ -575,15 +722,29 @@ def _sizing_failures(report) -> list[str]:
 def stage_sizing(ctx: StudyContext) -> dict:
     """Drive sizing checks along the planned trajectory, against the study's controller (encoder
     checks at its cycle and pulse limit); the worst-case requirement moves of HEU thesis tables
-    4.2/4.3 beside them (advisories); optional selection from a catalogue."""
+    4.2/4.3 beside them (advisories); optional selection from a catalogue.
+
+    A robot without a drive train and ``[sizing] select = true``: the drives are first selected
+    from the catalogue (:func:`select_and_install`) against the planned motion plus a hold at
+    each joint's worst static pose, become the robot's drive train for the later stages, and are
+    sized on that same duty cycle.
+    """
     from armlab.dynamics import SizingOptions, requirement_moves, select_drives, size
 
-    _needs_drives(ctx)
     assert ctx.controller is not None  # run_study sets it before the stages
     options = SizingOptions(controller=ctx.controller)
-    res = size(ctx.robot, ctx.trajectory, dt=ctx.spec.plan.check_dt_s, options=options)
+    duty = [ctx.trajectory]
+    if ctx.robot.drives is None and ctx.spec.sizing.select:
+        duty = select_and_install(ctx, options)
+    _needs_drives(ctx)
+    res = size(ctx.robot, duty, dt=ctx.spec.plan.check_dt_s, options=options)
     ctx.sizing = res
     block = {"status": "ok", **verdict_block(_sizing_failures(res)), **_to_dict(res)}
+    if ctx.drives_selected:
+        block["duty_cycle"] = (
+            "planned motion + 1 s hold at each joint's worst static pose (the selection's)"
+        )
+        block["selection"] = {"status": "ok", "installed": True, **_to_dict(ctx.selection)}
     if ctx.static_load is not None:
         # HEU thesis tables 4.2/4.3: the drives against each joint's worst case (full speed and
         # acceleration from its worst static pose), beside the planned cycle
@@ -598,7 +759,7 @@ def stage_sizing(ctx: StudyContext) -> dict:
             "failures": [f"{joint}:{check}" for joint, check in ctx.requirement_sizing.failures()],
         }
         block["advisories"] = adv
-    if ctx.spec.sizing.select:
+    if ctx.spec.sizing.select and not ctx.drives_selected:
         sel = select_drives(
             ctx.robot,
             [ctx.trajectory],
@@ -681,15 +842,25 @@ def stage_tracking(ctx: StudyContext) -> dict:
         opts["t_after_s"] = t.t_after_s
     if t.accuracy_m is not None:
         opts["accuracy_m"] = t.accuracy_m
-    res = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, **opts)
+    # the full model: supply-voltage limit with back-EMF, reducer efficiency and friction,
+    # the controller's servo period, D/A and encoder
+    res = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, controller=ctx.controller, **opts)
     ctx.tracking = res
     failed = []
+    block: dict[str, Any] = {}
     if not res.within_accuracy:
+        from armlab.control.simulate import diagnose_tracking
+
+        diag = diagnose_tracking(
+            ctx.robot, ctx.trajectory, ctx.gains, res, controller=ctx.controller, **opts
+        )
+        block["diagnosis"] = diag
         failed.append(
             f"tracking: TCP error {res.tcp_max_error_m * 1e3:.4g} mm > budget "
-            f"{res.accuracy_m * 1e3:.4g} mm"
+            f"{res.accuracy_m * 1e3:.4g} mm; limiting factor: {diag['limiting_factor']}; "
+            f"{diag['offer']}"
         )
-    return {"status": "ok", **verdict_block(failed), **_to_dict(res)}
+    return {"status": "ok", **verdict_block(failed), **_to_dict(res), **block}
 
 
 # ---------------------------------------------------------------------------- export

@@ -2,7 +2,8 @@
 
 * :mod:`.core` -- :class:`Trajectory` (the one currency between planners and consumers) and
   :class:`LimitReport`;
-* :mod:`.profiles` -- the timing primitives (trapezoid and double-S motion profiles);
+* :mod:`.profiles` -- the timing primitives (trapezoid and double-S motion profiles; batches
+  of time-synchronised rest-to-rest S-curves in closed form, :func:`synchronised_scurves`);
 * :mod:`.waypoints` -- the one validation of joint waypoints.
 
 The planners live in :mod:`armlab.planning`. Their stable names of the design notes --
@@ -17,7 +18,13 @@ from typing import Any
 
 from armlab.robot.limits import Limits, resolve_limits
 from armlab.trajectory.core import LIMIT_KINDS, LimitReport, Trajectory
-from armlab.trajectory.profiles import MotionProfile, double_s_profile, trapezoid_profile
+from armlab.trajectory.profiles import (
+    MotionProfile,
+    SCurveBatch,
+    double_s_profile,
+    synchronised_scurves,
+    trapezoid_profile,
+)
 from armlab.trajectory.waypoints import validate_waypoints
 
 __all__ = [
@@ -27,6 +34,8 @@ __all__ = [
     "MotionProfile",
     "trapezoid_profile",
     "double_s_profile",
+    "synchronised_scurves",
+    "SCurveBatch",
     "validate_waypoints",
     "Limits",
     "resolve_limits",

@@ -80,6 +80,8 @@ _NOISE = 256 * np.finfo(float).eps
 MERGE_FRACTION = 1e-2
 #: steps of successive parabolic interpolation towards each torque peak inside a piece
 REFINE_STEPS = 3
+#: intervals of the uniform grid on which torques are evaluated before the peak refinement
+TORQUE_GRID = 1024
 
 
 def sample_times(duration: float, dt: float, knots=()) -> np.ndarray:
@@ -459,8 +461,9 @@ class Trajectory:
     def limit_samples(self, dt: float | None = None, *, robot: Robot | None = None) -> LimitSamples:
         """The points where the evaluation can peak: every knot, every piece's left limit, the
         :meth:`critical_times`, a uniform grid of step ``dt`` [s] if given, and with ``robot``
-        the torques (RNEA, :func:`armlab.robot.rigid_body.inverse_dynamics`) at those points
-        and at the middle of every piece, refined by :data:`REFINE_STEPS` steps of successive
+        the torques (RNEA, :func:`armlab.robot.rigid_body.inverse_dynamics`) at those points,
+        at the middle of every piece and on a uniform grid of :data:`TORQUE_GRID` intervals,
+        refined by :data:`REFINE_STEPS` steps of successive
         parabolic interpolation around every local peak of ``|tau|`` of each joint inside a
         piece.
 
@@ -479,8 +482,10 @@ class Trajectory:
         extra = [self.critical_times()]
         if dt is not None:
             extra.append(self.t[0] + sample_times(self.duration, dt))
-        if robot is not None:  # the middle of every piece: a peak inside has three points
+        if robot is not None:  # the middle of every piece and a uniform torque grid: a peak
+            # inside a long piece (a rise and fall between its middle and a knot) has points
             extra.append(self.t[:-1] + np.diff(self.t) / 2)
+            extra.append(np.linspace(self.t[0], self.t[-1], TORQUE_GRID + 1)[1:-1])
         times = np.unique(np.concatenate(extra))
         times = times[(times > self.t[0]) & (times < self.t[-1])]
         times = times[np.searchsorted(self.t, times) == np.searchsorted(self.t, times, "right")]

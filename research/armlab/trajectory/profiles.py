@@ -32,6 +32,11 @@ broadcast, ``inf`` switches a limit off): :func:`trapezoid_peak_speed`,
 :func:`synchronised_profiles` (Jiang 1987, eq. 1-5: PTP motion and the optimiser's warm start),
 the SHU step table (:mod:`armlab.planning.steps`) and the requirement moves of the drive sizing
 (:mod:`armlab.dynamics.requirements`) all call them.
+
+:func:`synchronised_scurves` is the batch form of :func:`synchronised_profiles`: many
+problems (``(n_problems, n_joints)`` moves, or the segments of a path that stops at its
+waypoints) at once, every step in closed form (the peak speed for a given duration from a
+quadratic or a cubic instead of a bisection), for planners that need thousands of plans.
 """
 
 from __future__ import annotations
@@ -63,6 +68,11 @@ __all__ = [
     "double_s_min_times",
     "double_s_speed_for_duration",
     "time_grid",
+    "SCurveBatch",
+    "synchronised_scurves",
+    "trapezoid_min_time_from_state",
+    "trapezoid_from_state",
+    "trapezoid_blocked_from_state",
 ]
 
 _EPS = 1e-12
@@ -136,6 +146,9 @@ class MotionProfile:
         ``"trapezoid"``, ``"double_s"`` or ``"rest"``.
     params : dict
         The parameters the profile was built from (peak speed, acceleration, ...), for reports.
+    v_start : float
+        Speed at ``t = 0`` (0: from rest; a replanned motion starts moving,
+        :func:`trapezoid_from_state`).
 
     Attributes
     ----------
@@ -150,6 +163,7 @@ class MotionProfile:
     jerks: np.ndarray
     kind: str = "trapezoid"
     params: dict = field(default_factory=dict)
+    v_start: float = 0.0
 
     def __post_init__(self) -> None:
         d = np.asarray(self.durations, float).reshape(-1)
@@ -161,6 +175,7 @@ class MotionProfile:
         self.t_knots = np.concatenate([[0.0], np.cumsum(self.durations)])
         s = np.zeros(k + 1)
         v = np.zeros(k + 1)
+        v[0] = self.v_start
         for i in range(k):
             h, a0, jj = self.durations[i], self.accels[i], self.jerks[i]
             s[i + 1] = s[i] + v[i] * h + a0 * h * h / 2 + jj * h**3 / 6
@@ -225,7 +240,7 @@ class MotionProfile:
         k = self.durations.size
         if k == 0:
             z = np.zeros(t.size)
-            return z, z.copy(), z.copy(), z.copy()
+            return z, z + self.v_start, z.copy(), z.copy()
         tc = np.clip(t, 0.0, self.duration)
         i = np.clip(np.searchsorted(self.t_knots, tc, side="right") - 1, 0, k - 1)
         tau = np.clip(tc - self.t_knots[i], 0.0, self.durations[i])
@@ -246,7 +261,12 @@ class MotionProfile:
             if name in params:
                 params[name] = params[name] / k**p
         return MotionProfile(
-            self.durations * k, self.accels / k**2, self.jerks / k**3, kind=self.kind, params=params
+            self.durations * k,
+            self.accels / k**2,
+            self.jerks / k**3,
+            kind=self.kind,
+            params=params,
+            v_start=self.v_start / k,
         )
 
 
@@ -586,3 +606,442 @@ def synchronised_profiles(
         for i in range(L.size)
     ]
     return T, t_min, profiles
+
+
+# ---------------------------------------------------------------------- batched, closed form
+def _double_s_speed_closed(
+    length, duration, a_max, j_max, v_max=np.inf, *, peak=None, t_min=None
+) -> np.ndarray:
+    """:func:`double_s_speed_for_duration` in closed form (arrays broadcast).
+
+    The duration ``T = L / v + Ta(v)`` (Biagiotti & Melchiorri §3.4) is solved for the peak
+    speed ``v`` on ``(0, v_p]``:
+
+    * acceleration limit reached (``v j >= a^2``, ``Ta = a / j + v / a``): the quadratic
+      ``v^2 / a - b v + L = 0``, ``b = T - a / j``, smaller root
+      ``v = 2 L / (b + sqrt(b^2 - 4 L / a))``;
+    * not reached (``Tj = sqrt(v / j)``, ``Ta = 2 Tj``): with ``u = Tj`` the cubic
+      ``2 u^3 - T u^2 + L / j = 0``, whose middle root is wanted. Its largest root is
+      ``u0 = T/6 + T/3 cos(phi/3)``, ``phi = 2 asin(sqrt(27 L / (j T^3)))``; the other two
+      solve ``x^2 - s x - L / (2 j u0) = 0`` with ``s = T/2 - u0 = 2T/3 sin^2(phi/6)``
+      (Vieta), and the middle one is its positive root -- no cancellation at any length.
+
+    The regime is the one whose root satisfies its own condition (the duration is monotone
+    in ``v``, so there is one). ``j = inf`` is the trapezoid (the first case with
+    ``a / j = 0``); ``v_p`` itself where ``duration`` is not above the minimum; ``0`` for
+    ``L <= 0``. ``peak`` and ``t_min``: :func:`double_s_peak_speed` and
+    :func:`double_s_min_times` of the same arguments when the caller has them.
+    """
+    L, T, a, j, v = _floats(length, duration, a_max, j_max, v_max)
+    v_hi = double_s_peak_speed(L, v, a, j) if peak is None else peak
+    t_min = double_s_min_times(L, v, a, j) if t_min is None else t_min
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        aj = a / j  # 0 for the trapezoid
+        b = T - aj
+        disc = b * b - 4 * L / a
+        va = 2 * L / (b + np.sqrt(np.maximum(disc, 0.0)))
+        phi = 2 * np.arcsin(np.sqrt(np.minimum(27 * L / (j * T**3), 1.0)))
+        u0 = T / 6 + T / 3 * np.cos(phi / 3)
+        sv = 2 * T / 3 * np.sin(phi / 6) ** 2
+        u = (sv + np.sqrt(sv * sv + 2 * L / (j * u0))) / 2
+        vb = j * u * u
+        plateau = (disc >= 0) & (b > 0) & (va * j >= a * a)  # j = inf: always
+        vT = np.where(plateau, va, vb)
+    vT = np.where(T <= t_min, v_hi, np.minimum(vT, v_hi))
+    return np.where(L > 0, vT, 0.0)
+
+
+@dataclass
+class SCurveBatch:
+    """Time-synchronised rest-to-rest double S profiles of many problems (see
+    :func:`synchronised_scurves`). Shapes: ``(..., n_joints)`` per joint, ``(...)`` per
+    problem.
+
+    Attributes
+    ----------
+    duration : array (...)
+        Common duration of each problem [s].
+    t_min : array (..., n_joints)
+        Each joint's own shortest duration [s].
+    distance : array (..., n_joints)
+        Signed joint moves.
+    v, a, j : array (..., n_joints)
+        Peak speed, peak acceleration (``a_max`` where it is reached) and jerk of each joint's
+        profile (unsigned; ``v = 0`` for a joint that does not move).
+    tj, ta, tv : array (..., n_joints)
+        Jerk phase, acceleration ramp (both jerk phases and the constant part) and cruise
+        durations [s]: the seven phases are ``tj, ta - 2 tj, tj, tv, tj, ta - 2 tj, tj``.
+    a_max : array (..., n_joints)
+        The acceleration limit of each joint.
+    """
+
+    duration: np.ndarray
+    t_min: np.ndarray
+    distance: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    j: np.ndarray
+    tj: np.ndarray
+    ta: np.ndarray
+    tv: np.ndarray
+    a_max: np.ndarray
+
+    def profile(self, index) -> MotionProfile:
+        """The :class:`MotionProfile` of one joint of one problem, ``index`` into the
+        ``(..., n_joints)`` arrays (e.g. ``(problem, joint)``), over ``|distance|``."""
+        L = abs(float(self.distance[index]))
+        T = float(self.duration[index[:-1]] if isinstance(index, tuple) else self.duration)
+        v = float(self.v[index])
+        if L <= 0 or v <= 0:
+            return rest_profile(T)
+        return _double_s_phases(L, v, float(self.a_max[index]), float(self.j[index]), T)
+
+    def evaluate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(q, qd, qdd)`` displacements from the start at times ``t`` (m,) [s]: arrays
+        ``(m, ..., n_joints)``; clamped to each problem's ``[0, duration]``."""
+        t = np.asarray(t, float).reshape(-1)
+        shape = (t.size,) + (1,) * self.distance.ndim
+        tt = np.minimum(t.reshape(shape), self.duration[..., None])
+        tt = np.maximum(tt, 0.0)
+        sgn = np.sign(self.distance)
+        ap, jj, tj, ta, tv = self.a, self.j, self.tj, self.ta, self.tv
+        tc = ta - 2 * tj
+        z = np.zeros_like(ap)
+        jf = np.where(np.isfinite(jj), jj, 0.0)  # a trapezoid has no jerk phases
+        d = np.stack([tj, tc, tj, tv, tj, tc, tj])  # (7, ..., n)
+        acc = np.stack([z, ap, ap, z, z, -ap, -ap])
+        jrk = np.stack([jf, z, -jf, z, -jf, z, jf])
+        s = np.zeros_like(tt * ap)
+        v = np.zeros_like(s)
+        a = np.zeros_like(s)
+        t0 = np.zeros_like(ap)
+        s0, v0 = np.zeros_like(ap), np.zeros_like(ap)
+        for k in range(7):
+            h = np.clip(tt - t0, 0.0, d[k])
+            a0, j0 = acc[k], jrk[k]
+            inside = (tt >= t0) & ((tt < t0 + d[k]) | (k == 6))
+            s = np.where(inside, s0 + v0 * h + a0 * h * h / 2 + j0 * h**3 / 6, s)
+            v = np.where(inside, v0 + a0 * h + j0 * h * h / 2, v)
+            a = np.where(inside, a0 + j0 * h, a)
+            hk = d[k]
+            s0 = s0 + v0 * hk + a0 * hk * hk / 2 + j0 * hk**3 / 6
+            v0 = v0 + a0 * hk + j0 * hk * hk / 2
+            t0 = t0 + hk
+        return sgn * s, sgn * v, sgn * a
+
+
+def _ramp_one(v: float, a: float, j: float) -> tuple[float, float]:
+    """Scalar :func:`double_s_ramp` (finite ``a``)."""
+    if v <= 0:
+        return 0.0, 0.0
+    if math.isinf(j):
+        return 0.0, v / a
+    if v * j >= a * a:
+        return a / j, a / j + v / a
+    tj = math.sqrt(v / j)
+    return tj, 2 * tj
+
+
+def _one_joint(L: float, v: float, a: float, j: float) -> tuple[float, float]:
+    """Scalar (shortest duration, peak speed) of one joint: :func:`double_s_min_times` and
+    :func:`double_s_peak_speed` with plain floats (finite ``a``)."""
+    if L <= 0:
+        return 0.0, 0.0
+    if math.isinf(j):  # the trapezoid (:func:`trapezoid_min_times`)
+        if L >= v * v / a:
+            return L / v + v / a, v
+        vp = math.sqrt(L * a)
+        return 2 * vp / a, vp
+    a2j = a * a / j
+    plateau = a * (-a / j + math.sqrt(a * a / (j * j) + 4 * L / a)) / 2
+    vp = plateau if plateau >= a2j else (L * math.sqrt(j) / 2) ** (2 / 3)
+    vp = min(vp, v)
+    # the ramp of _ramp_one, inline
+    ta = a / j + vp / a if vp * j >= a * a else 2 * math.sqrt(vp / j)
+    return L / vp + ta, vp
+
+
+def _speed_one(L: float, T: float, a: float, j: float, vp: float, t_min: float) -> float:
+    """Scalar ``_double_s_speed_closed`` (finite ``a``)."""
+    if L <= 0:
+        return 0.0
+    if T <= t_min:
+        return vp
+    b = T - (0.0 if math.isinf(j) else a / j)
+    disc = b * b - 4 * L / a
+    if b > 0 and disc >= 0:
+        va = 2 * L / (b + math.sqrt(disc))
+        if math.isinf(j) or va * j >= a * a:
+            return min(va, vp)
+    phi = 2 * math.asin(math.sqrt(min(27 * L / (j * T**3), 1.0)))
+    u0 = T / 6 + T / 3 * math.cos(phi / 3)
+    sv = 2 * T / 3 * math.sin(phi / 6) ** 2
+    u = (sv + math.sqrt(sv * sv + 2 * L / (j * u0))) / 2
+    return min(j * u * u, vp)
+
+
+def _limit_list(x, n: int, name: str, inf_ok: bool) -> list[float]:
+    """A limit broadcast to ``n`` joints as floats, checked > 0 (and finite unless
+    ``inf_ok``)."""
+    if isinstance(x, np.ndarray) and x.shape == (n,):
+        out = x.tolist()
+        if min(out) > 0 and (inf_ok or max(out) < math.inf):
+            return out
+    arr = np.asarray(x, float)
+    if arr.ndim == 0:
+        out = [float(arr)] * n
+    elif arr.size == n:
+        out = arr.reshape(-1).tolist()
+    else:
+        try:
+            out = np.broadcast_to(arr, (n,)).tolist()
+        except ValueError:
+            raise InputError(
+                f"synchronised_scurves: {name} of shape {arr.shape} does not fit {n} joints"
+            ) from None
+    for val in out:
+        if not val > 0 or (not inf_ok and math.isinf(val)):
+            raise InputError(f"synchronised_scurves: {name} must be > 0 and finite")
+    return out
+
+
+def _scurves_small(D: np.ndarray, v, a, j) -> SCurveBatch:
+    """:func:`synchronised_scurves` of one problem with plain floats (numpy's per-call cost
+    dominates at a handful of joints)."""
+    n = D.shape[-1]
+    dist = D.reshape(-1).tolist()
+    if not math.isfinite(sum(dist)) and not all(math.isfinite(x) for x in dist):
+        raise InputError("synchronised_scurves: distances must be finite")
+    vs = _limit_list(v, n, "v_max", False)
+    as_ = _limit_list(a, n, "a_max", False)
+    js = _limit_list(j, n, "j_max", True)
+    first = [_one_joint(abs(dist[i]), vs[i], as_[i], js[i]) for i in range(n)]
+    T = max([f[0] for f in first], default=0.0)
+    t_min, vp, ap, tj, ta, tv = [], [], [], [], [], []
+    for i in range(n):
+        a_i, j_i = as_[i], js[i]
+        t_i, p_i = first[i]
+        s = p_i if T <= t_i else _speed_one(abs(dist[i]), T, a_i, j_i, p_i, t_i)
+        rj, ra = _ramp_one(s, a_i, j_i)
+        t_min.append(t_i)
+        vp.append(s)
+        ap.append(0.0 if s <= 0 else (a_i if j_i == math.inf else min(j_i * rj, a_i)))
+        tj.append(rj)
+        ta.append(ra)
+        tv.append(max(T - 2 * ra, 0.0) if s > 0 else T)
+    shape = D.shape
+    arr = np.array(t_min + vp + ap + js + tj + ta + tv + as_).reshape((8, *shape))
+    return SCurveBatch(
+        duration=np.array([T]).reshape(shape[:-1]),
+        t_min=arr[0],
+        distance=D,
+        v=arr[1],
+        a=arr[2],
+        j=arr[3],
+        tj=arr[4],
+        ta=arr[5],
+        tv=arr[6],
+        a_max=arr[7],
+    )
+
+
+def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch:
+    """Time-synchronised rest-to-rest double S profiles of many problems at once, closed form.
+
+    The batch form of :func:`synchronised_profiles` (Jiang 1987, eq. 1-5 with a double S per
+    joint, Biagiotti & Melchiorri §3.4): each joint's shortest duration in closed form
+    (:func:`double_s_min_times`), the common duration the largest, and each joint's peak
+    speed for it solved in closed form (a quadratic or a cubic, no iteration; see
+    ``_double_s_speed_closed``). A rest-to-rest motion through waypoints where the arm stops
+    (zero-velocity waypoints) is a batch of its segments:
+    ``synchronised_scurves(np.diff(waypoints, axis=0), v, a, j)``.
+
+    Parameters
+    ----------
+    distances : array (..., n_joints)
+        Signed joint moves of each problem (e.g. ``(n_problems, n_joints)``).
+    v_max, a_max, j_max : float or array broadcasting to ``distances``
+        Limits > 0 in [unit/s], [unit/s^2], [unit/s^3]; ``j_max = inf`` gives trapezoids.
+
+    Returns
+    -------
+    SCurveBatch
+
+    Raises
+    ------
+    InputError
+        A distance that is not finite, or a limit that is not > 0 (``j_max`` may be inf).
+    """
+    D = np.asarray(distances, float)
+    if D.ndim == 0:
+        raise InputError("synchronised_scurves: distances must have a joint axis (..., n_joints)")
+    if D.ndim == 1 or (D.ndim == 2 and D.shape[0] == 1 and D.shape[1] <= 32):
+        return _scurves_small(D, v_max, a_max, j_max)
+    if not np.all(np.isfinite(D)):
+        raise InputError("synchronised_scurves: distances must be finite")
+    v, a, j = (np.asarray(x, float) for x in (v_max, a_max, j_max))
+    for name, x, inf_ok in (("v_max", v, False), ("a_max", a, False), ("j_max", j, True)):
+        if not np.all(x > 0) or not (inf_ok or np.all(np.isfinite(x))):
+            raise InputError(f"synchronised_scurves: {name} must be > 0 and finite")
+    try:
+        L, v, a, j = _floats(np.abs(D), v, a, j)
+    except ValueError:
+        raise InputError(
+            f"synchronised_scurves: limits do not broadcast to distances {D.shape}"
+        ) from None
+    if np.any(np.isinf(j)):
+        peak = double_s_peak_speed(L, v, a, j)
+        t_min = double_s_min_times(L, v, a, j)
+    else:  # the same expressions without the trapezoid's branch
+        with np.errstate(invalid="ignore", divide="ignore"):
+            aj = a / j
+            plateau = a * (-aj + np.sqrt(a * a / (j * j) + 4 * L / a)) / 2
+            peak = np.where(plateau >= a * a / j, plateau, (L * np.sqrt(j) / 2) ** (2 / 3))
+            peak = np.minimum(peak, v)
+            reached = peak * j >= a * a
+            tj0 = np.where(reached, aj, np.sqrt(peak / j))
+            ta0 = np.where(reached, tj0 + peak / a, 2 * tj0)
+            t_min = np.where(L > 0, L / peak + np.where(peak > 0, ta0, 0.0), 0.0)
+    T = t_min.max(axis=-1) if t_min.shape[-1] else np.zeros(t_min.shape[:-1])
+    vp = _double_s_speed_closed(L, T[..., None], a, j, v, peak=peak, t_min=t_min)
+    tj, ta = double_s_ramp(vp, a, j)
+    with np.errstate(invalid="ignore", over="ignore"):
+        ap = np.where(np.isinf(j), a, np.minimum(j * tj, a))
+        ap = np.where(vp > 0, ap, 0.0)
+    tv = np.where(vp > 0, np.maximum(T[..., None] - 2 * ta, 0.0), T[..., None])
+    return SCurveBatch(
+        duration=T, t_min=t_min, distance=D, v=vp, a=ap, j=j, tj=tj, ta=ta, tv=tv, a_max=a
+    )
+
+
+# ---------------------------------------------------------------------- from a moving state
+def _check_state(distance, v0, v1, v_max, a_max) -> tuple[float, ...]:
+    D, v0, v1 = float(distance), float(v0), float(v1)
+    v, a = _positive(v_max, "v_max"), _positive(a_max, "a_max")
+    if not all(math.isfinite(x) for x in (D, v0, v1)):
+        raise InputError("distance, start and end speeds must be finite")
+    if abs(v0) > v * (1 + 1e-12) or abs(v1) > v * (1 + 1e-12):
+        raise InputError(
+            f"start speed {v0:.6g} and end speed {v1:.6g} must be within v_max = {v:.6g}"
+        )
+    return D, min(max(v0, -v), v), min(max(v1, -v), v), v, a
+
+
+def _ramps_distance(vc: float, v0: float, v1: float, T: float, a: float) -> float:
+    """Distance of the motion ``v0 -> vc`` (at ``a``), cruise at ``vc``, ``vc -> v1`` (at
+    ``a``) in ``T``: ``vc T - (vc - v0)|vc - v0| / 2a - (vc - v1)|vc - v1| / 2a``."""
+    return vc * T - ((vc - v0) * abs(vc - v0) + (vc - v1) * abs(vc - v1)) / (2 * a)
+
+
+def trapezoid_min_time_from_state(distance, v0, v1, v_max, a_max) -> float:
+    """Shortest duration [s] of a move over ``distance`` (signed) that starts at speed ``v0``
+    and ends at ``v1`` (``|v0|, |v1| <= v_max``), accelerations within ``a_max``.
+
+    The time-optimal motion of a double integrator with bounded speed is bang-coast-bang
+    (Biagiotti & Melchiorri §3.2 with non-zero end speeds): from ``v0`` at ``+-a`` to a peak
+    ``v_c`` and at ``-+a`` to ``v1``. The single ramp ``v0 -> v1`` covers
+    ``D0 = (v0 + v1) |v1 - v0| / 2a``; a longer move (``D >= D0``) peaks at
+    ``v_c = sqrt(a D + (v0^2 + v1^2) / 2)`` (at most ``v_max``, then it cruises), a shorter one
+    is the mirror image (``D, v0, v1 -> -D, -v0, -v1``).
+    """
+    D, v0, v1, v, a = _check_state(distance, v0, v1, v_max, a_max)
+    D0 = (v0 + v1) * abs(v1 - v0) / (2 * a)
+    if D < D0:
+        D, v0, v1 = -D, -v0, -v1
+    vc = math.sqrt(max(a * D + (v0 * v0 + v1 * v1) / 2, 0.0))  # >= max(v0, v1) as D >= D0
+    if vc <= v:
+        return max((2 * vc - v0 - v1) / a, abs(v1 - v0) / a)
+    ramps = (2 * v * v - v0 * v0 - v1 * v1) / (2 * a)
+    return (2 * v - v0 - v1) / a + (D - ramps) / v
+
+
+def trapezoid_blocked_from_state(distance, v0, v1, v_max, a_max) -> tuple[float, float] | None:
+    """The durations ``(T_a, T_b)`` [s] a move from speed ``v0`` to ``v1`` over ``distance``
+    cannot take although shorter ones can (None if there is no such gap).
+
+    With both speeds forward (``min(v0, v1) > 0``) the shortest reachable distance in ``T``
+    first grows with ``T`` (the move cannot stop sooner), up to ``(v0^2 + v1^2) / 2a`` when
+    it just touches speed 0, then shrinks (it reverses). A distance between the single ramp's
+    ``D0`` and that peak is covered fast (``T <= T_a``) or after a reversal (``T >= T_b``),
+    not in between: ``v_c = +-sqrt((v0^2 + v1^2) / 2 - a D)`` at ``T = (v0 + v1 - 2 v_c) / a``
+    (a cruise at ``-v_max`` if ``v_c`` would pass it). Backward speeds are the mirror image.
+    """
+    D, v0, v1, v, a = _check_state(distance, v0, v1, v_max, a_max)
+    if max(v0, v1) < 0:
+        D, v0, v1 = -D, -v0, -v1
+    if not min(v0, v1) > 0:
+        return None
+    D0 = (v0 + v1) * abs(v1 - v0) / (2 * a)
+    peak = (v0 * v0 + v1 * v1) / (2 * a)
+    if not D0 <= D < peak:
+        return None
+    vc = math.sqrt(max((v0 * v0 + v1 * v1) / 2 - a * D, 0.0))
+    ta = (v0 + v1 - 2 * vc) / a
+    if vc <= v:
+        tb = (v0 + v1 + 2 * vc) / a
+    else:  # reverses at -v_max and cruises there
+        tb = (((v0 + v) ** 2 + (v1 + v) ** 2) / (2 * a) - D) / v
+    return ta, tb
+
+
+def trapezoid_from_state(distance, v0, v1, v_max, a_max, duration) -> MotionProfile:
+    """The move over ``distance`` from speed ``v0`` to ``v1`` that takes ``duration`` [s]
+    (at least :func:`trapezoid_min_time_from_state`): ``v0 -> v_c`` at ``a_max``, a cruise at
+    ``v_c``, ``v_c -> v1`` at ``a_max``.
+
+    For a duration ``T`` the distance of that family grows monotonically with ``v_c`` (its
+    derivative is the cruise time), between the peaks where the cruise vanishes,
+    ``v_c = (v0 + v1 +- a T) / 2`` clipped to ``+-v_max``; ``v_c`` is found by bisection on
+    that bracket (to the last bit) and the cruise takes up the remainder. Every duration from
+    the minimum on is reachable (the bracket only widens with ``T``): no blocked intervals.
+    A negative ``v_c`` means the move reverses (a start speed away from the goal).
+
+    Raises
+    ------
+    InfeasibleError
+        ``duration`` is shorter than the minimum or in the gap of
+        :func:`trapezoid_blocked_from_state`.
+    """
+    D, v0, v1, v, a = _check_state(distance, v0, v1, v_max, a_max)
+    T = float(duration)
+    t_min = trapezoid_min_time_from_state(D, v0, v1, v, a)
+    if not T >= t_min * (1 - 1e-12):
+        raise InfeasibleError(
+            f"a move over {D:.6g} from speed {v0:.6g} to {v1:.6g} takes at least "
+            f"{t_min:.6g} s, not {T:.6g} s"
+        )
+    gap = trapezoid_blocked_from_state(D, v0, v1, v, a)
+    if gap is not None and gap[0] * (1 + 1e-12) < T < gap[1] * (1 - 1e-12):
+        raise InfeasibleError(
+            f"a move over {D:.6g} from speed {v0:.6g} to {v1:.6g} cannot take "
+            f"{T:.6g} s (only up to {gap[0]:.6g} s or from {gap[1]:.6g} s)"
+        )
+    T = max(T, abs(v1 - v0) / a)
+    lo = max((v0 + v1 - a * T) / 2, -v)
+    hi = min((v0 + v1 + a * T) / 2, v)
+    if _ramps_distance(hi, v0, v1, T, a) <= D:
+        vc = hi
+    elif _ramps_distance(lo, v0, v1, T, a) >= D:
+        vc = lo
+    else:
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            if mid <= lo or mid >= hi:
+                break
+            if _ramps_distance(mid, v0, v1, T, a) < D:
+                lo = mid
+            else:
+                hi = mid
+        vc = 0.5 * (lo + hi)
+    t1, t3 = abs(vc - v0) / a, abs(vc - v1) / a
+    t2 = max(T - t1 - t3, 0.0)
+    a1 = math.copysign(a, vc - v0) if t1 > 0 else 0.0
+    a3 = math.copysign(a, v1 - vc) if t3 > 0 else 0.0
+    return MotionProfile(
+        np.array([t1, t2, t3]),
+        np.array([a1, 0.0, a3]),
+        np.zeros(3),
+        kind="trapezoid",
+        params={"v": vc, "a_acc": a, "a_dec": a, "v0": v0, "v1": v1, "length": D},
+        v_start=v0,
+    )

@@ -1,0 +1,117 @@
+"""Batched, closed-form time-synchronised S-curves (armlab.trajectory.profiles).
+
+References: the bisection of :func:`double_s_speed_for_duration` (to the last bit) and the
+per-problem :func:`synchronised_profiles` (Jiang 1987 eq. 1-5 with Biagiotti & Melchiorri
+§3.4's double S); the profiles themselves are sampled and checked against their limits.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from armlab.errors import InputError
+from armlab.trajectory.profiles import (
+    _double_s_speed_closed,
+    double_s_min_times,
+    double_s_speed_for_duration,
+    synchronised_profiles,
+    synchronised_scurves,
+)
+
+V = np.array([2.0, 2.0, 2.5, 3.0, 3.0, 4.0])
+A = np.array([5.0, 6.0, 5.0, 8.0, 9.0, 12.0])
+J = np.array([50.0, 40.0, 60.0, 80.0, 100.0, np.inf])  # the last joint: a trapezoid
+
+
+def _decades(rng, lo, hi, n):
+    return 10 ** rng.uniform(lo, hi, n)
+
+
+def test_closed_form_speed_is_the_bisection():
+    """Over decades of length and limits, both regimes (acceleration limit reached or not),
+    the trapezoid, durations from the minimum (1 + 1e-9) to 10 x."""
+    rng = np.random.default_rng(7)
+    n = 20000
+    L, v, a, j = (
+        _decades(rng, -4, 1, n),
+        _decades(rng, -1, 1, n),
+        _decades(rng, -1, 2, n),
+        _decades(rng, 0, 4, n),
+    )
+    j[::9] = np.inf
+    T = double_s_min_times(L, v, a, j) * (1 + _decades(rng, -9, 1, n))
+    T[::5] = double_s_min_times(L, v, a, j)[::5]
+    ours = _double_s_speed_closed(L, T, a, j, v)
+    ref = double_s_speed_for_duration(L, T, a, j, v)
+    np.testing.assert_allclose(ours, ref, rtol=1e-9)
+    assert np.all(_double_s_speed_closed(0.0, 1.0, 1.0, 1.0, 1.0) == 0.0)
+
+
+def test_batch_is_synchronised_profiles_problem_by_problem():
+    """Durations, shortest joint times and peak speeds of 300 random 6-joint problems (some
+    joints not moving) equal the per-problem profiles; the batch and the one-problem paths
+    agree."""
+    rng = np.random.default_rng(11)
+    D = rng.uniform(-2.5, 2.5, (300, 6))
+    D[::4, 2] = 0.0
+    batch = synchronised_scurves(D, V, A, J)
+    assert batch.duration.shape == (300,) and batch.v.shape == (300, 6)
+    for i in range(0, 300, 3):
+        T, t_min, profiles = synchronised_profiles(np.abs(D[i]), V, A, J)
+        assert batch.duration[i] == pytest.approx(T, rel=1e-14)
+        np.testing.assert_allclose(batch.t_min[i], t_min, rtol=1e-14)
+        vp = [p.params["v"] if p.kind != "rest" else 0.0 for p in profiles]
+        np.testing.assert_allclose(batch.v[i], vp, rtol=1e-9, atol=1e-12)
+        one = synchronised_scurves(D[i], V, A, J)
+        for key in ("t_min", "v", "a", "tj", "ta", "tv"):
+            np.testing.assert_allclose(getattr(one, key), getattr(batch, key)[i], rtol=1e-12)
+
+
+def test_sampled_profiles_keep_the_limits_and_arrive_together():
+    """Sampled on a fine grid: every joint within v, a, j, ends at its distance at the common
+    duration and at rest; the batch evaluation equals each joint's MotionProfile."""
+    rng = np.random.default_rng(5)
+    D = rng.uniform(-2.0, 2.0, (40, 6))
+    batch = synchronised_scurves(D, V, A, J)
+    t = np.linspace(0.0, batch.duration.max(), 4001)
+    q, qd, qdd = batch.evaluate(t)
+    assert q.shape == (t.size, 40, 6)
+    tol = 1 + 1e-9
+    assert np.all(np.abs(qd) <= V * tol) and np.all(np.abs(qdd) <= A * tol)
+    np.testing.assert_allclose(q[-1], D, atol=1e-12)
+    assert np.abs(qd[-1]).max() < 1e-9
+    jerk = np.diff(qdd, axis=0) / np.diff(t)[:, None, None]
+    finite_j = np.isfinite(J)
+    assert np.all(np.abs(jerk[..., finite_j]) <= J[finite_j] * (1 + 1e-6))
+    for p, k in ((0, 0), (3, 5), (17, 2)):
+        prof = batch.profile((p, k))
+        assert prof.duration == pytest.approx(batch.duration[p], rel=1e-12)
+        s, sd, sdd, _ = prof.evaluate(t)
+        sgn = np.sign(D[p, k])
+        np.testing.assert_allclose(q[:, p, k], sgn * s, atol=1e-12)
+        np.testing.assert_allclose(qd[:, p, k], sgn * sd, atol=1e-10)
+
+
+def test_zero_velocity_waypoints_are_a_batch_of_segments():
+    w = np.array([[0.0, 0.5, -1.0], [1.0, 0.5, 0.0], [0.2, -0.7, 0.4]])
+    seg = synchronised_scurves(np.diff(w, axis=0), 2.0, 5.0, 50.0)
+    for k in range(2):
+        T, _, _ = synchronised_profiles(np.abs(w[k + 1] - w[k]), 2.0, 5.0, 50.0)
+        assert seg.duration[k] == pytest.approx(T, rel=1e-14)
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        ((np.ones((3, 2)), -1.0, 1.0, 1.0), "v_max"),
+        ((np.ones(2), 1.0, np.inf, 1.0), "a_max"),
+        ((np.ones((3, 2)), 1.0, 1.0, 0.0), "j_max"),
+        ((np.array([1.0, np.nan]), 1.0, 1.0, 1.0), "finite"),
+        ((np.ones((3, 2)), [1.0, 2.0, 3.0], 1.0, 1.0), "broadcast"),
+        ((1.0, 1.0, 1.0, 1.0), "joint axis"),
+    ],
+)
+def test_bad_input_is_one_line_error(args, match):
+    with pytest.raises(InputError, match=match):
+        synchronised_scurves(*args)
