@@ -98,7 +98,7 @@ from scipy import sparse
 from scipy.interpolate import CubicSpline
 
 from armlab._lazy import lazy_import
-from armlab.errors import ArmlabError, InfeasibleError, InputError
+from armlab.errors import InfeasibleError, InputError
 from armlab.planning.optimal import CHECK_SAMPLES, JUMP_RAMP_S
 from armlab.planning.timescale import (
     CHECK_TOL,
@@ -139,6 +139,9 @@ VELOCITY_POINTS = (0.25, 0.5, 0.75)
 #: limits are tightened by this fraction from the start: between the check points the speed
 #: and acceleration can exceed them by up to ~3e-4 (measured), which would cost re-solves
 LIMIT_MARGIN = 5e-4
+#: the jerk pass (nonconvex, IPOPT: a local solver) that reports failure from the convex pass's
+#: warm start is solved again from that plan slowed down by these factors of the path speed
+JERK_RETRY_SLOWDOWN = (0.5, 0.2)
 #: sequential linearisation of the envelope rows (drive_limits): stop when the duration moves
 #: by less than this fraction, or after this many convex passes
 DRIVE_SCP_TOL = 1e-3
@@ -439,7 +442,7 @@ class ToppProblem:
         }
         return b, info
 
-    def interval_ratios(self, traj: Trajectory, ls: Limits, dt: float) -> dict:
+    def interval_ratios(self, traj: Trajectory, ls: Limits, dt: float | None) -> dict:
         """Peak ratio to each limit per path interval and joint (K, n): the local back-off's
         input. Velocity, acceleration and torque over :meth:`Trajectory.limit_samples` (its
         exact velocity and acceleration peaks, refined torque peaks and the uniform grid of
@@ -467,7 +470,7 @@ class ToppProblem:
             from armlab.dynamics.inverse import sample_weights
 
             tr = self.train
-            fine = traj.sample(dt)
+            fine = traj.sample(self._uniform_dt(traj))
             tau = fine.torques(self.robot)
             t_m, _ = drivetrain.motor_torque(tau, fine.qd, fine.qdd, tr)
             r = drivetrain.envelope_ratio(t_m, drivetrain.motor_speed(fine.qd, tr), tr)
@@ -839,6 +842,10 @@ class ToppProblem:
             def solve_jerk(state, previous):  # always warm-started from the first pass
                 lim, env = (state[0], state[1]) if train is not None else (state, None)
                 sol, info = self.solve_jerk(lim, b_convex, env)
+                for slower in JERK_RETRY_SLOWDOWN:  # IPOPT is local: a slower warm start
+                    if info["success"]:
+                        break
+                    sol, info = self.solve_jerk(lim, b_convex * slower**2, env)
                 return (self.trajectory_from_jerk(sol) if info["success"] else None), info
 
             def ratios(traj) -> dict[str, np.ndarray]:
@@ -846,14 +853,16 @@ class ToppProblem:
                     self.robot, dt=self._dt(traj), limits=jl, torque=ls0.torque_Nm is not None
                 ).ratios
                 if train is not None:  # the RMS backs off the envelope (module docstring)
-                    d = drive_check(traj, self.robot, train, self._dt(traj))
+                    d = drive_check(traj, self.robot, train, self._uniform_dt(traj))
                     env = np.maximum(d["motor_envelope"], d["motor_rms"])
                     out = {**out, "motor_envelope": env, "motor_speed": d["motor_speed"]}
                 return out
 
             def jerk_failed(result, info) -> NoReturn:
-                raise ArmlabError(
-                    f"time_optimal_path: the jerk pass failed ({info['return_status']})"
+                raise InfeasibleError(
+                    f"time_optimal_path: the jerk pass (IPOPT, a local solver) found no "
+                    f"jerk-limited parameterisation from the convex plan nor from it slowed "
+                    f"down ({info['return_status']}); give a larger j_max, or j_max=False"
                 )
 
             jerk: Any
@@ -885,7 +894,9 @@ class ToppProblem:
             # an excess within the solver's tolerance: a uniform stretch by k <= 1 + CHECK_TOL
             traj, k_tol = absorb_tolerance(traj, self.robot, jl, torque=torque_on, dt=dt)
             if train is not None:
-                traj, k_drive, drive_ratios = absorb_drive_tolerance(traj, self.robot, train, dt)
+                traj, k_drive, drive_ratios = absorb_drive_tolerance(
+                    traj, self.robot, train, self._uniform_dt(traj)
+                )
                 k_tol *= k_drive
             traj.meta["sd"] = np.asarray(traj.meta["sd"]) / k_tol
             traj.report = traj.check_limits(self.robot, dt=dt, limits=jl, torque=torque_on)
@@ -938,7 +949,17 @@ class ToppProblem:
         stats["wall_time_s"] = _time.perf_counter() - t_start
         return traj
 
-    def _dt(self, traj: Trajectory) -> float:
+    def _dt(self, traj: Trajectory) -> float | None:
+        """The uniform grid [s] the limit check adds to the exact peak points of
+        :meth:`Trajectory.limit_samples`: ``check_dt`` if given; else none, except with the
+        motor envelope, whose RMS needs uniform samples (``T / CHECK_SAMPLES``)."""
+        if self.check_dt is not None or self.train is None:
+            return self.check_dt
+        return self._uniform_dt(traj)
+
+    def _uniform_dt(self, traj: Trajectory) -> float:
+        """The uniform step [s] of the motor-envelope checks: ``check_dt`` or
+        ``T / CHECK_SAMPLES``."""
         return self.check_dt or traj.duration / CHECK_SAMPLES
 
     # ------------------------------------------------------------------ phase plane
@@ -1154,7 +1175,10 @@ def time_optimal_path(
     n_grid : int, optional
         Path intervals (default 100, 200 for longer or dense paths).
     check_dt : float, optional
-        Fine-grid step of the feasibility check in [s] (default ``T / 4000``).
+        Step [s] of a uniform grid added to the feasibility check (default: none -- the
+        check evaluates the exact velocity and acceleration peaks and the refined torque peaks
+        of :meth:`Trajectory.limit_samples`; ``T / 4000`` with ``drive_limits``, whose RMS
+        needs uniform samples).
     max_backoff : int
         Re-solves allowed when the fine check finds a limit exceeded between grid points.
     drive_limits : bool
