@@ -12,8 +12,15 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import pytest  # noqa: E402
+from hypothesis import settings  # noqa: E402
 
 import armlab  # noqa: E402
+
+# ``make test`` is reproducible: every hypothesis test draws the same examples on every run and
+# machine (no example database); ``HYPOTHESIS_PROFILE=explore`` draws new ones
+settings.register_profile("ci", derandomize=True, database=None)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 REPO = Path(__file__).resolve().parents[1]
 

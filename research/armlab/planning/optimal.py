@@ -127,7 +127,7 @@ from armlab.planning.timescale import (
     tighten_drive,
 )
 from armlab.planning.tolerance import absorb_tolerance
-from armlab.planning.transcription import Structure, structure
+from armlab.planning.transcription import HESSIAN, HESSIANS, Structure, structure
 from armlab.planning.warmstart import (
     fit_piecewise,
     integrate_piecewise,
@@ -352,6 +352,7 @@ class OptimalProblem:
     stats: dict = field(default_factory=dict)
     drive_limits: bool = False
     train: drivetrain.DriveTrain | None = None
+    hessian: str = HESSIAN
 
     # ------------------------------------------------------------------ layout helpers
     @property
@@ -377,6 +378,7 @@ class OptimalProblem:
             self.duration is not None,
             self.max_iter,
             self.drive_limits,
+            self.hessian,
         )
 
     def node_directions(self) -> np.ndarray:
@@ -722,6 +724,7 @@ class OptimalProblem:
         stats = {
             # casadi's stubs omit the module's __version__
             "solver": f"ipopt (casadi {ca.__version__})",  # type: ignore[attr-defined]
+            "hessian": self.hessian,
             "iterations": total_iter,
             "solve_time_s": total_time,
             "build_time_s": info["build_time_s"],
@@ -775,6 +778,7 @@ class OptimalProblem:
                 via_tolerance=self.via_tolerance,
                 n_intervals=self.segment_intervals,
                 drive_limits=self.drive_limits,
+                hessian=self.hessian,
             )
             tmin = fastest.stats["duration_s"]
             if self.duration < tmin * (1 + 1e-6):
@@ -884,12 +888,15 @@ def build_optimal(
     max_backoff: int = 4,
     max_iter: int = 1000,
     drive_limits: bool = False,
+    hessian: str = HESSIAN,
 ) -> OptimalProblem:
     """Build (do not solve) the problem of :func:`optimal`; same parameters."""
     if payload_kg is not None:
         robot = robot.with_payload(payload_kg)
     if objective not in OBJECTIVES:
         raise InputError(f"objective {objective!r} unknown; choose one of {OBJECTIVES}")
+    if hessian not in HESSIANS:
+        raise InputError(f"hessian {hessian!r} unknown; choose one of {HESSIANS}")
     # the envelope replaces the robot's torque box (module docstring)
     train, tau_max = drivetrain.planning_drive_train(robot, drive_limits, tau_max, where="optimal")
     w = _check_waypoints(robot, waypoints)
@@ -958,6 +965,7 @@ def build_optimal(
         max_iter=int(max_iter),
         drive_limits=bool(drive_limits),
         train=train,
+        hessian=hessian,
     )
 
 
@@ -979,6 +987,7 @@ def optimal(
     max_backoff: int = 4,
     max_iter: int = 1000,
     drive_limits: bool = False,
+    hessian: str = HESSIAN,
 ) -> Trajectory:
     """Time-synchronised optimal trajectory through joint waypoints.
 
@@ -1013,6 +1022,13 @@ def optimal(
         drive-train model within the voltage line and the peak torque, its RMS within the
         continuous rating. The robot's torque box is then off unless ``tau_max`` is given;
         each joint moves monotonically within a segment. Needs the robot's drives.
+    hessian : {"partial", "exact", "limited-memory"}
+        The Hessian of the Lagrangian IPOPT works with
+        (:data:`armlab.planning.transcription.HESSIANS`): ``"partial"`` (default) leaves the
+        curvature of the inverse-dynamics rows out of the Newton model (their values and
+        Jacobian stay exact, so the solution meets the same conditions; measured ~20-30 %
+        faster with torque limits, the same durations within 1e-4), ``"exact"`` the full one,
+        ``"limited-memory"`` L-BFGS. Without torque rows ``"partial"`` equals ``"exact"``.
 
     Returns
     -------
@@ -1049,5 +1065,6 @@ def optimal(
         max_backoff=max_backoff,
         max_iter=max_iter,
         drive_limits=drive_limits,
+        hessian=hessian,
     )
     return prob.solve()

@@ -32,7 +32,14 @@ if TYPE_CHECKING:
 else:
     ca = lazy_import("casadi")  # CasADi loads at the first symbolic build
 
-__all__ = ["Structure", "structure", "build_structure", "ipopt_options", "DRIVE_ROW_TAGS"]
+__all__ = [
+    "Structure",
+    "structure",
+    "build_structure",
+    "ipopt_options",
+    "DRIVE_ROW_TAGS",
+    "HESSIANS",
+]
 
 #: the envelope rows per joint and column (``_drive_rows``): ``A`` the voltage line, ``P`` the
 #: peak torque; ``1`` the motoring branch, ``2`` the back-driven one; ``+`` upper, ``-`` lower
@@ -42,8 +49,17 @@ N_DRIVE_COEFFS = 9
 
 #: expression graph of the NLP: "MX" (maps of the SX inverse dynamics; fast to build) or "SX"
 SYMBOLIC = "SX"
-#: IPOPT Hessian: "limited-memory" (L-BFGS) or "exact"
-HESSIAN = "exact"
+#: the Hessians of the Lagrangian IPOPT can be given (:func:`build_structure`): ``"exact"``;
+#: ``"partial"`` -- exact for the objective and the polynomial rows (integration, convex-hull
+#: bounds, duration), without the curvature of the rows through the inverse dynamics (torque,
+#: motor envelope and RMS); ``"limited-memory"`` -- IPOPT's L-BFGS. The converged point meets
+#: the same KKT conditions to the same tolerance with each; only the Newton model differs.
+HESSIANS = ("exact", "partial", "limited-memory")
+#: the default (issue 15, measured on teachbot6 with torque limits: the inverse-dynamics
+#: Hessian was ~40 % of the solve, dropping its curvature costs ~1 iteration in 20)
+HESSIAN = "partial"
+#: the rows whose curvature ``"partial"`` leaves out
+_DYNAMICS_ROWS = ("torque", "motor_envelope", "motor_rms")
 #: where, inside each interval, the torque is also constrained (fractions; none by default:
 #: with the balanced grid the fine-grid back-off is cheaper than midpoint rows, measured)
 TORQUE_INTERIOR_POINTS: tuple[float, ...] = ()
@@ -79,7 +95,7 @@ class Structure:
         return int(sum(self.seg_n))
 
 
-def ipopt_options(max_iter: int) -> dict:
+def ipopt_options(max_iter: int, hessian: str = HESSIAN) -> dict:
     return {
         "print_time": False,
         "ipopt.print_level": 0,
@@ -95,8 +111,8 @@ def ipopt_options(max_iter: int) -> dict:
         "ipopt.acceptable_iter": 5,
         "ipopt.mu_strategy": "adaptive",
         "ipopt.linear_solver": "mumps",
-        # quasi-Newton Hessian: measured faster here than the exact Hessian of the torque rows
-        "ipopt.hessian_approximation": HESSIAN,
+        # "partial" hands IPOPT its own exact-Hessian function (hess_lag, build_structure)
+        "ipopt.hessian_approximation": "limited-memory" if hessian == "limited-memory" else "exact",
     }
 
 
@@ -111,6 +127,7 @@ def build_structure(
     fixed_duration: bool,
     max_iter: int,
     drive_rows: bool = False,
+    hessian: str = HESSIAN,
 ) -> Structure:
     t0 = _time.perf_counter()
     # SX or MX, chosen by a module constant; both share the symbolic API, and typing it as the
@@ -247,7 +264,10 @@ def build_structure(
         else:
             f = ca.dot(((ew[0] + ew[1]) / 2).T, H)
     nlp = {"x": x, "p": p, "f": f, "g": g}
-    solver = ca.nlpsol("armlab_optimal", "ipopt", nlp, ipopt_options(max_iter))
+    opts = ipopt_options(max_iter, hessian)
+    if hessian == "partial":
+        opts["hess_lag"] = _partial_hessian(x, p, f, g, np.array(kinds), X)
+    solver = ca.nlpsol("armlab_optimal", "ipopt", nlp, opts)
     g_fun = ca.Function("g", [x, p], [g])
     return Structure(
         solver=solver,
@@ -267,6 +287,20 @@ def build_structure(
         g_col=np.array(gcols),
         n_drive_columns=n_cols,
     )
+
+
+def _partial_hessian(x, p, f, g, kinds: np.ndarray, X) -> ca.Function:
+    """IPOPT's ``hess_lag``: the upper triangle of the Hessian of ``lam_f f + lam_g' g`` with
+    the rows through the inverse dynamics (:data:`_DYNAMICS_ROWS`) left out. Those rows
+    and their Jacobian stay exact; only their curvature is missing from the Newton model
+    (a Gauss-Newton-like step for them), so the converged point is a KKT point of the same
+    problem to the same tolerance."""
+    lam_f = X.sym("lam_f")
+    lam_g = X.sym("lam_g", g.numel())
+    keep = np.flatnonzero(~np.isin(kinds, _DYNAMICS_ROWS)).tolist()
+    lag = lam_f * f + ca.dot(lam_g[keep], g[keep])
+    hess = ca.triu(ca.hessian(lag, x)[0])
+    return ca.Function("armlab_partial_hessian", [x, p, lam_f, lam_g], [hess])
 
 
 def _drive_rows(cols, weights, p_dc, p_sig, p_eps, n: int) -> tuple[list[tuple], Any]:
@@ -313,7 +347,16 @@ def _drive_rows(cols, weights, p_dc, p_sig, p_eps, n: int) -> tuple[list[tuple],
 
 
 def structure(
-    robot, n, seg_n, mode, objective, torque_rows, fixed_duration, max_iter, drive_rows=False
+    robot,
+    n,
+    seg_n,
+    mode,
+    objective,
+    torque_rows,
+    fixed_duration,
+    max_iter,
+    drive_rows=False,
+    hessian: str = HESSIAN,
 ) -> Structure:
     need_tau = torque_rows or objective == "energy" or drive_rows
     kkey = kinematics_key(robot) if need_tau else None
@@ -327,7 +370,7 @@ def structure(
         fixed_duration,
         max_iter,
         drive_rows,
-        HESSIAN,
+        hessian,
         TORQUE_INTERIOR_POINTS,
         SYMBOLIC,
     )
@@ -346,6 +389,7 @@ def structure(
             fixed_duration,
             max_iter,
             drive_rows,
+            hessian,
         )
         if len(_STRUCTURES) >= _STRUCTURES_MAX:
             _STRUCTURES.pop(next(iter(_STRUCTURES)))

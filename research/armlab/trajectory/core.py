@@ -80,7 +80,8 @@ _NOISE = 256 * np.finfo(float).eps
 MERGE_FRACTION = 1e-2
 #: steps of successive parabolic interpolation towards each torque peak inside a piece
 REFINE_STEPS = 3
-#: intervals of the uniform grid on which torques are evaluated before the peak refinement
+#: a piece longer than duration / TORQUE_GRID gets torque points at most that far apart before
+#: the peak refinement
 TORQUE_GRID = 1024
 
 
@@ -462,7 +463,8 @@ class Trajectory:
         """The points where the evaluation can peak: every knot, every piece's left limit, the
         :meth:`critical_times`, a uniform grid of step ``dt`` [s] if given, and with ``robot``
         the torques (RNEA, :func:`armlab.robot.rigid_body.inverse_dynamics`) at those points,
-        at the middle of every piece and on a uniform grid of :data:`TORQUE_GRID` intervals,
+        at the middle of every piece and at most ``duration / TORQUE_GRID`` apart inside a
+        longer piece,
         refined by :data:`REFINE_STEPS` steps of successive
         parabolic interpolation around every local peak of ``|tau|`` of each joint inside a
         piece.
@@ -482,10 +484,17 @@ class Trajectory:
         extra = [self.critical_times()]
         if dt is not None:
             extra.append(self.t[0] + sample_times(self.duration, dt))
-        if robot is not None:  # the middle of every piece and a uniform torque grid: a peak
-            # inside a long piece (a rise and fall between its middle and a knot) has points
-            extra.append(self.t[:-1] + np.diff(self.t) / 2)
-            extra.append(np.linspace(self.t[0], self.t[-1], TORQUE_GRID + 1)[1:-1])
+        if robot is not None:  # the middle of every piece, and a piece longer than
+            # duration / TORQUE_GRID cut into equal parts no longer than that: a peak inside a
+            # long piece (a rise and fall between its middle and a knot) has points
+            h = np.diff(self.t)
+            extra.append(self.t[:-1] + h / 2)
+            long = np.flatnonzero(h > 2 * self.duration / TORQUE_GRID)
+            if long.size:
+                parts = np.ceil(h[long] * TORQUE_GRID / self.duration).astype(int)
+                k = np.repeat(long, parts - 1)
+                i = np.arange(k.size) - np.repeat(np.cumsum(parts - 1) - (parts - 1), parts - 1)
+                extra.append(self.t[k] + h[k] * (i + 1) / np.repeat(parts, parts - 1))
         times = np.unique(np.concatenate(extra))
         times = times[(times > self.t[0]) & (times < self.t[-1])]
         times = times[np.searchsorted(self.t, times) == np.searchsorted(self.t, times, "right")]

@@ -91,7 +91,9 @@ CORNER_GAP = 1e-4  # width of the knot pair at a corner, as a fraction of dt
 def time_grid(
     duration: float, dt: float, corners=(), *, ends: bool = False, knots=()
 ) -> np.ndarray:
-    """Sample times ``0, dt, 2 dt, ..., duration`` in [s]; the last step may be shorter.
+    """Sample times ``0, dt, 2 dt, ..., duration`` in [s]; the last step may be shorter, and a
+    regular sample within ``delta / 2`` of an added knot is replaced by that knot (a step may
+    then be up to ``delta / 2`` longer than ``dt``).
 
     ``corners`` are interior times where the acceleration steps (trapezoid phases, a path's
     curvature). Each gets the knots ``t_c - delta`` and ``t_c`` (``delta = 1e-4 dt``), and with
