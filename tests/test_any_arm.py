@@ -16,10 +16,10 @@ import pytest
 
 from armlab.cli import info_text, main
 from armlab.dynamics import SizingOptions, size
-from armlab.dynamics.catalogue import load_catalogue
 from armlab.dynamics.selection import select_drives
 from armlab.errors import ArmlabError, InfeasibleError, RobotDescriptionError
 from armlab.robot import load_profile, load_robot
+from armlab.robot.catalogue import load_catalogue
 from armlab.robot.drives import drives_toml, read_drives
 from armlab.study.runner import run_spec
 from armlab.study.spec import load_study, parse_study

@@ -17,7 +17,7 @@ from armlab.dynamics import (
     joint_torques,
     static_load,
 )
-from armlab.dynamics.checks import DriveArrays, motor_side
+from armlab.robot.drivetrain import DriveTrain, motor_side
 from armlab.trajectory import Trajectory
 
 G = 9.81
@@ -190,7 +190,7 @@ def test_motoring_and_generating_rule():
         peak_torque_Nm=20,
         max_input_speed_rpm=5000,
     )
-    arr = DriveArrays.from_drives([Drive("j", motor, reducer, Encoder(1000), 1.0, 10.0)])
+    arr = DriveTrain.from_drives([Drive("j", motor, reducer, Encoder(1000), 1.0, 10.0)])
     tau = np.array([[2.0], [2.0], [2.0], [-2.0]])
     qd = np.array([[1.0], [-1.0], [0.0], [1.0]])
     t_m, w_m, motoring = motor_side(tau, qd, np.zeros_like(tau), arr)

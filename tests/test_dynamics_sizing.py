@@ -21,9 +21,10 @@ from armlab.dynamics import (
     size,
     static_load,
 )
-from armlab.dynamics.checks import DriveArrays, SizingOptions, evaluate_checks
+from armlab.dynamics.checks import SizingOptions, evaluate_checks
 from armlab.plots import plot_joint_loads, plot_operating_points
 from armlab.robot.drives import Drive, Encoder, Motor, Reducer
+from armlab.robot.drivetrain import DriveTrain
 from armlab.trajectory import Trajectory
 
 
@@ -189,7 +190,7 @@ def _drive(**motor_kw):
 
 def test_checks_by_hand():
     d = _drive()
-    arr = DriveArrays.from_drives([d])
+    arr = DriveTrain.from_drives([d])
     # two phases: 2 N m at 1 rad/s for 3 s, then 4 N m at 0.5 rad/s for 1 s (piecewise weights)
     tau = np.array([[2.0], [4.0]])
     qd = np.array([[1.0], [0.5]])
@@ -218,7 +219,7 @@ def test_checks_by_hand():
 def test_envelope_by_hand():
     # Kt U / R = 0.05 x 24 / 10 = 0.12 N m at rest; at 300 rad/s: 0.05 (24 - 15) / 10 = 0.045
     d = _drive(resistance_ohm=10.0, peak_torque_Nm=1.0)
-    arr = DriveArrays.from_drives([d])
+    arr = DriveTrain.from_drives([d])
     tau = np.array([[2.0], [-2.0]])  # joint side; motor side 0.04 N m
     qd = np.array([[3.0], [3.0]])  # 300 rad/s at the motor: driving, then generating
     res = evaluate_checks(

@@ -347,7 +347,7 @@ def test_a_joint_listed_twice_in_drives_toml_is_refused(tmp_path):
 
 
 def test_the_shipped_drives_and_catalogue_pass_the_checks():
-    from armlab.dynamics.catalogue import load_catalogue
+    from armlab.robot.catalogue import load_catalogue
 
     drives = read_drives(DESC / "drives.toml", DRIVES_NAMES)
     assert [d.encoder.pulses_per_rev for d in drives.values()] == [1000] * 6

@@ -19,8 +19,9 @@ import pytest
 
 from armlab.cli import main as cli_main
 from armlab.deploy import read_setpoints
-from armlab.dynamics.checks import DriveArrays, SizingOptions, checks_for_column, evaluate_checks
+from armlab.dynamics.checks import SizingOptions, checks_for_column, evaluate_checks
 from armlab.errors import DesignFailure, InputError
+from armlab.robot.drivetrain import DriveTrain
 from armlab.study import load_study, run_spec
 from armlab.study.record import load_design, robot_from_design
 
@@ -249,7 +250,7 @@ def test_check_against_a_zero_limit_says_so_in_words():
 
     m = Motor("m", 0.1, 3000.0, 1.0, 0.05, 0.05, 1.0, 1e-3, 1e-6, supply_voltage_V=24.0)
     r = Reducer("r", 100.0, 0.8, 50.0, 100.0, 5000.0)
-    arr = DriveArrays.from_drives([Drive("j", m, r, Encoder(1000, 4), 1.0, 10.0)])
+    arr = DriveTrain.from_drives([Drive("j", m, r, Encoder(1000, 4), 1.0, 10.0)])
     # no-load speed 24 / 0.05 = 480 rad/s at the motor: 5 rad/s at the joint is 500 rad/s
     tau, qd = np.array([[1.0]]), np.array([[5.0]])
     res = evaluate_checks(

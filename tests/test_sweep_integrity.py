@@ -117,7 +117,7 @@ def parts_of(out: Path) -> dict[str, float]:
 def test_rows_and_sweep_json_record_their_inputs_and_a_changed_drives_file_reruns(
     tmp_path, client, capsys
 ):
-    from armlab.dynamics.catalogue import default_catalogue_path
+    from armlab.robot.catalogue import default_catalogue_path
     from armlab.robot.controller import profiles_dir
 
     # two copies of teachbot6, one row each

@@ -19,7 +19,7 @@ the Elmo "CANopen DSP 402 Implementation Guide" §9.2 for the home offset):
 * 0x60B2 torque offset [per mille of 0x6076] (INTEGER16): the motor torque of the plan,
   ``rint(1000 sign T_m / T_rated)``, ``T_m`` from armlab's inverse dynamics
   (:func:`armlab.robot.rigid_body.inverse_dynamics` at the cycle's q, qd, qdd) through the drive
-  train (:func:`armlab.dynamics.checks.motor_side`: reducer efficiency, rotor and reducer
+  train (:func:`armlab.robot.drivetrain.motor_side`: reducer efficiency, rotor and reducer
   inertia, viscous friction) -- the feed-forward armlab's sizing and tracking use;
 * 0x6076 motor rated torque [mN m] (UNSIGNED32): the motor's continuous stall torque
   (drives.toml); 0x6072 max torque [per mille] (UNSIGNED16): its peak torque (stall if none);
@@ -312,7 +312,7 @@ def _motor_torque_Nm(
     robot: Robot, table: SetpointTable, index: np.ndarray, drives: list[Drive]
 ) -> np.ndarray:
     """Motor torque [N m] of each axis and cycle (module docstring), ``(n_cycles, n_axes)``."""
-    from armlab.dynamics.checks import DriveArrays, motor_side
+    from armlab.robot.drivetrain import DriveTrain, motor_side
     from armlab.robot.rigid_body import inverse_dynamics
 
     assert table.qdd_rad_s2 is not None and robot.drives is not None
@@ -322,7 +322,7 @@ def _motor_torque_Nm(
     q[:, index], qd[:, index], qdd[:, index] = table.q_rad, table.qd_rad_s, table.qdd_rad_s2
     tau = inverse_dynamics(robot, q, qd, qdd)
     t_m, _, _ = motor_side(
-        tau[:, index], qd[:, index], qdd[:, index], DriveArrays.from_drives(drives)
+        tau[:, index], qd[:, index], qdd[:, index], DriveTrain.from_drives(drives)
     )
     return t_m
 
@@ -478,7 +478,7 @@ def cia402_csp(
         "axis_sign": [int(s) for s in sign],
         "trajectory_sha256": table.trajectory_sha256,
         "armlab_version": table.meta.get("armlab_version", ""),
-        "torque_rule": "inverse dynamics (RNEA) + drive train (armlab.dynamics.checks.motor_side)",
+        "torque_rule": "inverse dynamics (RNEA) + drive train (armlab.robot.drivetrain.motor_side)",
     }
     if source is not None:
         meta["source"] = dict(source)

@@ -6,8 +6,7 @@ Stable names (DESIGN.md): :func:`inverse_dynamics`, :func:`static_load`, :func:`
 :func:`select_drives`, :func:`load_catalogue`, :func:`hold_check`.
 """
 
-from armlab.dynamics.catalogue import Catalogue, load_catalogue
-from armlab.dynamics.checks import CHECK_NAMES, Check, SizingOptions, envelope_torque, motor_side
+from armlab.dynamics.checks import CHECK_NAMES, Check, SizingOptions
 from armlab.dynamics.holding import HoldReport, hold_check
 from armlab.dynamics.inverse import JointLoads, inverse_dynamics, joint_torques
 from armlab.dynamics.reference import THESIS_TABLE_4_2, THESIS_TABLE_4_3
@@ -20,6 +19,7 @@ from armlab.dynamics.static_load import (
     build_static_load,
     static_load,
 )
+from armlab.robot.catalogue import Catalogue, load_catalogue
 
 __all__ = [
     "inverse_dynamics",
@@ -35,8 +35,6 @@ __all__ = [
     "SizingOptions",
     "Check",
     "CHECK_NAMES",
-    "motor_side",
-    "envelope_torque",
     "requirement_moves",
     "select_drives",
     "Selection",

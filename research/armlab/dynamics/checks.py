@@ -10,8 +10,7 @@ One model, :mod:`armlab.robot.drivetrain` (its docstring has the equations): joi
 reducer efficiency by quadrant (motoring ``/ eta``, back-driven ``x eta_b``; holding counts as
 motoring, the thesis rule of table 4.3), reflected rotor + reducer inertia and motor friction;
 the envelope is ``derating x min(T_peak, Kt (U - Ke |w|) / R)`` in both quadrants (no credit
-for regeneration). ``DriveArrays`` is :class:`armlab.robot.drivetrain.DriveTrain`;
-:func:`motor_side` and :func:`envelope_torque` are kept as thin names for it.
+for regeneration), all from :mod:`armlab.robot.drivetrain`.
 """
 
 from __future__ import annotations
@@ -29,15 +28,12 @@ from armlab.robot.drivetrain import DriveTrain
 
 __all__ = [
     "Check",
-    "DriveArrays",
     "SizingOptions",
     "CHECK_NAMES",
-    "motor_side",
     "evaluate_checks",
     "checks_for_column",
     "binding",
     "Checked",
-    "envelope_torque",
 ]
 
 #: Check names, in report order, with their units.
@@ -132,11 +128,7 @@ class SizingOptions:
         return math.inf if m is None else float(m)
 
 
-#: the drive-train arrays (one home: :class:`armlab.robot.drivetrain.DriveTrain`)
-DriveArrays = DriveTrain
-
-
-def counts_per_joint_rev_of(drives: DriveArrays, controller: ControllerProfile) -> np.ndarray:
+def counts_per_joint_rev_of(drives: DriveTrain, controller: ControllerProfile) -> np.ndarray:
     """Counts per joint revolution the controller sees for each drive: the profile's
     ``counts_per_joint_rev`` if it sets them, else pulses x decoding (the profile's decoding if it
     sets one, else the encoder's) x ratio -- the rule of :meth:`ControllerProfile.counts_per_rad`
@@ -157,35 +149,6 @@ def counts_per_joint_rev_of(drives: DriveArrays, controller: ControllerProfile) 
     return per_motor_rev * drives.ratio
 
 
-def motor_side(tau, qd, qdd, drives: DriveTrain) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Motor torque and speed from joint signals (:func:`armlab.robot.drivetrain.motor_torque`).
-
-    Parameters
-    ----------
-    tau, qd, qdd : array (n_samples, n_columns)
-        Rigid-body joint torque [N m] (joint friction is added by the model), speed [rad/s],
-        acceleration [rad/s^2].
-    drives : DriveTrain
-        ``n_columns`` drives.
-
-    Returns
-    -------
-    motor_torque_Nm, motor_speed_rad_s : array (n_samples, n_columns)
-    motoring : bool array (n_samples, n_columns)
-        True where the motor drives the load (``(tau + friction) qd >= 0``).
-    """
-    t_m, motoring = drivetrain.motor_torque(tau, qd, qdd, drives)
-    return t_m, drivetrain.motor_speed(qd, drives), motoring
-
-
-def envelope_torque(w_m, t_m, drives: DriveTrain) -> np.ndarray:
-    """Torque the DC motor can give at each operating point, in [N m]:
-    :func:`armlab.robot.drivetrain.envelope_torque` (``derating x min(T_peak, Kt (U - Ke |w|)
-    / R)``, the same line in both quadrants; ``t_m`` is accepted for the old signature and
-    not used)."""
-    return drivetrain.envelope_torque(w_m, drives)
-
-
 def _margin(value, limit):
     limit = np.asarray(limit, float)
     safe = np.where(np.abs(limit) > _TINY, limit, _TINY)
@@ -193,7 +156,7 @@ def _margin(value, limit):
 
 
 def evaluate_checks(
-    tau, qd, qdd, weights, drives: DriveArrays, lever_m, options: SizingOptions
+    tau, qd, qdd, weights, drives: DriveTrain, lever_m, options: SizingOptions
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Every sizing check for every column: ``{name: (value, limit)}``, arrays (n_columns,).
 
@@ -204,7 +167,7 @@ def evaluate_checks(
         broadcasts over all drives: one joint, many candidate drives).
     weights : array (n_samples,)
         Time each sample stands for, in [s] (trapezoidal; they sum to the cycle time).
-    drives : DriveArrays
+    drives : DriveTrain
     lever_m : array (n_columns,)
         Largest distance from each joint's axis to the tool point, in [m].
     options : SizingOptions
@@ -224,15 +187,15 @@ def evaluate_checks(
     * ``motor_peak_torque``: peak ``|T_m|`` <= (peak rating, else stall torque) x derating.
     * ``motor_speed``: peak ``|w_m|`` <= table (rated) speed, else no-load speed ``U / Ke``.
     * ``motor_envelope``: every operating point inside the speed-torque envelope
-      (:func:`envelope_torque`); value and limit are those of the worst point
-      (largest ``|T_m| / T_max``).
+      (:func:`armlab.robot.drivetrain.envelope_torque`); value and limit are those of the
+      worst point (largest ``|T_m| / T_max``).
     * ``encoder_resolution``: joint angle per count ``2 pi / (pulses x decoding x N)`` <=
       ``tool_resolution_m / lever_m``.
     * ``encoder_pulse_rate``: peak counts per controller cycle <= the controller's pulse limit
       (``options.controller``: cycle, decoding and limit of the profile the table is written for).
     """
     w = np.asarray(weights, float)[:, None]
-    t_m, w_m, _ = motor_side(tau, qd, qdd, drives)
+    t_m, w_m, _ = drivetrain.motor_side(tau, qd, qdd, drives)
     abs_tau, abs_qd = np.abs(tau), np.abs(qd)
     peak_tau = abs_tau.max(axis=0)
     # (value, limit) per check: arrays per column or scalars, broadcast on return

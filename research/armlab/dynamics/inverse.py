@@ -23,10 +23,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from armlab.dynamics.checks import DriveArrays, motor_side
 from armlab.errors import InputError, RobotDescriptionError
 from armlab.robot import rigid_body
 from armlab.robot.drives import Drive
+from armlab.robot.drivetrain import DriveTrain, motor_side
 from armlab.trajectory import Trajectory
 
 if TYPE_CHECKING:
@@ -290,7 +290,7 @@ def inverse_dynamics(robot: Robot, trajectory, *, drives=None, threads: int = 1)
     )
     dl = _drive_list(robot, drives)
     if dl is not None:
-        arrays = DriveArrays.from_drives(dl)
+        arrays = DriveTrain.from_drives(dl)
         loads.motor_torque_Nm, loads.motor_speed_rad_s, loads.motoring = motor_side(
             tau, qd, qdd, arrays
         )

@@ -23,12 +23,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from armlab.dynamics.catalogue import Catalogue, load_catalogue
 from armlab.dynamics.checks import (
     CHECK_NAMES,
     Check,
     Checked,
-    DriveArrays,
     SizingOptions,
     checks_for_column,
     evaluate_checks,
@@ -36,7 +34,9 @@ from armlab.dynamics.checks import (
 from armlab.dynamics.inverse import as_trajectories, inverse_dynamics
 from armlab.dynamics.sizing import lever_arms_m
 from armlab.errors import InfeasibleError, InputError
+from armlab.robot.catalogue import Catalogue, load_catalogue
 from armlab.robot.drives import Drive, Encoder, Motor, Reducer, available_torque_Nm
+from armlab.robot.drivetrain import DriveTrain
 from armlab.trajectory import Trajectory
 
 if TYPE_CHECKING:
@@ -348,7 +348,7 @@ def select_drives(
             loads.qd[:, columns],
             loads.qdd[:, columns],
             loads.weights,
-            DriveArrays.from_drives(drives),
+            DriveTrain.from_drives(drives),
             levers[j],
             options,
         )
@@ -371,7 +371,7 @@ def select_drives(
                 loads.qd[:, columns],
                 loads.qdd[:, columns],
                 loads.weights,
-                DriveArrays.from_drives([d]),
+                DriveTrain.from_drives([d]),
                 levers[j],
                 options,
             )

@@ -18,7 +18,6 @@ import numpy as np
 from armlab.dynamics.checks import (
     Check,
     Checked,
-    DriveArrays,
     SizingOptions,
     checks_for_column,
     counts_per_joint_rev_of,
@@ -33,6 +32,7 @@ from armlab.dynamics.inverse import (
 )
 from armlab.errors import InputError
 from armlab.robot.drives import Drive
+from armlab.robot.drivetrain import DriveTrain
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
@@ -183,7 +183,7 @@ def size(
     if dt is not None:
         trajs = [tr.sample(dt) for tr in trajs]
     loads = inverse_dynamics(robot, trajs, drives=drive_list, threads=threads)
-    arrays = DriveArrays.from_drives(drive_list)
+    arrays = DriveTrain.from_drives(drive_list)
     results = evaluate_checks(
         loads.torque_Nm, loads.qd, loads.qdd, loads.weights, arrays, lever_arms_m(robot), options
     )

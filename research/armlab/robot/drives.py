@@ -406,7 +406,7 @@ def read_drives(path: str | Path, joint_names: list[str] | tuple[str, ...]) -> d
 
 def _catalogue_part(path: Path, data: dict, kind: str, model: str, where: str) -> tuple[Any, float]:
     """(part, derating) of a catalogue model named in a drives file (``motor = "..."``)."""
-    from armlab.dynamics.catalogue import load_catalogue
+    from armlab.robot.catalogue import load_catalogue
 
     cat_key = data.get("catalogue")
     if cat_key is not None and not isinstance(cat_key, str):

@@ -90,6 +90,7 @@ __all__ = [
     "friction_direction",
     "joint_friction",
     "motor_torque",
+    "motor_side",
     "joint_torque_delivered",
     "voltage_line_torque",
     "envelope_torque",
@@ -342,6 +343,15 @@ def motor_torque(tau, qd, qdd, dt: DriveTrain) -> tuple[np.ndarray, np.ndarray]:
     t_in = np.where(motoring, tau_out / (N * dt.efficiency), tau_out * (dt.back_efficiency / N))
     t_m = t_in + (dt.inertia_motor_side_kg_m2 * N) * qdd + dt.viscous_Nm_s_rad * (N * qd)
     return t_m, motoring
+
+
+def motor_side(tau, qd, qdd, dt: DriveTrain) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Motor torque [N m], motor speed [rad/s] and motoring flags from joint signals
+    (n_samples, n_columns): :func:`motor_torque` and :func:`motor_speed` together (``tau`` the
+    rigid-body joint torque; joint friction is added by the model). ``motoring`` is True where
+    the motor drives the load (``(tau + friction) qd >= 0``)."""
+    t_m, motoring = motor_torque(tau, qd, qdd, dt)
+    return t_m, motor_speed(qd, dt), motoring
 
 
 def joint_torque_delivered(t_m, qd, qdd, dt: DriveTrain) -> np.ndarray:

@@ -70,7 +70,7 @@ def _named(document: dict[str, Any], table: str, key: str) -> str | None:
 def input_files(document: dict[str, Any], study_dir: str | Path) -> dict[str, Path | None]:
     """The files a study document reads (:data:`FILE_INPUTS` keys; None: none, or it cannot be
     found -- the study then fails with its own message)."""
-    from armlab.dynamics.catalogue import default_catalogue_path
+    from armlab.robot.catalogue import default_catalogue_path
     from armlab.robot.controller import DEFAULT_PROFILE, _profile_path
     from armlab.robot.model import _find_urdf
 
