@@ -714,7 +714,8 @@ def diagnose_tracking(robot: Robot, trajectory, gains, result: TrackingResult, *
     sat = result.saturation_time_s
     sat_joints = [n for n, s in zip(result.joint_names, sat, strict=True) if s > 0]
     worst = result.joint_names[int(np.argmax(result.max_error_rad))]
-    if max(gain_v, gain_l) < 0.1 * err["full"]:
+    feedback_limited = max(gain_v, gain_l) < 0.1 * err["full"]
+    if feedback_limited:
         factor = (
             f"the feedback itself (an ideal drive tracks within "
             f"{min(err['no_voltage_limit'], err['no_losses']) * 1e3:.3g} mm too; largest joint "
@@ -740,10 +741,17 @@ def diagnose_tracking(robot: Robot, trajectory, gains, result: TrackingResult, *
     else:
         offer = "feed-forward of friction and efficiency is already on"
     if "with_loss_feedforward" not in err or err["with_loss_feedforward"] > budget:
-        offer += (
-            "; next: retune within the saturation (lower position bandwidth) or plan inside "
-            "the motor envelope (plan.drive_limits = true)"
-        )
+        if feedback_limited:  # the drive is not what limits: the loops or the motion are
+            ct = "" if "computed_torque" in ff else ", computed-torque feed-forward"
+            offer += (
+                f"; next: a faster position loop (control.position_bandwidth_rad_s){ct} "
+                "or a slower motion (plan.speed_scale)"
+            )
+        else:
+            offer += (
+                "; next: retune within the saturation (lower position bandwidth) or plan "
+                "inside the motor envelope (plan.drive_limits = true)"
+            )
     return {
         "tcp_max_error_m": err,
         "accuracy_m": budget,
