@@ -12,6 +12,13 @@
 4. The rest-to-rest v/a/j PTP in closed form (``synchronised_scurves``) vs Ruckig: the same
    durations, time per problem (goal <= 10 x Ruckig) and batched rate (goal >= 100 000/s);
    ``--scurves-only`` runs this table alone.
+5. ``optimal`` solve time by waypoint count (2, 5, 10, 20; teachbot6, its own limits, random
+   waypoints in 70 % of the ranges), v/a/j and v/a/j/tau, with the settings before issue 15
+   (``hessian="exact"``, cold back-off re-solves) and today's defaults (``"partial"``, warm
+   re-solves): median / max IPOPT time, wall per call, success rate and the largest duration
+   change. Goals (issue 15): v/a/j/tau
+   median <= 50 ms at 5 waypoints, <= 300 ms at 20, 100 % success, durations within 0.5 %;
+   ``--optimal-scaling-only`` runs this table alone.
 
 Run:  ``MPLBACKEND=Agg .venv/bin/python benchmarks/bench_trajectory.py [--quick]``
 """
@@ -341,6 +348,75 @@ def bench_scurve_batch(quick: bool = False) -> None:
         )
 
 
+# ----------------------------------------------------------------------------- 5. scaling
+SCALING_WAYPOINTS = (2, 5, 10, 20)
+SCALING_CASES = 6  # per waypoint count and limit set
+SCALING_RANGE = 0.7
+
+
+def bench_optimal_scaling(quick: bool = False) -> None:
+    """``optimal`` on teachbot6 by waypoint count, before / after issue 15 (module docstring, 5)."""
+    import importlib
+
+    # the module (``armlab.planning.optimal`` the attribute is the function)
+    optimal_module = importlib.import_module("armlab.planning.optimal")
+    robot = armlab.load_robot("teachbot6")
+    lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
+    mid, half = (lo + hi) / 2, (hi - lo) / 2 * SCALING_RANGE
+    n_cases = 2 if quick else SCALING_CASES
+    settings = {
+        "before": {"hessian": "exact"},
+        "after": {},
+    }
+    print()
+    print(f"optimal() solve time by waypoint count (teachbot6, seed {SEED + 5:d})")
+    hdr = (
+        f"{'limits':<10}{'wp':>3}  {'settings':<8}{'n':>3}  {'ipopt [s] med':>13}  "
+        f"{'max':>7}  {'wall [s] med':>12}  {'iter med':>8}  {'success':>7}  "
+        f"{'T after/before - 1 max':>22}"
+    )
+    print(hdr)
+    print("-" * len(hdr))
+    for kind, tau in (("v/a/j", False), ("v/a/j/tau", None)):
+        for nw in SCALING_WAYPOINTS:
+            rng = np.random.default_rng(SEED + 5 + nw)
+            cases = []
+            while len(cases) < n_cases:
+                w = mid + half * (2 * rng.random((nw, robot.n_joints)) - 1)
+                if all(statically_ok(robot, q) for q in w):
+                    cases.append(w)
+            durations = {}
+            for name, extra in settings.items():
+                # before: a back-off re-solve started cold, as it did then
+                optimal_module.WARM_RESOLVE = name == "after"
+                # the compiled problem is built once per size and settings: not timed
+                optimal(robot, cases[0], tau_max=tau, **extra)
+                solve, wall, iters, ok, T = [], [], [], 0, []
+                for w in cases:
+                    t0 = time.perf_counter()
+                    try:
+                        tr = optimal(robot, w, tau_max=tau, **extra)
+                    except ArmlabError:
+                        T.append(np.nan)
+                        continue
+                    wall.append(time.perf_counter() - t0)
+                    solve.append(tr.stats["solve_time_s"])
+                    iters.append(tr.stats["iterations"])
+                    ok += bool(tr.stats["success"])
+                    T.append(tr.stats["duration_s"])
+                durations[name] = np.array(T)
+                dev = ""
+                if name == "after":
+                    r = durations["after"] / durations["before"] - 1
+                    dev = f"{np.nanmax(np.abs(r)):.1e}"
+                print(
+                    f"{kind:<10}{nw:>3}  {name:<8}{n_cases:>3}  {np.median(solve):>13.3f}  "
+                    f"{np.max(solve):>7.3f}  {np.median(wall):>12.3f}  {np.median(iters):>8.1f}  "
+                    f"{ok:>3}/{n_cases:<3}  {dev:>22}",
+                    flush=True,
+                )
+
+
 # ----------------------------------------------------------------------------- main
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -348,7 +424,15 @@ def main() -> None:
     ap.add_argument(
         "--scurves-only", action="store_true", help="only the closed-form S-curve table"
     )
+    ap.add_argument(
+        "--optimal-scaling-only",
+        action="store_true",
+        help="only the optimal() solve time by waypoint count",
+    )
     args = ap.parse_args()
+    if args.optimal_scaling_only:
+        bench_optimal_scaling(args.quick)
+        return
     if args.scurves_only:
         bench_scurve_batch(args.quick)
         return
@@ -454,6 +538,7 @@ def main() -> None:
         f" (< 1 s)"
     )
     bench_scurve_batch(args.quick)
+    bench_optimal_scaling(args.quick)
 
 
 if __name__ == "__main__":

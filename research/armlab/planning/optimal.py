@@ -98,7 +98,10 @@ too), refitted to be an exact piecewise polynomial on the node grid
 (:mod:`armlab.planning.warmstart`) and slowed down uniformly until its torques fit.
 (``armlab.trajectory.ptp_sync`` is not used: sampled on our grid its profile does not satisfy
 the integration equations, and an inconsistent start measurably slowed IPOPT down.) The solver
-is IPOPT with the exact Hessian (CasADi SX); the inverse dynamics take the inertial parameters
+is IPOPT (CasADi SX) with the exact Hessian, by default without the curvature of the torque-limit
+rows (``hessian="partial"``, :data:`armlab.planning.transcription.HESSIANS`; where the time
+goes and what was measured: ``transcription`` module docstring, "Solve time"); the inverse
+dynamics take the inertial parameters
 as an input, so one compiled problem serves every payload of a robot (cached per kinematics,
 sizes and flags).
 
@@ -151,7 +154,15 @@ else:
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
 
-__all__ = ["optimal", "build_optimal", "OptimalProblem", "OBJECTIVES", "JUMP_RAMP_S", "H_MIN_S"]
+__all__ = [
+    "optimal",
+    "build_optimal",
+    "default_intervals",
+    "OptimalProblem",
+    "OBJECTIVES",
+    "JUMP_RAMP_S",
+    "H_MIN_S",
+]
 
 OBJECTIVES = ("time", "time+smooth", "jerk", "energy")
 #: shortest interval the optimiser may use, in [s]
@@ -162,6 +173,20 @@ JUMP_RAMP_S = 5e-5
 TIME_REGULARISATION = 1e-7
 #: samples of the fine feasibility check (~100 per optimisation interval)
 CHECK_SAMPLES = 4000
+#: start the back-off re-solves from the last solution's multipliers (issue 15)
+WARM_RESOLVE = True
+#: fewest intervals per segment by default with several segments. 10 was tried (issue 15,
+#: teachbot6, 10 and 20 waypoints with torque limits): 25-55 % faster median solves and
+#: durations within 4e-4, but the coarser grid let the torque exceed its limit between the
+#: nodes more often, and one 20-waypoint case needed 4 fine-grid back-off rounds (the
+#: maximum) and 2.6 x the time -- kept at 16
+MIN_SEGMENT_INTERVALS = 16
+
+
+def default_intervals(n_segments: int) -> int:
+    """Intervals per segment when ``n_intervals`` is not given: 32 for a single segment,
+    else ``max(MIN_SEGMENT_INTERVALS, 48 // n_segments)``."""
+    return max(MIN_SEGMENT_INTERVALS, 48 // n_segments) if n_segments > 1 else 32
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -353,6 +378,8 @@ class OptimalProblem:
     drive_limits: bool = False
     train: drivetrain.DriveTrain | None = None
     hessian: str = HESSIAN
+    #: set when a "partial" solve failed: the back-off rounds after it use the exact Hessian
+    _exact_after_fallback: bool = field(default=False, init=False, repr=False)
 
     # ------------------------------------------------------------------ layout helpers
     @property
@@ -367,7 +394,7 @@ class OptimalProblem:
     def waypoint_nodes(self) -> np.ndarray:
         return np.concatenate([[0], np.cumsum(self.segment_intervals)]).astype(int)
 
-    def _structure(self, limits: Limits) -> Structure:
+    def _structure(self, limits: Limits, hessian: str | None = None) -> Structure:
         return structure(
             self.robot,
             self.n,
@@ -378,7 +405,7 @@ class OptimalProblem:
             self.duration is not None,
             self.max_iter,
             self.drive_limits,
-            self.hessian,
+            hessian or self.hessian,
         )
 
     def node_directions(self) -> np.ndarray:
@@ -624,18 +651,39 @@ class OptimalProblem:
         return self.check_dt or traj.duration / CHECK_SAMPLES
 
     # ------------------------------------------------------------------ solve
-    def _solve_once(self, limits: Limits, x0: np.ndarray, drive_scale=None):
-        st = self._structure(limits)
+    def _solve_once(self, limits: Limits, x0: np.ndarray, drive_scale=None, lam=None):
+        """One IPOPT solve; a ``"partial"``-Hessian solve that fails (it is capped at
+        :data:`~armlab.planning.transcription.PARTIAL_MAX_ITER` iterations) is repeated with
+        the exact Hessian from the same start (``info["hessian_fallback"]``)."""
+        hessian = "exact" if self._exact_after_fallback else self.hessian
+        out = self._attempt(hessian, limits, x0, drive_scale, lam)
+        info = out[2]
+        if not info["success"] and hessian == "partial" and out[0].torque_rows:
+            self._exact_after_fallback = True
+            out = self._attempt("exact", limits, x0, drive_scale, None)
+            out[2]["iterations"] += info["iterations"]
+            out[2]["solve_time_s"] += info["solve_time_s"]
+            out[2]["hessian_fallback"] = True
+        return out
+
+    def _attempt(self, hessian: str, limits: Limits, x0, drive_scale, lam):
+        st = self._structure(limits, hessian)
         lbx, ubx, lbg, ubg = self._bounds(st, limits, drive_scale)
         p = self._params(limits, drive_scale)
         sv = self._scale_vector()
         lbx, ubx = lbx / sv, ubx / sv
         x0 = np.clip(x0 / sv, lbx, ubx)
         t0 = _time.perf_counter()
-        res = st.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=p)
+        if lam is not None and WARM_RESOLVE:  # a back-off round: from the last multipliers
+            res = st.warm_solver()(
+                x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=p, lam_x0=lam[0], lam_g0=lam[1]
+            )
+        else:
+            res = st.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=p)
         wall = _time.perf_counter() - t0
-        s = st.solver.stats()
+        s = (st.warm_solver() if lam is not None and WARM_RESOLVE else st.solver).stats()
         xs = np.asarray(res["x"]).ravel()
+        lam_out = (np.asarray(res["lam_x"]).ravel(), np.asarray(res["lam_g"]).ravel())
         x = xs * sv
         info = {
             "return_status": s.get("return_status", ""),
@@ -653,7 +701,7 @@ class OptimalProblem:
             if np.max(viol / scale, initial=0.0) > 1e-6:
                 info["success"] = False
                 info["return_status"] += " (constraints violated)"
-        return st, x, info, (lbx, ubx, lbg, ubg, p, xs)
+        return st, x, info, (lbx, ubx, lbg, ubg, p, xs), lam_out
 
     def solve(self) -> Trajectory:
         """Solve (with torque back-off rounds) and return the checked Trajectory.
@@ -664,6 +712,7 @@ class OptimalProblem:
             The request cannot meet its limits; the message names the binding limit and joint.
         """
         x0 = self.x0 if self.x0 is not None else self.make_warm_start()
+        self._exact_after_fallback = False
         torque_on = self.limits.torque_Nm is not None
         jl = self.limits
         train = self.train if self.drive_limits else None
@@ -671,8 +720,9 @@ class OptimalProblem:
         def solve(state, previous):  # warm: the last good solution
             limits, scale = (state[0], state[1:]) if train is not None else (state, None)
             warm = x0 if previous is None else previous[1]
-            st, x, info, data = self._solve_once(limits, warm, scale)
-            return (st, x, data), info
+            lam = None if previous is None else previous[3]
+            st, x, info, data, lam_out = self._solve_once(limits, warm, scale, lam)
+            return (st, x, data, lam_out), info
 
         def check(result) -> dict[str, np.ndarray]:
             traj = self._trajectory(result[0], result[1])
@@ -683,7 +733,7 @@ class OptimalProblem:
             return ratios
 
         def fail(result, info) -> NoReturn:
-            st, x, data = result
+            st, x, data, _ = result
             self._diagnose(st, x, info, data)
 
         out: Any
@@ -701,7 +751,7 @@ class OptimalProblem:
                 tighten=tighten_drive,
             )
             limits = out.limits[0]
-        (st, x, _), info, rounds = out.result, out.info, out.rounds
+        (st, x, _, _), info, rounds = out.result, out.info, out.rounds
         total_iter, total_time = out.iterations, out.solve_time_s
         traj = self._trajectory(st, x)
         dt = self._check_dt(traj)
@@ -725,6 +775,7 @@ class OptimalProblem:
             # casadi's stubs omit the module's __version__
             "solver": f"ipopt (casadi {ca.__version__})",  # type: ignore[attr-defined]
             "hessian": self.hessian,
+            "hessian_fallback": self._exact_after_fallback,
             "iterations": total_iter,
             "solve_time_s": total_time,
             "build_time_s": info["build_time_s"],
@@ -944,7 +995,7 @@ def build_optimal(
         _check_static_drive(robot, w, ls, exact, train)
     nseg = w.shape[0] - 1
     if n_intervals is None:
-        n_intervals = max(16, 48 // nseg) if nseg > 1 else 32
+        n_intervals = default_intervals(nseg)
     counts = np.asarray(n_intervals)
     seg_n = tuple(int(x) for x in counts) if counts.ndim else (int(counts),) * nseg
     if len(seg_n) != nseg or min(seg_n) < 2:
@@ -1012,7 +1063,8 @@ def optimal(
     via_tolerance : float or array (n_joints,)
         Via points are passed within this box in [rad] (0: exactly).
     n_intervals : int or tuple, optional
-        Intervals per segment (default 32 for one segment, ``max(16, 48 // n_segments)``).
+        Intervals per segment (default :func:`default_intervals`: 32 for one segment,
+        ``max(16, 48 // n_segments)`` for more).
     check_dt : float, optional
         Step of the fine feasibility check in [s] (default ``T / 4000``).
     max_backoff : int
@@ -1025,10 +1077,11 @@ def optimal(
     hessian : {"partial", "exact", "limited-memory"}
         The Hessian of the Lagrangian IPOPT works with
         (:data:`armlab.planning.transcription.HESSIANS`): ``"partial"`` (default) leaves the
-        curvature of the inverse-dynamics rows out of the Newton model (their values and
-        Jacobian stay exact, so the solution meets the same conditions; measured ~20-30 %
-        faster with torque limits, the same durations within 1e-4), ``"exact"`` the full one,
-        ``"limited-memory"`` L-BFGS. Without torque rows ``"partial"`` equals ``"exact"``.
+        curvature of the torque-limit rows out of the Newton model (their values and Jacobian
+        stay exact, so the solution meets the same conditions; with torque limits ~1.5 x
+        faster, durations within 1e-5, measured on teachbot6; a solve that stalls is repeated
+        with the exact Hessian, ``stats["hessian_fallback"]``), ``"exact"`` the full one,
+        ``"limited-memory"`` L-BFGS. Without a torque limit ``"partial"`` equals ``"exact"``.
 
     Returns
     -------

@@ -13,6 +13,27 @@ continuous rating. The compiled NLP depends only on the robot's kinematic tree, 
 the flags, so it is built once and cached (:func:`structure`); the payload, limits, drive data,
 directions of motion, scales and grid fractions are parameters. The problem and its solve are
 in :mod:`armlab.planning.optimal`.
+
+Solve time (issue 15, teachbot6, 5 waypoints, 64 intervals, v/a/j/tau, cProfile and IPOPT's
+timing statistics): ~85 % of a call is IPOPT, ~15 % the warm start and the fine-grid checks.
+Inside IPOPT, with the exact Hessian, ~60 % were function evaluations -- the Hessian of the
+Lagrangian (1.25 M SX instructions, ~18.5 k per node for the inverse dynamics, ~8 ms a call)
+and the constraint Jacobian (0.72 M, ~4.5 ms) -- and ~40 % IPOPT's own linear algebra (MUMPS)
+and bookkeeping. Without torque rows the evaluations are negligible and IPOPT's linear
+algebra is the cost (~5 ms an iteration). ``hessian="partial"`` drops the inverse-dynamics
+curvature (the torque rows and their Jacobian stay exact) for ~1 more iteration in 20. One
+heavily torque-bound case stalled without that curvature, so a ``"partial"`` solve is capped at
+:data:`PARTIAL_MAX_ITER` iterations and then repeated with the exact Hessian
+(``optimal.OptimalProblem._solve_once``). A fine-grid back-off re-solve starts from the last
+solution's multipliers (:meth:`Structure.warm_solver`): ~1/3 fewer iterations there. Tried
+and not kept: MX graphs (2.3 x slower), ``mu_strategy="monotone"``, no NLP scaling,
+``mu_init``, smaller ``bound_push`` (46 instead of 20 iterations), a looser ``tol`` (no fewer
+iterations), 10 instead of 16 intervals per segment (see ``optimal.MIN_SEGMENT_INTERVALS``).
+A Riccati solver (``fatrop``, in CasADi's wheel) needs stage-wise variables and rows and the
+segment durations carried as states; on stand-alone probes of the same integration equations
+(one segment, teachbot6) it was 1.6 x faster than IPOPT with v/a/j limits (64 and 304
+intervals), but with the torque rows 1.0 x (64) and 1.2 x (304): there the derivative
+evaluations in CasADi's virtual machine are ~75 % of its time, and it does not reduce them.
 """
 
 from __future__ import annotations
@@ -50,16 +71,30 @@ N_DRIVE_COEFFS = 9
 #: expression graph of the NLP: "MX" (maps of the SX inverse dynamics; fast to build) or "SX"
 SYMBOLIC = "SX"
 #: the Hessians of the Lagrangian IPOPT can be given (:func:`build_structure`): ``"exact"``;
-#: ``"partial"`` -- exact for the objective and the polynomial rows (integration, convex-hull
-#: bounds, duration), without the curvature of the rows through the inverse dynamics (torque,
-#: motor envelope and RMS); ``"limited-memory"`` -- IPOPT's L-BFGS. The converged point meets
+#: ``"partial"`` -- exact, except that the curvature of the torque-box rows (the inverse
+#: dynamics over ``tau_max``) is left out (the motor-envelope and RMS rows of ``drive_limits``
+#: keep theirs: without it the drive test case needed > 1000 iterations, measured);
+#: ``"limited-memory"`` -- IPOPT's L-BFGS. The converged point meets
 #: the same KKT conditions to the same tolerance with each; only the Newton model differs.
 HESSIANS = ("exact", "partial", "limited-memory")
 #: the default (issue 15, measured on teachbot6 with torque limits: the inverse-dynamics
-#: Hessian was ~40 % of the solve, dropping its curvature costs ~1 iteration in 20)
+#: Hessian was ~35 % of the solve time, dropping its curvature costs ~1 iteration in 20)
 HESSIAN = "partial"
+#: IPOPT options of a back-off re-solve started from the last solution and its multipliers
+WARM_OPTIONS = {
+    "ipopt.warm_start_init_point": "yes",
+    "ipopt.warm_start_bound_push": 1e-9,
+    "ipopt.warm_start_bound_frac": 1e-9,
+    "ipopt.warm_start_slack_bound_push": 1e-9,
+    "ipopt.warm_start_slack_bound_frac": 1e-9,
+    "ipopt.warm_start_mult_bound_push": 1e-9,
+    "ipopt.mu_init": 1e-6,
+}
+#: iteration cap of a ``"partial"`` solve (above it ``optimal`` repeats the solve with the
+#: exact Hessian: a heavily torque-bound case stalled without that curvature, measured)
+PARTIAL_MAX_ITER = 100
 #: the rows whose curvature ``"partial"`` leaves out
-_DYNAMICS_ROWS = ("torque", "motor_envelope", "motor_rms")
+_DYNAMICS_ROWS = ("torque",)
 #: where, inside each interval, the torque is also constrained (fractions; none by default:
 #: with the balanced grid the fine-grid back-off is cheaper than midpoint rows, measured)
 TORQUE_INTERIOR_POINTS: tuple[float, ...] = ()
@@ -89,10 +124,26 @@ class Structure:
     g_tag: np.ndarray | None = None  # DRIVE_ROW_TAGS of the motor_envelope rows ("" elsewhere)
     g_col: np.ndarray | None = None  # their column (drive_columns order)
     n_drive_columns: int = 0
+    nlp: dict | None = None  # the symbolic NLP and the solver options (for warm_solver)
+    options: dict | None = None
+    _warm: ca.Function | None = None
 
     @property
     def N(self) -> int:
         return int(sum(self.seg_n))
+
+    def warm_solver(self) -> ca.Function:
+        """The same NLP with IPOPT started from given multipliers (``warm_start_init_point``),
+        for the re-solves of the fine-grid back-off; built at the first use, reusing the
+        derivative functions of :attr:`solver`."""
+        if self._warm is None:
+            assert self.nlp is not None and self.options is not None
+            opts = {**self.options, **WARM_OPTIONS}
+            opts["jac_g"] = self.solver.get_function("nlp_jac_g")
+            if opts.get("ipopt.hessian_approximation") == "exact":
+                opts["hess_lag"] = self.solver.get_function("nlp_hess_l")
+            self._warm = ca.nlpsol("armlab_optimal_warm", "ipopt", self.nlp, opts)
+        return self._warm
 
 
 def ipopt_options(max_iter: int, hessian: str = HESSIAN) -> dict:
@@ -286,12 +337,14 @@ def build_structure(
         g_tag=np.array(tags),
         g_col=np.array(gcols),
         n_drive_columns=n_cols,
+        nlp=nlp,
+        options=opts,
     )
 
 
 def _partial_hessian(x, p, f, g, kinds: np.ndarray, X) -> ca.Function:
     """IPOPT's ``hess_lag``: the upper triangle of the Hessian of ``lam_f f + lam_g' g`` with
-    the rows through the inverse dynamics (:data:`_DYNAMICS_ROWS`) left out. Those rows
+    the torque-box rows (:data:`_DYNAMICS_ROWS`) left out. Those rows
     and their Jacobian stay exact; only their curvature is missing from the Newton model
     (a Gauss-Newton-like step for them), so the converged point is a KKT point of the same
     problem to the same tolerance."""
@@ -360,6 +413,8 @@ def structure(
 ) -> Structure:
     need_tau = torque_rows or objective == "energy" or drive_rows
     kkey = kinematics_key(robot) if need_tau else None
+    if hessian == "partial" and not torque_rows:
+        hessian = "exact"  # the same Hessian: share the compiled problem, no iteration cap
     key = (
         kkey,
         n,
@@ -374,6 +429,8 @@ def structure(
         TORQUE_INTERIOR_POINTS,
         SYMBOLIC,
     )
+    if hessian == "partial":
+        max_iter = min(max_iter, PARTIAL_MAX_ITER)
     st = _STRUCTURES.get(key)
     if st is None:
         rnea_p = parametric_inverse_dynamics_function(robot) if need_tau else None
