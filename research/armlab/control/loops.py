@@ -269,24 +269,7 @@ class CascadeModel:
         lg = self._g("speed")
         dt = lg.sample_time_s
         G = ct.ss(self.current_closed_lagged() * self._mech())  # i* -> w
-        n = G.nstates
-        A = np.zeros((n + 1, n + 1))
-        A[:n, :n] = G.A
-        A[n, :n] = G.C[0]
-        B = np.zeros((n + 1, 1))
-        B[:n] = G.B
-        B[n, 0] = G.D[0, 0]
-        Ad, Bd = _zoh(A, B, dt)
-        Ax = np.zeros((n + 2, n + 2))
-        Ax[: n + 1, : n + 1] = Ad
-        Ax[n + 1, :n] = Ad[n, :n] / dt
-        Bx = np.zeros((n + 2, 1))
-        Bx[: n + 1] = Bd
-        Bx[n + 1, 0] = Bd[n, 0] / dt
-        C = np.zeros((2, n + 2))
-        C[0, n] = 1.0
-        C[1, n + 1] = 1.0
-        self._dd = ct.ss(Ax, Bx, C, np.zeros((2, 1)), dt)
+        self._dd = ct.ss(*_encoder_drive(G.A, G.B, G.C, G.D, dt), dt)
         return self._dd
 
     def speed_plant(self, discrete: bool = False) -> ct.StateSpace:
@@ -380,6 +363,31 @@ def _zoh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarra
     Mb, (sc, perm) = matrix_balance(M, permute=False, separate=True)
     E = expm(Mb) * (sc[:, None] / sc[None, :])
     return E[:n, :n], E[:n, n:]
+
+
+def _encoder_drive(GA, GB, GC, GD, dt: float) -> tuple:
+    """``(A, B, C, D)`` of the discrete drive ``i* -> (theta_k, speed_k)`` from the continuous
+    ``i* -> w`` system ``(GA, GB, GC, GD)``: x and theta = int w discretised with a ZOH of step
+    ``dt`` [s], and the measured speed ``(theta_k - theta_{k-1}) / dt`` as an extra state
+    (:meth:`CascadeModel._discrete_drive`)."""
+    n = GA.shape[0]
+    A = np.zeros((n + 1, n + 1))
+    A[:n, :n] = GA
+    A[n, :n] = GC[0]
+    B = np.zeros((n + 1, 1))
+    B[:n] = GB
+    B[n, 0] = GD[0, 0]
+    Ad, Bd = _zoh(A, B, dt)
+    Ax = np.zeros((n + 2, n + 2))
+    Ax[: n + 1, : n + 1] = Ad
+    Ax[n + 1, :n] = Ad[n, :n] / dt
+    Bx = np.zeros((n + 2, 1))
+    Bx[: n + 1] = Bd
+    Bx[n + 1, 0] = Bd[n, 0] / dt
+    C = np.zeros((2, n + 2))
+    C[0, n] = 1.0
+    C[1, n + 1] = 1.0
+    return Ax, Bx, C, np.zeros((2, 1))
 
 
 def _response(sys, w: np.ndarray, dt: float | None) -> np.ndarray:
@@ -760,24 +768,7 @@ class CascadeArrays:
         out = []
         for J in self.J:
             GA, GB, GC, GD = _ss_series(_mech_ss(self.plant, J), self._current_closed_lagged(J))
-            n = GA.shape[0]
-            A = np.zeros((n + 1, n + 1))
-            A[:n, :n] = GA
-            A[n, :n] = GC[0]
-            B = np.zeros((n + 1, 1))
-            B[:n] = GB
-            B[n, 0] = GD[0, 0]
-            Ad, Bd = _zoh(A, B, dt)
-            Ax = np.zeros((n + 2, n + 2))
-            Ax[: n + 1, : n + 1] = Ad
-            Ax[n + 1, :n] = Ad[n, :n] / dt
-            Bx = np.zeros((n + 2, 1))
-            Bx[: n + 1] = Bd
-            Bx[n + 1, 0] = Bd[n, 0] / dt
-            C = np.zeros((2, n + 2))
-            C[0, n] = 1.0
-            C[1, n + 1] = 1.0
-            out.append((Ax, Bx, C, np.zeros((2, 1))))
+            out.append(_encoder_drive(GA, GB, GC, GD, dt))
         self._drive = out
         return out
 

@@ -483,32 +483,7 @@ def _tune_position(
     def wc_nominal(kp):
         return margins(nominal.w_c, kp * nominal.P_c).crossover_rad_s
 
-    if target is not None:
-        w_best = wc_nominal(kp_max)
-        if target > w_best * (1 + 1e-3):
-            name = (
-                "position_bandwidth_rad_s"
-                if spec.position_bandwidth_rad_s is not None
-                else "rise_time_s"
-            )
-            val = getattr(spec, name)
-            raise SpecError(
-                f"{p0.joint}: spec {name}={val!r} is impossible: the position loop reaches at "
-                f"most {w_best:.4g} rad/s with phase_margin_deg>={spec.phase_margin_deg}, "
-                f"gain_margin_dB>={spec.gain_margin_dB} and separation_speed_position="
-                f"{spec.separation_speed_position} over the inertia range"
-            )
-        # bisection on the nominal crossover
-        a, b = math.log(1e-3), math.log(kp_max)
-        for _ in range(60):
-            mid = 0.5 * (a + b)
-            if wc_nominal(math.exp(mid)) < target:
-                a = mid
-            else:
-                b = mid
-        kp = math.exp(b)
-    else:
-        kp = kp_max
+    kp = _position_target(p0, spec, target, kp_max, wc_nominal)
     # overshoot (all cases, both models): reduce kp until it holds
     for _ in range(30):
         lg = make(kp)
