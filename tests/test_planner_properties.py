@@ -744,3 +744,21 @@ def test_no_near_duplicate_sample_at_the_end():
     t = sample_times(end, dt, [0.5 + 0.5 * MERGE_FRACTION * dt, 0.7])
     np.testing.assert_allclose(t[-3:], [0.98, 0.99, end])  # 1.0 merged into the end
     assert 0.5 not in t and 0.7 in t and np.diff(t).min() > MERGE_FRACTION * dt
+
+
+@pytest.mark.parametrize(
+    "planner, seed",
+    [
+        # soak finds of this stop, each broken before its fix:
+        ("ptp_velocity", 705),  # a torque peak between a long piece's middle and its knot
+        ("ptp_velocity", 4510),  # (1 + 8.9e-5 and 1 + 8.1e-6 x the limit, unsampled)
+        ("line", 50),  # a 742 s crawl near a singularity (a stretch of 15): now refused
+        ("topp", 1032),  # the jerk pass failed from the convex plan's warm start
+        ("optimal", 258),  # IPOPT out of iterations on 12 intervals: solved on 24
+    ],
+)
+def test_soak_finds_hold(planner, seed):
+    out = run(planner, seed)
+    assert out.status != "failed", f"{planner} seed={seed}: " + "; ".join(out.failures)
+    if planner == "line":
+        assert out.status == "refused" and "singularity" in out.message

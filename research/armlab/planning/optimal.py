@@ -869,7 +869,12 @@ class OptimalProblem:
                 f"{kinds[r]} limit of {self.limits.joint_names[st.g_joint[r]]} cannot be met "
                 f"(solver: {status})"
             )
-        raise ArmlabError(f"trajectory optimiser failed ({status}); try more n_intervals")
+        raise _NotConverged(f"trajectory optimiser failed ({status}); try more n_intervals")
+
+
+class _NotConverged(ArmlabError):
+    """The solver stopped (iteration limit, restoration failure) with no limit violated at its
+    last iterate: not a proof of infeasibility; :func:`optimal` retries on a finer grid."""
 
 
 def _kw(x):
@@ -1089,7 +1094,9 @@ def optimal(
         With ``.report`` (fine-grid :class:`LimitReport` against the request's limits),
         ``.stats`` (solver, iterations, solve_time_s, n_intervals, success, duration_s,
         binding limits ``[(kind, joint, ratio)]``, energy; with ``drive_limits`` the fine-grid
-        ``drive_ratios``) and ``.meta`` (waypoint times, ...).
+        ``drive_ratios``; ``n_intervals_raised`` when IPOPT did not converge on the requested
+        grid and the plan was solved once more with twice the intervals of every segment) and
+        ``.meta`` (waypoint times, ...).
 
     Raises
     ------
@@ -1100,10 +1107,11 @@ def optimal(
     InputError
         Bad shapes, values or keyword combinations; a waypoint outside a joint range
         (:func:`~armlab.trajectory.waypoints.validate_waypoints`).
+    ArmlabError
+        IPOPT did not converge, no limit was violated at its last iterate, and the grid twice
+        as fine did not converge either.
     """
-    prob = build_optimal(
-        robot,
-        waypoints,
+    kw = dict(
         v_max=v_max,
         a_max=a_max,
         j_max=j_max,
@@ -1112,7 +1120,6 @@ def optimal(
         duration=duration,
         payload_kg=payload_kg,
         via_tolerance=via_tolerance,
-        n_intervals=n_intervals,
         smooth_weight=smooth_weight,
         check_dt=check_dt,
         max_backoff=max_backoff,
@@ -1120,4 +1127,20 @@ def optimal(
         drive_limits=drive_limits,
         hessian=hessian,
     )
-    return prob.solve()
+    prob = build_optimal(robot, waypoints, n_intervals=n_intervals, **kw)
+    try:
+        return prob.solve()
+    except _NotConverged as first:
+        # IPOPT stopped without converging and with no limit violated at its last iterate: a
+        # finer grid once (twice the intervals of every segment), stated in the stats
+        finer = tuple(2 * n for n in prob.segment_intervals)
+        try:
+            traj = build_optimal(robot, waypoints, n_intervals=finer, **kw).solve()
+        except _NotConverged:
+            raise ArmlabError(f"{first}; also with {finer} intervals per segment") from None
+        traj.stats["n_intervals_raised"] = {
+            "from": list(prob.segment_intervals),
+            "to": list(finer),
+            "why": str(first),
+        }
+        return traj
