@@ -35,14 +35,19 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
-import pinocchio as pin  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_trajectory import ROBOTS, draw_waypoints, limits_of, load  # noqa: E402
+from bench_trajectory import (  # noqa: E402
+    ROBOTS,
+    draw_waypoints,
+    limits_of,
+    load,
+    toppra_problem,
+)
 
 from armlab.errors import ArmlabError, InfeasibleError  # noqa: E402
 from armlab.planning.timescale import stretch_needed  # noqa: E402
-from armlab.planning.topp import GeometricPath, build_topp  # noqa: E402
+from armlab.planning.topp import build_topp  # noqa: E402
 from armlab.trajectory import Trajectory, time_optimal_path  # noqa: E402
 
 SEED = 20261123
@@ -57,25 +62,9 @@ REPEATS = 3  # timed calls per case (the median is kept)
 def toppra_solve(robot, w, v, a, tau, gridpoints):
     """TOPP-RA on the spline and parameter of ours; (Trajectory sampled at T / 4000 or None,
     wall time [s] of the median of ``REPEATS`` calls)."""
-    import toppra as ta
     import toppra.algorithm as algo
-    import toppra.constraint as constraint
 
-    ta.setup_logging("WARNING")
-    gp = GeometricPath(w, robot.n_joints)
-    path = ta.SplineInterpolator(gp.s_points, w, bc_type="not-a-knot")
-    data = robot.model.createData()
-
-    def inv_dyn(q, qd, qdd):
-        return pin.rnea(robot.model, data, q, qd, qdd)
-
-    cons = [
-        constraint.JointVelocityConstraint(v),
-        constraint.JointAccelerationConstraint(a),
-        constraint.JointTorqueConstraint(
-            inv_dyn, np.vstack([-tau, tau]).T, np.zeros(robot.n_joints)
-        ),
-    ]
+    path, cons = toppra_problem(robot, w, v, a, tau)
     times, jt = [], None
     for _ in range(REPEATS):
         t0 = time.perf_counter()

@@ -152,9 +152,10 @@ def bench_ruckig(robot, extra, rng, n):
 
 
 # ----------------------------------------------------------------------------- 2. TOPP-RA
-def toppra_solve(robot, w, v, a, tau):
+def toppra_problem(robot, w, v, a, tau):
+    """TOPP-RA's path (the same spline and parameter as ours) and its velocity, acceleration
+    and torque constraints; also used by ``bench_topp.py``."""
     import toppra as ta
-    import toppra.algorithm as algo
     import toppra.constraint as constraint
 
     ta.setup_logging("WARNING")
@@ -172,6 +173,13 @@ def toppra_solve(robot, w, v, a, tau):
             inv_dyn, np.vstack([-tau, tau]).T, np.zeros(robot.n_joints)
         ),
     ]
+    return path, cons
+
+
+def toppra_solve(robot, w, v, a, tau):
+    import toppra.algorithm as algo
+
+    path, cons = toppra_problem(robot, w, v, a, tau)
     t0 = time.perf_counter()
     inst = algo.TOPPRA(cons, path, parametrizer="ParametrizeConstAccel")
     jt = inst.compute_trajectory(0, 0)

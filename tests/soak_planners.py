@@ -40,13 +40,9 @@ def _alarm(signum, frame):
     raise _Timeout()
 
 
-def _chunk(args: tuple[str, int, int, float, float]) -> dict:
-    """Run seeds ``[start, stop)`` of ``planner`` until ``deadline`` (epoch seconds)."""
-    import test_planner_properties as props
-
-    planner, start, stop, deadline, timeout = args
-    signal.signal(signal.SIGALRM, _alarm)
-    out: dict = {
+def _empty() -> dict:
+    """The counts of no case yet."""
+    return {
         "cases": 0,
         "ok": 0,
         "failed": 0,
@@ -59,6 +55,15 @@ def _chunk(args: tuple[str, int, int, float, float]) -> dict:
         "failures": [],
         "seconds": 0.0,
     }
+
+
+def _chunk(args: tuple[str, int, int, float, float]) -> dict:
+    """Run seeds ``[start, stop)`` of ``planner`` until ``deadline`` (epoch seconds)."""
+    import test_planner_properties as props
+
+    planner, start, stop, deadline, timeout = args
+    signal.signal(signal.SIGALRM, _alarm)
+    out = _empty()
     for seed in range(start, stop):
         if time.time() > deadline:
             break
@@ -105,19 +110,7 @@ def soak(planner: str, cases: int, minutes: float, workers: int, timeout: float)
     deadline = time.time() + 60 * minutes
     chunk = 25 if planner in OPTIMISERS else 500
     tasks = [(planner, s, min(s + chunk, cases), deadline, timeout) for s in range(0, cases, chunk)]
-    total: dict = {
-        "cases": 0,
-        "ok": 0,
-        "failed": 0,
-        "refused": 0,
-        "timeouts": 0,
-        "peak_ratio": 0.0,
-        "slowest_s": 0.0,
-        "slowest_seed": None,
-        "refusals": Counter(),
-        "failures": [],
-        "seconds": 0.0,
-    }
+    total = _empty()
     t0 = time.time()
     with ProcessPoolExecutor(max_workers=workers) as pool:
         for part in pool.map(_chunk, tasks):

@@ -424,21 +424,22 @@ def _tune_speed(plants, current: LoopGains, spec: TuningSpec, n_grid: int) -> Lo
             continue
         lg = make(kp)
         found.append((_worst(cases, lg, spec)[3], beta, lg))
-    best: tuple[float, LoopGains] | None = None
-    if found:
-        # the strongest integral action (largest beta) within 15 % of the best bandwidth:
-        # the speed loop's integral rejects the gravity and friction load
-        w_best = max(f[0] for f in found)
-        top = max((f for f in found if f[0] >= 0.85 * w_best), key=lambda f: f[1])
-        best = (top[0], top[2])
-    if best is None:
+    return _pick_speed_pi(found, p0, spec)
+
+
+def _pick_speed_pi(found: list, p0, spec: TuningSpec) -> LoopGains:
+    """Of the feasible speed-loop PIs ``(worst crossover, beta, gains)``, the strongest
+    integral action (largest beta) within 15 % of the best bandwidth -- the speed loop's
+    integral rejects the gravity and friction load; :class:`SpecError` if there is none."""
+    if not found:
         raise SpecError(
             f"{p0.joint}: no speed-loop PI meets phase_margin_deg>="
             f"{spec.phase_margin_deg}, gain_margin_dB>={spec.gain_margin_dB} and "
             f"separation_current_speed={spec.separation_current_speed} over the "
             f"inertia range at speed_sample_time_s={spec.speed_sample_time_s}"
         )
-    return best[1]
+    w_best = max(f[0] for f in found)
+    return max((f for f in found if f[0] >= 0.85 * w_best), key=lambda f: f[1])[2]
 
 
 def _tune_position(
@@ -582,21 +583,11 @@ def _tune_speed_fast(
     kp_lo = J_max * 1.0 / p0.Kt
     kps = _bisect_max_many(feasible, kp_lo, J_max * 10.0 / dt / p0.Kt, len(betas))
     found = [(beta, make(kp, beta)) for kp, beta in zip(kps, betas, strict=True) if kp is not None]
-    best: tuple[float, LoopGains] | None = None
+    rows = []
     if found:
         wmins = _worst_many(case, [f[1] for f in found], spec)[3]
         rows = [(float(w), beta, lg) for w, (beta, lg) in zip(wmins, found, strict=True)]
-        w_best = max(f[0] for f in rows)
-        top = max((f for f in rows if f[0] >= 0.85 * w_best), key=lambda f: f[1])
-        best = (top[0], top[2])
-    if best is None:
-        raise SpecError(
-            f"{p0.joint}: no speed-loop PI meets phase_margin_deg>="
-            f"{spec.phase_margin_deg}, gain_margin_dB>={spec.gain_margin_dB} and "
-            f"separation_current_speed={spec.separation_current_speed} over the "
-            f"inertia range at speed_sample_time_s={spec.speed_sample_time_s}"
-        )
-    return best[1]
+    return _pick_speed_pi(rows, p0, spec)
 
 
 def _tune_position_fast(
