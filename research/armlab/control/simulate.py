@@ -86,6 +86,8 @@ __all__ = [
     "SERVO_SHARE",
     "FEEDFORWARDS",
     "diagnose_tracking",
+    "tracking_variants",
+    "DRIVE_VARIANTS",
 ]
 
 #: Total positioning accuracy the thesis' Monte-Carlo analysis finds achievable, in [m].
@@ -668,7 +670,48 @@ def _delayed(hist: list, d: np.ndarray) -> np.ndarray:
     return out
 
 
-def diagnose_tracking(robot: Robot, trajectory, gains, result: TrackingResult, **options) -> dict:
+#: the drive-model variants of a tracking result: the :func:`simulate_tracking` switches of
+#: each (``with_loss_feedforward``: the full model with friction and efficiency fed forward)
+DRIVE_VARIANTS: dict[str, dict[str, bool]] = {
+    "ideal": {"voltage_limit": False, "losses": False},
+    "no_voltage_limit": {"voltage_limit": False},
+    "no_losses": {"losses": False},
+    "with_loss_feedforward": {},
+}
+
+
+def _loss_feedforward(ff: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """``(feed-forward with friction and efficiency, what that adds)``; a result without
+    feed-forward gets the usual velocity, acceleration and gravity terms as well."""
+    extra = tuple(f for f in ("friction", "efficiency") if f not in ff)
+    return (ff or ("velocity", "acceleration", "gravity")) + extra, extra
+
+
+def tracking_variants(
+    robot: Robot, trajectory, gains, result: TrackingResult, names, *, known=None, **options
+) -> dict[str, TrackingResult]:
+    """The motion of ``result`` simulated again under each named :data:`DRIVE_VARIANTS`
+    (``options``: the other :func:`simulate_tracking` options of ``result``); those in
+    ``known`` are reused, ``with_loss_feedforward`` is left out when both are already fed
+    forward."""
+    opts = {k: v for k, v in options.items() if k not in ("voltage_limit", "losses", "tcp")}
+    out = {n: known[n] for n in names if known and n in known}
+    for name in names:
+        if name in out:
+            continue
+        kw = {**opts, **DRIVE_VARIANTS[name]}
+        if name == "with_loss_feedforward":
+            ff, extra = _loss_feedforward(tuple(result.feedforward))
+            if not extra:
+                continue
+            kw["feedforward"] = ff
+        out[name] = simulate_tracking(robot, trajectory, gains, **kw)
+    return out
+
+
+def diagnose_tracking(
+    robot: Robot, trajectory, gains, result: TrackingResult, *, cache: dict | None = None, **options
+) -> dict:
     """Why a tracking simulation misses its budget, and what fixes it -- measured, not asserted.
 
     Re-simulates the same motion with one effect removed at a time (the supply-voltage limit,
@@ -681,6 +724,9 @@ def diagnose_tracking(robot: Robot, trajectory, gains, result: TrackingResult, *
         As given to :func:`simulate_tracking`.
     result : TrackingResult
         The full-model result to diagnose.
+    cache : dict, optional
+        Variants already simulated (:func:`tracking_variants` names); the ones run here are
+        added to it.
     **options :
         The other :func:`simulate_tracking` options of ``result`` (feed-forward, quantise,
         controller, ...).
@@ -693,19 +739,19 @@ def diagnose_tracking(robot: Robot, trajectory, gains, result: TrackingResult, *
         joints), ``offer`` (the measured effect of the feed-forward, and what else would be
         needed).
     """
-    opts = {k: v for k, v in options.items() if k not in ("voltage_limit", "losses", "tcp")}
     ff = tuple(result.feedforward)
-    variants = {
-        "no_voltage_limit": simulate_tracking(
-            robot, trajectory, gains, voltage_limit=False, **opts
-        ),
-        "no_losses": simulate_tracking(robot, trajectory, gains, losses=False, **opts),
-    }
-    extra = tuple(f for f in ("friction", "efficiency") if f not in ff)
-    if extra:
-        ff_fix = ff + extra if ff else ("velocity", "acceleration", "gravity") + extra
-        opts_fix = {**opts, "feedforward": ff_fix}
-        variants["with_loss_feedforward"] = simulate_tracking(robot, trajectory, gains, **opts_fix)
+    variants = tracking_variants(
+        robot,
+        trajectory,
+        gains,
+        result,
+        ("no_voltage_limit", "no_losses", "with_loss_feedforward"),
+        known=cache,
+        **options,
+    )
+    if cache is not None:
+        cache.update(variants)
+    extra = _loss_feedforward(ff)[1]
     err = {"full": result.tcp_max_error_m}
     err.update({k: r.tcp_max_error_m for k, r in variants.items()})
     budget = result.accuracy_m

@@ -164,34 +164,32 @@ def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
 
 
 def _drive_model_figure(ctx):
-    """The study's motion re-simulated under each drive model (only when the report is drawn:
-    three simulations more than the tracking stage ran)."""
-    from armlab.control import simulate_tracking
+    """The study's motion under each drive model: the tracking stage's result and its
+    variants (:func:`armlab.control.simulate.tracking_variants`; those the stage's diagnosis
+    ran are reused, the others simulated only when the report is drawn)."""
+    from armlab.control.simulate import tracking_variants
     from armlab.plots.servo import drive_model_figure
 
     res = ctx.tracking
-    opts: dict[str, Any] = {
-        "feedforward": tuple(res.feedforward) or "none",
-        "quantise": bool(res.meta.get("quantise", True)),
-        "t_after_s": float(res.t[-1] - res.t[0] - ctx.trajectory.duration),
-        "accuracy_m": res.accuracy_m,
-        "controller": ctx.controller,
-    }
+    names = ("ideal", "no_voltage_limit", "with_loss_feedforward")
+    v = tracking_variants(
+        ctx.robot,
+        ctx.trajectory,
+        ctx.gains,
+        res,
+        names,
+        known=ctx.tracking_variants,
+        **ctx.tracking_options,
+    )
+    ctx.tracking_variants.update(v)
     runs = {
-        "ideal drive": simulate_tracking(
-            ctx.robot, ctx.trajectory, ctx.gains, losses=False, voltage_limit=False, **opts
-        ),
-        "+ efficiency and friction": simulate_tracking(
-            ctx.robot, ctx.trajectory, ctx.gains, voltage_limit=False, **opts
-        ),
+        "ideal drive": v["ideal"],
+        "+ efficiency and friction": v["no_voltage_limit"],
         "+ supply limit (full model)": res,
     }
-    extra = tuple(f for f in ("friction", "efficiency") if f not in res.feedforward)
-    if extra:
-        ff = tuple(res.feedforward) + extra
-        runs[f"full model, feed-forward + {', '.join(extra)}"] = simulate_tracking(
-            ctx.robot, ctx.trajectory, ctx.gains, **{**opts, "feedforward": ff}
-        )
+    if "with_loss_feedforward" in v:
+        extra = [f for f in ("friction", "efficiency") if f not in res.feedforward]
+        runs[f"full model, feed-forward + {', '.join(extra)}"] = v["with_loss_feedforward"]
     return drive_model_figure(runs)
 
 

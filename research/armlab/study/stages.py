@@ -95,6 +95,9 @@ class StudyContext:
     drives_selected: bool = False
     gains: Any = None
     tracking: Any = None
+    #: the simulate_tracking options of ``tracking`` and its drive-model variants run so far
+    tracking_options: dict = field(default_factory=dict)
+    tracking_variants: dict = field(default_factory=dict)
     setpoints: Any = None
     jerk_limited: bool = True
     failed_so_far: list[str] = field(default_factory=list)
@@ -844,15 +847,16 @@ def stage_tracking(ctx: StudyContext) -> dict:
         opts["accuracy_m"] = t.accuracy_m
     # the full model: supply-voltage limit with back-EMF, reducer efficiency and friction,
     # the controller's servo period, D/A and encoder
-    res = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, controller=ctx.controller, **opts)
-    ctx.tracking = res
+    opts["controller"] = ctx.controller
+    res = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, **opts)
+    ctx.tracking, ctx.tracking_options, ctx.tracking_variants = res, opts, {}
     failed = []
     block: dict[str, Any] = {}
     if not res.within_accuracy:
         from armlab.control.simulate import diagnose_tracking
 
         diag = diagnose_tracking(
-            ctx.robot, ctx.trajectory, ctx.gains, res, controller=ctx.controller, **opts
+            ctx.robot, ctx.trajectory, ctx.gains, res, cache=ctx.tracking_variants, **opts
         )
         block["diagnosis"] = diag
         failed.append(
