@@ -415,39 +415,16 @@ def structure(
     kkey = kinematics_key(robot) if need_tau else None
     if hessian == "partial" and not torque_rows:
         hessian = "exact"  # the same Hessian: share the compiled problem, no iteration cap
-    key = (
-        kkey,
-        n,
-        seg_n,
-        mode,
-        objective,
-        torque_rows,
-        fixed_duration,
-        max_iter,
-        drive_rows,
-        hessian,
-        TORQUE_INTERIOR_POINTS,
-        SYMBOLIC,
-    )
     if hessian == "partial":
         max_iter = min(max_iter, PARTIAL_MAX_ITER)
+    # the problem is fixed by these (and the robot's kinematics and the module's settings)
+    args = (n, seg_n, mode, objective, torque_rows, fixed_duration, max_iter, drive_rows, hessian)
+    key = (kkey, *args, TORQUE_INTERIOR_POINTS, SYMBOLIC)
     st = _STRUCTURES.get(key)
     if st is None:
         rnea_p = parametric_inverse_dynamics_function(robot) if need_tau else None
         n_pi = rnea_p.size1_in(3) if rnea_p is not None else 0
-        st = build_structure(
-            rnea_p,
-            n_pi,
-            n,
-            seg_n,
-            mode,
-            objective,
-            torque_rows,
-            fixed_duration,
-            max_iter,
-            drive_rows,
-            hessian,
-        )
+        st = build_structure(rnea_p, n_pi, *args)
         if len(_STRUCTURES) >= _STRUCTURES_MAX:
             _STRUCTURES.pop(next(iter(_STRUCTURES)))
         _STRUCTURES[key] = st
