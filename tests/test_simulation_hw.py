@@ -267,6 +267,35 @@ def test_linear_periods_are_the_sub_step_loop(teachbot6, gains, move, monkeypatc
     assert fast.saturation_time_s.sum() > 0  # both paths were taken
 
 
+@pytest.mark.parametrize("linear", [True, False])
+def test_variants_simulated_together_are_each_simulated_alone(
+    teachbot6, gains, move, full, monkeypatch, linear
+):
+    """The drive-model variants run in one time loop (every operation element-wise over
+    variant and joint; each variant jumps over its own linear sub-steps) and give, bit for
+    bit, what each gives alone -- quantisation on, so one flipped encoder count would show."""
+    import armlab.control.simulate as sim
+
+    monkeypatch.setattr(sim, "_LINEAR_PERIODS", linear)
+    names = ("ideal", "no_voltage_limit", "no_losses", "with_loss_feedforward")
+    opts = {"feedforward": FF, "t_after_s": 0.1}
+    together = sim.tracking_variants(teachbot6, move, gains, full, names, **opts)
+    assert set(together) == set(names)
+    for name in names:
+        kw = {**opts, **sim.DRIVE_VARIANTS[name]}
+        if name == "with_loss_feedforward":
+            kw["feedforward"] = (*FF, "friction", "efficiency")
+        alone = simulate_tracking(teachbot6, move, gains, **kw)
+        got = together[name]
+        assert got.model == alone.model and got.feedforward == alone.feedforward
+        for key in ("q", "qd", "current_A", "da_V", "voltage_V", "saturated_share"):
+            np.testing.assert_array_equal(getattr(got, key), getattr(alone, key), err_msg=key)
+        np.testing.assert_array_equal(got.peak_voltage_demand_V, alone.peak_voltage_demand_V)
+    # the variants differ from each other and from the full model (the test can fail)
+    assert together["ideal"].saturation_time_s.sum() == 0 < full.saturation_time_s.sum()
+    assert not np.array_equal(together["no_losses"].q, full.q)
+
+
 def test_study_verdict_names_the_limiting_factor_when_the_budget_fails():
     """The tracking stage judges the full model; a budget it misses fails the design with the
     limiting factor and the measured effect of the loss feed-forward in the failed check."""

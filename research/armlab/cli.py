@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 
 import numpy as np
@@ -207,8 +208,9 @@ def _drives_header(ctx, study) -> str:
 def _cmd_run(args) -> int:
     from armlab.study import run_study
 
+    workers = args.workers if args.workers is not None else os.cpu_count()
     summary = run_study(
-        args.study, args.out, workers=None, force=args.force, overwrite=args.overwrite
+        args.study, args.out, workers=workers, force=args.force, overwrite=args.overwrite
     )
     return _verdict_status(summary.get("design", {}))
 
@@ -384,6 +386,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--overwrite",
         action="store_true",
         help="clear an output folder that holds another study's outputs",
+    )
+    s.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="processes that draw the report's plots (default: one per CPU)",
     )
     s.set_defaults(func=_cmd_run)
     s = sub.add_parser(

@@ -72,11 +72,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
-import control as ct
 import numpy as np
 
+from armlab._lazy import lazy_import
 from armlab.errors import InputError, SpecError
+
+if TYPE_CHECKING:
+    import control as ct  # the real module for the type checker
+else:
+    ct = lazy_import("control")  # python-control loads at the first model built
 
 __all__ = [
     "SEED_DESIGNS",

@@ -31,14 +31,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import control as ct
 import numpy as np
 
+from armlab._lazy import lazy_import
 from armlab.control.gains import CascadeGains, LoopGains
 from armlab.control.plant import INERTIA_CASES, JointPlant
 from armlab.errors import SpecError
+
+if TYPE_CHECKING:
+    import control as ct  # the real module for the type checker
+else:
+    ct = lazy_import("control")  # python-control loads at the first model built
 
 __all__ = [
     "Margins",
@@ -820,11 +825,19 @@ class CascadeArrays:
         P = _ss_series(_INTEGRATOR, self._closed("speed", False, i))
         return _ss_feedback(_ss_series(_pid_ss(lp), P))
 
+    def step_responses(
+        self, loop: str, discrete: bool, t_final
+    ) -> tuple[list[np.ndarray], list[np.ndarray]]:
+        """Closed-loop unit-step responses ``(times, outputs)`` per case, one batched
+        simulation (continuous: 1500 points on ``[0, t_final]``; discrete: every sample)."""
+        systems = self.closed_systems(loop, discrete)
+        tf = np.broadcast_to(np.asarray(t_final, float), (len(systems),))
+        return _step_many(systems, tf, self.dt(loop) if discrete else None)
+
     def step_figures(self, loop: str, discrete: bool, t_final) -> list[tuple[float, float]]:
         """(overshoot [%], 2 % settling time [s]) per case, one batched simulation."""
         systems = self.closed_systems(loop, discrete)
-        tf = np.broadcast_to(np.asarray(t_final, float), (len(systems),))
-        T, Y = _step_many(systems, tf, self.dt(loop) if discrete else None)
+        T, Y = self.step_responses(loop, discrete, t_final)
         return [
             step_metrics(T[i], Y[i], _dcgain(systems[i], discrete)) for i in range(len(systems))
         ]

@@ -31,12 +31,17 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-import control as ct
 import numpy as np
 
+from armlab._lazy import lazy_import
 from armlab.errors import SpecError
 from armlab.robot import rigid_body
 from armlab.robot.drives import RPM_TO_RAD_S
+
+if TYPE_CHECKING:
+    import control as ct  # the real module for the type checker
+else:
+    ct = lazy_import("control")  # python-control loads at the first model built
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot

@@ -39,7 +39,10 @@ give a TCP error of 0.54 mm instead of 0.37 mm (measured for issue 14).
 Speed: sub-steps in which no joint's amplifier reaches its supply are linear in the state at
 their start; the simulation jumps over them with precomputed maps (:func:`_linear_period`) and
 runs the 20 kHz sub-steps one by one only from a sub-step that saturates (the same result to
-round-off, ``tests/test_simulation_hw.py``).
+round-off, ``tests/test_simulation_hw.py``). The drive-model variants of one motion
+(:func:`tracking_variants`) run in one time loop, every operation element-wise over (variant,
+joint), each variant jumping over its own linear sub-steps: each gets, bit for bit, what it gets
+alone, for about two thirds of the time of separate runs (measured on the demo cycle).
 
 ``losses=False, voltage_limit=False`` is the ideal drive (no efficiency, no friction besides the
 motor's viscous term, an amplifier with unlimited voltage): the model of the simulation before
@@ -362,15 +365,41 @@ def simulate_tracking(
         No drives, wrong joint count, unknown feed-forward, gains tuned at another servo period
         than the controller's, a current-loop period that does not divide the servo period.
     """
-    from time import perf_counter
+    variant = (_feedforwards(feedforward), bool(voltage_limit), bool(losses))
+    return _simulate_many(
+        robot,
+        trajectory,
+        gains,
+        [variant],
+        quantise=quantise,
+        t_after_s=t_after_s,
+        accuracy_m=accuracy_m,
+        tcp=tcp,
+        controller=controller,
+    )[0]
 
+
+def _simulate_many(
+    robot: Robot,
+    trajectory,
+    gains,
+    variants: list[tuple[tuple[str, ...], bool, bool]],
+    *,
+    quantise: bool = True,
+    t_after_s: float = 0.2,
+    accuracy_m: float | None = None,
+    tcp: bool = True,
+    controller: ControllerProfile | str | None = None,
+) -> list[TrackingResult]:
+    """:func:`simulate_tracking` of one motion under several ``(feedforward, voltage_limit,
+    losses)`` variants, simulated together (:func:`_run_variants`): each result is the one
+    :func:`simulate_tracking` gives for that variant alone."""
     if robot.drives is None:
         raise InputError(f"{robot.name}: no drives (drives.toml): cannot simulate the servo")
     if trajectory.n_joints != robot.n_joints:
         raise InputError(
             f"trajectory has {trajectory.n_joints} joints, robot {robot.name} has {robot.n_joints}"
         )
-    ff = _feedforwards(feedforward)
     cas = _cascades(robot, gains)
     prof = load_profile(controller)
     T = float(prof.servo_period_s)
@@ -386,7 +415,88 @@ def simulate_tracking(
     if n_sub < 1 or any(abs(g.current.sample_time_s - Ti) > 1e-15 for g in cas):
         raise InputError("every joint's current loop must share one sample time <= servo period")
     d_cur = [_whole(g.current.delay_samples, f"{g.joint} current delay_samples") for g in cas]
-    nj = robot.n_joints
+    # variants with and without the voltage limit part ways at every saturating sub-step:
+    # each group runs in its own loop, in step within it
+    raws: dict[int, dict] = {}
+    for limited in (True, False):
+        group = [k for k, v in enumerate(variants) if v[1] == limited]
+        if group:
+            runs = _run_variants(
+                robot,
+                trajectory,
+                cas,
+                prof,
+                [variants[k] for k in group],
+                quantise=quantise,
+                t_after_s=t_after_s,
+                n_sub=n_sub,
+                d_cur=d_cur,
+            )
+            raws.update(zip(group, runs, strict=True))
+    return [
+        _result(robot, raws[k], prof, controller, quantise, tcp, accuracy_m)
+        for k in range(len(variants))
+    ]
+
+
+def _result(robot, raw: dict, prof, controller, quantise, tcp, accuracy_m) -> TrackingResult:
+    """The :class:`TrackingResult` of one run of :func:`_run_variants`."""
+    q_d, out_q = raw["q_ref"], raw["q"]
+    n = out_q.shape[0]
+    if not np.all(np.isfinite(out_q)):
+        raise InputError("simulation diverged (non-finite joint positions): check the gains")
+    tcp_err = np.full(n, np.nan)
+    if tcp:
+        from armlab.kinematics import fk_batch
+
+        p_ref = fk_batch(robot, q_d)[:, :3, 3]
+        p = fk_batch(robot, out_q)[:, :3, 3]
+        tcp_err = np.linalg.norm(p - p_ref, axis=1)
+    acc = POSITIONING_ACCURACY_M * SERVO_SHARE if accuracy_m is None else float(accuracy_m)
+    return TrackingResult(
+        t=raw["t"],
+        q_ref=q_d,
+        q=out_q,
+        qd=raw["qd"],
+        current_A=raw["current_A"],
+        da_V=raw["da_V"],
+        tcp_error_m=tcp_err,
+        joint_names=list(robot.joint_names),
+        feedforward=raw["feedforward"],
+        accuracy_m=acc,
+        wall_time_s=raw["wall_time_s"],
+        meta={"quantise": quantise, "n_steps": n},
+        voltage_V=raw["voltage_V"],
+        saturated_share=raw["saturated_share"],
+        peak_voltage_demand_V=raw["peak_u"],
+        peak_current_A=raw["peak_i"],
+        supply_voltage_V=raw["supply_V"],
+        model={
+            "voltage_limit": raw["voltage_limit"],
+            "losses": raw["losses"],
+            "quantise": bool(quantise),
+            "controller": prof.name,
+            "controller_source": "given" if controller is not None else "default (reference_dda)",
+            "servo_period_s": float(prof.servo_period_s),
+            "current_sample_time_s": raw["current_sample_time_s"],
+            "dac_bits": int(prof.dac_bits),
+            "dac_range_V": float(prof.dac_range_V),
+        },
+    )
+
+
+def _run_variants(
+    robot, trajectory, cas, prof, variants, *, quantise, t_after_s, n_sub, d_cur
+) -> list[dict]:
+    """Simulate the same motion under several ``(feedforward, voltage_limit, losses)``
+    variants in one time loop (module docstring); each variant's numbers are those it gets
+    alone: every operation is element-wise over (variant, joint), the linear maps are the
+    same products, and each variant jumps over its own linear sub-steps."""
+    from time import perf_counter
+
+    T = float(prof.servo_period_s)
+    Ti = cas[0].current.sample_time_s
+    nv, nj = len(variants), robot.n_joints
     dt = dtm.drive_train(robot)
     N, Kt, Ke = dt.ratio, dt.torque_constant_Nm_A, dt.back_emf_V_s_rad
     R = dt.resistance_ohm
@@ -398,19 +508,28 @@ def simulate_tracking(
     per_volt = np.array([g.speed.output_per_volt or (g.speed.output_max / 10.0) for g in cas])
     da_range, da_bits = float(prof.dac_range_V), int(prof.dac_bits)
 
-    model = robot.model.copy()  # gravity in the base frame, as robot.model's
-    arm0 = model.armature.copy()
+    arm0 = robot.model.armature.copy()
     refl = Jm * N**2
-    model.armature = arm0 + refl
-    data = model.createData()
+    models = []
+    for _ in range(nv):  # one model per variant: its armature follows that variant's quadrant
+        model = robot.model.copy()  # gravity in the base frame, as robot.model's
+        model.armature = arm0 + refl
+        models.append((model, model.createData()))
 
     # ---------------------------------------------------------------- set-points
     t_end = trajectory.t[0] + trajectory.duration + max(0.0, t_after_s)
     n = int(math.floor((t_end - trajectory.t[0]) / T + 1e-9)) + 1
     t = trajectory.t[0] + T * np.arange(n)
     q_d, qd_d, qdd_d, _ = trajectory.at(t)
-    i_ff = _feedforward_current(robot, dt, cas, ff, q_d, qd_d, qdd_d) if ff else np.zeros((n, nj))
-    w_ff = N * qd_d if ("velocity" in ff or "computed_torque" in ff) else np.zeros((n, nj))
+    i_ff = np.zeros((n, nv, nj))
+    w_ff = np.zeros((n, nv, nj))
+    for k, (ff, _, _) in enumerate(variants):
+        if ff:
+            i_ff[:, k] = _feedforward_current(robot, dt, cas, ff, q_d, qd_d, qdd_d)
+        if "velocity" in ff or "computed_torque" in ff:
+            w_ff[:, k] = N * qd_d
+    vlim = np.array([[v[1]] for v in variants])  # (nv, 1)
+    loss = np.array([[v[2]] for v in variants])
 
     # ---------------------------------------------------------------- controllers
     # incremental PIDs, u = sat(u1 + q0 e + q1 e1 + q2 e2) + u_ff (thesis ch. 5)
@@ -419,11 +538,8 @@ def simulate_tracking(
     cq0 = np.array([g.current.q0 for g in cas])
     cq1 = np.array([g.current.q1 for g in cas])
     cq2 = np.array([g.current.q2 for g in cas])
-    if voltage_limit:
-        u_lo = np.maximum(np.array([g.current.output_min for g in cas]), -U)
-        u_hi = np.minimum(np.array([g.current.output_max for g in cas]), U)
-    else:
-        u_lo, u_hi = np.full(nj, -np.inf), np.full(nj, np.inf)
+    u_lo = np.where(vlim, np.maximum(np.array([g.current.output_min for g in cas]), -U), -np.inf)
+    u_hi = np.where(vlim, np.minimum(np.array([g.current.output_max for g in cas]), U), np.inf)
     # exact armature circuit over a current-loop sub-step of length Ti, u and w_m held:
     # i+ = x + (i - x) a, mean = x + (i - x) c, x = (u - Ke w_m) / R
     tau_e = L / R
@@ -436,29 +552,44 @@ def simulate_tracking(
     # precomputed maps (_linear_period) replace the sub-step loop there
     fast = _LINEAR_PERIODS and one_delay
     W = _linear_period(cq0, cq1, cq2, a_sub, c_sub, R, n_sub) if fast else np.zeros(0)
+    if not fast and nv > 1:  # the sub-step loop below keeps one history: one variant at a time
+        return [
+            _run_variants(
+                robot,
+                trajectory,
+                cas,
+                prof,
+                [v],
+                quantise=quantise,
+                t_after_s=t_after_s,
+                n_sub=n_sub,
+                d_cur=d_cur,
+            )[0]
+            for v in variants
+        ]
 
     # ---------------------------------------------------------------- initial state
-    q = q_d[0].copy()
-    v = qd_d[0].copy()
-    g0 = rigid_body.gravity_torques(robot, q)
+    q = np.repeat(q_d[0][None], nv, axis=0)
+    v = np.repeat(qd_d[0][None], nv, axis=0)
+    g0 = rigid_body.gravity_torques(robot, q_d[0])
     w0 = N * v
     # the motor torque that holds or moves the arm at the start: at rest the reducer's static
     # friction holds any torque inside its loss band, the ideal one included (module docstring)
     tm0 = g0 / N + bm * w0
-    if losses:
-        tm_moving, _ = dtm.motor_torque(g0[None], v[None], np.zeros((1, nj)), dt)
-        # at rest the controller starts from its feed-forward if the reducer holds with it
-        b1, b2 = g0 * dt.back_efficiency / N, g0 / (N * dt.efficiency)
-        t_ff = Kt * i_ff[0]
-        held = (t_ff >= np.minimum(b1, b2) - 1e-12) & (t_ff <= np.maximum(b1, b2) + 1e-12)
-        tm0 = np.where(v != 0.0, tm_moving[0], np.where(held, t_ff, tm0))
+    tm_moving, _ = dtm.motor_torque(g0[None], qd_d[0][None], np.zeros((1, nj)), dt)
+    # at rest the controller starts from its feed-forward if the reducer holds with it
+    b1, b2 = g0 * dt.back_efficiency / N, g0 / (N * dt.efficiency)
+    t_ff = Kt * i_ff[0]
+    held = (t_ff >= np.minimum(b1, b2) - 1e-12) & (t_ff <= np.maximum(b1, b2) + 1e-12)
+    tm0 = np.where(loss, np.where(v != 0.0, tm_moving[0], np.where(held, t_ff, tm0)), tm0)
     i = tm0 / Kt
     i_cmd = i.copy()  # applied during the first period
     u_prev = R * i + Ke * w0  # the current PI's output that holds i
     u_hist = [u_prev.copy() for _ in range(d_max)]  # outputs waiting for their delay
-    ce1 = np.zeros(nj)
-    ce2 = np.zeros(nj)
-    spd.reset(u0=i - i_ff[0])
+    ce1 = np.zeros((nv, nj))
+    ce2 = np.zeros((nv, nj))
+    spd.reset(u0=np.zeros(nj))
+    spd.u = i - i_ff[0]
     th_prev = N * (q - v * T)  # the reading one period before: the start speed is measured
     if quantise:
         th_prev = np.floor(th_prev * cpr) / cpr
@@ -472,20 +603,26 @@ def simulate_tracking(
     hT2 = 0.5 * T * T
     eta, eta_b = dt.efficiency, dt.back_efficiency
     Fc, Fv = dt.coulomb_friction_Nm, dt.joint_viscous_Nm_s_rad
-    a_prev = np.zeros(nj)
+    a_prev = np.zeros((nv, nj))
+    lossy = [bool(x) for x in loss[:, 0]]
+    any_loss, all_loss = any(lossy), all(lossy)
 
-    out_q = np.empty((n, nj))
-    out_v = np.empty((n, nj))
-    out_i = np.empty((n, nj))
-    out_u = np.empty((n, nj))
-    out_sat = np.zeros((n, nj))
-    out_da = np.empty((n, nj))
+    out_q = np.empty((n, nv, nj))
+    out_v = np.empty((n, nv, nj))
+    out_i = np.empty((n, nv, nj))
+    out_u = np.empty((n, nv, nj))
+    out_sat = np.zeros((n, nv, nj))
+    out_da = np.empty((n, nv, nj))
     peak_u = np.abs(u_prev)
     peak_i = np.abs(i)
     aba, nle = pin.aba, pin.nonLinearEffects
     pos_step, spd_step = pos.step, spd.step
     mn, mx, floor, rint, absf = np.minimum, np.maximum, np.floor, np.rint, np.abs
     inv_sub = 1.0 / n_sub
+    rows = np.arange(n_sub)
+    z0 = np.empty((nv, nj, 1, 6, 1))
+    bias = np.zeros((nv, nj))
+    a = np.empty((nv, nj))
     t0 = perf_counter()
     for k in range(n):
         out_q[k] = q
@@ -505,51 +642,110 @@ def simulate_tracking(
         # current loop at its own rate over the period, with the previous command
         # (computation delay of the speed loop); the back-EMF of the period's speed
         emf = Ke * (N * v)
-        i_sum = np.zeros(nj)
-        u_sum = np.zeros(nj)
-        sat_n = np.zeros(nj)
-        k_sub = 0
-        while k_sub < n_sub:
-            m = n_sub - k_sub
-            if fast:
-                # the next m sub-steps if linear (no voltage limit reached): jump to the first
-                # sub-step that reaches the limit, or to the end of the period
-                z0 = np.stack([i, u_prev, ce1, ce2, i_cmd, emf], axis=1)[:, None, :, None]
-                lin = (W[:, :m] @ z0)[..., 0]  # (nj, m, 6)
-                u_dem = lin[:, :, 1]
-                if voltage_limit:
-                    viol = ((u_dem > u_hi[:, None]) | (u_dem < u_lo[:, None])).any(axis=0)
-                    jump = int(np.argmax(viol)) if viol.any() else m
-                else:
-                    jump = m
-                if jump > 0:
-                    peak_u = mx(peak_u, absf(u_dem[:, :jump]).max(axis=1))
-                    peak_i = mx(peak_i, absf(lin[:, :jump, 0]).max(axis=1))
-                    last = lin[:, jump - 1]
-                    i, u_prev, ce1, ce2 = last[:, 0], last[:, 1], last[:, 2], last[:, 3]
-                    i_sum = i_sum + last[:, 4]
-                    u_sum = u_sum + last[:, 5]
-                    u_hist = [u_prev]
-                    k_sub += jump
-                    if k_sub >= n_sub:
-                        break
-            # one sub-step as the amplifier runs it, with the voltage limit
-            k_sub += 1
+        i_sum = np.zeros((nv, nj))
+        u_sum = np.zeros((nv, nj))
+        sat_n = np.zeros((nv, nj))
+        k_sub = np.zeros(nv, dtype=int)  # sub-steps done, per variant
+        k_lo = k_hi = 0  # their least and most
+        while True:
+            if k_lo >= n_sub:
+                break
+            every = k_hi < n_sub  # no variant is done with the period: no masks below
+            todo = k_sub < n_sub
+            # the next sub-step as the amplifier runs it (the PI's kick after a new set-point
+            # usually reaches the supply: then it is stepped, not mapped)
             e = i_cmd - i
             u = u_prev + cq0 * e + cq1 * ce1 + cq2 * ce2
-            peak_u = mx(peak_u, absf(u))
-            if voltage_limit:
-                over = (u > u_hi) | (u < u_lo)
-                sat_n += over
-                u = mn(mx(u, u_lo), u_hi)
-            ce2, ce1, u_prev = ce1, e, u
-            u_hist.append(u)
+            over = (u > u_hi) | (u < u_lo)
+            stepped = (
+                every and k_lo == k_hi and bool(over.any() if nv == 1 else over.any(axis=1).all())
+            )
+            if fast and not stepped:
+                # the next sub-steps if linear (no voltage limit reached): jump to the first
+                # sub-step that reaches the limit, or to the end of the period
+                m = n_sub - k_lo
+                z0[..., 0, 0, 0] = i
+                z0[..., 0, 1, 0] = u_prev
+                z0[..., 0, 2, 0] = ce1
+                z0[..., 0, 3, 0] = ce2
+                z0[..., 0, 4, 0] = i_cmd
+                z0[..., 0, 5, 0] = emf
+                lin = (W[:, :m] @ z0)[..., 0]  # (nv, nj, m, 6)
+                u_dem = lin[..., 1]
+                viol = ((u_dem > u_hi[..., None]) | (u_dem < u_lo[..., None])).any(axis=1)
+                if every and k_lo == k_hi and not viol.any():
+                    # every variant runs linearly to the end of the period
+                    peak_u = mx(peak_u, absf(u_dem).max(axis=2))
+                    peak_i = mx(peak_i, absf(lin[..., 0]).max(axis=2))
+                    last = lin[:, :, m - 1]
+                    i, u_prev, ce1, ce2 = last[..., 0], last[..., 1], last[..., 2], last[..., 3]
+                    i_sum = i_sum + last[..., 4]
+                    u_sum = u_sum + last[..., 5]
+                    u_hist = [u_prev]
+                    break
+                left = (n_sub - k_sub)[:, None]  # (nv, 1): sub-steps each variant has left
+                viol &= rows[None, :m] < left
+                jump = np.where(viol.any(axis=1), np.argmax(viol, axis=1), left[:, 0])
+                jump = np.where(todo, jump, 0)
+                moved = jump > 0
+                if moved.any():
+                    upto = (rows[None, :m] < jump[:, None])[:, None, :]  # (nv, 1, m)
+                    pu = np.where(upto, absf(u_dem), 0.0).max(axis=2)
+                    pi_ = np.where(upto, absf(lin[..., 0]), 0.0).max(axis=2)
+                    mv = moved[:, None]
+                    peak_u = np.where(mv, mx(peak_u, pu), peak_u)
+                    peak_i = np.where(mv, mx(peak_i, pi_), peak_i)
+                    last = np.take_along_axis(
+                        lin, np.maximum(jump - 1, 0)[:, None, None, None], axis=2
+                    )[:, :, 0]  # (nv, nj, 6)
+                    i = np.where(mv, last[..., 0], i)
+                    u_prev = np.where(mv, last[..., 1], u_prev)
+                    ce1 = np.where(mv, last[..., 2], ce1)
+                    ce2 = np.where(mv, last[..., 3], ce2)
+                    i_sum = np.where(mv, i_sum + last[..., 4], i_sum)
+                    u_sum = np.where(mv, u_sum + last[..., 5], u_sum)
+                    u_hist = [u_prev]
+                    k_sub = k_sub + jump
+                    k_lo, k_hi = int(k_sub.min()), int(k_sub.max())
+                    todo = k_sub < n_sub
+                    if not todo.any():
+                        break
+                    every = bool(todo.all())
+                    e = i_cmd - i  # the sub-step from the state the jump reached
+                    u = u_prev + cq0 * e + cq1 * ce1 + cq2 * ce2
+                    over = (u > u_hi) | (u < u_lo)
+            # one sub-step as the amplifier runs it, with the voltage limit (variants done
+            # with the period keep their state)
+            k_sub = k_sub + todo
+            if k_lo == k_hi:
+                k_lo = k_hi = k_lo + 1
+            else:
+                k_lo, k_hi = int(k_sub.min()), int(k_sub.max())
+            u_new = mn(mx(u, u_lo), u_hi)
+            if every:
+                peak_u = mx(peak_u, absf(u))
+                sat_n = sat_n + over
+                ce2, ce1, u_prev = ce1, e, u_new
+            else:
+                act = todo[:, None]
+                peak_u = np.where(act, mx(peak_u, absf(u)), peak_u)
+                sat_n = np.where(act, sat_n + over, sat_n)
+                ce2 = np.where(act, ce1, ce2)
+                ce1 = np.where(act, e, ce1)
+                u_prev = np.where(act, u_new, u_prev)
+            u_hist.append(u_prev)
             ua = u_hist.pop(0) if one_delay else _delayed(u_hist, d_arr)
             x = (ua - emf) / R
-            i_sum += x + (i - x) * c_sub
-            u_sum += ua
-            i = x + (i - x) * a_sub
-            peak_i = mx(peak_i, absf(i))
+            if every:
+                i_sum = i_sum + (x + (i - x) * c_sub)
+                u_sum = u_sum + ua
+                i = x + (i - x) * a_sub
+                peak_i = mx(peak_i, absf(i))
+            else:
+                i_sum = np.where(act, i_sum + (x + (i - x) * c_sub), i_sum)
+                u_sum = np.where(act, u_sum + ua, u_sum)
+                i = np.where(act, x + (i - x) * a_sub, i)
+                peak_i = np.where(act, mx(peak_i, absf(i)), peak_i)
         i_mean = i_sum * inv_sub
         out_i[k] = i_mean
         out_u[k] = u_sum * inv_sub
@@ -557,68 +753,55 @@ def simulate_tracking(
         i_cmd = volts * per_volt
         # drive train -> joint torque, the rotor inertia implicit in the armature
         t_in = Kt * i_mean - bm * (N * v)
-        if losses:
+        if any_loss:
             # quadrant of the reducer input torque left after the rotor's acceleration
             motoring = (t_in - Jm * N * a_prev) * v >= 0.0
             kq = np.where(motoring, eta, 1.0 / eta_b)
             moving = kq * N * t_in - Fv * v - Fc * np.sign(v)
             # at rest: static friction holds the torque the joint needs (bias, qdd = 0) if it
             # lies inside the band the reducer can transmit, [eta N T, N T / eta_b] -+ F_c
-            bias = nle(model, data, q, v)
             b1, b2 = eta * N * t_in, N * t_in / eta_b
+            for j, (model, data) in enumerate(models):
+                bias[j] = nle(model, data, q[j], v[j]) if lossy[j] else 0.0
             rest = mn(mx(bias, mn(b1, b2) - Fc), mx(b1, b2) + Fc) - Fv * v
             m_eff = arm0 + kq * refl + 1e-12
             v_s = mx(absf(moving - rest) * T / m_eff, 1e-9)
             fade = mn(absf(v) / v_s, 1.0)
             tau = rest + (moving - rest) * fade
-            model.armature = arm0 + kq * refl
+            if not all_loss:
+                tau = np.where(loss, tau, N * t_in)
+            for j, (model, _) in enumerate(models):
+                if lossy[j]:
+                    model.armature = arm0 + kq[j] * refl
         else:
             tau = N * t_in
-        a = aba(model, data, q, v, tau)
-        a_prev = a
+        for j, (model, data) in enumerate(models):
+            a[j] = aba(model, data, q[j], v[j], tau[j])
+        a_prev = a.copy()
         q = q + v * T + hT2 * a
         v = v + a * T
     wall = perf_counter() - t0
-    if not np.all(np.isfinite(out_q)):
-        raise InputError("simulation diverged (non-finite joint positions): check the gains")
-    tcp_err = np.full(n, np.nan)
-    if tcp:
-        from armlab.kinematics import fk_batch
-
-        p_ref = fk_batch(robot, q_d)[:, :3, 3]
-        p = fk_batch(robot, out_q)[:, :3, 3]
-        tcp_err = np.linalg.norm(p - p_ref, axis=1)
-    acc = POSITIONING_ACCURACY_M * SERVO_SHARE if accuracy_m is None else float(accuracy_m)
-    return TrackingResult(
-        t=t,
-        q_ref=q_d,
-        q=out_q,
-        qd=out_v,
-        current_A=out_i,
-        da_V=out_da,
-        tcp_error_m=tcp_err,
-        joint_names=list(robot.joint_names),
-        feedforward=ff,
-        accuracy_m=acc,
-        wall_time_s=wall,
-        meta={"quantise": quantise, "n_steps": n},
-        voltage_V=out_u,
-        saturated_share=out_sat,
-        peak_voltage_demand_V=peak_u,
-        peak_current_A=peak_i,
-        supply_voltage_V=U.copy(),
-        model={
-            "voltage_limit": bool(voltage_limit),
-            "losses": bool(losses),
-            "quantise": bool(quantise),
-            "controller": prof.name,
-            "controller_source": "given" if controller is not None else "default (reference_dda)",
-            "servo_period_s": T,
+    return [
+        {
+            "t": t,
+            "q_ref": q_d,
+            "q": out_q[:, k],
+            "qd": out_v[:, k],
+            "current_A": out_i[:, k],
+            "da_V": out_da[:, k],
+            "voltage_V": out_u[:, k],
+            "saturated_share": out_sat[:, k],
+            "peak_u": peak_u[k],
+            "peak_i": peak_i[k],
+            "supply_V": U.copy(),
+            "feedforward": variants[k][0],
+            "voltage_limit": variants[k][1],
+            "losses": variants[k][2],
+            "wall_time_s": wall,
             "current_sample_time_s": Ti,
-            "dac_bits": da_bits,
-            "dac_range_V": da_range,
-        },
-    )
+        }
+        for k in range(nv)
+    ]
 
 
 #: use the precomputed linear maps over servo periods without voltage saturation (tests turn
@@ -664,7 +847,7 @@ def _linear_period(q0, q1, q2, a, c, R, n_sub: int) -> np.ndarray:
 def _delayed(hist: list, d: np.ndarray) -> np.ndarray:
     """The voltage each joint applies now: its output ``d`` current-loop samples ago
     (``hist[-1]`` is the newest); drops outputs no joint needs any more."""
-    out = np.array([hist[-1 - dj][j] for j, dj in enumerate(d)])
+    out = np.stack([hist[-1 - dj][..., j] for j, dj in enumerate(d)], axis=-1)
     while len(hist) > int(d.max()) + 1:
         hist.pop(0)
     return out
@@ -695,17 +878,22 @@ def tracking_variants(
     ``known`` are reused, ``with_loss_feedforward`` is left out when both are already fed
     forward."""
     opts = {k: v for k, v in options.items() if k not in ("voltage_limit", "losses", "tcp")}
+    ff = _feedforwards(opts.pop("feedforward", ("velocity",)))
     out = {n: known[n] for n in names if known and n in known}
+    todo: dict[str, tuple[tuple[str, ...], bool, bool]] = {}
     for name in names:
         if name in out:
             continue
-        kw = {**opts, **DRIVE_VARIANTS[name]}
+        switches = {"voltage_limit": True, "losses": True, **DRIVE_VARIANTS[name]}
+        ff_v = ff
         if name == "with_loss_feedforward":
-            ff, extra = _loss_feedforward(tuple(result.feedforward))
+            ff_v, extra = _loss_feedforward(tuple(result.feedforward))
             if not extra:
                 continue
-            kw["feedforward"] = ff
-        out[name] = simulate_tracking(robot, trajectory, gains, **kw)
+        todo[name] = (ff_v, switches["voltage_limit"], switches["losses"])
+    if todo:  # simulated together, each as it would be alone
+        runs = _simulate_many(robot, trajectory, gains, list(todo.values()), **opts)
+        out.update(zip(todo, runs, strict=True))
     return out
 
 

@@ -35,9 +35,9 @@ import math
 from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING, Any
 
-import control as ct
 import numpy as np
 
+from armlab._lazy import lazy_import
 from armlab.control.gains import ArmGains, CascadeGains, LoopGains, PlantSummary
 from armlab.control.loops import (
     CascadeArrays,
@@ -52,6 +52,11 @@ from armlab.control.loops import (
 from armlab.control.plant import INERTIA_CASES, JointPlant, inertia_range, joint_plant
 from armlab.errors import ArmlabError, SpecError
 from armlab.robot.controller import ControllerProfile
+
+if TYPE_CHECKING:
+    import control as ct  # the real module for the type checker
+else:
+    ct = lazy_import("control")  # python-control loads at the first model built
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot

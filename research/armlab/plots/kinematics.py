@@ -90,7 +90,8 @@ def plot_accuracy(result: AccuracyResult, *, bins: int = 60) -> Figure:
         cols = [e[:, 0], e[:, 1], e[:, 2], np.linalg.norm(e, axis=1)]
         for c, (data, label) in enumerate(zip(cols, ("dx", "dy", "dz", "|dp|"), strict=True)):
             ax = axes[row, c]
-            ax.hist(data, bins=bins, color="tab:blue" if c < 3 else "tab:orange")
+            color = "tab:blue" if c < 3 else "tab:orange"
+            ax.hist(data, bins=bins, histtype="stepfilled", color=color)  # one patch, not 60
             p95 = np.percentile(np.abs(data), 95)
             for s in (1,) if c == 3 else (-1, 1):
                 ax.axvline(s * p95, color="k", ls="--", lw=0.8)

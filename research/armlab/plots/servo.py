@@ -9,13 +9,18 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-import control as ct
 import numpy as np
 
+from armlab._lazy import lazy_import
 from armlab.control.gains import LOOPS, CascadeGains
-from armlab.control.loops import CascadeModel, _response, freq_grid, margins
-from armlab.control.plant import INERTIA_CASES, JointPlant
+from armlab.control.loops import CascadeArrays, CascadeModel, freq_grid, margins
+from armlab.control.plant import JointPlant
 from armlab.plots._figure import new_figure
+
+if TYPE_CHECKING:
+    import control as ct  # the real module for the type checker
+else:
+    ct = lazy_import("control")  # python-control loads at the first model built
 
 if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with the package
     from matplotlib.figure import Figure
@@ -33,13 +38,12 @@ def bode_figure(
     fig = new_figure(figsize=(8, 6))
     ax_m, ax_p = fig.subplots(2, 1, sharex=True)
     dt = getattr(gains, loop).sample_time_s
-    for case in INERTIA_CASES:
-        m = CascadeModel(plant.at(case), gains)
-        for disc, ls in ((False, "--"), (True, "-")):
-            if disc and not discrete:
-                continue
-            w = freq_grid(dt if disc else None, n=800)
-            L = _response(m.open_loop(loop, disc), w, dt if disc else None)
+    arr = CascadeArrays(plant, gains)  # the tuning's own closed-form responses, every case
+    for disc, ls in ((False, "--"), (True, "-")):
+        if disc and not discrete:
+            continue
+        w = freq_grid(dt if disc else None, n=800)
+        for case, L in zip(arr.cases, arr.open_response(loop, w, disc), strict=True):
             mg = margins(w, L)
             label = (
                 f"{case} {'disc' if disc else 'cont'}: PM {mg.phase_margin_deg:.0f} deg, "
@@ -66,33 +70,18 @@ def step_figure(plant: JointPlant, gains: CascadeGains) -> Figure:
     max inertia (discrete solid, continuous dashed)."""
     fig = new_figure(figsize=(11, 3.5))
     axes = fig.subplots(1, 3)
+    arr = CascadeArrays(plant, gains)  # the tuning's own state-space loops, every case
     for ax, loop in zip(axes, LOOPS, strict=True):
         lg = getattr(gains, loop)
         wc = lg.crossover_rad_s if math.isfinite(lg.crossover_rad_s) else 1.0 / lg.sample_time_s
         t_end = (12.0 if loop == "position" else 25.0) / wc
-        for case in INERTIA_CASES:
-            m = CascadeModel(plant.at(case), gains)
-            for disc, ls in ((False, "--"), (True, "-")):
-                sys = m.closed_loop(loop, disc)
-                T = (
-                    np.arange(0.0, t_end, lg.sample_time_s)
-                    if disc
-                    else np.linspace(0.0, t_end, 1000)
-                )
-                r = ct.step_response(sys, T=T)
-                y = np.squeeze(r.outputs)
+        for disc, ls in ((False, "--"), (True, "-")):
+            T, Y = arr.step_responses(loop, disc, t_end)
+            for case, t, y in zip(arr.cases, T, Y, strict=True):
                 if disc:
-                    ax.step(
-                        r.time,
-                        y,
-                        ls,
-                        where="post",
-                        color=_COLORS[case],
-                        lw=1,
-                        label=f"{case}" if disc else None,
-                    )
+                    ax.step(t, y, ls, where="post", color=_COLORS[case], lw=1, label=f"{case}")
                 else:
-                    ax.plot(r.time, y, ls, color=_COLORS[case], lw=0.8)
+                    ax.plot(t, y, ls, color=_COLORS[case], lw=0.8)
         ax.set_title(f"{loop} loop (OS {lg.overshoot_discrete_pct:.0f} %)", fontsize=9)
         ax.set_xlabel("t [s]")
         ax.grid(True, alpha=0.3)

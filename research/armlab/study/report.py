@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import functools
 import math
+import pickle
+import queue
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -193,6 +195,130 @@ def _drive_model_figure(ctx):
     return drive_model_figure(runs)
 
 
+#: figures that take longest (simulations, many axes), started first so that the processes
+#: drawing the others finish together (a scheduling hint: the files do not depend on it)
+_SLOW_FIRST = ("tracking_drive_model.png", "kinematics_accuracy.png", "sizing_loads.png")
+
+
+def _figure_processes(n_jobs: int, workers: int | None) -> int:
+    """How many processes draw the plots: ``workers`` (None: one), at most one per plot, and
+    one where processes cannot be forked (the children inherit the study's state instead of
+    receiving it pickled)."""
+    import multiprocessing
+
+    n = 1 if workers is None else max(1, int(workers))
+    if "fork" not in multiprocessing.get_all_start_methods():
+        return 1
+    return max(1, min(n, n_jobs))
+
+
+def _draw_one(name: str, make: Callable[[], Any], out_dir: Path) -> Path:
+    from armlab.plots import offscreen
+
+    with offscreen():  # object API + Agg canvas: the caller's backend and pyplot untouched
+        fig = make()
+    path = out_dir / name
+    with atomic_open(path, "wb") as f:
+        fig.savefig(f, format=path.suffix[1:] or "png", dpi=110)
+    return path
+
+
+class _FigureDrawing:
+    """Draw the report's plots while the ``with`` block runs: forked processes take the next
+    plot from a shared counter (slowest first), this process draws its share when the block
+    ends, then waits for the others. A plot that fails raises its error here, after every
+    process has stopped (the files the others wrote stay)."""
+
+    def __init__(self, jobs, out_dir: Path, processes: int) -> None:
+        rank = {name: k for k, name in enumerate(_SLOW_FIRST)}
+        self.jobs = sorted(jobs, key=lambda job: rank.get(job[0], len(rank)))
+        self.out_dir = out_dir
+        self.processes = processes
+        self.paths: list[Path] = []
+        self._children: list = []
+
+    def _next(self) -> int:
+        with self._counter.get_lock():
+            k = self._counter.value
+            self._counter.value += 1
+        return k
+
+    def _work(self, send) -> None:
+        while (k := self._next()) < len(self.jobs):
+            name, _, make = self.jobs[k]
+            try:
+                send((k, None, _draw_one(name, make, self.out_dir)))
+            except Exception as exc:  # reported to the parent, which raises it
+                send((k, exc, None))
+                return
+
+    def __enter__(self) -> _FigureDrawing:
+        if self.processes <= 1:
+            return self
+        import multiprocessing
+
+        mp = multiprocessing.get_context("fork")
+        self._counter = mp.Value("i", 0)
+        self._queue = mp.Queue()
+        for _ in range(self.processes - 1):
+            child = mp.Process(target=self._child, daemon=True)
+            child.start()
+            self._children.append(child)
+        return self
+
+    def _child(self) -> None:
+        def send(item) -> None:
+            k, exc, path = item
+            if exc is not None:  # the exception crosses as itself if it pickles
+                try:
+                    pickle.dumps(exc)
+                except Exception:
+                    exc = RuntimeError(f"{self.jobs[k][0]}: {type(exc).__name__}: {exc}")
+            self._queue.put((k, exc, path))
+
+        try:
+            self._work(send)
+        finally:
+            self._queue.put(None)  # this process is done
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if self.processes <= 1:
+            if exc_type is None:
+                self.paths = [_draw_one(name, make, self.out_dir) for name, _, make in self.jobs]
+            return
+        results: list = []
+        if exc_type is None:
+            self._work(results.append)
+        else:  # the block failed: stop handing out plots
+            with self._counter.get_lock():
+                self._counter.value = len(self.jobs)
+        done = 0
+        while done < len(self._children):
+            try:
+                item = self._queue.get(timeout=0.5)
+            except queue.Empty:
+                if any(child.is_alive() for child in self._children):
+                    continue
+                break  # a process died without saying so: its plot is missing below
+            if item is None:
+                done += 1
+            else:
+                results.append(item)
+        for child in self._children:
+            child.join()
+        if exc_type is not None:
+            return
+        results.sort(key=lambda r: r[0])
+        for _, error, _ in results:
+            if error is not None:
+                raise error
+        missing = set(range(len(self.jobs))) - {k for k, _, _ in results}
+        if missing:
+            names = sorted(self.jobs[k][0] for k in missing)
+            raise RuntimeError(f"the report's plots {names} were not drawn (a process died)")
+        self.paths = [path for _, _, path in results]
+
+
 # ---------------------------------------------------------------------------- report.md
 def _fmt(x, nd: int = 4) -> str:
     if x is None:
@@ -212,10 +338,12 @@ def _table(header: list[str], rows: list[list[Any]]) -> list[str]:
     return lines + [""]
 
 
-def write_report(ctx, summary: dict, out_dir: Path) -> list[Path]:
-    """Write ``report.md`` and its PNG plots into ``out_dir``; returns the files written."""
-    from armlab.plots import offscreen
+def write_report(ctx, summary: dict, out_dir: Path, *, workers: int | None = None) -> list[Path]:
+    """Write ``report.md`` and its PNG plots into ``out_dir``; returns the files written.
 
+    ``workers``: processes that draw the plots (:func:`_figure_processes`; None or 1: this
+    one). The files are the same whichever number draws them.
+    """
     out_dir = Path(out_dir)
     files: list[Path] = []
     spec = ctx.spec
@@ -330,17 +458,19 @@ def write_report(ctx, summary: dict, out_dir: Path) -> list[Path]:
     lines += _table(
         ["figure", "value"], [[k, v] for k, v in kf.items() if not k.startswith("stage_")]
     )
-    if _figures(ctx):
+    jobs = _figures(ctx)
+    if jobs:
         lines += ["## Plots", ""]
-    for name, caption, make in _figures(ctx):
-        with offscreen():  # object API + Agg canvas: the caller's backend and pyplot untouched
-            fig = make()
-        path = out_dir / name
-        with atomic_open(path, "wb") as f:
-            fig.savefig(f, format=path.suffix[1:] or "png", dpi=110)
-        files.append(path)
+    for name, caption, _ in jobs:
         lines += [f"![{caption}]({name})", "", f"*{caption}*", ""]
-    lines += _motion_lines(ctx, out_dir, files)
+    # the figures in `processes` processes; the parent draws its share and the 3D motion
+    processes = _figure_processes(len(jobs), workers)
+    summary["study"]["plot_processes"] = processes
+    with _FigureDrawing(jobs, out_dir, processes) as drawing:
+        lines += _motion_lines(ctx, out_dir, files)
+    files += drawing.paths
+    if processes > 1:
+        lines += [f"The {len(jobs)} plots were drawn by {processes} processes.", ""]
     report = out_dir / "report.md"
     atomic_write(report, "\n".join(lines))
     return [report, *files]

@@ -169,7 +169,9 @@ def run_spec(
         another study's outputs is refused unless ``overwrite``
         (:func:`armlab.study.record.prepare_out_dir`).
     workers : int, optional
-        Processes for the stages that can use several (reserved; None: one).
+        Processes that draw the report's plots (forked, where the platform can; None: one;
+        the files are the same whichever number draws them; ``summary["study"]
+        ["plot_processes"]`` records it).
     progress : bool or None
         Progress bar over the stages: True, False, or None = only on a terminal.
     report : bool, optional
@@ -286,7 +288,7 @@ def run_spec(
 
             bar.set_postfix_str("report")
             summary["design"] = design_verdict(summary, tuple(spec.study.stages))
-            files += write_report(ctx, summary, out)
+            files += write_report(ctx, summary, out, workers=ctx.workers)
         finish()
         files += [Path(p) for p in ctx.files.values()]
     finally:
@@ -328,7 +330,7 @@ def run_study(
         Output folder: summary.json, design.json, report.md + PNGs, setpoints.csv, gains.json,
         trajectory.npz.
     workers : int, optional
-        Processes for the stages that can use several (reserved; None: one).
+        Processes that draw the report's plots (:func:`run_spec`; None: one).
     overrides : dict, optional
         Dotted study keys to change (``{"payload.mass_kg": 1.0}``).
     progress : bool or None
