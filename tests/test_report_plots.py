@@ -1,0 +1,84 @@
+"""The report's plots drawn by several processes (``armlab run --workers``): the same files as
+one process draws, a plot's error raised in the parent with its own type, a dead process named."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import time
+
+import numpy as np
+import pytest
+
+from armlab.errors import InputError
+from armlab.plots._figure import new_figure
+from armlab.study.report import _figure_processes, _FigureDrawing
+
+pytestmark = pytest.mark.skipif(
+    "fork" not in multiprocessing.get_all_start_methods(), reason="no fork on this platform"
+)
+
+
+def _plot(k: int):
+    def make():
+        fig = new_figure(figsize=(3, 2))
+        ax = fig.subplots()
+        x = np.linspace(0.0, 1.0, 50)
+        ax.plot(x, np.sin((k + 1) * 3 * x))
+        ax.set_title(f"plot {k}")
+        return fig
+
+    return make
+
+
+def _jobs(n: int):
+    return [(f"p{k}.png", f"plot {k}", _plot(k)) for k in range(n)]
+
+
+def test_plots_from_several_processes_are_the_files_one_draws(tmp_path):
+    one, many = tmp_path / "one", tmp_path / "many"
+    one.mkdir()
+    many.mkdir()
+    with _FigureDrawing(_jobs(7), one, 1) as serial:
+        pass
+    with _FigureDrawing(_jobs(7), many, 3) as parallel:
+        assert len(parallel._children) == 2  # the parent draws too
+    assert sorted(p.name for p in serial.paths) == sorted(p.name for p in parallel.paths)
+    assert len(serial.paths) == 7
+    for path in serial.paths:
+        assert (many / path.name).read_bytes() == path.read_bytes(), path.name
+
+
+def test_a_plot_that_fails_in_a_child_raises_its_error_in_the_parent(tmp_path):
+    def broken():
+        raise InputError("plot 3: no data for joint7")
+
+    jobs = _jobs(6)
+    jobs[3] = ("bad.png", "bad", broken)
+    with pytest.raises(InputError, match="no data for joint7"):
+        with _FigureDrawing(jobs, tmp_path, 2):
+            pass
+    assert not (tmp_path / "bad.png").exists()
+
+
+def test_a_process_that_dies_is_named_not_waited_for(tmp_path):
+    def dies():
+        if multiprocessing.parent_process() is not None:  # only the child dies
+            os._exit(3)
+        return _plot(0)()
+
+    jobs = [("dies.png", "dies", dies), *_jobs(1)]
+    with pytest.raises(RuntimeError, match=r"\['dies.png'\] were not drawn"):
+        with _FigureDrawing(jobs, tmp_path, 2) as drawing:
+            for _ in range(500):  # the parent waits until the child has taken the first plot
+                if drawing._counter.value > 0:
+                    break
+                time.sleep(0.01)
+
+
+def test_process_count():
+    assert _figure_processes(11, None) == 1
+    assert _figure_processes(11, 1) == 1
+    assert _figure_processes(11, 4) == 4
+    assert _figure_processes(2, 8) == 2
+    assert _figure_processes(0, 8) == 1
