@@ -82,3 +82,56 @@ def test_process_count():
     assert _figure_processes(11, 4) == 4
     assert _figure_processes(2, 8) == 2
     assert _figure_processes(0, 8) == 1
+
+
+def _study(tmp_path, stages, payload_kg):
+    from armlab.study import load_study
+
+    text = f"""
+[study]
+name = "early plots"
+stages = {stages!r}
+report = true
+[robot]
+name = "teachbot6"
+[payload]
+mass_kg = {payload_kg}
+[kinematics]
+workspace_samples = 300
+accuracy_samples = 200
+[waypoints]
+unit = "deg"
+joint = [[0, 0, 0, 0, 0, 0], [30, 10, 20, 0, 30, 0]]
+[plan]
+planner = "ptp"
+"""
+    path = tmp_path / "study.toml"
+    path.write_text(text.replace("'", '"'))
+    return load_study(path)
+
+
+def test_kinematics_plots_drawn_during_the_later_stages_are_the_report_s(tmp_path):
+    """With two workers the kinematics plots are drawn while the plan runs: the report shows
+    them and they are the files one process draws."""
+    from armlab.study import run_spec
+
+    spec = _study(tmp_path, ["kinematics", "plan"], 0.5)
+    one = run_spec(spec, tmp_path / "one", workers=1)
+    two = run_spec(spec, tmp_path / "two", workers=2)
+    assert two.summary["study"]["plot_processes"] == 2
+    names = sorted(p.name for p in one.files if p.suffix == ".png")
+    assert "kinematics_accuracy.png" in names and "plan_profiles.png" in names
+    assert sorted(p.name for p in two.files if p.suffix == ".png") == names
+    for name in names:
+        assert (tmp_path / "two" / name).read_bytes() == (tmp_path / "one" / name).read_bytes()
+
+
+def test_a_study_that_stops_leaves_no_plots_of_its_earlier_stages(tmp_path):
+    from armlab.errors import ArmlabError
+    from armlab.study import run_spec
+
+    spec = _study(tmp_path, ["kinematics", "plan"], 500.0)  # gravity alone over the limits
+    with pytest.raises(ArmlabError, match="^plan: "):
+        run_spec(spec, tmp_path / "out", workers=2)
+    assert not list((tmp_path / "out").glob("*.png"))
+    assert (tmp_path / "out" / "summary.json").is_file()

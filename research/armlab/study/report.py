@@ -229,13 +229,15 @@ class _FigureDrawing:
     ends, then waits for the others. A plot that fails raises its error here, after every
     process has stopped (the files the others wrote stay)."""
 
-    def __init__(self, jobs, out_dir: Path, processes: int) -> None:
+    def __init__(self, jobs, out_dir: Path, processes: int, *, parent_draws: bool = True) -> None:
         rank = {name: k for k, name in enumerate(_SLOW_FIRST)}
         self.jobs = sorted(jobs, key=lambda job: rank.get(job[0], len(rank)))
         self.out_dir = out_dir
         self.processes = processes
+        self.parent_draws = parent_draws  # False: the parent only waits (it has stages to run)
         self.paths: list[Path] = []
         self._children: list = []
+        self._sent: list[Path] = []
 
     def _next(self) -> int:
         with self._counter.get_lock():
@@ -281,13 +283,27 @@ class _FigureDrawing:
         finally:
             self._queue.put(None)  # this process is done
 
+    def finish(self) -> list[Path]:
+        """Draw what is left, wait for the other processes; the files drawn."""
+        self.parent_draws = True
+        self.__exit__(None, None, None)
+        return self.paths
+
+    def abort(self) -> None:
+        """Stop handing out plots, wait for the processes and remove the files they wrote."""
+        if self.processes <= 1:
+            return
+        self.__exit__(RuntimeError, None, None)
+        for path in self._sent:
+            Path(path).unlink(missing_ok=True)
+
     def __exit__(self, exc_type, exc, tb) -> None:
         if self.processes <= 1:
             if exc_type is None:
                 self.paths = [_draw_one(name, make, self.out_dir) for name, _, make in self.jobs]
             return
         results: list = []
-        if exc_type is None:
+        if exc_type is None and self.parent_draws:
             self._work(results.append)
         else:  # the block failed: stop handing out plots
             with self._counter.get_lock():
@@ -306,6 +322,7 @@ class _FigureDrawing:
                 results.append(item)
         for child in self._children:
             child.join()
+        self._sent = [path for _, _, path in results if path is not None]
         if exc_type is not None:
             return
         results.sort(key=lambda r: r[0])
@@ -338,11 +355,31 @@ def _table(header: list[str], rows: list[list[Any]]) -> list[str]:
     return lines + [""]
 
 
-def write_report(ctx, summary: dict, out_dir: Path, *, workers: int | None = None) -> list[Path]:
+#: plots drawn from one stage's results alone, which no later stage changes: with several
+#: workers, a process draws them while the later stages run (:func:`start_stage_plots`)
+_STAGE_PLOTS = {"kinematics": ("kinematics_workspace.png", "kinematics_accuracy.png")}
+
+
+def start_stage_plots(ctx, stage: str, out_dir: Path, workers: int | None):
+    """With ``workers`` > 1, start drawing the report plots of ``stage`` (:data:`_STAGE_PLOTS`)
+    in a forked process; the handle goes to :func:`write_report` (``early``), or is aborted if
+    the study stops first. None when there is nothing to start."""
+    names = _STAGE_PLOTS.get(stage, ())
+    jobs = [job for job in _figures(ctx) if job[0] in names]
+    if not jobs or _figure_processes(2, workers) < 2:
+        return None
+    drawing = _FigureDrawing(jobs, Path(out_dir), 2, parent_draws=False)
+    return drawing.__enter__()
+
+
+def write_report(
+    ctx, summary: dict, out_dir: Path, *, workers: int | None = None, early=()
+) -> list[Path]:
     """Write ``report.md`` and its PNG plots into ``out_dir``; returns the files written.
 
     ``workers``: processes that draw the plots (:func:`_figure_processes`; None or 1: this
-    one). The files are the same whichever number draws them.
+    one); ``early``: drawings started by :func:`start_stage_plots`, finished here. The files
+    are the same whichever number draws them.
     """
     out_dir = Path(out_dir)
     files: list[Path] = []
@@ -464,11 +501,15 @@ def write_report(ctx, summary: dict, out_dir: Path, *, workers: int | None = Non
     for name, caption, _ in jobs:
         lines += [f"![{caption}]({name})", "", f"*{caption}*", ""]
     # the figures in `processes` processes; the parent draws its share and the 3D motion
+    started = {job[0] for drawing in early for job in drawing.jobs}
+    rest = [job for job in jobs if job[0] not in started]
     processes = _figure_processes(len(jobs), workers)
     summary["study"]["plot_processes"] = processes
-    with _FigureDrawing(jobs, out_dir, processes) as drawing:
+    with _FigureDrawing(rest, out_dir, processes) as drawing:
         lines += _motion_lines(ctx, out_dir, files)
     files += drawing.paths
+    for drawing in early:
+        files += drawing.finish()
     if processes > 1:
         lines += [f"The {len(jobs)} plots were drawn by {processes} processes.", ""]
     report = out_dir / "report.md"

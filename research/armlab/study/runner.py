@@ -218,7 +218,15 @@ def run_spec(
             summary["files"] = {name: sha for name, sha in _checksums(out, ctx.files).items()}
             files.insert(0, write_json(out / SUMMARY_FILE, summary))
 
+    # with several workers, plots that need one stage's results alone are drawn while the
+    # later stages run (armlab.study.report.start_stage_plots)
+    draw_report = out is not None and (spec.study.report if report is None else report)
+    early: list = []
+
     def fail(stage: str, exc: ArmlabError):
+        for drawing in early:
+            drawing.abort()
+        early.clear()
         finish()
         bar.close()
         return type(exc)(f"{stage}: {exc}")
@@ -276,6 +284,12 @@ def run_spec(
                     )
                     raise fail(stage, exc) from None
             record(stage, key, block, t0)
+            if draw_report and out is not None and block["status"] == "ok":
+                from armlab.study.report import start_stage_plots
+
+                drawing = start_stage_plots(ctx, stage, out, ctx.workers)
+                if drawing is not None:
+                    early.append(drawing)
             bar.update()
         if ctx.drives_selected:  # the sizing stage gave the robot its drive train
             summary["robot"].update(robot_block(ctx))
@@ -283,15 +297,18 @@ def run_spec(
             if out is not None:
                 record_ = design_record(ctx.robot, ctx.controller, spec)
                 ctx.files[DESIGN_FILE] = str(write_json(out / DESIGN_FILE, record_))
-        if out is not None and (spec.study.report if report is None else report):
+        if draw_report and out is not None:
             from armlab.study.report import write_report
 
             bar.set_postfix_str("report")
             summary["design"] = design_verdict(summary, tuple(spec.study.stages))
-            files += write_report(ctx, summary, out, workers=ctx.workers)
+            files += write_report(ctx, summary, out, workers=ctx.workers, early=early)
+            early.clear()
         finish()
         files += [Path(p) for p in ctx.files.values()]
     finally:
+        for drawing in early:  # the study stopped before its report: no orphan plots
+            drawing.abort()
         bar.close()
     return StudyResult(spec=spec, summary=summary, context=ctx, out_dir=out, files=files)
 
