@@ -74,3 +74,30 @@ def new_figure(**kwargs: Any) -> Figure:
     import matplotlib.pyplot as plt
 
     return plt.figure(**kwargs)
+
+
+def fixed_layout(
+    fig: Figure,
+    nrows: int,
+    ncols: int,
+    *,
+    left: float = 0.9,
+    right: float = 0.2,
+    top: float = 0.6,
+    bottom: float = 0.55,
+    wgap: float = 0.8,
+    hgap: float = 0.55,
+) -> None:
+    """Place a grid of subplots by margins and gaps in [inch] (``subplots_adjust``): for the
+    many-panel figures, where a layout engine's text measuring costs more than the drawing."""
+    w, h = fig.get_size_inches()
+    aw = max((w - left - right - (ncols - 1) * wgap) / ncols, 1e-3)
+    ah = max((h - top - bottom - (nrows - 1) * hgap) / nrows, 1e-3)
+    fig.subplots_adjust(
+        left=left / w,
+        right=1.0 - right / w,
+        top=1.0 - top / h,
+        bottom=bottom / h,
+        wspace=wgap / aw,
+        hspace=hgap / ah,
+    )

@@ -10,7 +10,7 @@ import numpy as np
 
 from armlab.dynamics.inverse import RAD_S_TO_RPM, JointLoads, require_drives
 from armlab.errors import InputError
-from armlab.plots._figure import new_figure
+from armlab.plots._figure import fixed_layout, new_figure
 from armlab.robot import drivetrain
 
 if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with armlab.dynamics
@@ -43,8 +43,9 @@ def plot_joint_loads(loads: JointLoads, robot: Robot | None = None, *, joints=No
         Joints to draw (default all).
     """
     idx = _joint_indices(loads, joints)
-    fig = new_figure(figsize=(11, 2.1 * len(idx) + 0.6), layout="constrained")
+    fig = new_figure(figsize=(11, 2.1 * len(idx) + 0.6))
     axes = fig.subplots(len(idx), 3, squeeze=False, sharex=True)
+    fixed_layout(fig, len(idx), 3, left=0.95, top=0.55, hgap=0.2, wgap=0.75)
     for row, j in enumerate(idx):
         series = (
             (loads.torque_Nm[:, j], "torque [N m]"),
@@ -112,8 +113,9 @@ def plot_operating_points(loads: JointLoads, robot: Robot, *, drives=None, joint
     idx = _joint_indices(loads, joints)
     ncol = min(3, len(idx))
     nrow = int(np.ceil(len(idx) / ncol))
-    fig = new_figure(figsize=(4.2 * ncol, 3.4 * nrow), layout="constrained")
+    fig = new_figure(figsize=(4.2 * ncol, 3.4 * nrow))
     axes = np.atleast_1d(fig.subplots(nrow, ncol, squeeze=False)).ravel()
+    fixed_layout(fig, nrow, ncol, left=0.85, top=0.35, hgap=0.75, wgap=1.0)
     for ax, j in zip(axes, idx, strict=False):
         d = drive_list[j]
         arr = drivetrain.DriveTrain.from_drives([d])

@@ -13,7 +13,7 @@ import numpy as np
 
 from armlab.kinematics.accuracy import AccuracyResult
 from armlab.kinematics.workspace import WorkspaceResult
-from armlab.plots._figure import new_figure
+from armlab.plots._figure import fixed_layout, new_figure
 
 if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with the package
     from matplotlib.figure import Figure
@@ -83,8 +83,9 @@ _TITLES = {"angle": "reducer angle errors", "length": "link-length tolerances", 
 def plot_accuracy(result: AccuracyResult, *, bins: int = 60) -> Figure:
     """Histograms of the position error: one row per source (angle, length, both), columns
     dx, dy, dz and the total |dp|, in [mm]; the 95th percentile is marked."""
-    fig = new_figure(figsize=(13, 8), layout="constrained")
+    fig = new_figure(figsize=(13, 8))
     axes = fig.subplots(3, 4)
+    fixed_layout(fig, 3, 4, left=0.45, right=0.15, top=0.8, bottom=0.55, wgap=0.45, hgap=0.75)
     for row, source in enumerate(("angle", "length", "combined")):
         e = result.errors(source) * 1000.0
         cols = [e[:, 0], e[:, 1], e[:, 2], np.linalg.norm(e, axis=1)]
