@@ -110,9 +110,10 @@ planner = "ptp"
     return load_study(path)
 
 
-def test_kinematics_plots_drawn_during_the_later_stages_are_the_report_s(tmp_path):
-    """With two workers the kinematics plots are drawn while the plan runs: the report shows
-    them and they are the files one process draws."""
+def test_plots_drawn_during_the_later_stages_are_the_report_s(tmp_path):
+    """With two workers a stage's final plots are drawn while the later stages run (here the
+    kinematics plots during the plan): the report shows them, and they are the files one
+    process draws."""
     from armlab.study import run_spec
 
     spec = _study(tmp_path, ["kinematics", "plan"], 0.5)

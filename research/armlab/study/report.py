@@ -168,7 +168,8 @@ def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
 def _drive_model_figure(ctx):
     """The study's motion under each drive model: the tracking stage's result and its
     variants (:func:`armlab.control.simulate.tracking_variants`; those the stage's diagnosis
-    ran are reused, the others simulated only when the report is drawn)."""
+    ran are reused, the others simulated only when the report is drawn -- by another process
+    when several draw, so the study's context keeps only the diagnosis's)."""
     from armlab.control.simulate import tracking_variants
     from armlab.plots.servo import drive_model_figure
 
@@ -355,31 +356,62 @@ def _table(header: list[str], rows: list[list[Any]]) -> list[str]:
     return lines + [""]
 
 
-#: plots drawn from one stage's results alone, which no later stage changes: with several
-#: workers, a process draws them while the later stages run (:func:`start_stage_plots`)
-_STAGE_PLOTS = {"kinematics": ("kinematics_workspace.png", "kinematics_accuracy.png")}
+#: the plots each stage makes final (file-name prefixes): drawn from that stage's results and
+#: earlier ones, which no later stage changes. The plan's plots wait for the sizing stage,
+#: which may give the robot its drive train (and so its torque limits).
+_STAGE_PLOTS = {
+    "kinematics": ("kinematics_",),
+    "sizing": ("plan_", "sizing_"),
+    "tuning": ("control_",),
+    "tracking": ("tracking_",),
+}
 
 
-def start_stage_plots(ctx, stage: str, out_dir: Path, workers: int | None):
-    """With ``workers`` > 1, start drawing the report plots of ``stage`` (:data:`_STAGE_PLOTS`)
-    in a forked process; the handle goes to :func:`write_report` (``early``), or is aborted if
-    the study stops first. None when there is nothing to start."""
-    names = _STAGE_PLOTS.get(stage, ())
-    jobs = [job for job in _figures(ctx) if job[0] in names]
-    if not jobs or _figure_processes(2, workers) < 2:
-        return None
-    drawing = _FigureDrawing(jobs, Path(out_dir), 2, parent_draws=False)
-    return drawing.__enter__()
+class StagePlots:
+    """With several ``workers``, the report's plots drawn while the later stages run: when a
+    stage ends, its final plots (:data:`_STAGE_PLOTS`, with any still waiting) go to a forked
+    process if none is busy (one at a time beside the stages); :func:`write_report` draws
+    the rest and collects them. :meth:`abort` when the study stops before its report."""
+
+    def __init__(self, out_dir: Path, workers: int | None) -> None:
+        self.out_dir = Path(out_dir)
+        self.on = _figure_processes(2, workers) >= 2
+        self.drawings: list[_FigureDrawing] = []
+        self.waiting: list[str] = []  # prefixes of final plots not started yet
+
+    def stage_done(self, ctx, stage: str) -> None:
+        if not self.on:
+            return
+        self.waiting += _STAGE_PLOTS.get(stage, ())
+        busy = any(c.is_alive() for d in self.drawings for c in d._children)
+        if busy or not self.waiting:
+            return
+        jobs = [job for job in _figures(ctx) if job[0].startswith(tuple(self.waiting))]
+        self.waiting = []
+        if jobs:
+            drawing = _FigureDrawing(jobs, self.out_dir, 2, parent_draws=False)
+            self.drawings.append(drawing.__enter__())
+
+    def names(self) -> set[str]:
+        return {job[0] for d in self.drawings for job in d.jobs}
+
+    def finish(self) -> list[Path]:
+        return [path for d in self.drawings for path in d.finish()]
+
+    def abort(self) -> None:
+        for d in self.drawings:
+            d.abort()
+        self.drawings = []
 
 
 def write_report(
-    ctx, summary: dict, out_dir: Path, *, workers: int | None = None, early=()
+    ctx, summary: dict, out_dir: Path, *, workers: int | None = None, early=None
 ) -> list[Path]:
     """Write ``report.md`` and its PNG plots into ``out_dir``; returns the files written.
 
     ``workers``: processes that draw the plots (:func:`_figure_processes`; None or 1: this
-    one); ``early``: drawings started by :func:`start_stage_plots`, finished here. The files
-    are the same whichever number draws them.
+    one); ``early``: the :class:`StagePlots` of the run, finished here. The files are the
+    same whichever number draws them.
     """
     out_dir = Path(out_dir)
     files: list[Path] = []
@@ -501,15 +533,15 @@ def write_report(
     for name, caption, _ in jobs:
         lines += [f"![{caption}]({name})", "", f"*{caption}*", ""]
     # the figures in `processes` processes; the parent draws its share and the 3D motion
-    started = {job[0] for drawing in early for job in drawing.jobs}
+    started = early.names() if early is not None else set()
     rest = [job for job in jobs if job[0] not in started]
     processes = _figure_processes(len(jobs), workers)
     summary["study"]["plot_processes"] = processes
     with _FigureDrawing(rest, out_dir, processes) as drawing:
         lines += _motion_lines(ctx, out_dir, files)
     files += drawing.paths
-    for drawing in early:
-        files += drawing.finish()
+    if early is not None:
+        files += early.finish()
     if processes > 1:
         lines += [f"The {len(jobs)} plots were drawn by {processes} processes.", ""]
     report = out_dir / "report.md"

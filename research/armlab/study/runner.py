@@ -220,13 +220,15 @@ def run_spec(
 
     # with several workers, plots that need one stage's results alone are drawn while the
     # later stages run (armlab.study.report.start_stage_plots)
-    draw_report = out is not None and (spec.study.report if report is None else report)
-    early: list = []
+    early = None
+    if out is not None and (spec.study.report if report is None else report):
+        from armlab.study.report import StagePlots
+
+        early = StagePlots(out, workers)
 
     def fail(stage: str, exc: ArmlabError):
-        for drawing in early:
-            drawing.abort()
-        early.clear()
+        if early is not None:
+            early.abort()
         finish()
         bar.close()
         return type(exc)(f"{stage}: {exc}")
@@ -284,12 +286,8 @@ def run_spec(
                     )
                     raise fail(stage, exc) from None
             record(stage, key, block, t0)
-            if draw_report and out is not None and block["status"] == "ok":
-                from armlab.study.report import start_stage_plots
-
-                drawing = start_stage_plots(ctx, stage, out, ctx.workers)
-                if drawing is not None:
-                    early.append(drawing)
+            if early is not None and block["status"] == "ok":
+                early.stage_done(ctx, stage)
             bar.update()
         if ctx.drives_selected:  # the sizing stage gave the robot its drive train
             summary["robot"].update(robot_block(ctx))
@@ -297,18 +295,18 @@ def run_spec(
             if out is not None:
                 record_ = design_record(ctx.robot, ctx.controller, spec)
                 ctx.files[DESIGN_FILE] = str(write_json(out / DESIGN_FILE, record_))
-        if draw_report and out is not None:
+        if early is not None and out is not None:
             from armlab.study.report import write_report
 
             bar.set_postfix_str("report")
             summary["design"] = design_verdict(summary, tuple(spec.study.stages))
             files += write_report(ctx, summary, out, workers=ctx.workers, early=early)
-            early.clear()
+            early = None
         finish()
         files += [Path(p) for p in ctx.files.values()]
     finally:
-        for drawing in early:  # the study stopped before its report: no orphan plots
-            drawing.abort()
+        if early is not None:  # the study stopped before its report: no orphan plots
+            early.abort()
         bar.close()
     return StudyResult(spec=spec, summary=summary, context=ctx, out_dir=out, files=files)
 
