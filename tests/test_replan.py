@@ -231,7 +231,7 @@ def test_common_duration_skips_a_joints_gap(teachbot6):
         ({"qdd_start": np.full(6, 1e6)}, "qdd_start: joint1 .* acceleration limit"),
         ({"qd_start": np.ones(5)}, "shape"),
         ({"qd_start": np.full(6, np.nan)}, "finite"),
-        ({"qd_start": np.full(6, 0.1), "profile": "scurve"}, "profile='trapezoid'"),
+        ({"qd_start": np.full(6, 0.1), "profile": "velocity"}, "profile='trapezoid' or 'scurve'"),
         ({"qd_start": np.full(6, 0.1), "sync": "phase"}, "sync='time'"),
     ],
 )

@@ -18,19 +18,33 @@ Profiles here:
 * ``"scurve"`` — the same with a jerk-limited double S per joint.
 
 Replanning from where the arm is (``qd_start``, ``qdd_start``, ``qd_goal``, as Ruckig's
-current velocity / acceleration and target velocity): ``"trapezoid"`` with ``sync="time"``.
-Each joint's shortest move from its speed to its goal speed is bang-coast-bang
-(:func:`~armlab.trajectory.profiles.trapezoid_min_time_from_state`); a joint moving towards
-its goal may be unable to take some longer durations without reversing
-(:func:`~armlab.trajectory.profiles.trapezoid_blocked_from_state`), so the common duration is
-the smallest one at or above every joint's minimum that lies in no joint's gap, and each joint
-then takes exactly that long (:func:`~armlab.trajectory.profiles.trapezoid_from_state`). The
-trapezoid's acceleration steps at ``t = 0`` like at its other corners, so ``qdd_start`` is
-only checked against the limit. A start or goal speed above a joint's velocity limit, or a
-start acceleration above its acceleration limit, is refused (:class:`InputError` naming the
-keyword and the joint): brake first. Torque limits are met by lowering the acceleration
-limit (the boundary speeds stay), and a speed that cannot be braked within the joint's range
-ends in :class:`LimitViolation`.
+current velocity / acceleration and target velocity), with ``sync="time"``:
+
+* ``"trapezoid"``: each joint's shortest move from its speed to its goal speed is
+  bang-coast-bang (:func:`~armlab.trajectory.profiles.trapezoid_min_time_from_state`); a
+  joint moving towards its goal may be unable to take some longer durations without
+  reversing (:func:`~armlab.trajectory.profiles.trapezoid_blocked_from_state`), so the common
+  duration is the smallest one at or above every joint's minimum that lies in no joint's gap,
+  and each joint then takes exactly that long
+  (:func:`~armlab.trajectory.profiles.trapezoid_from_state`). The trapezoid's acceleration
+  steps at ``t = 0`` like at its other corners, so ``qdd_start`` is only checked against the
+  limit.
+* ``"scurve"``: the same with jerk-limited moves from a speed and an acceleration
+  (Berscheid & Kröger 2021, steps 1 and 2, the method of Ruckig): each joint's time-optimal
+  move of at most seven phases of jerk ``+-j`` or 0, its blocked durations, the common
+  duration, and per joint a move of exactly that duration
+  (:class:`~armlab.trajectory.profiles.JerkMove`,
+  :func:`~armlab.trajectory.profiles.synchronised_from_state`). The acceleration is
+  continuous: the plan starts with ``qdd_start`` and ends with zero acceleration.
+
+A start or goal speed above a joint's velocity limit, a start acceleration above its
+acceleration limit, or (``"scurve"``) a start acceleration the jerk limit cannot bring to zero
+before the speed passes its limit (``qd + qdd |qdd| / 2 j``) is refused (:class:`InputError`
+naming the keyword and the joint): brake first. ``sync="phase"`` and ``"velocity"`` do not
+replan from a moving state (:class:`InputError`). Torque limits are met by lowering the
+acceleration (and jerk) limits and planning again from the same state (not below what the
+start state needs), and a speed that cannot be braked within the joint's range ends in
+:class:`LimitViolation`.
 """
 
 from __future__ import annotations
@@ -50,6 +64,7 @@ from armlab.trajectory.profiles import (
     double_s_binding,
     double_s_profile,
     rest_profile,
+    synchronised_from_state,
     synchronised_profiles,
     trapezoid_blocked_from_state,
     trapezoid_from_state,
@@ -116,9 +131,12 @@ def _state(robot, x, name: str, limit, kind: str) -> np.ndarray:
     return arr
 
 
-def _from_state_profiles(delta, v0, v1, v, a):
-    """Time-synchronised bang-coast-bang moves from speeds ``v0`` to ``v1``: (profiles, T,
-    binding joint, its limit kind, whether a joint's gap moved T)."""
+def _from_state_profiles(delta, v0, a0, v1, v, a, j):
+    """Time-synchronised moves from speeds ``v0`` (accelerations ``a0``) to ``v1``:
+    bang-coast-bang (``j`` None) or jerk-limited: (profiles, T, binding joint, its limit
+    kind, whether a joint's gap moved T)."""
+    if j is not None:
+        return _scurves_from_state(delta, v0, a0, v1, v, a, j)
     n = delta.size
     moving = (np.abs(delta) > 0) | (v0 != 0) | (v1 != 0)
     t_min = np.array(
@@ -192,8 +210,10 @@ def ptp_sync(
         Also keep the inverse-dynamics torques within ``effort`` (slowing down if needed).
     qd_start, qdd_start, qd_goal : array (n_joints,), optional
         Replanning from a moving state: the joint speeds [rad/s] and accelerations [rad/s^2]
-        now, and the speeds [rad/s] wanted at the goal (default: rest). ``"trapezoid"``
-        with ``sync="time"`` only (module docstring); each within its limit.
+        now, and the speeds [rad/s] wanted at the goal (default: rest; the goal
+        acceleration is zero). ``"trapezoid"`` or ``"scurve"`` with ``sync="time"`` only
+        (module docstring; Berscheid & Kröger 2021 for the S-curve); each within its limit.
+        ``qdd_start`` shapes the S-curve's start; the trapezoid only checks it.
 
     Returns
     -------
@@ -207,9 +227,11 @@ def ptp_sync(
     ------
     InputError
         Bad shape, unknown profile, missing limit; start or goal outside a joint's range
-        (:func:`~armlab.trajectory.waypoints.validate_waypoints`).
+        (:func:`~armlab.trajectory.waypoints.validate_waypoints`); a start or goal state
+        beyond the limits (module docstring).
     LimitViolation
-        Gravity alone above a torque limit.
+        Gravity alone above a torque limit; from a moving state, the start state's own
+        torque above it, or a speed that cannot be braked within the joint range.
     """
     if profile not in PTP_PROFILES:
         raise InputError(f"unknown PTP profile {profile!r}; use one of {PTP_PROFILES}")
@@ -232,12 +254,28 @@ def ptp_sync(
     assert v is not None  # resolve_limits raises when a needed limit is missing
     v0 = _state(robot, qd_start, "qd_start", v, "velocity")
     v1 = _state(robot, qd_goal, "qd_goal", v, "velocity")
-    _state(robot, qdd_start, "qdd_start", a, "acceleration")
-    from_state = bool(np.any(v0 != 0) or np.any(v1 != 0))
-    if from_state and (profile != "trapezoid" or sync != "time"):
+    a0 = _state(robot, qdd_start, "qdd_start", a, "acceleration")
+    if profile == "scurve":
+        assert j is not None  # resolve_limits raises when a needed limit is missing
+        # the speed reached when the start acceleration is brought to zero at the jerk limit
+        vstop = v0 + a0 * np.abs(a0) / (2 * j)
+        over = np.abs(vstop) > v * (1 + 1e-12)
+        if np.any(over):
+            i = int(np.flatnonzero(over)[0])
+            raise InputError(
+                f"ptp_sync qdd_start: {robot.joint_names[i]} at {a0[i]:.6g} with qd_start "
+                f"{v0[i]:.6g} reaches {vstop[i]:.6g} before its jerk limit {float(j[i]):.6g} "
+                f"can stop the acceleration, beyond its velocity limit {float(v[i]):.6g} "
+                f"(brake first)"
+            )
+    else:
+        a0 = np.zeros(robot.n_joints)  # a trapezoid's acceleration steps: only checked
+    from_state = bool(np.any(v0 != 0) or np.any(v1 != 0) or np.any(a0 != 0))
+    if from_state and (profile == "velocity" or sync != "time"):
         raise InputError(
-            f"ptp_sync: qd_start/qd_goal (replanning from a moving state) need "
-            f"profile='trapezoid' and sync='time', not profile={profile!r}, sync={sync!r}"
+            f"ptp_sync: qd_start/qdd_start/qd_goal (replanning from a moving state) need "
+            f"profile='trapezoid' or 'scurve' and sync='time', not profile={profile!r}, "
+            f"sync={sync!r}"
         )
     delta = q1 - q0
     D = np.abs(delta)
@@ -245,7 +283,9 @@ def ptp_sync(
     method = f"ptp_{profile}"
     if from_state:
         assert a is not None
-        return _ptp_from_state(robot, q0, q1, v0, v1, v, a, lim, dt, torque, method)
+        return _ptp_from_state(
+            robot, q0, q1, v0, a0, v1, v, a, j if profile == "scurve" else None, lim, dt, torque
+        )
     if not np.any(D > 0):
         traj = Trajectory(
             [0.0],
@@ -347,8 +387,25 @@ def ptp_sync(
     return finish(traj, robot, lim, torque=torque, what=method)
 
 
-def _ptp_from_state(robot, q0, q1, v0, v1, v, a, lim, dt, torque, method) -> Trajectory:
-    """:func:`ptp_sync` from a moving state (module docstring)."""
+def _scurves_from_state(delta, v0, a0, v1, v, a, j):
+    """:func:`_from_state_profiles` with a jerk limit (Berscheid & Kröger 2021, steps 1-2)."""
+    T, moves, profs, moved = synchronised_from_state(delta, v0, a0, v1, v, a, j)
+    bj = int(np.argmax([m.t_min for m in moves]))
+    p = profs[bj]
+    flat = p.jerks == 0  # a cruise at the speed limit, or a plateau at the acceleration limit
+    if np.any(flat & (p.accels == 0) & (np.abs(p.v_knots[:-1]) >= v[bj] * (1 - 1e-12))):
+        kind = "velocity"
+    elif np.any(flat & (np.abs(p.accels) >= a[bj] * (1 - 1e-12))):
+        kind = "acceleration"
+    else:
+        kind = "jerk"
+    return profs, T, bj, kind, moved
+
+
+def _ptp_from_state(robot, q0, q1, v0, a0, v1, v, a, j, lim, dt, torque) -> Trajectory:
+    """:func:`ptp_sync` from a moving state (module docstring); ``j`` None: trapezoids."""
+    profile = "trapezoid" if j is None else "scurve"
+    method = f"ptp_{profile}"
     delta = q1 - q0
     delta = np.where(np.abs(delta) < 1e-12, 0.0, delta)
 
@@ -356,27 +413,42 @@ def _ptp_from_state(robot, q0, q1, v0, v1, v, a, lim, dt, torque, method) -> Tra
         t = sample_times(duration, dt, np.concatenate([p.corners for p in profiles]))
         n = t.size
         q = np.empty((n, robot.n_joints))
-        qd, qdd = np.empty_like(q), np.empty_like(q)
+        qd, qdd, qddd = np.empty_like(q), np.empty_like(q), np.empty_like(q)
         for i, p in enumerate(profiles):
-            s, sd, sdd, _ = p.evaluate(t)
-            q[:, i], qd[:, i], qdd[:, i] = q0[i] + s, sd, sdd
+            s, sd, sdd, sddd = p.evaluate(t)
+            q[:, i], qd[:, i], qdd[:, i], qddd[:, i] = q0[i] + s, sd, sdd, sddd
         q[-1] = q1  # exact arrival
         qd[0], qd[-1] = v0, v1  # exact boundary speeds
-        return Trajectory(t, q, qd, qdd, None, joint_names=robot.joint_names, method=method)
+        if j is not None:  # and accelerations: the S-curve's is continuous
+            qdd[0], qdd[-1] = a0, 0.0
+        return Trajectory(
+            t,
+            q,
+            qd,
+            qdd,
+            None if j is None else qddd,
+            joint_names=robot.joint_names,
+            method=method,
+        )
 
     tau_max = lim.torque_Nm
-    if torque and tau_max is not None:  # the start speed alone, before any acceleration
-        h = rigid_body.nonlinear_effects(robot, q0[None], v0[None])[0]
+    if torque and tau_max is not None:  # the start state alone, before any change
+        h = rigid_body.inverse_dynamics(robot, q0[None], v0[None], a0[None])[0]
         over = np.abs(h) > np.asarray(tau_max) * (1 + 1e-9)
         if np.any(over):
             jk = int(np.flatnonzero(over)[0])
             raise LimitViolation(
-                f"{method}: {robot.joint_names[jk]} needs {h[jk]:.4g} N m at the start speed "
-                f"qd_start before any acceleration, above its torque limit "
+                f"{method}: {robot.joint_names[jk]} needs {h[jk]:.4g} N m at the start state "
+                f"(qd_start, qdd_start) before any change, above its torque limit "
                 f"{float(np.asarray(tau_max)[jk]):.4g} N m"
             )
     a_used = np.asarray(a, float).copy()
-    profs, T, bj, bkind, gap = _from_state_profiles(delta, v0, v1, v, a_used)
+    j_used = None if j is None else np.asarray(j, float).copy()
+    # the lowest limits the start state allows: |a0| <= a, and v0 + a0 |a0| / 2j within v
+    a_floor = np.abs(a0)
+    room = np.maximum(v - np.sign(a0) * v0, 1e-300)
+    j_floor = a0 * a0 / (2 * room) * (1 + 1e-9)
+    profs, T, bj, bkind, gap = _from_state_profiles(delta, v0, a0, v1, v, a_used, j_used)
     traj = build(profs, T)
     T0 = T
     slowdown: dict[str, Any] | None = None
@@ -392,15 +464,19 @@ def _ptp_from_state(robot, q0, q1, v0, v1, v, a, lim, dt, torque, method) -> Tra
         # so after the first round the (small) remaining excess is over-corrected
         power = 2.0 if math.isinf(k_prev) else 6.0
         k_prev = k
-        a_used = a_used / (k * (1 + 1e-9)) ** power
-        profs, T, bj, bkind, gap = _from_state_profiles(delta, v0, v1, v, a_used)
+        a_used = np.maximum(a_used / (k * (1 + 1e-9)) ** power, a_floor)
+        if j_used is not None:  # the jerk as a time scaling would lower it: k^3 for k^2
+            j_used = np.maximum(j_used / (k * (1 + 1e-9)) ** (1.5 * power), j_floor)
+        profs, T, bj, bkind, gap = _from_state_profiles(delta, v0, a0, v1, v, a_used, j_used)
         traj = build(profs, T)
         if slowdown is None:
             slowdown = {"kind": kind, "joint": joint}
         slowdown["factor"] = T / T0 if T0 > 0 else 1.0
         slowdown["acceleration_scale"] = float(np.min(a_used / a))
+        if j_used is not None:
+            slowdown["jerk_scale"] = float(np.min(j_used / j))
     traj.meta.update(
-        profile="trapezoid",
+        profile=profile,
         sync="time",
         duration_s=float(T),
         dt_s=dt,
@@ -409,6 +485,7 @@ def _ptp_from_state(robot, q0, q1, v0, v1, v, a, lim, dt, torque, method) -> Tra
         q_goal=q1.tolist(),
         qd_start=v0.tolist(),
         qd_goal=v1.tolist(),
+        **({} if j is None else {"qdd_start": a0.tolist()}),
         joint_profiles=[p.to_dict() for p in profs],
         normalised_profile=None,
         slowdown=slowdown,
