@@ -16,6 +16,7 @@ from armlab.errors import InfeasibleError, InputError
 from armlab.planning.optimal import JUMP_RAMP_S
 from armlab.planning.reachability import (
     LIMIT_FRACTIONS,
+    VELOCITY_FRACTIONS,
     CanonicalRows,
     canonical_rows,
     controllable_sets,
@@ -225,6 +226,27 @@ def test_torque_rows_are_the_rnea_torques(teachbot6):
     assert rows.lower_p.shape[1] == (len(LIMIT_FRACTIONS) + 1) * ls.n_joints
 
 
+def test_velocity_rows_are_the_lowest_joint_at_each_point(teachbot6):
+    """The velocity rows of one point of an interval are parallel lines (one per joint): the
+    canonical rows keep the lowest, one line per point; their envelope is the velocity limit
+    computed directly from the path's tangent, ``x + 2 f ds u <= min_j (v / q'_j)^2`` at
+    each of :data:`VELOCITY_FRACTIONS` (independent: the spline's derivative there)."""
+    prob = build_topp(
+        teachbot6, PATHS[1], v_max=2.0, a_max=False, tau_max=False, j_max=False, n_grid=20
+    )
+    rows = canonical_rows(prob, prob.limits)
+    assert rows.upper_p.shape[1] == len(VELOCITY_FRACTIONS)
+    assert len(rows.labels) == len(VELOCITY_FRACTIONS)
+    s0, ds = prob.s[:-1], np.diff(prob.s)
+    for x in (0.0, 0.3, 2.0):
+        expect = np.full(ds.size, np.inf)
+        for f in VELOCITY_FRACTIONS:
+            cap = np.min(2.0**2 / prob.path.spline(s0 + f * ds, 1) ** 2, axis=1)
+            expect = np.minimum(expect, (cap - x) / (2 * f * ds))
+        got = np.min(rows.upper_p + rows.upper_q * x, axis=1)
+        np.testing.assert_allclose(got, expect, rtol=1e-12)
+
+
 # ---------------------------------------------------------------------------- against today
 @pytest.mark.parametrize("w", PATHS, ids=["3wp", "4wp"])
 def test_close_to_the_convex_topp_and_within_limits_between_samples(teachbot6, w):
@@ -311,3 +333,83 @@ def test_interval_ratios_see_the_peaks_the_check_reports(teachbot6):
         np.testing.assert_allclose(r.max(axis=0), report.ratios[kind], rtol=1e-12)
     # some limit binds at (or a little over) 1 somewhere between the coarse grid's samples
     assert max(float(r.max()) for r in ratios.values()) >= 1 - 1e-3
+
+
+# ---------------------------------------------------------------------------- the limit check
+def dense_ratios(robot, traj, lim, n=20000) -> dict[str, np.ndarray]:
+    """Independent of the check: peak ratios per joint on a uniform grid of ``n`` steps,
+    torques by pinocchio.rnea sample by sample."""
+    t = np.linspace(0.0, traj.duration, n + 1)
+    q, qd, qdd, _ = traj.at(t)
+    model, data = robot.model, robot.model.createData()
+    tau = np.array([pin.rnea(model, data, *z) for z in zip(q, qd, qdd, strict=True)])
+    return {
+        "velocity": np.abs(qd).max(axis=0) / lim.velocity_rad_s,
+        "acceleration": np.abs(qdd).max(axis=0) / lim.acceleration_rad_s2,
+        "torque": np.abs(tau).max(axis=0) / lim.torque_Nm,
+    }
+
+
+def test_the_check_finds_a_plan_one_percent_too_fast(teachbot6):
+    """The planner's plan, run 1 % faster (``stretched(0.99)``: velocities / 0.99,
+    accelerations / 0.99^2): the limit check (the one ``time_optimal_path`` runs every round)
+    reports the excess, its peaks at least those of an independent dense grid and close to
+    them (not made up), and the planner's own plan passes the same check."""
+    kw = dict(v_max=2.0, a_max=20.0, j_max=False)
+    traj = time_optimal_path(teachbot6, PATHS[1], method="reachability", n_grid=30, **kw)
+    lim = resolve_limits(teachbot6, **kw)
+    assert traj.report.ok(1e-9)
+    fast = traj.stretched(0.99)
+    report = fast.check_limits(teachbot6, limits=lim)
+    dense = dense_ratios(teachbot6, fast, lim)
+    for kind, r in dense.items():
+        assert np.all(report.ratios[kind] >= r * (1 - 1e-9)), kind
+        np.testing.assert_allclose(report.ratios[kind], r, rtol=2e-3, err_msg=kind)
+    assert not report.ok(1e-6)
+    kind, _, worst = report.worst()
+    assert worst > 1.005  # the binding limit, 1 % (velocity) or 2 % (acceleration) over
+    # the same excess through the planner's own round: samples once, report and intervals
+    smp = fast.limit_samples(None, robot=teachbot6)
+    same = fast.check_limits(teachbot6, limits=lim, samples=smp)
+    for k, r in report.ratios.items():
+        np.testing.assert_array_equal(same.ratios[k], r)
+    per = traj.meta["topp"].interval_ratios(fast, lim, None, smp)
+    for k, r in per.items():
+        np.testing.assert_allclose(r.max(axis=0), report.ratios[k], rtol=1e-12)
+    with pytest.raises(InputError, match="no torques"):
+        fast.check_limits(teachbot6, limits=lim, samples=fast.limit_samples(None))
+
+
+def test_the_check_finds_a_violation_between_the_samples(teachbot6):
+    """A limit lowered below the plan's peak but above every value at the plan's samples (its
+    knots and their left limits, the path's grid points among them): the violation exists
+    only between samples, and the check reports it, at a time that is no sample's."""
+    kw = dict(v_max=2.0, a_max=20.0, j_max=False)
+    traj = time_optimal_path(teachbot6, PATHS[1], method="reachability", n_grid=30, **kw)
+    lim = resolve_limits(teachbot6, **kw)
+    model, data = teachbot6.model, teachbot6.model.createData()
+    left = traj.left_limits()
+    q = np.vstack([traj.q, left[0]])
+    qd = np.vstack([traj.qd, left[1]])
+    qdd = np.vstack([traj.qdd, left[2]])
+    tau = np.array([pin.rnea(model, data, *z) for z in zip(q, qd, qdd, strict=True)])
+    at_samples = {
+        "velocity": np.abs(qd).max(axis=0) / lim.velocity_rad_s,
+        "acceleration": np.abs(qdd).max(axis=0) / lim.acceleration_rad_s2,
+        "torque": np.abs(tau).max(axis=0) / lim.torque_Nm,
+    }
+    # the kind and joint whose peak lies furthest above its samples
+    gap = {k: traj.report.ratios[k] / r for k, r in at_samples.items()}
+    kind = max(gap, key=lambda k: float(gap[k].max()))
+    j = int(np.argmax(gap[kind]))
+    assert gap[kind][j] > 1 + 1e-5  # a peak between the samples exists
+    # lower that limit to the middle of the two: every sample within it, the peak over
+    factor = 0.5 * (traj.report.ratios[kind][j] + at_samples[kind][j])
+    scaled = lim.get(kind).copy()
+    scaled[j] *= factor
+    key = {"velocity": "v_max", "acceleration": "a_max", "torque": "tau_max"}[kind]
+    tight = resolve_limits(teachbot6, **{**kw, key: scaled})
+    report = traj.check_limits(teachbot6, limits=tight)
+    assert report.ratios[kind][j] > 1 + 1e-6
+    assert np.min(np.abs(traj.t - report.at_s[kind][j])) > 0  # between samples
+    assert at_samples[kind][j] / factor < 1  # the samples alone would pass

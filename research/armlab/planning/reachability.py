@@ -22,12 +22,17 @@ The joint acceleration ``q' u + q'' x`` and the torque ``m u + c x + g`` (``m, c
 imposed at :data:`LIMIT_FRACTIONS` of each interval (ends, quarters, middle) and at the
 spline knot inside it, if any (``q''`` has a kink there); the joint velocity ``q'^2 x`` at the
 nodes and at :data:`VELOCITY_FRACTIONS` (eighths). A row at ``s_k + f ds_k`` reads
-``(alpha + 2 f ds_k beta) u_k + beta x_k`` with ``alpha, beta`` its coefficients there. These
+``(alpha + 2 f ds_k beta) u_k + beta x_k`` with ``alpha, beta`` its coefficients there; the
+velocity rows of one point (one per joint) are parallel lines in ``(x_k, u_k)`` and only the
+lowest is kept (:func:`canonical_rows`: 79 lines per interval instead of 114 on a 6-joint arm,
+the sets and plans unchanged to the last bit on the benchmark's 24 paths). These
 are denser than the convex pass's points (ends and middle; quarters for the velocity): with
 those, a peak between the points exceeded a limit (by up to 0.5 %) in half of 20 benchmark
 paths and cost a back-off round (a second Trajectory and limit check) each; with these, in
 three of the 20 (the one examined: a peak of the Trajectory's interpolation between its
-samples, not of ``q(s(t))``).
+samples, not of ``q(s(t))``; the Trajectory now has a sample where the path crosses a spline
+knot, which removed the two rounds left on the 24 benchmark paths:
+:meth:`~armlab.planning.topp.ToppProblem.trajectory_from_b`).
 
 The two sweeps
 --------------
@@ -42,8 +47,8 @@ reaches ``K_{k+1}`` (``K_K = {0}``, rest at the end). Adding the two lines
 pair (lower line, upper line) involving one of them is one linear inequality in ``x``: a
 bound ``e K - f`` with ``e, f`` precomputed for all intervals at once. Of these lines only
 those that can be the binding one over the range of ``K`` are kept (dominance at the two ends
-of the range: exact; on a teachbot6 path 2 of 114 per interval on average in this sweep, 8 in
-the forward one), so each sequential step is a few scalar operations. The forward sweep
+of the range: exact; on a teachbot6 path 2 of 114 rows per interval on average in this sweep,
+8 in the forward one), so each sequential step is a few scalar operations. The forward sweep
 (their greedy pass) starts at ``x_0 = 0`` and takes the largest admissible ``u_k`` that
 keeps ``x_{k+1}`` in ``K_{k+1}``: a minimum over the (pruned) upper lines. Both sweeps cost
 ``O(K n)``; the two-variable LP of each step is never handed to a general LP solver (the
@@ -140,23 +145,17 @@ def interval_coefficients(prob: ToppProblem) -> dict:
     ``{"limit": {f: C}, "velocity": {f: q'}}`` for ``f`` in :data:`LIMIT_FRACTIONS` and
     :data:`VELOCITY_FRACTIONS`; ``C`` holds ``d1, d2`` (``q', q''``) and ``m, c, g``
     (:func:`~armlab.planning.topp.path_dynamics`), each (K, n_joints). The nodes and
-    midpoints are ``prob.coeffs``' (computed if missing); the other points are computed once
-    and kept in ``prob.coeffs["reachability"]``."""
-    if not prob.coeffs:
-        prob.compute_coefficients()
+    midpoints are ``prob.coeffs``'; the other points are computed once and kept in
+    ``prob.coeffs["reachability"]`` -- in the same batch as the nodes and midpoints
+    (:meth:`~armlab.planning.topp.ToppProblem.compute_coefficients`: one path evaluation, one
+    RNEA call) when ``prob.coeffs`` is still empty."""
     cached = prob.coeffs.get("reachability")
     if cached is not None:
         return cached
     s, ds = prob.s, np.diff(prob.s)
-    Cn, Cm = prob.coeffs["node"], prob.coeffs["mid"]
+    K = ds.size
     keys = ("d1", "d2", "m", "c", "g")
-    known = {
-        0.0: {k: Cn[k][:-1] for k in keys},
-        0.5: {k: Cm[k] for k in keys},
-        1.0: {k: Cn[k][1:] for k in keys},
-    }
-    other = [f for f in LIMIT_FRACTIONS if f not in known]
-    K, n = ds.size, Cn["d1"].shape[1]
+    other = [f for f in LIMIT_FRACTIONS if f not in (0.0, 0.5, 1.0)]  # not nodes nor middles
     # the spline's interior knots: q'' has a kink there (its third derivative steps), where
     # the acceleration and torque can peak between the fractions above; one more row in each
     # interval holding a knot (the first, if several)
@@ -166,21 +165,32 @@ def interval_coefficients(prob: ToppProblem) -> dict:
     k_of, knots = k_of[first], knots[first]
     frac = np.full(K, np.nan)
     frac[k_of] = (knots - s[k_of]) / ds[k_of]
-    # one batched path and RNEA evaluation for the other fractions and the knots
     pts = np.concatenate([(s[:-1, None] + ds[:, None] * np.array(other)).T.reshape(-1), knots])
-    q, d1, d2, _ = prob.path(pts)
-    m, c, g = path_dynamics(prob.robot, q, d1, d2)
-    limit: dict[float, dict[str, np.ndarray]] = {}
+    vel_pts = (s[:-1, None] + ds[:, None] * np.array(VELOCITY_FRACTIONS)).T.reshape(-1)
+    if not prob.coeffs:  # everything in one batch
+        prob.compute_coefficients(extra=pts, extra_d1=vel_pts)
+    ex = prob.coeffs.pop("extra", None)
+    ex_d1 = prob.coeffs.pop("extra_d1", None)
+    if ex is None or ex_d1 is None:  # nodes and midpoints computed before: the rest now
+        q, d1, d2, _ = prob.path(pts)
+        m, c, g = path_dynamics(prob.robot, q, d1, d2)
+        ex = {"d1": d1, "d2": d2, "m": m, "c": c, "g": g}
+        ex_d1 = prob.path(vel_pts)[1]
+    Cn, Cm = prob.coeffs["node"], prob.coeffs["mid"]
+    n = Cn["d1"].shape[1]
+    limit: dict[float, dict[str, np.ndarray]] = {
+        0.0: {k: Cn[k][:-1] for k in keys},
+        0.5: {k: Cm[k] for k in keys},
+        1.0: {k: Cn[k][1:] for k in keys},
+    }
     for i, f in enumerate(other):
         sl = slice(i * K, (i + 1) * K)
-        limit[f] = {"d1": d1[sl], "d2": d2[sl], "m": m[sl], "c": c[sl], "g": g[sl]}
-    limit.update(known)
+        limit[f] = {k: ex[k][sl] for k in keys}
     knot_c = {k: np.zeros((K, n)) for k in keys}
     at_knots = slice(len(other) * K, None)
-    for k, v in zip(keys, (d1, d2, m, c, g), strict=True):
-        knot_c[k][k_of] = v[at_knots]
-    vel_pts = (s[:-1, None] + ds[:, None] * np.array(VELOCITY_FRACTIONS)).T.reshape(-1)
-    d1v = prob.path(vel_pts)[1].reshape(len(VELOCITY_FRACTIONS), K, n)
+    for k in keys:
+        knot_c[k][k_of] = ex[k][at_knots]
+    d1v = ex_d1.reshape(len(VELOCITY_FRACTIONS), K, n)
     out = {
         "limit": {f: limit[f] for f in LIMIT_FRACTIONS},
         "velocity": dict(zip(VELOCITY_FRACTIONS, d1v, strict=True)),
@@ -213,10 +223,14 @@ def _row_blocks(prob: ToppProblem, kinds: tuple[bool, bool, bool]) -> dict:
     def add(alpha, beta, frac, kind: str) -> None:
         # a row at s_k + frac ds_k: alpha u + beta (x_k + 2 frac ds_k u); frac a number or
         # (K, 1) (the knot rows; NaN: no row in that interval)
-        f = np.nan_to_num(frac, nan=0.0)
+        if np.ndim(frac):
+            f = np.nan_to_num(frac, nan=0.0)
+            none.append(np.isnan(frac) & np.ones((K, n), bool))
+        else:
+            f = frac
+            none.append(np.zeros((K, n), bool))
         A.append(alpha + 2 * f * ds[:, None] * beta)
         B.append(beta)
-        none.append(np.isnan(frac) & np.ones((K, n), bool))
         order.append(kind)
         where = "a spline knot" if np.ndim(frac) else f"{frac:g} of the interval"
         labels.extend(f"{kind} limit of {j} at {where}" for j in names)
@@ -249,6 +263,10 @@ def _row_blocks(prob: ToppProblem, kinds: tuple[bool, bool, bool]) -> dict:
         "order": order,
         "g": G,
         "labels": labels,
+        "velocity_labels": [
+            f"velocity limit (of the joint that binds) at {f:g} of the interval"
+            for f in (coeffs["velocity"] if vel_on else ())
+        ],
     }
     cache[kinds] = out
     return out
@@ -331,7 +349,22 @@ def canonical_rows(
     slope = blk["slope"]
     q_lo = np.where(np.isfinite(p_lo), slope, 0.0)
     q_hi = np.where(np.isfinite(p_hi), slope, 0.0)
-    return CanonicalRows(ds, p_lo, q_lo, p_hi, q_hi, x_lo, x_hi, blk["labels"])
+    labels = blk["labels"]
+    nv = len(blk["velocity_labels"])  # the velocity blocks come first, n columns each
+    if nv:
+        # the velocity rows at one point of an interval bound x there, x_k + 2 f ds_k u: lines
+        # of one slope (-1 / (2 f ds_k)) whatever the joint, of which only the lowest can bind;
+        # one line per point instead of one per joint (every later step works on fewer)
+        cut = nv * n
+        kk, ff = np.indices((K, nv))
+        low = np.argmin(p_hi[:, :cut].reshape(K, nv, n), axis=2)
+
+        def lowest(z: np.ndarray) -> np.ndarray:
+            return np.hstack([z[:, :cut].reshape(K, nv, n)[kk, ff, low], z[:, cut:]])
+
+        p_lo, q_lo, p_hi, q_hi = lowest(p_lo), lowest(q_lo), lowest(p_hi), lowest(q_hi)
+        labels = blk["velocity_labels"] + labels[cut:]
+    return CanonicalRows(ds, p_lo, q_lo, p_hi, q_hi, x_lo, x_hi, labels)
 
 
 # ----------------------------------------------------------------------------- static sets
@@ -533,8 +566,7 @@ def solve_reachability(
     the rows; ``info["return_status"]`` then names the interval and row that fail. Velocity,
     acceleration and torque rows only (no motor envelope: ``solve_convex_drive``'s)."""
     del b0
-    if not prob.coeffs:
-        prob.compute_coefficients()
+    interval_coefficients(prob)  # with the nodes' and midpoints' if not computed yet
     t0 = _time.perf_counter()
     rows = canonical_rows(prob, ls, scale)
     lo, hi, k_empty = controllable_sets(rows)

@@ -33,8 +33,14 @@ middle and any spline knot; the velocity at eighths), a backward sweep of contro
 and a greedy forward pass, each step a two-variable LP in closed form
 (:mod:`armlab.planning.reachability`). Greedy on denser rows, not the convex optimum: in
 ``benchmarks/bench_topp.py`` (24 paths, ``n_grid`` 100) at most 0.26 % slower than the convex
-pass (median 0.06 % teachbot6, 0.001 % UR5) and about 20x faster on the whole call (most of
-what remains is the limit check). No envelope
+pass (median 0.06 % teachbot6, 0.001 % UR5), and the whole call takes about 14-16 ms against
+0.7-1.3 s: 3.0-3.3x TOPP-RA's solve on the same grid (2.3x its whole call, with its spline and
+constraint objects), a little more than half of it the limit check. Its
+plans are 0.03-0.7 % longer than TOPP-RA's on the same grid (median 0.14 %) because the limits
+are imposed between the grid points too: TOPP-RA's plans break them there (by 0.03-11 % on
+a ``T / 4000`` check), and on TOPP-RA's rows (grid points only, no ``LIMIT_MARGIN``) these
+sweeps give plans at most 0.05 % longer than TOPP-RA's (the rows at spline knots, which it
+has not) and up to 1.2 % shorter (median 0.04 % teachbot6, 0.9 % UR5). No envelope
 rows: with ``drive_limits`` the convex envelope pass runs whatever the method. Everything
 after the first pass (Trajectory, back-off, jerk pass, check) is shared.
 
@@ -70,10 +76,20 @@ box is off with ``drive_limits`` unless ``tau_max`` is given.
 
 What is guaranteed
 ------------------
-Limits are imposed at those points; between them the trajectory is checked on
-:meth:`Trajectory.limit_samples` (exact velocity and acceleration peaks, refined torque peaks)
-plus a fine uniform grid (``T/4000``), and the per-interval back-off sees the same samples
-(the motor envelope: the uniform grid). The limits are tightened by ``LIMIT_MARGIN`` (5e-4)
+Limits are imposed at those points; between them the trajectory is checked, every back-off
+round, by one :meth:`Trajectory.limit_samples` of the Trajectory handed out -- its own
+evaluation between its knots, not the path coefficients the rows were built from: the
+knots and the left limit of every piece, the exact extremes of velocity and acceleration
+inside each piece (roots of the piece's polynomials), and torques by one batched RNEA at
+those points, at every piece's middle and at most ``T / 1024`` apart, refined by three steps
+of parabolic interpolation towards each peak (plus a uniform grid of step ``check_dt`` if
+given; with the motor envelope, ``T / 4000``). The report and, when a limit is over, the
+per-interval ratios of the local back-off are read from those same samples (one RNEA pass per
+round). A check of ``q(s(t))`` at fixed path points instead (their RNEA computed once per path,
+each round a few products ``m sdd + c sd^2 + g``) would be cheaper but would not certify the
+Trajectory: its evaluation between knots differs from ``q(s(t))`` by up to 0.2 % of the
+acceleration limit (measured on the benchmark paths). The limits are tightened by
+``LIMIT_MARGIN`` (5e-4)
 from the start (speed and acceleration between the check points exceed them by up to ~3e-4
 otherwise). The path itself
 must stay in the joint ranges (checked densely when the problem is built). Intervals where a
@@ -81,7 +97,8 @@ limit is still exceeded by more than ``1e-6`` are tightened by the excess (plus 
 problem re-solved; residues after that tighten the whole limit kind slightly (``max_backoff``
 rounds; the jerk pass backs off whole joint limits, as :mod:`armlab.planning.optimal` does: both
 loops are :func:`armlab.planning.timescale.backoff_solve`). ``traj.report`` is the final
-fine-grid check: "feasible on the fine grid", not a proof between its samples. The convex pass
+check: exact for velocity and acceleration, "feasible on the refined samples" for torque, not
+a proof between them. The convex pass
 is globally optimal on its grid, the reachability pass greedy on its (denser) rows; the jerk
 pass is a local optimum. Jerk-free results have
 acceleration steps, replaced by 50 us ramps as in :mod:`armlab.planning.optimal`.
@@ -112,7 +129,7 @@ from armlab.planning.timescale import (
 from armlab.planning.tolerance import absorb_tolerance
 from armlab.robot import drivetrain, rigid_body
 from armlab.robot.limits import LIMIT_KEYS, Limits, resolve_limits
-from armlab.trajectory.core import Trajectory
+from armlab.trajectory.core import LimitSamples, Trajectory
 from armlab.trajectory.waypoints import validate_waypoints
 
 if TYPE_CHECKING:
@@ -203,6 +220,10 @@ class GeometricPath:
         s = np.clip(np.asarray(s, float).reshape(-1), 0.0, 1.0)
         return self.spline(s), self._d[0](s), self._d[1](s), self._d[2](s)
 
+    def tangent(self, s) -> np.ndarray:
+        """``q'`` at ``s`` (n,): (n, n_joints)."""
+        return self._d[0](np.clip(np.asarray(s, float).reshape(-1), 0.0, 1.0))
+
 
 def path_dynamics(robot: Robot, q, dq, ddq) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``m, c, g`` (each (n, n_joints)) so that ``tau = m sdd + c sd^2 + g`` along the path.
@@ -210,11 +231,14 @@ def path_dynamics(robot: Robot, q, dq, ddq) -> tuple[np.ndarray, np.ndarray, np.
     ``q``, ``dq = q'``, ``ddq = q''`` are (n, n_joints); ``g`` in [N m], ``m = M q'`` and
     ``c = M q'' + C(q, q') q'`` in [N m s^2] (batched :mod:`armlab.robot.rigid_body` calls).
     """
-    z = np.zeros_like(np.asarray(q, dtype=float))
-    g = rigid_body.gravity_torques(robot, q)
-    m = rigid_body.inverse_dynamics(robot, q, z, dq) - g
-    c = rigid_body.inverse_dynamics(robot, q, dq, ddq) - g
-    return m, c, g
+    q = np.asarray(q, dtype=float)
+    z = np.zeros_like(q)
+    # one batched RNEA of the three stacked: rnea(q, 0, 0), rnea(q, 0, q'), rnea(q, q', q'')
+    tau = rigid_body.inverse_dynamics(
+        robot, np.vstack([q, q, q]), np.vstack([z, z, dq]), np.vstack([z, dq, ddq])
+    )
+    g, m, c = np.split(tau, 3)
+    return m - g, c - g, g
 
 
 # ----------------------------------------------------------------------------- problem
@@ -239,16 +263,36 @@ class ToppProblem:
     method: str = "reachability"
 
     # ------------------------------------------------------------------ coefficients
-    def compute_coefficients(self) -> dict:
+    def compute_coefficients(self, extra=None, extra_d1=None) -> dict:
+        """The path and its dynamics at the nodes (``"node"``) and interval midpoints
+        (``"mid"``): ``q, d1, d2, d3`` (``q`` and its first three derivatives in ``s``) and
+        ``m, c, g`` (:func:`path_dynamics`), each (n, n_joints); ``q'`` at
+        :data:`VELOCITY_POINTS` of each interval (``"vel_d1"``). With ``extra`` (m,) the same
+        at those ``s`` (``"extra"``), with ``extra_d1`` (p,) ``q'`` there (``"extra_d1"``):
+        one path evaluation and one batched RNEA for all of them."""
         s = self.s
-        mid = 0.5 * (s[:-1] + s[1:])
-        out: dict[str, Any] = {}
-        for name, pts in (("node", s), ("mid", mid)):
-            q, d1, d2, d3 = self.path(pts)
-            m, c, g = path_dynamics(self.robot, q, d1, d2)
-            out[name] = {"s": pts, "q": q, "d1": d1, "d2": d2, "d3": d3, "m": m, "c": c, "g": g}
+        K = s.size - 1
         ds = np.diff(s)
-        out["vel_d1"] = [self.path(s[:-1] + f * ds)[1] for f in VELOCITY_POINTS]
+        mid = 0.5 * (s[:-1] + s[1:])
+        ex = np.zeros(0) if extra is None else np.asarray(extra, dtype=float).reshape(-1)
+        ex_d1 = np.zeros(0) if extra_d1 is None else np.asarray(extra_d1, dtype=float).reshape(-1)
+        vel = (s[:-1, None] + ds[:, None] * np.array(VELOCITY_POINTS)).T.reshape(-1)
+        q, d1, d2, d3 = self.path(np.concatenate([s, mid, ex]))
+        m, c, g = path_dynamics(self.robot, q, d1, d2)
+        tangents = self.path.tangent(np.concatenate([vel, ex_d1]))
+        values = {"q": q, "d1": d1, "d2": d2, "d3": d3, "m": m, "c": c, "g": g}
+        out: dict[str, Any] = {}
+        start = 0
+        for name, pts in (("node", s), ("mid", mid), ("extra", ex)):
+            sl = slice(start, start + pts.size)
+            out[name] = {"s": pts, **{k: v[sl] for k, v in values.items()}}
+            start += pts.size
+        out["vel_d1"] = list(tangents[: vel.size].reshape(len(VELOCITY_POINTS), K, -1))
+        out["extra_d1"] = tangents[vel.size :]
+        if extra is None:
+            del out["extra"]
+        if extra_d1 is None:
+            del out["extra_d1"]
         self.coeffs = out
         return out
 
@@ -442,14 +486,19 @@ class ToppProblem:
         }
         return b, info
 
-    def interval_ratios(self, traj: Trajectory, ls: Limits, dt: float | None) -> dict:
+    def interval_ratios(
+        self, traj: Trajectory, ls: Limits, dt: float | None, samples: LimitSamples | None = None
+    ) -> dict:
         """Peak ratio to each limit per path interval and joint (K, n): the local back-off's
         input. Velocity, acceleration and torque over :meth:`Trajectory.limit_samples` (its
         exact velocity and acceleration peaks, refined torque peaks and the uniform grid of
-        step ``dt`` [s]), so every peak :meth:`Trajectory.check_limits` reports is seen; the
-        motor envelope (``drive_limits``) on the uniform grid (the RMS needs its weights)."""
+        step ``dt`` [s]; ``samples`` if the caller has them), so every peak
+        :meth:`Trajectory.check_limits` reports is seen; the motor envelope (``drive_limits``)
+        on the uniform grid (the RMS needs its weights)."""
         torque_on = ls.torque_Nm is not None
-        smp = traj.limit_samples(dt, robot=self.robot if torque_on else None)
+        smp = samples
+        if smp is None:
+            smp = traj.limit_samples(dt, robot=self.robot if torque_on else None)
         K = self.s.size - 1
 
         def per_interval(t: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -523,7 +572,13 @@ class ToppProblem:
     # ------------------------------------------------------------------ trajectories
     def trajectory_from_b(self, b: np.ndarray) -> Trajectory:
         """``s(t)`` with ``sdd`` constant per interval, each jump ramped over ``JUMP_RAMP_S``
-        (box average of ``s(t)``), mapped through the path."""
+        (box average of ``s(t)``), mapped through the path.
+
+        Samples: the ramp edges around every node, 1/4, 1/2 and 3/4 of every interval, and
+        the instant the motion passes a spline knot (the first in an interval, outside the
+        ramps): the path's third derivative steps there, and a Trajectory piece across it
+        (one polynomial, :mod:`armlab.trajectory.core`) overshot the path's acceleration by
+        up to 1e-3 of the limit (measured; a back-off round each time)."""
         s = self.s
         ds = np.diff(s)
         sd = np.sqrt(np.maximum(b, 0.0))
@@ -532,25 +587,43 @@ class ToppProblem:
         t = np.concatenate([[0.0], np.cumsum(dt)])
         d = JUMP_RAMP_S
         acc = np.concatenate([[0.0], a, [0.0]])
-        times, S, SD, SDD = [], [], [], []
         K = ds.size
-        for k in range(K + 1):
-            # window edges around node k, then interior samples of interval k
-            for side, ak in ((-1, acc[k]), (+1, acc[k + 1])):
-                tau = side * d / 2
-                times.append(t[k] + tau + d / 2)
-                S.append(s[k] + sd[k] * tau + ak * tau**2 / 2 + ak * d**2 / 24)
-                SD.append(sd[k] + ak * tau)
-                SDD.append(ak)
-            if k < K:
-                for frac in (0.25, 0.5, 0.75):
-                    tau = frac * dt[k]
-                    if d / 2 < tau < dt[k] - d / 2:
-                        times.append(t[k] + tau + d / 2)
-                        S.append(s[k] + sd[k] * tau + a[k] * tau**2 / 2 + a[k] * d**2 / 24)
-                        SD.append(sd[k] + a[k] * tau)
-                        SDD.append(a[k])
-        return self._map(np.array(times), np.array(S), np.array(SD), np.array(SDD), None)
+        # per node k (rows): the window edges around it (the acceleration before and after),
+        # then the interior samples of interval k at 1/4, 1/2, 3/4 of it (none after the last
+        # node, nor within half a window of a node); one (K + 1, 5) table, flattened row-major
+        tau = np.zeros((K + 1, 5))
+        tau[:, 0], tau[:, 1] = -d / 2, d / 2
+        ak = np.empty((K + 1, 5))
+        ak[:, 0], ak[:, 1] = acc[:-1], acc[1:]
+        dt_k = np.append(dt, 0.0)
+        tau[:, 2:] = dt_k[:, None] * np.array([0.25, 0.5, 0.75])
+        ak[:, 2:] = acc[1:, None]
+        keep = np.ones((K + 1, 5), bool)
+        keep[:, 2:] = (d / 2 < tau[:, 2:]) & (tau[:, 2:] < dt_k[:, None] - d / 2)
+        keep[K, 2:] = False
+        s_k, sd_k, t_k = (np.broadcast_to(x[:, None], (K + 1, 5)) for x in (s, sd, t))
+        tau, ak, s_k, sd_k, t_k = (x[keep] for x in (tau, ak, s_k, sd_k, t_k))
+        # the spline knots: s_k + sd_k tau + a tau^2 / 2 + a d^2 / 24 = knot (the sample's s)
+        k_of, knot = self._knots_in_intervals()
+        gap = knot - s[k_of] - a[k_of] * d**2 / 24
+        root = np.sqrt(np.maximum(sd[k_of] ** 2 + 2 * a[k_of] * gap, 0.0))
+        tau_kn = 2 * gap / np.maximum(sd[k_of] + root, 1e-300)
+        inside = (d / 2 < tau_kn) & (tau_kn < dt[k_of] - d / 2)
+        k_of, tau_kn = k_of[inside], tau_kn[inside]
+        tau = np.concatenate([tau, tau_kn])
+        ak = np.concatenate([ak, a[k_of]])
+        s_k, sd_k, t_k = (np.concatenate([x, y[k_of]]) for x, y in ((s_k, s), (sd_k, sd), (t_k, t)))
+        S = s_k + sd_k * tau + ak * tau**2 / 2 + ak * d**2 / 24
+        return self._map(t_k + tau + d / 2, S, sd_k + ak * tau, ak, None)
+
+    def _knots_in_intervals(self) -> tuple[np.ndarray, np.ndarray]:
+        """The path's interior spline knots, the first in each grid interval holding one, and
+        their intervals: ``(k, s_knot)``, as the reachability pass's knot rows."""
+        knots = self.path.s_points[1:-1]
+        K = self.s.size - 1
+        k_of = np.clip(np.searchsorted(self.s, knots, side="right") - 1, 0, K - 1)
+        first = np.unique(k_of, return_index=True)[1]
+        return k_of[first], knots[first]
 
     def _map(self, t, S, SD, SDD, SDDD) -> Trajectory:
         order = np.argsort(t, kind="stable")
@@ -769,7 +842,11 @@ class ToppProblem:
         envelope pass with ``drive_limits``) with local back-off, the jerk pass if a jerk limit
         is set, the fine-grid check; the Trajectory."""
         t_start = _time.perf_counter()
-        if not self.coeffs:
+        if self.train is None and self.method == "reachability":
+            from armlab.planning.reachability import interval_coefficients
+
+            interval_coefficients(self)  # all of its points in one batch
+        elif not self.coeffs:
             self.compute_coefficients()
         self.static_check(self.limits)
         ls0 = self.limits
@@ -813,10 +890,13 @@ class ToppProblem:
             if train is not None:  # the envelope per interval every round; the report at the end
                 out = self.interval_ratios(traj, ls0, dt)
             else:  # one limit check per round (kept as the report); per interval only when
-                # something is over (the same samples: an excess in one is one in the other)
-                traj.report = traj.check_limits(self.robot, dt=dt, limits=jl, torque=torque_on)
+                # something is over, from the same samples
+                smp = traj.limit_samples(dt, robot=self.robot if torque_on else None)
+                traj.report = traj.check_limits(
+                    self.robot, dt=dt, limits=jl, torque=torque_on, samples=smp
+                )
                 ok = traj.report.ok(CHECK_TOL)
-                out = {} if ok else self.interval_ratios(traj, ls0, dt)
+                out = {} if ok else self.interval_ratios(traj, ls0, dt, smp)
             spent["check"] += _time.perf_counter() - t0
             return out
 
@@ -1114,7 +1194,7 @@ def build_topp(
     lo, hi = ls.lower_rad, ls.upper_rad
     pts = validate_waypoints(robot, gp.points, where="time_optimal_path points")
     s_dense = np.linspace(0.0, 1.0, 40 * pts.shape[0] + 400)
-    q_dense = gp(s_dense)[0]
+    q_dense = gp.spline(s_dense)
     out = (q_dense < lo - 1e-9) | (q_dense > hi + 1e-9)
     if np.any(out):
         k, i = np.argwhere(out)[0]
@@ -1193,7 +1273,8 @@ def time_optimal_path(
         (default): reachability analysis (Pham & Pham, "A New Approach to Time-Optimal Path
         Parameterization Based on Reachability Analysis"), two closed-form sweeps over the
         grid (:mod:`armlab.planning.reachability`; denser limit rows, greedy: at most 0.3 %
-        slower than the convex pass in the benchmark, about 20x faster). ``"convex"``: the
+        slower than the convex pass in the benchmark, about 14 ms a call against about 1 s).
+        ``"convex"``: the
         convex program of Verscheure et al. with IPOPT (globally optimal on its grid).
 
     Returns

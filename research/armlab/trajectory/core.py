@@ -242,7 +242,12 @@ def _drop_noise(x: np.ndarray, tol: np.ndarray) -> np.ndarray:
 
 
 def _peak_vertices(
-    t: np.ndarray, y: np.ndarray, piece: np.ndarray, *, any_triple: bool = False
+    t: np.ndarray,
+    y: np.ndarray,
+    piece: np.ndarray,
+    *,
+    any_triple: bool = False,
+    near: np.ndarray | None = None,
 ) -> np.ndarray:
     """Times [s] of the maxima of the parabolas through three consecutive samples of ``y``
     (n, n_joints) over ``t`` (n,) that lie in one piece (no knot between them: the signal is
@@ -250,28 +255,42 @@ def _peak_vertices(
 
     Triples whose middle sample is a local peak; with ``any_triple`` every concave triple whose
     parabola peaks between its ends (a peak next to a knot, whose samples fall on one side of
-    it). Only triples reaching 0.9 of the joint's largest ``y`` are refined.
+    it). Only triples reaching 0.9 of the joint's largest ``y`` are refined. With ``near``
+    (sample indices), only the triples that contain one of those samples (the points a
+    previous step added: every other triple gave its vertex then).
     """
     if t.size < 3:
         return np.zeros(0)
-    t0, t1, t2 = t[:-2, None], t[1:-1, None], t[2:, None]
-    y0, y1, y2 = y[:-2], y[1:-1], y[2:]
-    same = (piece[:-2] == piece[1:-1]) & (piece[1:-1] == piece[2:])
-    ok = (
-        same[:, None]
-        & (t0 < t1)
-        & (t1 < t2)
-        & (np.maximum(np.maximum(y0, y1), y2) >= 0.9 * y.max(axis=0))
-    )
+    if near is None:
+        first = np.arange(t.size - 2)
+    else:
+        first = np.unique(np.clip(np.concatenate([near - 2, near - 1, near]), 0, t.size - 3))
+    y0, y1, y2 = y[first], y[first + 1], y[first + 2]
+    ok = np.maximum(np.maximum(y0, y1), y2) >= 0.9 * y.max(axis=0)
     if not any_triple:
         ok &= (y1 >= y0) & (y1 >= y2) & ((y1 > y0) | (y1 > y2))
+    p0, p1, p2 = piece[first], piece[first + 1], piece[first + 2]
+    ok &= ((p0 == p1) & (p1 == p2) & (t[first] < t[first + 1]) & (t[first + 1] < t[first + 2]))[
+        :, None
+    ]
+    k, j = np.nonzero(ok)  # the (triple, joint) pairs left: the vertices of those only
+    i = first[k]
+    t0, t1, t2 = t[i], t[i + 1], t[i + 2]
+    y0, y1, y2 = y[i, j], y[i + 1, j], y[i + 2, j]
     num = (t1 - t0) ** 2 * (y1 - y2) - (t1 - t2) ** 2 * (y1 - y0)
     den = (t1 - t0) * (y1 - y2) - (t1 - t2) * (y1 - y0)
     with np.errstate(divide="ignore", invalid="ignore"):
         tv = t1 - 0.5 * num / den
         concave = (y2 - y1) / (t2 - t1) < (y1 - y0) / (t1 - t0)
-    ok &= concave & np.isfinite(tv) & (tv > t0) & (tv < t2)
-    return np.unique(np.broadcast_to(tv, ok.shape)[ok])
+    keep = concave & np.isfinite(tv) & (tv > t0) & (tv < t2)
+    return np.unique(tv[keep])
+
+
+def _merge_rows(a: np.ndarray, b: np.ndarray, old: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """Rows of ``a`` where ``old`` is True and rows of ``b`` at the indices ``at``."""
+    out = np.empty((old.size,) + a.shape[1:], dtype=a.dtype)
+    out[old], out[at] = a, b
+    return out
 
 
 def _as_series(x, n: int, name: str, n_joints: int | None) -> np.ndarray:
@@ -412,12 +431,17 @@ class Trajectory:
         Without ``qddd`` the jerk returned is that of the evaluation (0 for constant
         acceleration).
         """
+        return self._at(times, self._pieces())
+
+    def _at(self, times, pieces) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`at` with this trajectory's :meth:`_pieces` given (computed once by a caller
+        that evaluates several times)."""
         times = np.clip(np.asarray(times, dtype=float).reshape(-1), self.t[0], self.t[-1])
         if self.n_samples == 1:
             z = np.zeros((times.size, self.n_joints))
             return np.repeat(self.q, times.size, 0), z, z.copy(), z.copy()
         k = np.clip(np.searchsorted(self.t, times, side="right") - 1, 0, self.n_samples - 2)
-        q, qd, qdd, qddd = self._evaluate(k, times - self.t[k], self._pieces())
+        q, qd, qdd, qddd = self._evaluate(k, times - self.t[k], pieces)
         end = times >= self.t[-1]  # the end of the motion: its stored values
         q[end], qd[end], qdd[end] = self.q[-1], self.qd[-1], self.qdd[-1]
         if self.qddd is not None:
@@ -440,7 +464,11 @@ class Trajectory:
         peaks are among the knots, the left limits and these times."""
         if self.n_samples == 1:
             return np.zeros(0)
-        h, j, K3, K4, K5 = self._pieces()
+        return self._critical_times(self._pieces())
+
+    def _critical_times(self, pieces) -> np.ndarray:
+        """:meth:`critical_times` with this trajectory's :meth:`_pieces` given."""
+        h, j, K3, K4, K5 = pieces
         C1 = self.qd[:-1] * h
         C2 = self.qdd[:-1] * h * h / 2
         C3 = j * h**3 / 6 + K3
@@ -481,7 +509,8 @@ class Trajectory:
             if robot is not None:
                 out.tau = rigid_body.inverse_dynamics(robot, out.q, out.qd, out.qdd)
             return out
-        extra = [self.critical_times()]
+        pieces = self._pieces()  # once: every evaluation below reads them
+        extra = [self._critical_times(pieces)]
         if dt is not None:
             extra.append(self.t[0] + sample_times(self.duration, dt))
         if robot is not None:  # the middle of every piece, and a piece longer than
@@ -498,9 +527,11 @@ class Trajectory:
         times = np.unique(np.concatenate(extra))
         times = times[(times > self.t[0]) & (times < self.t[-1])]
         times = times[np.searchsorted(self.t, times) == np.searchsorted(self.t, times, "right")]
-        ev = self.at(times)
-        left = self.left_limits()
-        own = self.at(self.t)  # the stored values; the jerk of the piece that starts there
+        ev = self._at(times, pieces)
+        left = self._evaluate(np.arange(n - 1), np.diff(self.t), pieces)  # left_limits()
+        # the stored values (the evaluation at a knot returns them); with qddd, the jerk of
+        # the piece that starts there
+        own = (self.q, self.qd, self.qdd, None) if self.qddd is None else self._at(self.t, pieces)
         # sorted by time; at a knot its left limit first, then its own value
         t_all = np.concatenate([self.t[1:], self.t, times])
         order_key = np.concatenate([np.zeros(n - 1), np.ones(n), np.full(times.size, 2.0)])
@@ -513,35 +544,49 @@ class Trajectory:
         )
         order = np.lexsort((order_key, t_all))
         arrays: list[np.ndarray | None] = [
-            np.concatenate([left[i], own[i], ev[i]])[order] for i in range(4)
+            np.concatenate([left[i], own[i], ev[i]])[order] for i in range(3)
         ]
-        if self.qddd is None:  # acceleration steps: the jerk is not defined
-            arrays[3] = None
+        # without qddd: acceleration steps, the jerk is not defined
+        arrays.append(None if own[3] is None else np.concatenate([left[3], own[3], ev[3]])[order])
         q, qd, qdd, qddd = arrays
         assert q is not None and qd is not None and qdd is not None
         out = LimitSamples(t_all[order], q, qd, qdd, qddd)
         if robot is None:
             return out
-        piece, key = piece[order], order_key[order]
+        piece = piece[order]
+        t_s = out.t
         tau = rigid_body.inverse_dynamics(robot, out.q, out.qd, out.qdd)
+        added: list[tuple[np.ndarray, tuple[np.ndarray, ...]]] = []
+        new_rows: np.ndarray | None = None  # the rows the last step added
         for step in range(REFINE_STEPS):  # successive parabolic interpolation to each peak
-            vertex = _peak_vertices(out.t, np.abs(tau), piece, any_triple=step == 0)
-            vertex = vertex[~np.isin(vertex, out.t)]
+            vertex = _peak_vertices(t_s, np.abs(tau), piece, any_triple=step == 0, near=new_rows)
+            vertex = vertex[~np.isin(vertex, t_s)]
             if not vertex.size:
                 break
-            vq, vqd, vqdd, vqddd = self.at(vertex)
-            t_all = np.concatenate([out.t, vertex])
-            key = np.concatenate([key, np.full(vertex.size, 2.0)])
+            state = self._at(vertex, pieces)
             new_piece = np.clip(np.searchsorted(self.t, vertex, "right") - 1, 0, n - 2)
-            order = np.lexsort((key, t_all))
-            out.t, key = t_all[order], key[order]
-            piece = np.concatenate([piece, new_piece])[order]
-            out.q = np.vstack([out.q, vq])[order]
-            out.qd = np.vstack([out.qd, vqd])[order]
-            out.qdd = np.vstack([out.qdd, vqdd])[order]
+            # sorted, and at no sample's time: merged in place, the order stays by time
+            at = np.searchsorted(t_s, vertex) + np.arange(vertex.size)  # their rows
+            old = np.ones(t_s.size + vertex.size, bool)
+            old[at] = False
+            t_s = _merge_rows(t_s, vertex, old, at)
+            piece = _merge_rows(piece, new_piece, old, at)
+            tau = _merge_rows(tau, rigid_body.inverse_dynamics(robot, *state[:3]), old, at)
+            added.append((vertex, state))
+            new_rows = at
+        if added:  # the states of the refined points, merged once
+            vertex = np.concatenate([v for v, _ in added])
+            k = np.argsort(vertex)
+            at = np.searchsorted(t_s, vertex[k])
+            old = np.ones(t_s.size, bool)
+            old[at] = False
+            states = [np.concatenate([x[i] for _, x in added])[k] for i in range(4)]
+            out.t = t_s
+            out.q = _merge_rows(out.q, states[0], old, at)
+            out.qd = _merge_rows(out.qd, states[1], old, at)
+            out.qdd = _merge_rows(out.qdd, states[2], old, at)
             if out.qddd is not None:
-                out.qddd = np.vstack([out.qddd, vqddd])[order]
-            tau = np.vstack([tau, rigid_body.inverse_dynamics(robot, vq, vqd, vqdd)])[order]
+                out.qddd = _merge_rows(out.qddd, states[3], old, at)
         out.tau = tau
         return out
 
@@ -631,7 +676,13 @@ class Trajectory:
             )
 
     def check_limits(
-        self, robot: Robot, *, dt: float | None = None, torque: bool = True, limits=None
+        self,
+        robot: Robot,
+        *,
+        dt: float | None = None,
+        torque: bool = True,
+        limits=None,
+        samples: LimitSamples | None = None,
     ) -> LimitReport:
         """Peak ratio to each of the robot's limits per joint, on the evaluation.
 
@@ -649,13 +700,20 @@ class Trajectory:
         limits : Limits, optional
             Use these limits instead of ``robot.limits`` (e.g. a request's, from
             :func:`armlab.robot.resolve_limits`); kinds that are None are not reported.
+        samples : LimitSamples, optional
+            This trajectory's :meth:`limit_samples` at ``dt`` (with the torques when they are
+            checked), if the caller has them already: used instead of computing them again.
         """
         self._check_robot(robot)
         lim = robot.limits if limits is None else limits
         if not isinstance(lim, Limits) or lim.n_joints != self.n_joints:
             raise InputError(f"limits must be a Limits of {self.n_joints} joints, not {lim!r}")
         with_tau = torque and lim.torque_Nm is not None
-        smp = self.limit_samples(dt, robot=robot if with_tau else None)
+        smp = samples
+        if smp is None:
+            smp = self.limit_samples(dt, robot=robot if with_tau else None)
+        if with_tau and smp.tau is None:
+            raise InputError("check_limits: the samples given have no torques")
         report = LimitReport(list(robot.joint_names))
         centre = 0.5 * (lim.upper_rad + lim.lower_rad)
         half = 0.5 * (lim.upper_rad - lim.lower_rad)
