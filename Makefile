@@ -31,9 +31,10 @@ docs: $(STAMP)
 	$(PY) -m pip install --quiet -e ".[test,docs]"
 	$(VENV)/bin/mkdocs build --strict
 
+# every benchmarks/bench_*.py (outputs in out/bench/); regenerates README.md's benchmark table
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e ".[test,bench]"
-	for b in benchmarks/bench_*.py; do MPLBACKEND=Agg $(PY) $$b || exit 1; done
+	$(PY) benchmarks/run_all.py --update-readme
 
 # the planner property checks of tests/test_planner_properties.py on many more random cases:
 # up to 100 000 per planner (2 000 per optimiser) or 60 minutes each; counts in out/soak.json

@@ -26,6 +26,8 @@ PARAMS = {
     "repeats": 3,  # simulation runs per row (best wall time kept)
     "margin_grid": 1500,
     "tune_repeats": 3,  # tune_arm runs per engine (best wall time kept)
+    "goal_tune_s": 0.5,  # issue 15: tune_arm(teachbot6)
+    "goal_realtime": 10.0,  # simulated seconds per wall second
 }
 os.environ.setdefault("OPENBLAS_NUM_THREADS", PARAMS["blas_threads"])
 os.environ.setdefault("OMP_NUM_THREADS", PARAMS["blas_threads"])
@@ -36,6 +38,7 @@ import warnings  # noqa: E402
 
 import control as ct  # noqa: E402
 import numpy as np  # noqa: E402
+from _readme import readme_row  # noqa: E402
 
 import armlab  # noqa: E402
 from armlab.control import (  # noqa: E402
@@ -61,9 +64,10 @@ _COMPARED = (
 )
 
 
-def engine_table(robot) -> None:
+def engine_table(robot) -> dict[str, tuple[float, float]]:
     """``tune_arm`` wall and CPU time per engine (inertia range included), best of repeats,
-    and the largest relative difference of the gains and margins from the reference."""
+    and the largest relative difference of the gains and margins from the reference; returns
+    {engine: (best wall time [s], largest relative difference)}."""
     print(f"\n## tune_arm({robot.name}): python-control models (before) vs closed form (after)\n")
     print("| engine | wall [s] | CPU [s] | max rel. diff. of gains and margins vs reference |")
     print("|---|---|---|---|")
@@ -77,6 +81,7 @@ def engine_table(robot) -> None:
             cpu = min(cpu, time.process_time() - c0)
         results[engine] = (best, cpu, gains)
     ref = results["python-control"][2]
+    out = {}
     for engine, (best, cpu, gains) in results.items():
         worst = 0.0
         for name in robot.joint_names:
@@ -87,6 +92,8 @@ def engine_table(robot) -> None:
                     if np.isfinite(a) and np.isfinite(b) and b != 0:
                         worst = max(worst, abs(a - b) / abs(b))
         print(f"| {engine} | {best:.3f} | {cpu:.3f} | {worst:.1e} |")
+        out[engine] = (best, worst)
+    return out
 
 
 def main() -> None:
@@ -101,7 +108,7 @@ def main() -> None:
     t_inertia = time.perf_counter() - t0
 
     # ------------------------------------------------------------------ before / after
-    engine_table(robot)
+    engines = engine_table(robot)
 
     # ------------------------------------------------------------------ tuning
     print(
@@ -146,6 +153,7 @@ def main() -> None:
         "TCP max error [mm] | worst joint max error [rad] |"
     )
     print("|---|---|---|---|---|---|")
+    factors_loop, factors_call = [], []
     for ff in PARAMS["feedforwards"]:
         ffs = "none" if ff == "none" else tuple(ff.split("+"))
         for quant in (True, False):
@@ -156,6 +164,8 @@ def main() -> None:
                 call = min(call, time.perf_counter() - t0)
                 best = res if best is None or res.wall_time_s < best.wall_time_s else best
             sim_s = best.t[-1] - best.t[0]
+            factors_loop.append(best.realtime_factor)
+            factors_call.append(sim_s / call)
             print(
                 f"| {ff} | {quant} | {best.realtime_factor:.1f} | {sim_s / call:.1f} | "
                 f"{best.tcp_max_error_m * 1e3:.4f} | {best.max_error_rad.max():.2e} |"
@@ -168,6 +178,7 @@ def main() -> None:
     )
     print("| loop | ours PM [deg] | peer PM [deg] | ours [ms] | peer [ms] |")
     print("|---|---|---|---|---|")
+    t_margins, pm_diff = {"ours": [], "peer": []}, 0.0
     plant = joint_plant(robot, "joint2", inertias=inertias)
     m = CascadeModel(plant.at("nominal"), gains["joint2"])
     for loop in ("current", "speed", "position"):
@@ -180,10 +191,42 @@ def main() -> None:
             frd = ct.frd(L, freq_grid(L.dt or None, n=PARAMS["margin_grid"]))
             _, pm, *_ = ct.stability_margins(frd)
             t_peer = time.perf_counter() - t0
+            t_margins["ours"].append(t_ours)
+            t_margins["peer"].append(t_peer)
+            if np.isfinite(ours.phase_margin_deg) and np.isfinite(pm):
+                pm_diff = max(pm_diff, abs(ours.phase_margin_deg - pm))
             print(
                 f"| {loop} {'disc' if disc else 'cont'} | {ours.phase_margin_deg:.2f} | "
                 f"{pm:.2f} | {t_ours * 1e3:.1f} | {t_peer * 1e3:.1f} |"
             )
+
+    # ------------------------------------------------------------------ README rows
+    (t_np, diff_np), (t_pc, _) = engines["numpy"], engines["python-control"]
+    readme_row(
+        __file__,
+        f"`tune_arm({robot.name})`: robust tuning of all {robot.n_joints} joints "
+        f"(goal <= {PARAMS['goal_tune_s']:g} s, same gains)",
+        f"{t_np:.3f} s with the numpy engine (closed-form frequency responses over the "
+        f"frequency x inertia grid), gains and margins within {diff_np:.1e} (relative) of the "
+        "python-control engine",
+        f'python-control engine (`engine="python-control"`) {t_pc:.2f} s',
+    )
+    readme_row(
+        __file__,
+        f"closed-loop {robot.n_joints}-joint simulation at 1 kHz "
+        f"(goal >= {PARAMS['goal_realtime']:g}x real time)",
+        f"{min(factors_loop):.0f}-{max(factors_loop):.0f}x real time (servo loop), "
+        f"{min(factors_call):.0f}-{max(factors_call):.0f}x the whole call, "
+        f"over {len(PARAMS['feedforwards'])} feed-forwards x quantised or not",
+    )
+    ms = {k: (1e3 * min(v), 1e3 * max(v)) for k, v in t_margins.items()}
+    readme_row(
+        __file__,
+        "loop margins",
+        f"{ms['ours'][0]:.1f}-{ms['ours'][1]:.1f} ms per loop, phase margins within "
+        f"{pm_diff:.2g} deg of the peer's",
+        f"python-control `stability_margins` {ms['peer'][0]:.0f}-{ms['peer'][1]:.0f} ms",
+    )
 
 
 if __name__ == "__main__":

@@ -43,6 +43,7 @@ import tomllib  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+from _readme import readme_row  # noqa: E402
 
 import armlab  # noqa: E402
 from armlab.errors import ArmlabError  # noqa: E402
@@ -168,6 +169,23 @@ def main() -> None:
     walls = np.array([[r[10], r[11], r[12]] for r in rows])
     print(f"    wall per plan, median [s]: box {np.median(walls[:, 0]):.2f}, safe box "
           f"{np.median(walls[:, 1]):.2f}, drive {np.median(walls[:, 2]):.2f}")  # fmt: skip
+    demo_text = (
+        f", demo cycle {demo[4].duration:.2f} -> {demo[7].duration:.2f} s"
+        if demo[4] is not None and demo[7] is not None
+        else ", demo cycle: no plan"
+    )
+    readme_row(
+        __file__,
+        f"{len(moves)} random teachbot6 moves (payload 0-1 kg) + the demo cycle, "
+        "`optimal(..., drive_limits=True)` vs a torque box",
+        "(a) plans under the joint torque box of before (available torque) that leave the motor "
+        f"envelope: {len(broken)} of {len(box_ok)} (worst ratio "
+        f"{max((r[3] for r in box_ok), default=np.nan):.3g}); (b) drive-limited plans "
+        f"{100 * np.median(gains):.1f} % faster (median over {gains.size}) than the constant box "
+        f"safe at top speed{demo_text}; {len(viol)} envelope violations; median "
+        f"{np.median(walls[:, 2]):.1f} s per plan",
+        "no peer plans in the motor's voltage envelope",
+    )
 
 
 if __name__ == "__main__":

@@ -8,7 +8,9 @@ the peer: armlab cannot start faster than the rigid-body library it is built on,
 
 Usage::
 
-    .venv/bin/python benchmarks/bench_import.py [--repeats N]
+    .venv/bin/python benchmarks/bench_import.py [--repeats N] [--quick]
+
+Goal (issue 15): ``import armlab`` and ``import armlab.dynamics`` each <= 0.3 s.
 
 Set ``PYTHONPATH`` to another checkout's ``research/`` to time that tree with the same
 interpreter (the "before" of a change).
@@ -23,6 +25,8 @@ import statistics
 import subprocess
 import sys
 
+from _readme import readme_row
+
 # ---------------------------------------------------------------------------- parameters
 PARAMS = {
     "modules": [
@@ -35,6 +39,8 @@ PARAMS = {
         "armlab.control",
     ],
     "repeats": 7,
+    "quick_repeats": 3,
+    "goal_s": {"armlab": 0.3, "armlab.dynamics": 0.3},  # issue 15
     # dependencies whose presence after the import is reported
     "heavy": ["casadi", "matplotlib", "scipy", "osqp", "control", "pandas", "dask"],
 }
@@ -65,7 +71,10 @@ def time_import(module: str, heavy: list[str]) -> tuple[float, list[str]]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=PARAMS["repeats"])
+    ap.add_argument("--quick", action="store_true", help=f"{PARAMS['quick_repeats']} repeats")
     args = ap.parse_args()
+    if args.quick:
+        args.repeats = PARAMS["quick_repeats"]
     time_import("armlab", PARAMS["heavy"])  # warm the file cache and the .pyc files
     rows = []
     for module in PARAMS["modules"]:
@@ -80,6 +89,16 @@ def main() -> None:
             f"{module:<20} {med:>10.3f} {lo:>8.3f} {hi:>8.3f} {med / base:>6.2f}  "
             f"{', '.join(loaded) or '-'}"
         )
+    median = {module: med for module, med, *_ in rows}
+    goals = PARAMS["goal_s"]
+    readme_row(
+        __file__,
+        f"import time in a fresh interpreter, median of {args.repeats} (goal "
+        + " and ".join(f"`import {m}` <= {g:g} s" for m, g in goals.items())
+        + ")",
+        ", ".join(f"`{m}` {median[m]:.2f} s" for m in PARAMS["modules"][1:]),
+        f"`import {PARAMS['modules'][0]}` {median[PARAMS['modules'][0]]:.2f} s",
+    )
 
 
 if __name__ == "__main__":

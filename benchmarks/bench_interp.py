@@ -18,6 +18,7 @@ import time
 import warnings
 
 import numpy as np
+from _readme import readme_row, sci, sig
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 warnings.filterwarnings("ignore")
@@ -221,6 +222,23 @@ def main() -> None:
         "\nevery sample); the toolbox functions only evaluate the profile for a given time."
         "\n'ptp_sync velocity torque=True': the one-period velocity steps of Jiang 1987 need more"
         "\ntorque than the drives have, so the planner slows down (more samples)."
+    )
+    by_name = {r[0]: r for r in rows}
+    _, r_line, _, _, rr_line = by_name["line + IK + limits torque=True"]
+    readme_row(
+        __file__,
+        "line through IK with limit checks",
+        f"{sci(r_line)} points/s",
+        f"RTB `ctraj` + `ikine_LM` {sig(rr_line)} points/s"
+        if rr_line
+        else "Robotics Toolbox not installed",
+    )
+    steps = by_name["trapezoid_steps (SHU paper)"][1]
+    online = by_name["OnlineInterpolator.step (Li, Meng, Chen)"][1]
+    readme_row(
+        __file__,
+        "SHU controller paper step lengths; online interpolator step",
+        f"{sci(steps)} steps/s; {sci(online)} steps/s",
     )
 
 

@@ -25,6 +25,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
+from _readme import readme_row, sig  # noqa: E402
 
 import armlab  # noqa: E402
 from armlab.kinematics import (  # noqa: E402
@@ -51,7 +52,9 @@ PARAMS = {
     "robots_numerical": ["teachbot6", "ur5", "panda"],
     "rtb_ilimit": 30,  # ik_LM iterations per search (its default)
     "rtb_slimit": 100,  # ik_LM searches (its default)
+    "goal_ik_batch_per_s": 100_000,  # batched analytic IK
 }
+NAMES = {"teachbot6": "teachbot6", "ur5": "UR5", "panda": "Panda"}  # in the README
 
 ERD = (
     Path(sys.prefix)
@@ -320,6 +323,48 @@ def main() -> None:
     for r in rows:
         cells = [str(r[0]), str(r[1]), str(r[2]), f"{r[3]:,.0f}", str(r[4]), str(r[5])]
         print("  ".join(c.ljust(w) for c, w in zip(cells, widths, strict=True)))
+    readme_rows(rows)
+
+
+def readme_rows(rows: list) -> None:
+    """The README's three kinematics rows from the table's rows."""
+    by = {(r[0], r[1]): r for r in rows}
+
+    def pct(cell: str) -> str:
+        return f"{float(cell.split()[0]):.4g} %"
+
+    batch = by[("teachbot6", "ik_all_batch (poses/s)")]
+    readme_row(
+        __file__,
+        f"batched analytic IK, teachbot6 (goal >= {sig(PARAMS['goal_ik_batch_per_s'])} poses/s)",
+        f"{sig(batch[3])} poses/s, {pct(batch[4])} found",
+    )
+    rate = {k: sig(by[("teachbot6", k)][3]) for k in (
+        "fk (Pinocchio), single",
+        "fk_batch (Pinocchio loop)",
+        "dh.fk (closed form, numpy)",
+        "jacobian (world), single",
+    )}  # fmt: skip
+    readme_row(
+        __file__,
+        "FK single / batched (`fk_batch`) / closed form (`dh.fk`); Jacobian",
+        " / ".join(f"{v}/s" for v in list(rate.values())[:3]) + f"; {list(rate.values())[3]}/s",
+    )
+
+    def both(name: str, lib: str) -> str:
+        cells = [by[(name, f"{lib}, {start} seed")] for start in ("cold", "warm")]
+        return f"{NAMES[name]} " + " / ".join(f"{sig(r[3])}/s {pct(r[4])}" for r in cells)
+
+    robots = PARAMS["robots_numerical"]
+    ours = [both(name, "armlab ik_solve (OSQP)") for name in robots]
+    peer = [both(n, "rtb ik_LM (C++)") for n in robots if (n, "rtb ik_LM (C++), cold seed") in by]
+    readme_row(
+        __file__,
+        "numerical IK (OSQP QP per step), cold / warm seed, success within "
+        f"{PARAMS['tol_pos_m']:g} m and {PARAMS['tol_rot_rad']:g} rad",
+        "; ".join(ours),
+        ("RTB `ik_LM` (C++) " + "; ".join(peer)) if peer else "Robotics Toolbox not installed",
+    )
 
 
 if __name__ == "__main__":

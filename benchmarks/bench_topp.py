@@ -53,6 +53,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
+from _readme import readme_row, sig  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_trajectory import ROBOTS, draw_waypoints, limits_of, load  # noqa: E402
@@ -318,6 +319,32 @@ def main() -> None:
         f"{np.median(cat['ra_t'] / cat['peer_whole_t']):.2f}; "
         f"duration ours / TOPP-RA same grid median {np.median(cat['ra_peer']):.4f}, "
         f"over TOPP-RA made feasible median {np.median(feas):.4f}, max {np.max(feas):.4f} (<= 1)"
+    )
+    full = all("convex_t" in r for _, r, _ in rows)
+    names = {"ur5": "UR5"}  # as the README writes them
+    times = "; ".join(
+        f"{1e3 * np.median(r['ra_t']):.0f} ms"
+        + (f" vs {sig(1e3 * np.median(r['convex_t']))} ms" if full else "")
+        + f" ({names.get(name, name)})"
+        for name, r, _ in rows
+    )
+    ours_worst = max(float(np.max(r["ra_worst"])) for _, r, _ in rows)
+    peer_over = [100 * (float(np.max(r["peer_worst"])) - 1) for _, r, _ in rows]
+    if full:
+        vs = np.concatenate([r["ra_convex"] for _, r, _ in rows]) - 1
+        duration = (
+            f"duration {100 * np.median(vs):+.3g} % median, {100 * np.max(vs):+.2g} % max over "
+            "the convex pass"
+        )
+    else:
+        duration = f"duration / TOPP-RA made feasible: median {np.median(feas):.4f}"
+    readme_row(
+        __file__,
+        f"`time_optimal_path`, {WAYPOINTS} waypoints, v/a/torque, {args.n_grid} intervals: "
+        "reachability analysis (default)" + (" vs the convex IPOPT pass" if full else ""),
+        f"{times}; {duration}; worst limit ratio {ours_worst:.4f} on a T/{CHECK_SAMPLES} grid",
+        f"TOPP-RA {1e3 * np.median(cat['peer_t']):.1f} ms on the same grid (breaks its limits "
+        f"between grid points by {min(peer_over):.0f}-{max(peer_over):.0f} %)",
     )
 
 
