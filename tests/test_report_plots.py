@@ -136,3 +136,28 @@ def test_a_study_that_stops_leaves_no_plots_of_its_earlier_stages(tmp_path):
         run_spec(spec, tmp_path / "out", workers=2)
     assert not list((tmp_path / "out").glob("*.png"))
     assert (tmp_path / "out" / "summary.json").is_file()
+
+
+def test_the_command_line_runs_blas_on_one_thread_unless_told(monkeypatch):
+    """``armlab`` commands set numpy's BLAS to one thread (the report's plot processes run
+    beside the stages), and leave it alone when the environment chooses."""
+    import threadpoolctl
+
+    from armlab.cli import BLAS_THREAD_VARIABLES, one_blas_thread
+
+    def blas_threads() -> set[int]:
+        info = threadpoolctl.threadpool_info()
+        return {i["num_threads"] for i in info if i["user_api"] == "blas"}
+
+    before = threadpoolctl.threadpool_info()
+    try:
+        with threadpoolctl.threadpool_limits(2, user_api="blas"):
+            monkeypatch.setenv("OPENBLAS_NUM_THREADS", "2")
+            assert one_blas_thread() is False and blas_threads() == {2}
+            for name in BLAS_THREAD_VARIABLES:
+                monkeypatch.delenv(name, raising=False)
+            assert one_blas_thread() is True and blas_threads() == {1}
+    finally:
+        threadpoolctl.threadpool_limits(
+            {i["prefix"]: i["num_threads"] for i in before if i["user_api"] == "blas"}
+        )

@@ -473,9 +473,32 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+#: environment variables that choose the BLAS thread count; when one is set, it is obeyed
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def one_blas_thread() -> bool:
+    """Run numpy's BLAS on one thread in this process unless the environment chooses
+    (:data:`BLAS_THREAD_VARIABLES`); True when it was set here.
+
+    armlab's matrices are small (state-space loops, 6 x 6 dynamics): a second BLAS thread
+    does not speed them up, and beside another busy process (the report's plot processes,
+    a sweep's workers) it slows them down 2-3x (``tune_arm`` 0.36 s on one thread, 1.08 s on
+    two with the other core busy; measured). The numbers do not change (the demo's files are
+    the same bit for bit on one thread and on two).
+    """
+    if any(os.environ.get(name) for name in BLAS_THREAD_VARIABLES):
+        return False
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(1, user_api="blas")
+    return True
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     np.set_printoptions(precision=4, suppress=True)
+    one_blas_thread()
     try:
         return int(args.func(args) or 0)
     except DesignFailure as exc:
