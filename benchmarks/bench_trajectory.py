@@ -14,9 +14,10 @@
    ``--scurves-only`` runs this table alone.
 5. ``optimal`` solve time by waypoint count (2, 5, 10, 20; teachbot6, its own limits, random
    waypoints in 70 % of the ranges), v/a/j and v/a/j/tau, with the settings before issue 15
-   (``hessian="exact"``, cold back-off re-solves) and today's defaults (``"partial"``, warm
-   re-solves): median / max IPOPT time, wall per call, success rate and the largest duration
-   change. Goals (issue 15): v/a/j/tau
+   (``hessian="exact"``, cold back-off re-solves, MUMPS's automatic ordering), the previous
+   defaults (``"partial"``, warm re-solves, automatic ordering) and today's (the same with the
+   AMF ordering, ``transcription.MUMPS_PIVOT_ORDER``): median / max IPOPT time, wall per call,
+   success rate and the largest duration change from "before". Goals (issue 15): v/a/j/tau
    median <= 50 ms at 5 waypoints, <= 300 ms at 20, 100 % success, durations within 0.5 %;
    ``--optimal-scaling-only`` runs this table alone.
 
@@ -37,6 +38,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
+from _readme import readme_row, sig  # noqa: E402
 
 import armlab  # noqa: E402
 from armlab.errors import ArmlabError, InfeasibleError  # noqa: E402
@@ -295,7 +297,7 @@ SCURVE_PROBLEMS = 300  # single problems timed one by one against Ruckig
 SCURVE_BATCH = 100_000  # problems per batched call
 
 
-def bench_scurve_batch(quick: bool = False) -> None:
+def bench_scurve_batch(quick: bool = False) -> list[dict]:
     """Rest-to-rest v/a/j PTP (2 waypoints) in closed form vs Ruckig (issue 15): duration
     agreement, time per single problem (ours: :func:`synchronised_scurves` of one problem;
     Ruckig: ``calculate`` alone, inputs set beforehand), and problems per second batched (ours:
@@ -317,6 +319,7 @@ def bench_scurve_batch(quick: bool = False) -> None:
     )
     print(hdr)
     print("-" * len(hdr))
+    results = []
     for name in ROBOTS:
         robot, extra = load(name)
         v, a, j, _ = limits_of(robot, extra)
@@ -354,6 +357,8 @@ def bench_scurve_batch(quick: bool = False) -> None:
             f"{name:<11}{n_single:>7}  {max(dev):>15.1e}  {med_o:>13.1f}  {med_p:>15.1f}  "
             f"{med_o / med_p:>8.1f}  {batch_rate:>18,.0f}  {loop_rate:>24,.0f}"
         )
+        results.append(dict(ours_us=med_o, peer_us=med_p, batch=batch_rate, dev=max(dev)))
+    return results
 
 
 # ----------------------------------------------------------------------------- 5. scaling
@@ -362,29 +367,35 @@ SCALING_CASES = 6  # per waypoint count and limit set
 SCALING_RANGE = 0.7
 
 
-def bench_optimal_scaling(quick: bool = False) -> None:
+def bench_optimal_scaling(quick: bool = False) -> dict:
     """``optimal`` on teachbot6 by waypoint count, before / after issue 15 (module docstring, 5)."""
     import importlib
 
     # the module (``armlab.planning.optimal`` the attribute is the function)
     optimal_module = importlib.import_module("armlab.planning.optimal")
+    transcription = importlib.import_module("armlab.planning.transcription")
+    pivot_now = transcription.MUMPS_PIVOT_ORDER
     robot = armlab.load_robot("teachbot6")
     lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
     mid, half = (lo + hi) / 2, (hi - lo) / 2 * SCALING_RANGE
     n_cases = 2 if quick else SCALING_CASES
+    # name: (optimal() keywords, warm back-off re-solves, MUMPS ordering; 7 = MUMPS's choice)
     settings = {
-        "before": {"hessian": "exact"},
-        "after": {},
+        "before": ({"hessian": "exact"}, False, 7),
+        "previous": ({}, True, 7),
+        "after": ({}, True, pivot_now),
     }
     print()
     print(f"optimal() solve time by waypoint count (teachbot6, seed {SEED + 5:d})")
     hdr = (
-        f"{'limits':<10}{'wp':>3}  {'settings':<8}{'n':>3}  {'ipopt [s] med':>13}  "
+        f"{'limits':<10}{'wp':>3}  {'settings':<9}{'n':>3}  {'ipopt [s] med':>13}  "
         f"{'max':>7}  {'wall [s] med':>12}  {'iter med':>8}  {'success':>7}  "
         f"{'T after/before - 1 max':>22}"
     )
     print(hdr)
     print("-" * len(hdr))
+    # (limits, waypoints, settings): (median IPOPT time [s], successes, largest |T / T_before - 1|)
+    results: dict = {"n_cases": n_cases}
     for kind, tau in (("v/a/j", False), ("v/a/j/tau", None)):
         for nw in SCALING_WAYPOINTS:
             rng = np.random.default_rng(SEED + 5 + nw)
@@ -394,9 +405,10 @@ def bench_optimal_scaling(quick: bool = False) -> None:
                 if all(statically_ok(robot, q) for q in w):
                     cases.append(w)
             durations = {}
-            for name, extra in settings.items():
+            for name, (extra, warm, pivot) in settings.items():
                 # before: a back-off re-solve started cold, as it did then
-                optimal_module.WARM_RESOLVE = name == "after"
+                optimal_module.WARM_RESOLVE = warm
+                transcription.MUMPS_PIVOT_ORDER = pivot
                 # the compiled problem is built once per size and settings: not timed
                 optimal(robot, cases[0], tau_max=tau, **extra)
                 solve, wall, iters, ok, T = [], [], [], 0, []
@@ -414,15 +426,17 @@ def bench_optimal_scaling(quick: bool = False) -> None:
                     T.append(tr.stats["duration_s"])
                 durations[name] = np.array(T)
                 dev = ""
-                if name == "after":
-                    r = durations["after"] / durations["before"] - 1
+                if name != "before":
+                    r = durations[name] / durations["before"] - 1
                     dev = f"{np.nanmax(np.abs(r)):.1e}"
                 print(
-                    f"{kind:<10}{nw:>3}  {name:<8}{n_cases:>3}  {np.median(solve):>13.3f}  "
+                    f"{kind:<10}{nw:>3}  {name:<9}{n_cases:>3}  {np.median(solve):>13.3f}  "
                     f"{np.max(solve):>7.3f}  {np.median(wall):>12.3f}  {np.median(iters):>8.1f}  "
                     f"{ok:>3}/{n_cases:<3}  {dev:>22}",
                     flush=True,
                 )
+                results[(kind, nw, name)] = (float(np.median(solve)), ok, float(dev or 0.0))
+    return results
 
 
 # ----------------------------------------------------------------------------- main
@@ -439,10 +453,10 @@ def main() -> None:
     )
     args = ap.parse_args()
     if args.optimal_scaling_only:
-        bench_optimal_scaling(args.quick)
+        scaling_row(bench_optimal_scaling(args.quick))
         return
     if args.scurves_only:
-        bench_scurve_batch(args.quick)
+        scurve_row(bench_scurve_batch(args.quick))
         return
     cases = QUICK if args.quick else CASES
     rng = np.random.default_rng(SEED)
@@ -545,8 +559,81 @@ def main() -> None:
         f"{all_ok}/{all_n} feasible successes (100 %), median solve {np.median(all_solve):.3f} s"
         f" (< 1 s)"
     )
-    bench_scurve_batch(args.quick)
-    bench_optimal_scaling(args.quick)
+    scurves = bench_scurve_batch(args.quick)
+    scaling = bench_optimal_scaling(args.quick)
+
+    # ------------------------------------------------------------------------- README rows
+    names = {"teachbot6": "teachbot6", "ur5": "UR5"}
+    per_robot = [float(np.median(r[2]["ours_t"])) for r in rows]
+    readme_row(
+        __file__,
+        "rest-to-rest PTP, v/a/j limits: duration ours / Ruckig's",
+        f"median {np.median(ptp):.4f}, max {np.max(ptp):.4f} "
+        f"({' and '.join(names[r[0]] for r in rows)}, {cases['ptp']} cases each); "
+        f"{min(per_robot):.2f}-{max(per_robot):.2f} s per solve (median)",
+        f"Ruckig {sig(1e6 * np.median(np.concatenate([r[2]['peer_t'] for r in rows])))} us "
+        "per case",
+    )
+    over = [100 * (np.max(r[3]["peer_worst"]) - 1) for r in rows]
+    ours_over = sum(int(np.sum(r[3]["ours_worst"] > 1 + 1e-6)) for r in rows)
+    peer_ms = 1e3 * np.concatenate([r[3]["peer_t"] for r in rows])
+    readme_row(
+        __file__,
+        f"{TOPP_WAYPOINTS} waypoints, v/a/torque: `time_optimal_path` / TOPP-RA",
+        "median "
+        + ", ".join(f"{np.median(r[3]['ratio_path']):.4f} ({names[r[0]]})" for r in rows)
+        + "; TOPP-RA exceeds a limit by up to "
+        + " / ".join(f"{x:.1f} %" for x in over)
+        + f" on the shared fine grid, armlab on {ours_over} of {len(topp)} paths; "
+        "`optimal` (free path through the waypoints) / TOPP-RA: median "
+        + " / ".join(f"{np.median(r[3]['ratio_free']):.2f}" for r in rows),
+        f"TOPP-RA {np.min(peer_ms):.0f}-{np.max(peer_ms):.0f} ms per path",
+    )
+    readme_row(
+        __file__,
+        f"all four limits at once (v, a, jerk, torque), {all_n} random cases",
+        f"{100 * all_ok / all_n:.0f} % success, median solve {np.median(all_solve):.2f} s",
+        "neither peer can do it",
+    )
+    scaling_row(scaling)
+    scurve_row(scurves)
+
+
+def scaling_row(res: dict) -> None:
+    """README row of section 5: "before" -> today's median IPOPT time by waypoint count."""
+    cells, worst, ok, n = [], 0.0, 0, 0
+    for kind in ("v/a/j", "v/a/j/tau"):
+        steps = []
+        for nw in SCALING_WAYPOINTS:
+            before, _, _ = res[(kind, nw, "before")]
+            after, k, dev = res[(kind, nw, "after")]
+            steps.append(f"{nw} wp {before:.3g} -> {after:.3g} s")
+            worst, ok, n = max(worst, dev), ok + k, n + res["n_cases"]
+        cells.append(f"{kind}: " + ", ".join(steps))
+    readme_row(
+        __file__,
+        "`optimal` solve time by waypoint count (teachbot6, IPOPT median, "
+        f"{res['n_cases']} cases each): settings before issue 15 (exact Hessian, cold back-off "
+        "re-solves) -> today's defaults",
+        "; ".join(cells) + f"; durations within {worst:.1e}, {100 * ok / n:.0f} % success",
+    )
+
+
+def scurve_row(res: list[dict]) -> None:
+    """README row of section 4: closed-form S-curves against Ruckig."""
+    ours = [r["ours_us"] for r in res]
+    peer = [r["peer_us"] for r in res]
+    ratio = [r["ours_us"] / r["peer_us"] for r in res]
+    batch = [r["batch"] for r in res]
+    readme_row(
+        __file__,
+        "time-synchronised rest-to-rest S-curves, v/a/j, closed form "
+        "(`synchronised_scurves`): one 6-joint problem; a batch",
+        f"{min(ours):.0f}-{max(ours):.0f} us per problem ({min(ratio):.0f}-{max(ratio):.0f}x "
+        f"Ruckig); {sig(min(batch))}-{sig(max(batch))} problems/s batched; durations equal to "
+        f"Ruckig's within {max(r['dev'] for r in res):.1e}",
+        f"Ruckig {min(peer):.1f}-{max(peer):.1f} us per problem",
+    )
 
 
 if __name__ == "__main__":

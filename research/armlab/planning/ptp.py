@@ -71,7 +71,7 @@ from armlab.trajectory.profiles import (
     trapezoid_min_time_from_state,
     trapezoid_profile,
 )
-from armlab.trajectory.waypoints import validate_waypoints
+from armlab.trajectory.waypoints import check_stoppable, validate_joint_state, validate_waypoints
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
@@ -109,26 +109,6 @@ def _velocity_profiles(D, v, a, dt):
             )
         )
     return profs, T + dt, binding
-
-
-def _state(robot, x, name: str, limit, kind: str) -> np.ndarray:
-    """A start/goal speed or acceleration (n_joints,), finite and within its limit."""
-    if x is None:
-        return np.zeros(robot.n_joints)
-    arr = np.asarray(x, float)
-    if arr.shape != (robot.n_joints,):
-        raise InputError(f"ptp_sync {name} must have shape ({robot.n_joints},), not {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise InputError(f"ptp_sync {name} must be finite")
-    if limit is not None:
-        over = np.abs(arr) > np.asarray(limit) * (1 + 1e-12)
-        if np.any(over):
-            k = int(np.flatnonzero(over)[0])
-            raise InputError(
-                f"ptp_sync {name}: {robot.joint_names[k]} at {arr[k]:.6g} is beyond its "
-                f"{kind} limit {float(np.asarray(limit)[k]):.6g} (brake first)"
-            )
-    return arr
 
 
 def _from_state_profiles(delta, v0, a0, v1, v, a, j):
@@ -252,22 +232,12 @@ def ptp_sync(
     )
     v, a, j = lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3
     assert v is not None  # resolve_limits raises when a needed limit is missing
-    v0 = _state(robot, qd_start, "qd_start", v, "velocity")
-    v1 = _state(robot, qd_goal, "qd_goal", v, "velocity")
-    a0 = _state(robot, qdd_start, "qdd_start", a, "acceleration")
+    v0 = validate_joint_state(robot, qd_start, "qd_start", v, "velocity", where="ptp_sync")
+    v1 = validate_joint_state(robot, qd_goal, "qd_goal", v, "velocity", where="ptp_sync")
+    a0 = validate_joint_state(robot, qdd_start, "qdd_start", a, "acceleration", where="ptp_sync")
     if profile == "scurve":
         assert j is not None  # resolve_limits raises when a needed limit is missing
-        # the speed reached when the start acceleration is brought to zero at the jerk limit
-        vstop = v0 + a0 * np.abs(a0) / (2 * j)
-        over = np.abs(vstop) > v * (1 + 1e-12)
-        if np.any(over):
-            i = int(np.flatnonzero(over)[0])
-            raise InputError(
-                f"ptp_sync qdd_start: {robot.joint_names[i]} at {a0[i]:.6g} with qd_start "
-                f"{v0[i]:.6g} reaches {vstop[i]:.6g} before its jerk limit {float(j[i]):.6g} "
-                f"can stop the acceleration, beyond its velocity limit {float(v[i]):.6g} "
-                f"(brake first)"
-            )
+        check_stoppable(robot, v0, a0, v, j, where="ptp_sync")
     else:
         a0 = np.zeros(robot.n_joints)  # a trapezoid's acceleration steps: only checked
     from_state = bool(np.any(v0 != 0) or np.any(v1 != 0) or np.any(a0 != 0))

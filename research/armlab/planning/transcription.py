@@ -34,6 +34,19 @@ segment durations carried as states; on stand-alone probes of the same integrati
 (one segment, teachbot6) it was 1.6 x faster than IPOPT with v/a/j limits (64 and 304
 intervals), but with the torque rows 1.0 x (64) and 1.2 x (304): there the derivative
 evaluations in CasADi's virtual machine are ~75 % of its time, and it does not reduce them.
+
+Measured later in issue 15 (teachbot6, v/a/j/tau, 20 waypoints = 304 intervals, IPOPT's timing
+statistics): ~55 % IPOPT's linear algebra (the KKT factorisations inside the adaptive barrier
+update), ~35 % the constraint Jacobian (``nlp_jac_g``, ~25 ms a call), the rest small. Kept:
+MUMPS's approximate-minimum-fill ordering (:data:`MUMPS_PIVOT_ORDER`; 7-20 % less IPOPT time at
+5-20 waypoints, same plans; not for the motor-envelope rows, :data:`MUMPS_AUTOMATIC_ORDER`).
+Tried and not kept: compiling ``nlp_jac_g`` to C with the system
+``gcc`` (5 waypoints: 19 MB of C, 48 s to compile at ``-O0`` and 380 s at ``-O1``, for 4.6 x
+faster Jacobian calls -- ~25 % of a solve; a compile that long on first use of every problem
+size is not acceptable for the demo study, even cached on disk), CasADi's common-subexpression
+elimination of the Jacobian (3 % fewer instructions, 5 % faster calls), ``mu_oracle`` ``loqo``
+or ``probing`` instead of the quality function (35 and 28 instead of 21 iterations, slower),
+``bound_relax_factor = 0`` (no fewer tolerance stretches, one more back-off round in 6 cases).
 """
 
 from __future__ import annotations
@@ -99,6 +112,18 @@ _DYNAMICS_ROWS = ("torque",)
 #: with the balanced grid the fine-grid back-off is cheaper than midpoint rows, measured)
 TORQUE_INTERIOR_POINTS: tuple[float, ...] = ()
 
+#: MUMPS fill-reducing ordering (ICNTL(7)): 2 = approximate minimum fill (AMF). MUMPS's
+#: automatic choice (7) was 1.5-2.2 x slower on the KKT systems of 10 and 20 waypoints (issue 15,
+#: teachbot6, v/a/j/tau: median IPOPT time 1.46 -> 0.97-1.05 s at 10, 4.5 -> 2.1 s at 20; same
+#: iterations and durations), the same at 5. METIS (5) was as fast as AMF, PORD (4) 1.2 x
+#: slower, QAMD (6) 1.5 x, SCOTCH (3) 2.2 x.
+MUMPS_PIVOT_ORDER = 2
+#: MUMPS's automatic ordering, kept for the motor-envelope rows (``drive_limits``): with AMF
+#: IPOPT ran out of iterations on the demo cycle's drive-limited plan (24 intervals a segment)
+#: and the retry on twice the intervals took 364 s, against 38-40 s with this (measured; METIS
+#: and AMD also converge there, but are no faster than this on the torque-box plans)
+MUMPS_AUTOMATIC_ORDER = 7
+
 _STRUCTURES: dict[tuple, Structure] = {}
 _STRUCTURES_MAX = 32
 
@@ -146,7 +171,7 @@ class Structure:
         return self._warm
 
 
-def ipopt_options(max_iter: int, hessian: str = HESSIAN) -> dict:
+def ipopt_options(max_iter: int, hessian: str = HESSIAN, drive_rows: bool = False) -> dict:
     return {
         "print_time": False,
         "ipopt.print_level": 0,
@@ -162,6 +187,7 @@ def ipopt_options(max_iter: int, hessian: str = HESSIAN) -> dict:
         "ipopt.acceptable_iter": 5,
         "ipopt.mu_strategy": "adaptive",
         "ipopt.linear_solver": "mumps",
+        "ipopt.mumps_pivot_order": MUMPS_AUTOMATIC_ORDER if drive_rows else MUMPS_PIVOT_ORDER,
         # "partial" hands IPOPT its own exact-Hessian function (hess_lag, build_structure)
         "ipopt.hessian_approximation": "limited-memory" if hessian == "limited-memory" else "exact",
     }
@@ -315,7 +341,7 @@ def build_structure(
         else:
             f = ca.dot(((ew[0] + ew[1]) / 2).T, H)
     nlp = {"x": x, "p": p, "f": f, "g": g}
-    opts = ipopt_options(max_iter, hessian)
+    opts = ipopt_options(max_iter, hessian, drive_rows)
     if hessian == "partial":
         opts["hess_lag"] = _partial_hessian(x, p, f, g, np.array(kinds), X)
     solver = ca.nlpsol("armlab_optimal", "ipopt", nlp, opts)
@@ -419,7 +445,7 @@ def structure(
         max_iter = min(max_iter, PARTIAL_MAX_ITER)
     # the problem is fixed by these (and the robot's kinematics and the module's settings)
     args = (n, seg_n, mode, objective, torque_rows, fixed_duration, max_iter, drive_rows, hessian)
-    key = (kkey, *args, TORQUE_INTERIOR_POINTS, SYMBOLIC)
+    key = (kkey, *args, TORQUE_INTERIOR_POINTS, SYMBOLIC, MUMPS_PIVOT_ORDER)
     st = _STRUCTURES.get(key)
     if st is None:
         rnea_p = parametric_inverse_dynamics_function(robot) if need_tau else None

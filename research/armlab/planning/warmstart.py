@@ -98,8 +98,8 @@ def phase_grid(
     return grid
 
 
-def fit_piecewise(h, u_ref, target, mode: str = "jerk") -> np.ndarray:
-    """Piecewise-constant inputs closest to ``u_ref`` that reach ``target`` from rest.
+def fit_piecewise(h, u_ref, target, mode: str = "jerk", start=None) -> np.ndarray:
+    """Piecewise-constant inputs closest to ``u_ref`` that reach ``target`` from a start state.
 
     Minimises ``sum_k h_k (u_k - u_ref,k)^2`` subject to the end state (``(q, qd, qdd)`` for
     ``mode="jerk"``, ``u`` the jerk; ``(q, qd)`` for ``"acceleration"``, ``u`` the acceleration)
@@ -112,7 +112,11 @@ def fit_piecewise(h, u_ref, target, mode: str = "jerk") -> np.ndarray:
         Interval durations [s].
     u_ref : array (N, n_joints)
     target : array (3 or 2, n_joints)
-        End state relative to the (resting) start state.
+        End state relative to the start position (speeds and accelerations absolute).
+    start : (qd0, qdd0), optional
+        Start speeds [rad/s] and accelerations [rad/s^2] (n_joints,) each (default rest; the
+        acceleration is not used in ``"acceleration"`` mode). Their free motion over the grid
+        (``qd0 T + qdd0 T^2/2``, ...) is taken off the target.
     """
     h = np.asarray(h, float)
     R = np.concatenate([np.cumsum(h[::-1])[::-1][1:], [0.0]])  # time left after interval k
@@ -122,18 +126,31 @@ def fit_piecewise(h, u_ref, target, mode: str = "jerk") -> np.ndarray:
         Phi = np.vstack([h**2 / 2 + h * R, h])
     Winv = 1.0 / h
     G = (Phi * Winv) @ Phi.T
-    r = np.asarray(target, float) - Phi @ u_ref
+    target = np.asarray(target, float)
+    if start is not None:
+        v0, a0 = (np.asarray(x, float) for x in start)
+        T = float(h.sum())
+        if mode == "jerk":
+            free = np.vstack([v0 * T + a0 * T**2 / 2, v0 + a0 * T, a0])
+        else:
+            free = np.vstack([v0 * T, v0])
+        target = target - free
+    r = target - Phi @ u_ref
     return u_ref + (Winv[:, None] * Phi.T) @ np.linalg.solve(G, r)
 
 
-def integrate_piecewise(h, u, x0, mode: str = "jerk") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Node states ``q, qd, qdd`` (each (N+1, n)) of piecewise-constant jerk (or acceleration)."""
+def integrate_piecewise(
+    h, u, x0, mode: str = "jerk", start=None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Node states ``q, qd, qdd`` (each (N+1, n)) of piecewise-constant jerk (or acceleration)
+    from position ``x0`` and the start speeds and accelerations ``start = (qd0, qdd0)``
+    (default rest; in ``"acceleration"`` mode ``qdd`` at a node is the input that follows it)."""
     N, n = u.shape
     q = np.empty((N + 1, n))
     v = np.empty((N + 1, n))
     a = np.empty((N + 1, n))
-    q[0], v[0] = x0, 0.0
-    a[0] = 0.0
+    q[0] = x0
+    v[0], a[0] = (0.0, 0.0) if start is None else start
     for k in range(N):
         hk, uk = h[k], u[k]
         if mode == "jerk":

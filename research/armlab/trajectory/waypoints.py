@@ -24,7 +24,7 @@ from armlab.errors import InputError
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
 
-__all__ = ["validate_waypoints", "RANGE_TOL_RAD"]
+__all__ = ["validate_waypoints", "validate_joint_state", "check_stoppable", "RANGE_TOL_RAD"]
 
 RANGE_TOL_RAD = 1e-9
 """Slack in [rad] on the joint ranges (rounding of values read from a file)."""
@@ -106,3 +106,74 @@ def validate_waypoints(
             f"[{lo[j] * c:.6g}, {hi[j] * c:.6g}] {unit}"
         )
     return W
+
+
+def validate_joint_state(robot: Robot, x, name: str, limit, kind: str, *, where: str) -> np.ndarray:
+    """A start or goal speed or acceleration of a replanning request, checked where it enters.
+
+    Parameters
+    ----------
+    robot : Robot
+    x : None or array (n_joints,)
+        Joint speeds in [rad/s] or accelerations in [rad/s^2]; None is rest (zeros).
+    name : str
+        The caller's keyword (``"qd_start"``, ``"qdd_start"``, ``"qd_goal"``).
+    limit : None or array (n_joints,)
+        The limit of that kind (None: not limited).
+    kind : str
+        ``"velocity"`` or ``"acceleration"`` (for the message).
+    where : str
+        The planner (``"ptp_sync"``, ``"optimal"``); starts every message.
+
+    Returns
+    -------
+    ndarray (n_joints,)
+
+    Raises
+    ------
+    InputError
+        Wrong shape, a non-finite value, or a joint beyond its limit (naming the keyword and the
+        joint: brake first).
+    """
+    if x is None:
+        return np.zeros(robot.n_joints)
+    try:
+        arr = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{where} {name}: not an array of numbers") from None
+    if arr.shape != (robot.n_joints,):
+        raise InputError(f"{where} {name} must have shape ({robot.n_joints},), not {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"{where} {name} must be finite")
+    if limit is not None:
+        over = np.abs(arr) > np.asarray(limit) * (1 + 1e-12)
+        if np.any(over):
+            k = int(np.flatnonzero(over)[0])
+            raise InputError(
+                f"{where} {name}: {robot.joint_names[k]} at {arr[k]:.6g} is beyond its "
+                f"{kind} limit {float(np.asarray(limit)[k]):.6g} (brake first)"
+            )
+    return arr
+
+
+def check_stoppable(robot: Robot, qd, qdd, v_max, j_max, *, where: str) -> None:
+    """Refuse a start state whose acceleration the jerk limit cannot bring to zero before the
+    speed passes its limit: the speed then peaks at ``qd + qdd |qdd| / (2 j_max)``.
+
+    Raises
+    ------
+    InputError
+        Naming the joint, the state and the limits (brake first).
+    """
+    qd, qdd = np.asarray(qd, float), np.asarray(qdd, float)
+    v, j = np.asarray(v_max, float), np.asarray(j_max, float)
+    peak = qd + qdd * np.abs(qdd) / (2 * j)
+    over = np.abs(peak) > v * (1 + 1e-12)
+    if np.any(over):
+        k = int(np.flatnonzero(over)[0])
+        raise InputError(
+            f"{where} qdd_start: {robot.joint_names[k]} at {qdd[k]:.6g} rad/s^2 with qd_start "
+            f"{qd[k]:.6g} rad/s reaches {peak[k]:.6g} rad/s before its jerk limit "
+            f"{float(j[k]):.6g} rad/s^3 can stop the acceleration, beyond its velocity limit "
+            f"{float(v[k]):.6g} rad/s (brake first)"
+        )
