@@ -213,6 +213,10 @@ def _figure_processes(n_jobs: int, workers: int | None) -> int:
     return max(1, min(n, n_jobs))
 
 
+#: resolution of the report's PNG plots
+PLOT_DPI = 110
+
+
 def _draw_one(name: str, make: Callable[[], Any], out_dir: Path) -> Path:
     from armlab.plots import offscreen
 
@@ -220,7 +224,7 @@ def _draw_one(name: str, make: Callable[[], Any], out_dir: Path) -> Path:
         fig = make()
     path = out_dir / name
     with atomic_open(path, "wb") as f:
-        fig.savefig(f, format=path.suffix[1:] or "png", dpi=110)
+        fig.savefig(f, format=path.suffix[1:] or "png", dpi=PLOT_DPI)
     return path
 
 
