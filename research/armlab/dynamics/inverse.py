@@ -28,6 +28,7 @@ from armlab.robot import rigid_body
 from armlab.robot.drives import Drive
 from armlab.robot.drivetrain import DriveTrain, motor_side
 from armlab.trajectory import Trajectory
+from armlab.trajectory.core import sample_weights  # its home: timing primitives
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
@@ -91,19 +92,6 @@ def as_trajectories(trajectory_or_list, robot: Robot) -> list[Trajectory]:
                 bad = np.argwhere(~np.isfinite(np.atleast_2d(a.T).T))[0]
                 raise InputError(f"trajectory {k}: {name} is not finite at sample {bad[0]}")
     return trajs
-
-
-def sample_weights(t: np.ndarray) -> np.ndarray:
-    """Time each sample stands for, in [s]: trapezoidal weights summing to the duration
-    (a single sample stands for 1 s, a held pose)."""
-    t = np.asarray(t, float)
-    if t.size == 1:
-        return np.ones(1)
-    dt = np.diff(t)
-    w = np.zeros_like(t)
-    w[:-1] += 0.5 * dt
-    w[1:] += 0.5 * dt
-    return w
 
 
 @dataclass

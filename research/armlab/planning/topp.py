@@ -129,7 +129,7 @@ from armlab.planning.timescale import (
 from armlab.planning.tolerance import absorb_tolerance
 from armlab.robot import drivetrain, rigid_body
 from armlab.robot.limits import LIMIT_KEYS, Limits, resolve_limits
-from armlab.trajectory.core import LimitSamples, Trajectory
+from armlab.trajectory.core import LimitSamples, Trajectory, sample_weights
 from armlab.trajectory.waypoints import validate_waypoints
 
 if TYPE_CHECKING:
@@ -516,8 +516,6 @@ class ToppProblem:
                 continue
             out[kind] = per_interval(smp.t, np.abs(x) / lim)
         if self.train is not None:  # the envelope per interval; the RMS joint-wide (folded in)
-            from armlab.dynamics.inverse import sample_weights
-
             tr = self.train
             fine = traj.sample(self._uniform_dt(traj))
             tau = fine.torques(self.robot)

@@ -68,6 +68,7 @@ __all__ = [
     "LimitSamples",
     "LIMIT_KINDS",
     "sample_times",
+    "sample_weights",
     "MERGE_FRACTION",
 ]
 
@@ -83,6 +84,19 @@ REFINE_STEPS = 3
 #: a piece longer than duration / TORQUE_GRID gets torque points at most that far apart before
 #: the peak refinement
 TORQUE_GRID = 1024
+
+
+def sample_weights(t: np.ndarray) -> np.ndarray:
+    """Time each sample stands for, in [s]: trapezoidal weights summing to the duration
+    (a single sample stands for 1 s, a held pose)."""
+    t = np.asarray(t, float)
+    if t.size == 1:
+        return np.ones(1)
+    dt = np.diff(t)
+    w = np.zeros_like(t)
+    w[:-1] += 0.5 * dt
+    w[1:] += 0.5 * dt
+    return w
 
 
 def sample_times(duration: float, dt: float, knots=()) -> np.ndarray:
