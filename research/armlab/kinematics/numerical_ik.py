@@ -33,15 +33,20 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-import osqp
 import pinocchio as pin
-from scipy import sparse
 
+from armlab._lazy import lazy_import
 from armlab.errors import InputError, UnreachableError
 from armlab.kinematics.analytic_ik import check_poses
 
 if TYPE_CHECKING:
+    import osqp
+    from scipy import sparse
+
     from armlab.robot.model import Robot
+else:  # loaded at the first numerical IK, not with armlab.kinematics (0.17 s)
+    osqp = lazy_import("osqp")
+    sparse = lazy_import("scipy.sparse")
 
 __all__ = ["IKResult", "IKSettings", "ik", "ik_solve", "ik_batch"]
 
