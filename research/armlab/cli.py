@@ -206,9 +206,10 @@ def _drives_header(ctx, study) -> str:
 
 
 def _cmd_run(args) -> int:
+    from armlab._cpus import usable_cpus
     from armlab.study import run_study
 
-    workers = args.workers if args.workers is not None else os.cpu_count()
+    workers = args.workers if args.workers is not None else usable_cpus()
     summary = run_study(
         args.study, args.out, workers=workers, force=args.force, overwrite=args.overwrite
     )
@@ -392,7 +393,7 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         default=None,
         metavar="N",
-        help="processes that draw the report's plots (default: one per CPU)",
+        help="processes that draw the report's plots (default: one per CPU this process may use)",
     )
     s.set_defaults(func=_cmd_run)
     s = sub.add_parser(

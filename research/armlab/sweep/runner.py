@@ -33,7 +33,6 @@ Provenance and one writer
 from __future__ import annotations
 
 import logging
-import os
 import sys
 import time
 import uuid
@@ -42,6 +41,7 @@ from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
+from armlab._cpus import usable_cpus
 from armlab.deploy.provenance import armlab_version, file_sha256
 from armlab.errors import InputError
 from armlab.io import atomic_write
@@ -65,13 +65,6 @@ __all__ = ["run_sweep", "run_sweep_spec", "open_client", "sweep_meta", "sweep_ou
 SWEEP_FORMAT = "armlab.sweep/2"
 
 
-def _cpu_count() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not Linux
-        return os.cpu_count() or 1
-
-
 def open_client(
     workers: int | None = None, scheduler: str | None = None
 ) -> tuple[Client, LocalCluster | None]:
@@ -92,7 +85,7 @@ def open_client(
             raise InputError(
                 f"cannot reach the Dask scheduler at {scheduler!r} ({type(exc).__name__}: {exc})"
             ) from None
-    n = _cpu_count() if workers is None else int(workers)
+    n = usable_cpus() if workers is None else int(workers)
     if n < 1:
         raise InputError(f"--workers must be >= 1, not {workers}")
     cluster = LocalCluster(
