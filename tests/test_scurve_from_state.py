@@ -416,3 +416,20 @@ def test_bad_start_states_are_named(teachbot6, kw, match):
             np.full(6, 0.3),
             **{"profile": "scurve", "v_max": 2.0, "a_max": 5.0, "j_max": 5.0, **kw},
         )
+
+
+def test_scalar_and_vector_speed_changes_are_one_formula():
+    """The root finders' scalar speed change and the vectorised one give the same phases
+    and distance (two spellings of one formula: they must not drift apart)."""
+    from armlab.trajectory.profiles import _speed_change, _speed_change_one
+
+    rng = np.random.default_rng(7)
+    for _ in range(500):
+        a, j = rng.uniform(0.1, 5.0), rng.uniform(0.5, 50.0)
+        v0, vt = rng.uniform(-2.0, 2.0, size=2)
+        a0 = rng.uniform(-a, a)
+        one = _speed_change_one(v0, a0, vt, a, j)
+        vec = _speed_change(np.array([v0]), np.array([a0]), np.array([vt]), a, j)
+        np.testing.assert_allclose(
+            [float(np.ravel(x)[0]) for x in vec], one, rtol=1e-12, atol=1e-12
+        )
