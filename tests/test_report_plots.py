@@ -76,6 +76,30 @@ def test_a_process_that_dies_is_named_not_waited_for(tmp_path):
                 time.sleep(0.01)
 
 
+def test_a_process_that_hangs_is_stopped_and_named(tmp_path, monkeypatch):
+    """A plot process silent for longer than PLOT_PROCESS_SILENCE_S (a fork that inherited a
+    held lock) is stopped; the study gets an error naming the plot, not a wait forever."""
+    import armlab.study.report as report
+
+    monkeypatch.setattr(report, "PLOT_PROCESS_SILENCE_S", 1.0)
+
+    def hangs():
+        if multiprocessing.parent_process() is not None:  # only the child hangs
+            time.sleep(3600)
+        return _plot(0)()
+
+    jobs = [("hangs.png", "hangs", hangs), *_jobs(1)]
+    t0 = time.monotonic()
+    with pytest.raises(RuntimeError, match=r"\['hangs.png'\] were not drawn"):
+        with _FigureDrawing(jobs, tmp_path, 2) as drawing:
+            for _ in range(500):  # the parent waits until the child has taken the first plot
+                if drawing._counter.value > 0:
+                    break
+                time.sleep(0.01)
+    assert time.monotonic() - t0 < 30
+    assert not any(child.is_alive() for child in drawing._children)
+
+
 def test_process_count():
     assert _figure_processes(11, None) == 1
     assert _figure_processes(11, 1) == 1

@@ -11,6 +11,7 @@ import functools
 import math
 import pickle
 import queue
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -215,6 +216,9 @@ def _figure_processes(n_jobs: int, workers: int | None) -> int:
 
 #: resolution of the report's PNG plots
 PLOT_DPI = 110
+#: a plot process that sends nothing for this long [s] is stopped and its plots are named as
+#: not drawn (a fork can inherit a lock another thread held; no study waits forever for it)
+PLOT_PROCESS_SILENCE_S = 600.0
 
 
 def _draw_one(name: str, make: Callable[[], Any], out_dir: Path) -> Path:
@@ -313,14 +317,18 @@ class _FigureDrawing:
         else:  # the block failed: stop handing out plots
             with self._counter.get_lock():
                 self._counter.value = len(self.jobs)
-        done = 0
+        done, last = 0, time.monotonic()
         while done < len(self._children):
             try:
                 item = self._queue.get(timeout=0.5)
             except queue.Empty:
-                if any(child.is_alive() for child in self._children):
+                alive = [child for child in self._children if child.is_alive()]
+                if alive and time.monotonic() - last < PLOT_PROCESS_SILENCE_S:
                     continue
+                for child in alive:  # silent too long (a hang): its plot is missing below
+                    child.terminate()
                 break  # a process died without saying so: its plot is missing below
+            last = time.monotonic()
             if item is None:
                 done += 1
             else:
