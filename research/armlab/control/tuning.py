@@ -490,16 +490,26 @@ def _tune_position(
         return margins(nominal.w_c, kp * nominal.P_c).crossover_rad_s
 
     kp = _position_target(p0, spec, target, kp_max, wc_nominal)
-    # overshoot (all cases, both models): reduce kp until it holds
-    for _ in range(30):
-        lg = make(kp)
+
+    def overshoot(lg: LoopGains) -> float:
         worst = 0.0
         for m in models:
             m.gains["position"] = lg
-            t_end = 12.0 / kp
             for disc in (False, True):
-                os_, _ = step_figures(m.position_closed(disc), t_end)
+                os_, _ = step_figures(m.position_closed(disc), 12.0 / lg.kp)
                 worst = max(worst, os_ if math.isfinite(os_) else math.inf)
+        return worst
+
+    return _within_overshoot(p0, spec, target, kp, make, overshoot)
+
+
+def _within_overshoot(p0, spec: TuningSpec, target, kp: float, make, overshoot) -> LoopGains:
+    """The position loop ``make(kp)``, its gain lowered by 10 % steps until ``overshoot(lg)``
+    (worst over the inertia cases, continuous and discrete) meets the spec; a requested
+    bandwidth (``target``) is not lowered: SpecError then."""
+    for _ in range(30):
+        lg = make(kp)
+        worst = overshoot(lg)
         if worst <= spec.overshoot_pct:
             return lg
         if target is not None:
@@ -630,24 +640,16 @@ def _tune_position_fast(
         return margins(case.w_c, kp * P_nom).crossover_rad_s
 
     kp = _position_target(p0, spec, target, kp_max, wc_nominal)
-    # overshoot (all cases, both models): reduce kp until it holds
-    for _ in range(30):
-        lg = make(kp)
+
+    def overshoot(lg: LoopGains) -> float:
         ca.gains["position"] = lg
         worst = 0.0
         for disc in (False, True):
-            for os_, _ in ca.step_figures("position", disc, 12.0 / kp):
+            for os_, _ in ca.step_figures("position", disc, 12.0 / lg.kp):
                 worst = max(worst, os_ if math.isfinite(os_) else math.inf)
-        if worst <= spec.overshoot_pct:
-            return lg
-        if target is not None:
-            raise SpecError(
-                f"{p0.joint}: spec overshoot_pct={spec.overshoot_pct} cannot be met "
-                f"at position_bandwidth_rad_s={target:.4g} (overshoot "
-                f"{worst:.3g} %)"
-            )
-        kp *= 0.9
-    raise SpecError(f"{p0.joint}: spec overshoot_pct={spec.overshoot_pct} cannot be met")
+        return worst
+
+    return _within_overshoot(p0, spec, target, kp, make, overshoot)
 
 
 def _position_target(p0, spec: TuningSpec, target, kp_max: float, wc_nominal) -> float:
