@@ -101,20 +101,32 @@ def test_one_joint_move_keeps_its_limits_and_ends_exactly():
         trapezoid_min_time_from_state(1.0, 2.0, 0.0, 1.0, 1.0)
 
 
-def _replan_case(seed: int) -> tuple[Case, np.ndarray, np.ndarray]:
+def replan_case(seed: int, profile: str = "trapezoid"):
     """A random ``ptp_sync`` from a moving state: robot, limits (a decade spread, half the
-    robot's own on teachbot6), start and goal, start speeds up to the limit, goal speeds
-    (zero in a third of the cases), torque on or off."""
-    rng = np.random.default_rng([915, seed])
+    robot's own on teachbot6), start and goal, start speeds up to the limit (``"scurve"``:
+    and start accelerations the jerk limit can hold), goal speeds (zero in a third of the
+    cases), a third of the joints moving fast towards a close goal, torque on or off.
+    Returns ``(case, qd_start, qdd_start, qd_goal)``."""
+    scurve = profile == "scurve"
+    rng = np.random.default_rng([1515 if scurve else 915, seed])
     robot = get_robot(_robot_name(rng))
-    kw = _limits(rng, robot, ("v_max", "a_max"), own=robot.name == "teachbot6")
+    kinds = ("v_max", "a_max", "j_max") if scurve else ("v_max", "a_max")
+    kw = _limits(rng, robot, kinds, own=robot.name == "teachbot6")
     lim = resolve_limits(robot, **kw)
     w = _move(rng, robot, 2)
     n, lo, hi = robot.n_joints, robot.limits.lower_rad, robot.limits.upper_rad
     w[0] = lo + (hi - lo) * rng.uniform(0.3, 0.7, n)  # room to brake a start speed
     w[1] = np.clip(w[0] + (w[1] - w[0]) * 0.4, lo, hi)
-    v, a = lim.velocity_rad_s, lim.acceleration_rad_s2
-    v0 = v * rng.uniform(-1, 1, n) * rng.choice([0.05, 0.2, 0.5, 1.0])
+    v, a, j = lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3
+    v0 = (
+        v
+        * rng.uniform(-1, 1, n)
+        * rng.choice([0.05, 0.2, 0.5] if scurve else [0.05, 0.2, 0.5, 1.0])
+    )
+    a0 = np.zeros(n)
+    if scurve:  # within what the jerk limit can stop before the speed limit
+        a0 = a * rng.uniform(-1, 1, n) * rng.choice([0.0, 0.3, 1.0])
+        a0 = np.sign(a0) * np.minimum(np.abs(a0), np.sqrt(2 * j * (v - np.sign(a0) * v0)) * 0.99)
     v1 = np.zeros(n) if seed % 3 == 0 else v * rng.uniform(-0.5, 0.5, n)
     short = rng.random(n) < 0.3  # a short move the way the joint already goes: gaps
     v1[short] = np.abs(v1[short]) * np.sign(v0[short])
@@ -126,14 +138,25 @@ def _replan_case(seed: int) -> tuple[Case, np.ndarray, np.ndarray]:
     )
     dt = float(_decades(rng, -3, -1.5, 1)[0])
     torque = bool(rng.random() < 0.5)
+    state = {"qd_start": v0, "qd_goal": v1, **({"qdd_start": a0} if scurve else {})}
 
     def fn():
-        return ptp_sync(
-            robot, w[0], w[1], "trapezoid", dt=dt, torque=torque, qd_start=v0, qd_goal=v1, **kw
-        )
+        return ptp_sync(robot, w[0], w[1], profile, dt=dt, torque=torque, **state, **kw)
 
-    case = Case("ptp_trapezoid", seed, robot, fn, lim, torque, w, ptp=True, info={"dt": dt})
-    return case, v0, v1
+    case = Case(f"ptp_{profile}", seed, robot, fn, lim, torque, w, ptp=True, info={"dt": dt})
+    return case, v0, a0, v1
+
+
+def moving_failures(case: Case, traj) -> list[str]:
+    """:func:`check_trajectory`'s failures that apply to a move from a moving state: it need
+    not rest at its ends, and a joint with no distance to go but a start speed brakes and
+    comes back."""
+    failures, _ = check_trajectory(case, traj)
+    return [
+        f
+        for f in failures
+        if not f.startswith("does not rest at its ends") and f != "a joint without a move moves"
+    ]
 
 
 @pytest.mark.parametrize("seed", range(40))
@@ -141,21 +164,13 @@ def test_replanned_ptp_holds_every_property(seed):
     """The limits hold from the first sample (torque too where on), both ends are exact,
     the start and goal speeds are the asked ones; or a named one-line refusal (a start speed
     that cannot be braked inside the joint range)."""
-    case, v0, v1 = _replan_case(seed)
+    case, v0, _, v1 = replan_case(seed)
     try:
         traj = case.run()
     except NAMED as exc:
         assert "\n" not in str(exc)
         return
-    failures, peak = check_trajectory(case, traj)
-    # a replanned move starts (and may end) moving; a joint with no distance to go but a
-    # start speed brakes and comes back
-    failures = [
-        f
-        for f in failures
-        if not f.startswith("does not rest at its ends") and f != "a joint without a move moves"
-    ]
-    assert failures == [], str(case)
+    assert moving_failures(case, traj) == [], str(case)
     np.testing.assert_array_equal(traj.qd[0], v0)
     np.testing.assert_array_equal(traj.qd[-1], v1)
     np.testing.assert_allclose(traj.at([0.0])[1][0], v0, atol=1e-12)

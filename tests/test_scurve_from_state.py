@@ -28,13 +28,9 @@ from armlab.trajectory.profiles import (
 from test_planner_properties import (
     NAMED,
     Case,
-    _decades,
-    _limits,
-    _move,
-    _robot_name,
     check_trajectory,
-    get_robot,
 )
+from test_replan import moving_failures, replan_case
 
 
 def _state(rng, n: int, gap: bool):
@@ -277,69 +273,19 @@ def test_bad_states_are_named():
 
 
 # ---------------------------------------------------------------------- through ptp_sync
-def _replan_case(seed: int) -> tuple[Case, np.ndarray, np.ndarray, np.ndarray]:
-    """A random ``ptp_sync(..., "scurve")`` from a moving state: start speeds and
-    accelerations the jerk limit can hold, goal speeds (zero in a third of the cases), a
-    third of the joints moving fast towards a close goal, torque on or off."""
-    rng = np.random.default_rng([1515, seed])
-    robot = get_robot(_robot_name(rng))
-    kw = _limits(rng, robot, ("v_max", "a_max", "j_max"), own=robot.name == "teachbot6")
-    lim = resolve_limits(robot, **kw)
-    w = _move(rng, robot, 2)
-    n, lo, hi = robot.n_joints, robot.limits.lower_rad, robot.limits.upper_rad
-    w[0] = lo + (hi - lo) * rng.uniform(0.3, 0.7, n)
-    w[1] = np.clip(w[0] + (w[1] - w[0]) * 0.4, lo, hi)
-    v, a, j = lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3
-    v0 = v * rng.uniform(-1, 1, n) * rng.choice([0.05, 0.2, 0.5])
-    a0 = a * rng.uniform(-1, 1, n) * rng.choice([0.0, 0.3, 1.0])
-    a0 = np.sign(a0) * np.minimum(np.abs(a0), np.sqrt(2 * j * (v - np.sign(a0) * v0)) * 0.99)
-    v1 = np.zeros(n) if seed % 3 == 0 else v * rng.uniform(-0.5, 0.5, n)
-    short = rng.random(n) < 0.3
-    v1[short] = np.abs(v1[short]) * np.sign(v0[short])
-    reach = (v0**2 + v1**2) / (2 * a)
-    w[1, short] = np.clip(
-        w[0, short] + np.sign(v0[short]) * rng.uniform(0, 1, n)[short] * reach[short],
-        lo[short],
-        hi[short],
-    )
-    dt = float(_decades(rng, -3, -1.5, 1)[0])
-    torque = bool(rng.random() < 0.5)
-
-    def fn():
-        return ptp_sync(
-            robot,
-            w[0],
-            w[1],
-            "scurve",
-            dt=dt,
-            torque=torque,
-            qd_start=v0,
-            qdd_start=a0,
-            qd_goal=v1,
-            **kw,
-        )
-
-    case = Case("ptp_scurve", seed, robot, fn, lim, torque, w, ptp=True, info={"dt": dt})
-    return case, v0, a0, v1
 
 
 @pytest.mark.parametrize("seed", range(16))
 def test_replanned_scurve_holds_every_property(seed):
     """Limits (jerk too) from the first sample, exact ends, continuity of q, qd, qdd, honest
     derivatives; the start state and the goal speed exactly; or a named one-line refusal."""
-    case, v0, a0, v1 = _replan_case(seed)
+    case, v0, a0, v1 = replan_case(seed, "scurve")
     try:
         traj = case.run()
     except NAMED as exc:
         assert "\n" not in str(exc)
         return
-    failures, _ = check_trajectory(case, traj)
-    failures = [
-        f
-        for f in failures
-        if not f.startswith("does not rest at its ends") and f != "a joint without a move moves"
-    ]
-    assert failures == [], str(case)
+    assert moving_failures(case, traj) == [], str(case)
     np.testing.assert_array_equal(traj.qd[0], v0)
     np.testing.assert_array_equal(traj.qdd[0], a0)
     np.testing.assert_array_equal(traj.qd[-1], v1)
