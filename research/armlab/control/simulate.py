@@ -434,23 +434,28 @@ def _simulate_many(
                 d_cur=d_cur,
             )
             raws.update(zip(group, runs, strict=True))
+    p_ref = None  # the set-points' tool positions: one for every variant
+    if tcp:
+        from armlab.kinematics import fk_batch
+
+        p_ref = fk_batch(robot, raws[0]["q_ref"])[:, :3, 3]
     return [
-        _result(robot, raws[k], prof, controller, quantise, tcp, accuracy_m)
+        _result(robot, raws[k], prof, controller, quantise, p_ref, accuracy_m)
         for k in range(len(variants))
     ]
 
 
-def _result(robot, raw: dict, prof, controller, quantise, tcp, accuracy_m) -> TrackingResult:
-    """The :class:`TrackingResult` of one run of :func:`_run_variants`."""
+def _result(robot, raw: dict, prof, controller, quantise, p_ref, accuracy_m) -> TrackingResult:
+    """The :class:`TrackingResult` of one run of :func:`_run_variants`; ``p_ref``: the tool
+    positions of the set-points (None: no TCP error)."""
     q_d, out_q = raw["q_ref"], raw["q"]
     n = out_q.shape[0]
     if not np.all(np.isfinite(out_q)):
         raise InputError("simulation diverged (non-finite joint positions): check the gains")
     tcp_err = np.full(n, np.nan)
-    if tcp:
+    if p_ref is not None:
         from armlab.kinematics import fk_batch
 
-        p_ref = fk_batch(robot, q_d)[:, :3, 3]
         p = fk_batch(robot, out_q)[:, :3, 3]
         tcp_err = np.linalg.norm(p - p_ref, axis=1)
     acc = POSITIONING_ACCURACY_M * SERVO_SHARE if accuracy_m is None else float(accuracy_m)
