@@ -23,10 +23,8 @@ from armlab.trajectory import (
 )
 from armlab.trajectory.core import MERGE_FRACTION, Trajectory, sample_times
 from armlab.trajectory.profiles import (
-    CORNER_GAP,
     double_s_min_time,
     double_s_profile_for_duration,
-    time_grid,
     trapezoid_min_time,
     trapezoid_profile_for_duration,
 )
@@ -175,25 +173,6 @@ def test_profiles_respect_limits_and_durations(L, v, a, j, stretch):
     assert p.duration == pytest.approx(T, rel=1e-9) and p.length == pytest.approx(L, rel=1e-9)
     with pytest.raises(InfeasibleError):
         trapezoid_profile_for_duration(L, 0.9 * trapezoid_min_time(L, v, a), a, v_max=v)
-
-
-@settings(max_examples=100, deadline=None)
-@given(
-    T=st.floats(0.0, 5.0),
-    dt=st.floats(1e-3, 0.1),
-    corners=st.lists(st.floats(0.0, 5.0), max_size=8),
-    ends=st.booleans(),
-)
-def test_time_grid(T, dt, corners, ends):
-    t = time_grid(T, dt, corners, ends=ends, knots=corners[:2])
-    assert t[0] == 0.0 and t[-1] == max(T, 0.0)
-    if t.size > 1:
-        assert np.all(np.diff(t) > 0)
-        # a regular sample within half a knot gap of a knot is replaced by the knot
-        assert np.diff(t).max() <= dt * (1 + 0.5 * CORNER_GAP + 1e-9)
-    for c in corners:  # every interior corner is a knot (or within half a gap of one)
-        if 1e-3 * dt < c < T - 1e-3 * dt:
-            assert np.min(np.abs(t - c)) <= 0.5e-4 * dt
 
 
 @settings(max_examples=100, deadline=None)

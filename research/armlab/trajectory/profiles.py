@@ -76,7 +76,6 @@ __all__ = [
     "double_s_peak_speed",
     "double_s_min_times",
     "double_s_speed_for_duration",
-    "time_grid",
     "SCurveBatch",
     "synchronised_scurves",
     "trapezoid_min_time_from_state",
@@ -97,53 +96,6 @@ def _positive(x, name: str) -> float:
     if not math.isfinite(x) or x <= 0:
         raise InputError(f"{name} must be a finite number > 0, not {x!r}")
     return x
-
-
-CORNER_GAP = 1e-4  # width of the knot pair at a corner, as a fraction of dt
-
-
-def time_grid(
-    duration: float, dt: float, corners=(), *, ends: bool = False, knots=()
-) -> np.ndarray:
-    """Sample times ``0, dt, 2 dt, ..., duration`` in [s]; the last step may be shorter, and a
-    regular sample within ``delta / 2`` of an added knot is replaced by that knot (a step may
-    then be up to ``delta / 2`` longer than ``dt``).
-
-    ``corners`` are interior times where the acceleration steps (trapezoid phases, a path's
-    curvature). Each gets the knots ``t_c - delta`` and ``t_c`` (``delta = 1e-4 dt``), and with
-    ``ends`` (the acceleration steps at the start and the end too) the ends get ``delta`` and
-    ``duration - delta``. A :class:`Trajectory` stores one acceleration per knot and
-    interpolates between knots with quintic Hermite polynomials, so an interval that spans a
-    step would overshoot it (up to 1.5 times) when resampled; with the knot pairs only the
-    ``delta`` windows do — also where :meth:`Trajectory.concat` joins two motions.
-    ``knots`` are times added as they are (where only the jerk steps: the Hermite
-    interpolation is then exact on both sides). A zero duration gives ``[0.0]``.
-    """
-    dt = _positive(dt, "dt")
-    if duration <= 0:
-        return np.zeros(1)
-    n = int(math.floor(duration / dt + 1e-9))
-    t = dt * np.arange(n + 1)
-    if duration - t[-1] > 1e-9 * dt or n == 0:
-        t = np.append(t, duration)
-    else:
-        t[-1] = duration
-    delta = CORNER_GAP * dt
-    if duration <= 8 * delta:
-        return t
-    c = np.unique(np.asarray(corners, float).reshape(-1))
-    c = c[(c > 3 * delta) & (c < duration - 3 * delta)]
-    if c.size:
-        c = c[np.concatenate([[True], np.diff(c) > 3 * delta])]
-    k = np.asarray(knots, float).reshape(-1)
-    k = k[(k > 3 * delta) & (k < duration - 3 * delta)]
-    added = np.unique(np.concatenate([[delta, duration - delta] if ends else [], c - delta, c, k]))
-    if added.size == 0:
-        return t
-    added = added[np.concatenate([[True], np.diff(added) >= 0.5 * delta])]
-    near = np.min(np.abs(t[:, None] - added[None, :]), axis=1) < 0.5 * delta
-    near[[0, -1]] = False
-    return np.union1d(t[~near], added)
 
 
 @dataclass
