@@ -28,20 +28,7 @@ from armlab.planning.reachability import (
 from armlab.planning.topp import LIMIT_MARGIN, build_topp
 from armlab.robot.limits import resolve_limits
 from armlab.trajectory import time_optimal_path
-
-ONE_JOINT_URDF = """<?xml version="1.0"?>
-<robot name="one">
-  <link name="base"/>
-  <link name="arm">
-    <inertial><origin xyz="0.2 0 0"/><mass value="1.0"/>
-      <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>
-  </link>
-  <joint name="j1" type="revolute">
-    <parent link="base"/><child link="arm"/><axis xyz="0 1 0"/>
-    <limit lower="-3" upper="3" velocity="1.0" effort="10"/>
-  </joint>
-</robot>
-"""
+from test_optimal import ONE_JOINT_URDF  # the one-joint arm of the optimiser's tests
 
 #: waypoints of teachbot6 paths (inside the ranges, spline inside them too)
 PATHS = [
