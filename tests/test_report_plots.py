@@ -100,6 +100,48 @@ def test_a_process_that_hangs_is_stopped_and_named(tmp_path, monkeypatch):
     assert not any(child.is_alive() for child in drawing._children)
 
 
+_KILLED_PARENT = """
+import os, signal, sys, time
+sys.path.insert(0, {tests!r})
+from armlab.study.report import _FigureDrawing
+from test_report_plots import _plot
+
+def slow():
+    time.sleep(1.5)  # the study is killed meanwhile
+    return _plot(0)()
+
+drawing = _FigureDrawing([("late.png", "late", slow)], __import__("pathlib").Path({out!r}), 2)
+drawing.__enter__()
+while drawing._counter.value == 0:  # the child has taken the plot
+    time.sleep(0.01)
+print(drawing._children[0].pid, flush=True)
+os.kill(os.getpid(), signal.SIGKILL)
+"""
+
+
+def test_plot_processes_end_with_a_killed_study(tmp_path):
+    """A study killed with -9 while a plot process draws leaves no process that writes into the
+    folder afterwards (a re-run may own it by then)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = _KILLED_PARENT.format(tests=str(Path(__file__).parent), out=str(tmp_path))
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert proc.returncode == -9, proc.stderr
+    child = int(proc.stdout.split()[0])
+    time.sleep(2.5)  # past the child's drawing
+    assert not (tmp_path / "late.png").exists()
+    assert not list(tmp_path.glob(".*.tmp"))
+    try:
+        os.kill(child, 0)
+    except ProcessLookupError:
+        pass
+    else:  # still there (a zombie is gone from /proc/<pid>/status as "Z")
+        status = Path(f"/proc/{child}/status")
+        assert not status.exists() or "State:\tZ" in status.read_text(), "plot process alive"
+
+
 def test_process_count():
     assert _figure_processes(11, None) == 1
     assert _figure_processes(11, 1) == 1

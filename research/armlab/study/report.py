@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 import pickle
 import queue
+import signal
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -221,11 +223,30 @@ PLOT_DPI = 110
 PLOT_PROCESS_SILENCE_S = 600.0
 
 
-def _draw_one(name: str, make: Callable[[], Any], out_dir: Path) -> Path:
+def _die_with(parent: int) -> None:
+    """In a forked plot process: end with the study's process, also when that one is killed
+    (-9), so that no plot is written into a folder a new run may own by then. Linux asks the
+    kernel (``PR_SET_PDEATHSIG``); elsewhere :func:`_draw_one` checks the parent before it
+    writes."""
+    try:
+        import ctypes
+
+        ctypes.CDLL(None).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        pass
+    if os.getppid() != parent:  # it died before the request took effect
+        os._exit(0)
+
+
+def _draw_one(name: str, make: Callable[[], Any], out_dir: Path, parent: int | None = None) -> Path:
+    """Draw one plot and write it atomically; ``parent``: in a plot process, the study's
+    process, without which nothing is written."""
     from armlab.plots import offscreen
 
     with offscreen():  # object API + Agg canvas: the caller's backend and pyplot untouched
         fig = make()
+    if parent is not None and os.getppid() != parent:
+        os._exit(0)
     path = out_dir / name
     with atomic_open(path, "wb") as f:
         fig.savefig(f, format=path.suffix[1:] or "png", dpi=PLOT_DPI)
@@ -254,11 +275,12 @@ class _FigureDrawing:
             self._counter.value += 1
         return k
 
-    def _work(self, send) -> None:
+    def _work(self, send, parent: int | None = None) -> None:
         while (k := self._next()) < len(self.jobs):
             name, _, make = self.jobs[k]
             try:
-                send((k, None, _draw_one(name, make, self.out_dir)))
+                fig_path = _draw_one(name, make, self.out_dir, parent)
+                send((k, None, fig_path))
             except Exception as exc:  # reported to the parent, which raises it
                 send((k, exc, None))
                 return
@@ -287,8 +309,10 @@ class _FigureDrawing:
                     exc = RuntimeError(f"{self.jobs[k][0]}: {type(exc).__name__}: {exc}")
             self._queue.put((k, exc, path))
 
+        parent = os.getppid()
+        _die_with(parent)
         try:
-            self._work(send)
+            self._work(send, parent)
         finally:
             self._queue.put(None)  # this process is done
 
