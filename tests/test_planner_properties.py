@@ -95,6 +95,8 @@ def _erd_urdf(rel: str) -> Path:
 
 
 _ROBOTS: dict[str, Any] = {}
+#: the random arms' URDF files, removed with the folder when the session ends
+_MDH_DIR = tempfile.TemporaryDirectory(prefix="armlab_mdh_")
 #: random modified-DH arms in the pool
 N_MDH = 16
 
@@ -137,7 +139,7 @@ def random_mdh_robot(seed: int):
         masses=masses,
         payload=LumpedMass("payload", n, float(rng.uniform(0, 2)), (0.0, 0.0, 0.05)),
     )
-    path = Path(tempfile.mkdtemp(prefix="armlab_mdh_")) / f"mdh{seed}.urdf"
+    path = Path(_MDH_DIR.name) / f"mdh{seed}.urdf"
     path.write_text(urdf_from_dh(table, effort_Nm=np.full(n, 1e6)))
     probe = armlab.load_robot(path)
     g = np.abs(rigid_body.gravity_torques(probe, probe.random_q(rng, 64)))

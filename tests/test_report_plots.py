@@ -3,8 +3,11 @@ one process draws, a plot's error raised in the parent with its own type, a dead
 
 from __future__ import annotations
 
+import ast
 import multiprocessing
 import os
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -223,7 +226,29 @@ def test_the_command_line_runs_blas_on_one_thread_unless_told(monkeypatch):
             for name in BLAS_THREAD_VARIABLES:
                 monkeypatch.delenv(name, raising=False)
             assert one_blas_thread() is True and blas_threads() == {1}
+        assert os.environ["OPENBLAS_NUM_THREADS"] == "1"  # for the libraries loaded later
     finally:
         threadpoolctl.threadpool_limits(
             {i["prefix"]: i["num_threads"] for i in before if i["user_api"] == "blas"}
         )
+
+
+def test_blas_loaded_after_the_command_line_starts_runs_on_one_thread():
+    """scipy's own OpenBLAS loads at the first use of ``scipy.linalg``, after ``armlab``
+    limited the BLAS already loaded: it must run on one thread too (a fresh process, as the
+    command line is)."""
+    from armlab.cli import BLAS_THREAD_VARIABLES
+
+    code = (
+        "from armlab.cli import one_blas_thread; import threadpoolctl; "
+        "assert one_blas_thread(); import scipy.linalg; "
+        "print(sorted((i['filepath'].rsplit('/', 1)[-1], i['num_threads']) "
+        "for i in threadpoolctl.threadpool_info() if i['user_api'] == 'blas'))"
+    )
+    env = {k: v for k, v in os.environ.items() if k not in BLAS_THREAD_VARIABLES}
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    ).stdout
+    libraries = ast.literal_eval(out.strip())
+    assert len(libraries) >= 2, libraries  # numpy's and scipy's OpenBLAS
+    assert {n for _, n in libraries} == {1}, libraries

@@ -487,11 +487,17 @@ def one_blas_thread() -> bool:
     a sweep's workers) it slows them down 2-3x (``tune_arm`` 0.36 s on one thread, 1.08 s on
     two with the other core busy; measured). The numbers do not change (the demo's files are
     the same bit for bit on one thread and on two).
+
+    Two steps, because scipy brings its own OpenBLAS, loaded at the first use of
+    ``scipy.linalg``: the limit covers the libraries loaded so far, and
+    ``OPENBLAS_NUM_THREADS=1`` in the environment the ones loaded later (without it the demo's
+    tuning stage ran a second BLAS thread: 0.75-1.3 s of CPU in 0.42 s, measured).
     """
     if any(os.environ.get(name) for name in BLAS_THREAD_VARIABLES):
         return False
     from threadpoolctl import threadpool_limits
 
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"  # read by each OpenBLAS when it loads
     threadpool_limits(1, user_api="blas")
     return True
 

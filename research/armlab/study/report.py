@@ -218,6 +218,9 @@ def _figure_processes(n_jobs: int, workers: int | None) -> int:
 
 #: resolution of the report's PNG plots
 PLOT_DPI = 110
+#: zlib level of the report's PNG files: 1 instead of PIL's 6 -- 13 % less time per plot for
+#: files ~10 % larger (issue 15, measured on the 18-panel loads plot: 0.43 -> 0.37 s, 390 -> 432 kB)
+PNG_COMPRESS_LEVEL = 1
 #: a plot process that sends nothing for this long [s] is stopped and its plots are named as
 #: not drawn (a fork can inherit a lock another thread held; no study waits forever for it)
 PLOT_PROCESS_SILENCE_S = 600.0
@@ -248,8 +251,10 @@ def _draw_one(name: str, make: Callable[[], Any], out_dir: Path, parent: int | N
     if parent is not None and os.getppid() != parent:
         os._exit(0)
     path = out_dir / name
+    fmt = path.suffix[1:] or "png"
+    extra = {"pil_kwargs": {"compress_level": PNG_COMPRESS_LEVEL}} if fmt == "png" else {}
     with atomic_open(path, "wb") as f:
-        fig.savefig(f, format=path.suffix[1:] or "png", dpi=PLOT_DPI)
+        fig.savefig(f, format=fmt, dpi=PLOT_DPI, **extra)
     return path
 
 
