@@ -252,3 +252,64 @@ def test_blas_loaded_after_the_command_line_starts_runs_on_one_thread():
     libraries = ast.literal_eval(out.strip())
     assert len(libraries) >= 2, libraries  # numpy's and scipy's OpenBLAS
     assert {n for _, n in libraries} == {1}, libraries
+
+
+def test_drive_model_variants_simulated_beside_the_tracking_stage_are_the_plot_s(
+    tmp_path, monkeypatch
+):
+    """With two workers the drive-model plot's variants are simulated by a process forked at
+    the end of the tuning stage, beside the tracking stage: the plot is the file one process
+    draws, and the variants are those simulated in the study's own process."""
+    from armlab.control.simulate import tracking_variants
+    from armlab.study import run_spec
+    from armlab.study.report import DRIVE_MODEL_VARIANTS, _VariantPrefetch
+
+    spec = _study(tmp_path, ["kinematics", "plan", "tuning", "tracking"], 0.5)
+    one = run_spec(spec, tmp_path / "one", workers=1)
+    started: list[str] = []
+    original = _VariantPrefetch.__init__
+
+    def counted(self, ctx) -> None:
+        started.append(ctx.spec.study.name)
+        original(self, ctx)
+
+    monkeypatch.setattr(_VariantPrefetch, "__init__", counted)
+    run_spec(spec, tmp_path / "two", workers=2)
+    monkeypatch.undo()
+    assert len(started) == 1  # one process simulated the variants, beside the stage
+    name = "tracking_drive_model.png"
+    assert (tmp_path / "two" / name).read_bytes() == (tmp_path / "one" / name).read_bytes()
+
+    ctx = one.context
+    prefetch = _VariantPrefetch(ctx)
+    try:
+        got = prefetch.take()
+    finally:
+        prefetch.close()
+    here = tracking_variants(
+        ctx.robot, ctx.trajectory, ctx.gains, DRIVE_MODEL_VARIANTS, **ctx.tracking_options
+    )
+    assert set(got) == set(here) and "ideal" in got
+    for key, res in here.items():
+        assert np.array_equal(got[key].q, res.q) and np.array_equal(
+            got[key].current_A, res.current_A
+        )
+    assert got["ideal"].tcp_max_error_m < ctx.tracking.tcp_max_error_m  # not the full model
+
+
+def test_drive_model_variants_whose_process_dies_are_simulated_by_the_plot(tmp_path):
+    """A variant process that dies gives no variants, and the plot simulates them itself."""
+    from armlab.study import run_spec
+    from armlab.study.report import _drive_model_figure, _VariantPrefetch
+
+    spec = _study(tmp_path, ["kinematics", "plan", "tuning", "tracking"], 0.5)
+    ctx = run_spec(spec, tmp_path / "one", workers=1).context
+    prefetch = _VariantPrefetch(ctx)
+    prefetch._process.kill()
+    prefetch._process.join()
+    try:
+        assert prefetch.take() == {}
+        fig = _drive_model_figure(ctx, prefetch)  # simulated here instead
+    finally:
+        prefetch.close()
+    assert len(fig.axes) >= 2

@@ -279,7 +279,7 @@ def test_variants_simulated_together_are_each_simulated_alone(
     monkeypatch.setattr(sim, "_LINEAR_PERIODS", linear)
     names = ("ideal", "no_voltage_limit", "no_losses", "with_loss_feedforward")
     opts = {"feedforward": FF, "t_after_s": 0.1}
-    together = sim.tracking_variants(teachbot6, move, gains, full, names, **opts)
+    together = sim.tracking_variants(teachbot6, move, gains, names, **opts)
     assert set(together) == set(names)
     for name in names:
         kw = {**opts, **sim.DRIVE_VARIANTS[name]}

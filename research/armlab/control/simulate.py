@@ -906,12 +906,12 @@ def _loss_feedforward(ff: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[str, 
 
 
 def tracking_variants(
-    robot: Robot, trajectory, gains, result: TrackingResult, names, *, known=None, **options
+    robot: Robot, trajectory, gains, names, *, known=None, **options
 ) -> dict[str, TrackingResult]:
-    """The motion of ``result`` simulated again under each named :data:`DRIVE_VARIANTS`
-    (``options``: the other :func:`simulate_tracking` options of ``result``); those in
-    ``known`` are reused, ``with_loss_feedforward`` is left out when both are already fed
-    forward."""
+    """The motion :func:`simulate_tracking` gives with ``options`` (the full drive model)
+    simulated under each named :data:`DRIVE_VARIANTS` instead; those in ``known`` are reused,
+    ``with_loss_feedforward`` is left out when both are already fed forward. It needs no
+    full-model result, so it can run beside that simulation."""
     opts = {k: v for k, v in options.items() if k not in ("voltage_limit", "losses", "tcp")}
     ff = _feedforwards(opts.pop("feedforward", ("velocity",)))
     out = {n: known[n] for n in names if known and n in known}
@@ -922,7 +922,7 @@ def tracking_variants(
         switches = {"voltage_limit": True, "losses": True, **DRIVE_VARIANTS[name]}
         ff_v = ff
         if name == "with_loss_feedforward":
-            ff_v, extra = _loss_feedforward(tuple(result.feedforward))
+            ff_v, extra = _loss_feedforward(ff)
             if not extra:
                 continue
         todo[name] = (ff_v, switches["voltage_limit"], switches["losses"])
@@ -967,7 +967,6 @@ def diagnose_tracking(
         robot,
         trajectory,
         gains,
-        result,
         ("no_voltage_limit", "no_losses", "with_loss_feedforward"),
         known=cache,
         **options,

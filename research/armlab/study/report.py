@@ -51,8 +51,11 @@ def _plant(ctx, joint):
     return make
 
 
-def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
-    """(file name, caption, figure factory) of every plot the study can draw."""
+def _figures(
+    ctx, variants: _VariantPrefetch | None = None
+) -> list[tuple[str, str, Callable[[], Any]]]:
+    """(file name, caption, figure factory) of every plot the study can draw; ``variants``:
+    the drive-model variants being simulated beside the tracking stage, if they are."""
     from armlab.kinematics import tool_positions
     from armlab.plots import (
         bode_figure,
@@ -147,7 +150,7 @@ def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
                 "TCP error with and without the reducer's efficiency and friction and the "
                 "amplifier's supply limit (the verdict uses both), and with their feed-forward; "
                 "below, the full model's armature voltages against the supply",
-                lambda: _drive_model_figure(ctx),
+                lambda: _drive_model_figure(ctx, variants),
             )
         )
     loads = getattr(ctx.sizing, "loads", None)
@@ -168,23 +171,23 @@ def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
     return out
 
 
-def _drive_model_figure(ctx):
+def _drive_model_figure(ctx, variants: _VariantPrefetch | None = None):
     """The study's motion under each drive model: the tracking stage's result and its
     variants (:func:`armlab.control.simulate.tracking_variants`; those the stage's diagnosis
-    ran are reused, the others simulated only when the report is drawn -- by another process
-    when several draw, so the study's context keeps only the diagnosis's)."""
+    ran or ``variants`` simulated beside the stage are reused, the others simulated when the
+    report is drawn -- by another process when several draw, so the study's context keeps
+    only the diagnosis's)."""
     from armlab.control.simulate import tracking_variants
     from armlab.plots.servo import drive_model_figure
 
     res = ctx.tracking
-    names = ("ideal", "no_voltage_limit", "with_loss_feedforward")
+    known = {**(variants.take() if variants is not None else {}), **ctx.tracking_variants}
     v = tracking_variants(
         ctx.robot,
         ctx.trajectory,
         ctx.gains,
-        res,
-        names,
-        known=ctx.tracking_variants,
+        DRIVE_MODEL_VARIANTS,
+        known=known,
         **ctx.tracking_options,
     )
     ctx.tracking_variants.update(v)
@@ -199,9 +202,15 @@ def _drive_model_figure(ctx):
     return drive_model_figure(runs)
 
 
+#: the drive models of the report's drive-model plot beside the study's full model
+#: (:data:`armlab.control.simulate.DRIVE_VARIANTS`)
+DRIVE_MODEL_VARIANTS = ("ideal", "no_voltage_limit", "with_loss_feedforward")
 #: figures that take longest (simulations, many axes), started first so that the processes
 #: drawing the others finish together (a scheduling hint: the files do not depend on it)
 _SLOW_FIRST = ("tracking_drive_model.png", "kinematics_accuracy.png", "sizing_loads.png")
+#: with its variants simulated beside the tracking stage (:class:`_VariantPrefetch`) the
+#: drive-model plot is drawn last instead: its process may still have to wait for them
+_WAITS_LAST = "tracking_drive_model.png"
 
 
 def _figure_processes(n_jobs: int, workers: int | None) -> int:
@@ -241,6 +250,20 @@ def _die_with(parent: int) -> None:
         os._exit(0)
 
 
+def _start_forked(processes) -> None:
+    """Start forked processes with the study's objects frozen out of their garbage collector
+    (:func:`gc.freeze`): a collection in a child would otherwise touch, and so copy, every
+    page of the objects it inherited."""
+    import gc
+
+    gc.freeze()
+    try:
+        for process in processes:
+            process.start()
+    finally:
+        gc.unfreeze()
+
+
 def _draw_one(name: str, make: Callable[[], Any], out_dir: Path, parent: int | None = None) -> Path:
     """Draw one plot and write it atomically; ``parent``: in a plot process, the study's
     process, without which nothing is written."""
@@ -264,9 +287,19 @@ class _FigureDrawing:
     ends, then waits for the others. A plot that fails raises its error here, after every
     process has stopped (the files the others wrote stay)."""
 
-    def __init__(self, jobs, out_dir: Path, processes: int, *, parent_draws: bool = True) -> None:
+    def __init__(
+        self,
+        jobs,
+        out_dir: Path,
+        processes: int,
+        *,
+        parent_draws: bool = True,
+        prefetched: bool = False,
+    ) -> None:
         rank = {name: k for k, name in enumerate(_SLOW_FIRST)}
-        self.jobs = sorted(jobs, key=lambda job: rank.get(job[0], len(rank)))
+        if prefetched:  # the drive-model plot waits for its simulations: last
+            rank[_WAITS_LAST] = len(rank) + 1
+        self.jobs = sorted(jobs, key=lambda job: rank.get(job[0], len(_SLOW_FIRST)))
         self.out_dir = out_dir
         self.processes = processes
         self.parent_draws = parent_draws  # False: the parent only waits (it has stages to run)
@@ -298,10 +331,10 @@ class _FigureDrawing:
         mp = multiprocessing.get_context("fork")
         self._counter = mp.Value("i", 0)
         self._queue = mp.Queue()
-        for _ in range(self.processes - 1):
-            child = mp.Process(target=self._child, daemon=True)
-            child.start()
-            self._children.append(child)
+        self._children = [
+            mp.Process(target=self._child, daemon=True) for _ in range(self.processes - 1)
+        ]
+        _start_forked(self._children)
         return self
 
     def _child(self) -> None:
@@ -408,6 +441,72 @@ _STAGE_PLOTS = {
 }
 
 
+class _VariantPrefetch:
+    """The drive-model plot's variants (:data:`DRIVE_MODEL_VARIANTS`) simulated by a forked
+    process while the tracking stage runs: they need the plan, the gains and the study's
+    tracking options, not the stage's result, and were the report's longest job (issue 15:
+    ~2 s of CPU that could only start once the stage had ended).
+
+    :meth:`take` is called once, by the process that draws the plot; it returns ``{}`` when
+    the simulations failed or fell silent, and the plot then simulates them itself (the same
+    numbers, the error raised where it would have been)."""
+
+    def __init__(self, ctx) -> None:
+        import multiprocessing
+
+        from armlab.study.stages import tracking_options
+
+        mp = multiprocessing.get_context("fork")
+        self._receive, send = mp.Pipe(duplex=False)
+        args = (ctx.robot, ctx.trajectory, ctx.gains, tracking_options(ctx), send)
+        self._process = mp.Process(target=self._simulate, args=args, daemon=True)
+        _start_forked([self._process])
+        send.close()
+        self._taken: dict | None = None
+
+    @staticmethod
+    def _simulate(robot, trajectory, gains, options, send) -> None:
+        from armlab.control.simulate import tracking_variants
+
+        _die_with(os.getppid())
+        try:
+            result = tracking_variants(robot, trajectory, gains, DRIVE_MODEL_VARIANTS, **options)
+        except Exception:  # the plot simulates them again and raises the error there
+            result = None
+        send.send(result)
+        send.close()
+
+    def take(self) -> dict:
+        """The simulated variants by name (``{}`` when there are none)."""
+        if self._taken is None:
+            self._taken = {}
+            try:
+                if self._receive.poll(PLOT_PROCESS_SILENCE_S):
+                    self._taken = self._receive.recv() or {}
+            except (EOFError, OSError):  # the process died: the plot simulates them
+                pass
+        return self._taken
+
+    def close(self) -> None:
+        """Stop the process if nobody took its result (no plot, a failed stage)."""
+        if self._process.is_alive():
+            self._process.terminate()
+        self._process.join()
+        self._receive.close()
+
+
+def _preload_plotting() -> None:
+    """Import matplotlib and the plot modules in the study's process, once, so that the plot
+    processes forked later inherit them instead of each importing them (~0.3 s of CPU each)."""
+    import matplotlib.backends.backend_agg  # noqa: F401
+    import matplotlib.figure  # noqa: F401
+
+    import armlab.plots.dynamics  # noqa: F401
+    import armlab.plots.kinematics  # noqa: F401
+    import armlab.plots.optimal  # noqa: F401
+    import armlab.plots.servo  # noqa: F401
+
+
 class StagePlots:
     """With several ``workers``, the report's plots drawn while the later stages run: when a
     stage ends, its final plots (:data:`_STAGE_PLOTS`, with any still waiting) go to a forked
@@ -419,30 +518,48 @@ class StagePlots:
         self.on = _figure_processes(2, workers) >= 2
         self.drawings: list[_FigureDrawing] = []
         self.waiting: list[str] = []  # prefixes of final plots not started yet
+        self.variants: _VariantPrefetch | None = None
+        self._preloaded = False
 
     def stage_done(self, ctx, stage: str) -> None:
         if not self.on:
             return
+        if stage == "tuning" and "tracking" in ctx.spec.study.stages:
+            self.variants = _VariantPrefetch(ctx)  # beside the tracking stage
         self.waiting += _STAGE_PLOTS.get(stage, ())
         busy = any(c.is_alive() for d in self.drawings for c in d._children)
-        if busy or not self.waiting:
-            return
-        jobs = [job for job in _figures(ctx) if job[0].startswith(tuple(self.waiting))]
-        self.waiting = []
-        if jobs:
-            drawing = _FigureDrawing(jobs, self.out_dir, 2, parent_draws=False)
-            self.drawings.append(drawing.__enter__())
+        if not busy and self.waiting:
+            jobs = _figures(ctx, self.variants)
+            jobs = [job for job in jobs if job[0].startswith(tuple(self.waiting))]
+            self.waiting = []
+            if jobs:
+                drawing = _FigureDrawing(
+                    jobs, self.out_dir, 2, parent_draws=False, prefetched=self.variants is not None
+                )
+                self.drawings.append(drawing.__enter__())
+        if self.drawings and not self._preloaded:  # after the first fork: it imports its own
+            _preload_plotting()
+            self._preloaded = True
 
     def names(self) -> set[str]:
         return {job[0] for d in self.drawings for job in d.jobs}
 
     def finish(self) -> list[Path]:
-        return [path for d in self.drawings for path in d.finish()]
+        try:
+            return [path for d in self.drawings for path in d.finish()]
+        finally:
+            self._close_variants()
 
     def abort(self) -> None:
         for d in self.drawings:
             d.abort()
         self.drawings = []
+        self._close_variants()
+
+    def _close_variants(self) -> None:
+        if self.variants is not None:
+            self.variants.close()
+            self.variants = None
 
 
 def write_report(
@@ -568,7 +685,8 @@ def write_report(
     lines += _table(
         ["figure", "value"], [[k, v] for k, v in kf.items() if not k.startswith("stage_")]
     )
-    jobs = _figures(ctx)
+    variants = early.variants if early is not None else None
+    jobs = _figures(ctx, variants)
     if jobs:
         lines += ["## Plots", ""]
     for name, caption, _ in jobs:
@@ -578,7 +696,7 @@ def write_report(
     rest = [job for job in jobs if job[0] not in started]
     processes = _figure_processes(len(jobs), workers)
     summary["study"]["plot_processes"] = processes
-    with _FigureDrawing(rest, out_dir, processes) as drawing:
+    with _FigureDrawing(rest, out_dir, processes, prefetched=variants is not None) as drawing:
         lines += _motion_lines(ctx, out_dir, files)
     files += drawing.paths
     if early is not None:

@@ -830,12 +830,10 @@ def stage_tuning(ctx: StudyContext) -> dict:
     }
 
 
-def stage_tracking(ctx: StudyContext) -> dict:
-    """Closed-loop simulation of the arm tracking the plan with the tuned cascades; the verdict
-    is the TCP error against the accuracy budget."""
-    from armlab.control import simulate_tracking
-
-    _needs_drives(ctx)
+def tracking_options(ctx: StudyContext) -> dict[str, Any]:
+    """The :func:`~armlab.control.simulate_tracking` options of the study's ``[tracking]``
+    table and controller: the full drive model (supply-voltage limit with back-EMF, reducer
+    efficiency and friction, the controller's servo period, D/A and encoder)."""
     t = ctx.spec.tracking
     ff = t.feedforward if t.feedforward is None or t.feedforward == "none" else tuple(t.feedforward)
     opts: dict[str, Any] = {"quantise": t.quantise}
@@ -845,9 +843,17 @@ def stage_tracking(ctx: StudyContext) -> dict:
         opts["t_after_s"] = t.t_after_s
     if t.accuracy_m is not None:
         opts["accuracy_m"] = t.accuracy_m
-    # the full model: supply-voltage limit with back-EMF, reducer efficiency and friction,
-    # the controller's servo period, D/A and encoder
     opts["controller"] = ctx.controller
+    return opts
+
+
+def stage_tracking(ctx: StudyContext) -> dict:
+    """Closed-loop simulation of the arm tracking the plan with the tuned cascades; the verdict
+    is the TCP error against the accuracy budget."""
+    from armlab.control import simulate_tracking
+
+    _needs_drives(ctx)
+    opts = tracking_options(ctx)
     res = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, **opts)
     ctx.tracking, ctx.tracking_options, ctx.tracking_variants = res, opts, {}
     failed = []
