@@ -36,8 +36,9 @@ def plot_workspace(
     """
     p = result.points_m[:max_points] * 1000.0
     r = np.hypot(p[:, 0], p[:, 1])
-    fig = new_figure(figsize=(11, 5), layout="constrained")
+    fig = new_figure(figsize=(11, 5))
     side, top = fig.subplots(1, 2)
+    fixed_layout(fig, 1, 2, left=0.85, right=0.2, top=0.8, bottom=0.6, wgap=1.0)
     side.scatter(r, p[:, 2], s=1, alpha=0.25, color="tab:blue", rasterized=True)
     side.axvline(
         result.max_reach_m * 1000,

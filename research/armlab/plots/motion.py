@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from armlab.plots._figure import new_figure
+from armlab.plots._figure import fixed_layout, new_figure
 
 if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with the package
     from matplotlib.figure import Figure
@@ -62,8 +62,9 @@ def plot_tcp_path(robot: Robot, traj, taught_points=None, *, title: str | None =
 
     P = fk_batch(robot, traj.q)[:, :3, 3]
     pts = traj.meta.get("taught_points") if taught_points is None else taught_points
-    fig = new_figure(figsize=(7, 6), constrained_layout=True)
+    fig = new_figure(figsize=(7, 6))
     ax = fig.add_subplot(projection="3d")
+    fixed_layout(fig, 1, 1, left=0.3, right=0.3, top=0.4, bottom=0.3)
     ax.plot(P[:, 0], P[:, 1], P[:, 2], lw=1.5, label="tool centre point")
     ax.scatter(*P[0], color="g", s=30, label="start")
     ax.scatter(*P[-1], color="r", s=30, label="end")

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from armlab.errors import InputError
-from armlab.plots._figure import new_figure
+from armlab.plots._figure import fixed_layout, new_figure
 
 if TYPE_CHECKING:  # matplotlib is imported when a plot is drawn, not with the package
     from matplotlib.figure import Figure
@@ -60,8 +60,9 @@ def plot_limit_profiles(
     signals = {"q": q, "qd": qd, "qdd": qdd, "qddd": qddd}
     t_rel = times - traj.t[0]
     limits = _limits_of(traj, robot)
-    fig = new_figure(figsize=(9, 9), constrained_layout=True)
+    fig = new_figure(figsize=(9, 9))
     axes = fig.subplots(4, 1, sharex=True)
+    fixed_layout(fig, 4, 1, left=0.95, right=0.25, top=0.6, bottom=0.6, hgap=0.2)
     for ax, (key, label, lim_name) in zip(axes, _ROWS, strict=True):
         lim = limits.get(lim_name) if lim_name else None
         for j, name in enumerate(traj.joint_names):
@@ -106,8 +107,9 @@ def plot_torque_ratio(
     if tau_max.shape != (traj.n_joints,):
         raise InputError(f"tau_max has shape {tau_max.shape}, expected ({traj.n_joints},)")
     ratio = np.abs(tau) / tau_max
-    fig = new_figure(figsize=(9, 4), constrained_layout=True)
+    fig = new_figure(figsize=(9, 4))
     ax = fig.subplots()
+    fixed_layout(fig, 1, 1, left=0.8, right=0.25, top=0.45, bottom=0.6)
     for j, name in enumerate(traj.joint_names):
         ax.plot(
             fine.t,
