@@ -31,8 +31,11 @@ its limits at the grid points only and breaks them between: stretched in time by
 factor that meets every limit on the same fine check,
 :func:`armlab.planning.timescale.stretch_needed`); and, to show where a difference comes from,
 our sweeps *on TOPP-RA's rows* -- the limits imposed at the grid points only (each interval's
-``(u_k, x_k)`` at ``s_k``, TOPP-RA's collocation; the velocity at the nodes), not tightened by
-``LIMIT_MARGIN``, the grid profile's duration -- over TOPP-RA's. Goals (issue 15): time <= 3x
+``(u_k, x_k)`` at ``s_k``, TOPP-RA's collocation of the torque; TOPP-RA imposes the
+acceleration at ``s_k+1`` too, its default "interpolation", so these rows are fewer than its;
+the velocity at the nodes), not tightened by ``LIMIT_MARGIN``, the grid profile's duration --
+over TOPP-RA's (above 1 on a path: a loss of the greedy forward pass,
+:mod:`armlab.planning.reachability` "Optimality"). Goals (issue 15): time <= 3x
 TOPP-RA's at the same grid, duration no longer than TOPP-RA's (judged against TOPP-RA made
 feasible, since TOPP-RA's own plan is over its limits between grid points).
 

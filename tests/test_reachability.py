@@ -400,3 +400,42 @@ def test_the_check_finds_a_violation_between_the_samples(teachbot6):
     assert report.ratios[kind][j] > 1 + 1e-6
     assert np.min(np.abs(traj.t - report.at_s[kind][j])) > 0  # between samples
     assert at_samples[kind][j] / factor < 1  # the samples alone would pass
+
+
+def test_the_check_samples_against_an_independent_construction(teachbot6):
+    """The limit samples of a plan (:meth:`Trajectory.limit_samples`, every planner's check)
+    rebuilt from the public evaluation: the left limits, the stored knots and the critical
+    times evaluated by ``at``, ordered by time with each knot's left limit first; with the
+    robot, the same rows plus interior points, and at every row the torque of Pinocchio's
+    RNEA called once per row."""
+    traj = time_optimal_path(
+        teachbot6, PATHS[1], method="reachability", n_grid=30, v_max=2.0, a_max=20.0, j_max=False
+    )
+    smp = traj.limit_samples(None)
+    crit = traj.critical_times()
+    left = traj.left_limits()
+    inner = traj.at(crit)
+    t = np.concatenate([traj.t[1:], traj.t, crit])
+    order = np.lexsort((np.repeat([0, 1, 2], [traj.t.size - 1, traj.t.size, crit.size]), t))
+    np.testing.assert_array_equal(smp.t, t[order])
+    for got, parts in zip(
+        (smp.q, smp.qd, smp.qdd),
+        ((left[i], stored, inner[i]) for i, stored in enumerate((traj.q, traj.qd, traj.qdd))),
+        strict=True,
+    ):
+        np.testing.assert_array_equal(got, np.concatenate(parts)[order])
+    assert smp.qddd is None and smp.tau is None  # no jerk without qddd, no robot
+    full = traj.limit_samples(None, robot=teachbot6)
+    assert np.all(np.diff(full.t) >= 0)
+    assert np.isin(smp.t, full.t).all()  # the exact peak points, and more for the torque
+    extra = full.t[~np.isin(full.t, smp.t)]
+    assert extra.size > traj.t.size  # the middles of the pieces at least
+    assert not np.isin(extra, traj.t).any()  # strictly inside pieces
+    model, data = teachbot6.model, teachbot6.model.createData()
+    tau = np.array([pin.rnea(model, data, *z) for z in zip(full.q, full.qd, full.qdd, strict=True)])
+    np.testing.assert_allclose(full.tau, tau, rtol=1e-12, atol=1e-12 * np.abs(tau).max())
+    q, qd, qdd, _ = traj.at(extra)  # the interior rows are the evaluation there
+    inside = np.isin(full.t, extra)
+    np.testing.assert_allclose(full.q[inside], q, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(full.qd[inside], qd, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(full.qdd[inside], qdd, rtol=1e-12, atol=1e-9)

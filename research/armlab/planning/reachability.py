@@ -62,7 +62,13 @@ where ``q'(s)^2`` curves along a velocity-limited stretch the greedy plan zig-za
 optimum. Measured against IPOPT on the same rows (12 benchmark paths, ``n_grid`` 100): 0.01 %
 slower in the median, 0.31 % at most (teachbot6, velocity-bound); UR5 cases (acceleration-
 bound) within 0.005 %. Neither a time-reversed greedy pass nor the mean of both closes the
-gap (measured on six of those paths).
+gap (measured on six of those paths). Any row whose upper line falls faster than
+``-1 / (2 ds_k)`` in ``x_k`` (an acceleration or torque row) breaks the condition too: on rows
+at the grid points only (no velocity rows inside the intervals; the benchmark's "TOPP-RA's
+rows", 24 paths) the optimum is up to 0.09 % (teachbot6) and 0.39 % (UR5) shorter than the
+greedy plan (median 0 and 0.04 %), and on one path TOPP-RA's own plan, which meets those
+rows, is 0.05 % shorter (its controllable sets are smaller than these exact ones, and its
+greedy pass stays lower).
 
 Where it is used, and jerk
 --------------------------
@@ -78,6 +84,7 @@ uses its convex envelope pass instead.
 
 from __future__ import annotations
 
+import functools
 import time as _time
 from dataclasses import dataclass
 
@@ -200,6 +207,12 @@ def interval_coefficients(prob: ToppProblem) -> dict:
     return out
 
 
+@functools.cache
+def _labels(names: tuple[str, ...], blocks: tuple[tuple[str, str], ...]) -> tuple[str, ...]:
+    """What each row is, for error messages: ``blocks`` (kind, where) of n rows each."""
+    return tuple(f"{kind} limit of {j} at {where}" for kind, where in blocks for j in names)
+
+
 def _row_blocks(prob: ToppProblem, kinds: tuple[bool, bool, bool]) -> dict:
     """The parts of the rows that do not depend on the limit values or scales, for the active
     kinds (velocity, acceleration, torque): ``a, b`` (K, R) of the canonical form, the rows
@@ -212,32 +225,24 @@ def _row_blocks(prob: ToppProblem, kinds: tuple[bool, bool, bool]) -> dict:
     vel_on, acc_on, tau_on = kinds
     ds = np.diff(prob.s)
     K, n = ds.size, prob.coeffs["node"]["d1"].shape[1]
-    names = prob.limits.joint_names
-    A: list[np.ndarray] = []
-    B: list[np.ndarray] = []
-    none: list[np.ndarray] = []
+    # the blocks (n rows each, one per joint): a row at s_k + frac ds_k reads
+    # alpha u + beta (x_k + 2 frac ds_k u); frac a number or (K, 1) (the knot rows; NaN: no
+    # row in that interval)
+    alphas: list[np.ndarray | None] = []  # None: 0 (velocity)
+    betas: list[np.ndarray] = []
+    fracs: list[float | np.ndarray] = []
     G: list[np.ndarray] = []  # gravity of each torque block
     order: list[str] = []  # kind of each block
-    labels: list[str] = []
 
     def add(alpha, beta, frac, kind: str) -> None:
-        # a row at s_k + frac ds_k: alpha u + beta (x_k + 2 frac ds_k u); frac a number or
-        # (K, 1) (the knot rows; NaN: no row in that interval)
-        if np.ndim(frac):
-            f = np.nan_to_num(frac, nan=0.0)
-            none.append(np.isnan(frac) & np.ones((K, n), bool))
-        else:
-            f = frac
-            none.append(np.zeros((K, n), bool))
-        A.append(alpha + 2 * f * ds[:, None] * beta)
-        B.append(beta)
+        alphas.append(alpha)
+        betas.append(beta)
+        fracs.append(frac)
         order.append(kind)
-        where = "a spline knot" if np.ndim(frac) else f"{frac:g} of the interval"
-        labels.extend(f"{kind} limit of {j} at {where}" for j in names)
 
     if vel_on:
         for frac, d1 in coeffs["velocity"].items():
-            add(np.zeros((K, n)), d1**2, frac, "velocity")
+            add(None, d1**2, frac, "velocity")
     at: list[tuple[float | np.ndarray, dict]] = list(coeffs["limit"].items())
     at.append((coeffs["knot"]["frac"][:, None], coeffs["knot"]["C"]))
     for frac, C in at:
@@ -246,20 +251,40 @@ def _row_blocks(prob: ToppProblem, kinds: tuple[bool, bool, bool]) -> dict:
         if tau_on:
             add(C["m"], C["c"], frac, "torque")
             G.append(C["g"])
-    a, b = np.hstack(A), np.hstack(B)
+    nb = len(order)
+    two_f_ds = np.empty((K, nb))  # 2 frac ds_k, evaluated as (2 frac) ds_k
+    none_b = np.zeros((K, nb), bool)
+    for i, f in enumerate(fracs):
+        if isinstance(f, np.ndarray):
+            two_f_ds[:, i] = (2 * np.nan_to_num(f, nan=0.0) * ds[:, None])[:, 0]
+            none_b[:, i] = np.isnan(f)[:, 0]
+        else:
+            two_f_ds[:, i] = 2 * f * ds
+    beta3 = np.stack(betas, axis=1)  # (K, blocks, n): hstack's column order once reshaped
+    alpha3 = np.stack([np.zeros((K, n)) if x is None else x for x in alphas], axis=1)
+    a = (alpha3 + two_f_ds[:, :, None] * beta3).reshape(K, nb * n)
+    b = beta3.reshape(K, nb * n)
+    where = tuple(
+        (kind, "a spline knot" if isinstance(f, np.ndarray) else f"{f:g} of the interval")
+        for kind, f in zip(order, fracs, strict=True)
+    )
+    labels = list(_labels(tuple(prob.limits.joint_names), where))
     # rows without u (|a| negligible in its interval) bound x_k alone
     amax_k = np.max(np.abs(a), axis=1, initial=0.0)
     free = np.abs(a) <= 1e-13 * amax_k[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         slope = np.where(free, 0.0, -b / a)
+    none_all = np.repeat(none_b, n, axis=1)
     out = {
         "a": a,
         "b": b,
         "free": free,
         "any_free": bool(free.any()),
+        "free_cols": np.flatnonzero(free.any(axis=0)),  # the columns holding such rows
         "pos": a > 0,
         "slope": slope,
-        "none": np.hstack(none),
+        "none": none_all,
+        "none_cols": np.flatnonzero(none_all.any(axis=0)),  # the knot rows' columns
         "order": order,
         "g": G,
         "labels": labels,
@@ -314,19 +339,22 @@ def canonical_rows(
         else:
             LO.append(lo_hi[kind][0])
             HI.append(lo_hi[kind][1])
-    none = blk["none"]
-    lo = np.where(none, -np.inf, np.hstack(LO))
-    hi = np.where(none, np.inf, np.hstack(HI))
+    none, nc = blk["none"], blk["none_cols"]  # rows absent from an interval: no bounds
+    lo, hi = np.hstack(LO), np.hstack(HI)
+    lo[:, nc] = np.where(none[:, nc], -np.inf, lo[:, nc])
+    hi[:, nc] = np.where(none[:, nc], np.inf, hi[:, nc])
     a, b, free, pos = blk["a"], blk["b"], blk["free"], blk["pos"]
 
     x_lo = np.zeros(K + 1)
     x_hi = np.full(K + 1, np.inf)
-    if blk["any_free"]:  # rows without u bound x_k alone
+    if blk["any_free"]:  # rows without u bound x_k alone (in the columns holding any)
+        fc = blk["free_cols"]
+        fr, bf, lf, hf = free[:, fc], b[:, fc], lo[:, fc], hi[:, fc]
         with np.errstate(divide="ignore", invalid="ignore"):
-            xb1, xb2 = lo / b, hi / b
-            xl = np.where(free & (b > 0), xb1, np.where(free & (b < 0), xb2, -np.inf))
-            xh = np.where(free & (b > 0), xb2, np.where(free & (b < 0), xb1, np.inf))
-        dead = free & (b == 0) & ((lo > 0) | (hi < 0))  # 0 outside [lo, hi]: no x at all
+            xb1, xb2 = lf / bf, hf / bf
+            xl = np.where(fr & (bf > 0), xb1, np.where(fr & (bf < 0), xb2, -np.inf))
+            xh = np.where(fr & (bf > 0), xb2, np.where(fr & (bf < 0), xb1, np.inf))
+        dead = fr & (bf == 0) & ((lf > 0) | (hf < 0))  # 0 outside [lo, hi]: no x at all
         xh = np.where(dead, -np.inf, xh)
         x_lo[:-1] = np.maximum(0.0, np.max(xl, axis=1, initial=-np.inf))
         x_hi[:-1] = np.min(xh, axis=1, initial=np.inf)
@@ -344,8 +372,9 @@ def canonical_rows(
         p_lo = np.where(pos, lo, hi) / a
         p_hi = np.where(pos, hi, lo) / a
     if blk["any_free"]:
-        p_lo = np.where(free, -np.inf, p_lo)
-        p_hi = np.where(free, np.inf, p_hi)
+        fc = blk["free_cols"]
+        p_lo[:, fc] = np.where(free[:, fc], -np.inf, p_lo[:, fc])
+        p_hi[:, fc] = np.where(free[:, fc], np.inf, p_hi[:, fc])
     slope = blk["slope"]
     q_lo = np.where(np.isfinite(p_lo), slope, 0.0)
     q_hi = np.where(np.isfinite(p_hi), slope, 0.0)

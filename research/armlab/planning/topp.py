@@ -33,14 +33,18 @@ middle and any spline knot; the velocity at eighths), a backward sweep of contro
 and a greedy forward pass, each step a two-variable LP in closed form
 (:mod:`armlab.planning.reachability`). Greedy on denser rows, not the convex optimum: in
 ``benchmarks/bench_topp.py`` (24 paths, ``n_grid`` 100) at most 0.26 % slower than the convex
-pass (median 0.06 % teachbot6, 0.001 % UR5), and the whole call takes about 14-16 ms against
-0.7-1.3 s: 3.0-3.3x TOPP-RA's solve on the same grid (2.3x its whole call, with its spline and
-constraint objects), a little more than half of it the limit check. Its
-plans are 0.03-0.7 % longer than TOPP-RA's on the same grid (median 0.14 %) because the limits
-are imposed between the grid points too: TOPP-RA's plans break them there (by 0.03-11 % on
-a ``T / 4000`` check), and on TOPP-RA's rows (grid points only, no ``LIMIT_MARGIN``) these
-sweeps give plans at most 0.05 % longer than TOPP-RA's (the rows at spline knots, which it
-has not) and up to 1.2 % shorter (median 0.04 % teachbot6, 0.9 % UR5). No envelope
+pass (median 0.06 % teachbot6, 0.001 % UR5), and the whole call takes about 12-13 ms against
+0.7-1.3 s: 2.6-2.8x TOPP-RA's solve on the same grid (1.9x its whole call, with its spline and
+constraint objects), half of it the limit check (a quarter of the call its one batched RNEA).
+Its plans are 0.03-0.7 % longer than TOPP-RA's on the same grid (median 0.14 %) because the
+limits are imposed between the grid points too: TOPP-RA's plans break them there (by
+0.03-11 % on a ``T / 4000`` check). On rows at the grid points only (no ``LIMIT_MARGIN``;
+fewer than TOPP-RA's, which imposes the acceleration at both ends of each interval) these
+sweeps give plans up to 1.2 % shorter than TOPP-RA's (median 0.04 % teachbot6, 0.9 % UR5)
+and on one path 0.05 % longer: a loss of the greedy forward pass, not of the rows (without
+the spline-knot rows it stays; TOPP-RA's plan meets these rows) -- on those rows the optimum
+(IPOPT) is up to 0.09 % (teachbot6) and 0.39 % (UR5) shorter than the greedy plan (median
+0 and 0.04 %; :mod:`armlab.planning.reachability`, "Optimality"). No envelope
 rows: with ``drive_limits`` the convex envelope pass runs whatever the method. Everything
 after the first pass (Trajectory, back-off, jerk pass, check) is shared.
 
@@ -849,7 +853,8 @@ class ToppProblem:
         self.static_check(self.limits)
         ls0 = self.limits
         jl = ls0
-        ls = resolve_limits(ls0, j_max=False)  # the first pass has no jerk limit
+        # the first pass has no jerk limit
+        ls = ls0 if ls0.jerk_rad_s3 is None else resolve_limits(ls0, j_max=False)
         K, n = self.s.size - 1, ls.n_joints
         kinds: tuple[str, ...] = ("velocity", "acceleration", "torque")
         train = self.train
@@ -986,6 +991,7 @@ class ToppProblem:
             if r[i] >= 1 - 2e-3 and k != "position"
         ]
         drive_ok = all(float(np.max(r)) <= 1 + 1e-9 for r in drive_ratios.values())
+        report_ok = traj.report.ok(CHECK_TOL) and drive_ok
         solver = "reachability analysis (Pham & Pham 2018)"
         if method == "convex" or "jerk" in passes:
             # casadi's stubs omit the module's __version__
@@ -999,14 +1005,14 @@ class ToppProblem:
             "trajectory_time_s": spent["trajectory"],
             "check_time_s": spent["check"],
             "n_intervals": int(self.s.size - 1),
-            "success": traj.report.ok(CHECK_TOL) and drive_ok,
+            "success": report_ok,
             "passes": passes,
             "backoff_rounds": rounds,
             "duration_s": traj.duration,
             "tolerance_stretch": k_tol,
             "binding": binding,
             "report_dt_s": dt,
-            "ok": traj.report.ok(CHECK_TOL) and drive_ok,
+            "ok": report_ok,
             "drive_limits": train is not None,
         }
         if train is not None:
@@ -1271,7 +1277,7 @@ def time_optimal_path(
         (default): reachability analysis (Pham & Pham, "A New Approach to Time-Optimal Path
         Parameterization Based on Reachability Analysis"), two closed-form sweeps over the
         grid (:mod:`armlab.planning.reachability`; denser limit rows, greedy: at most 0.3 %
-        slower than the convex pass in the benchmark, about 14 ms a call against about 1 s).
+        slower than the convex pass in the benchmark, about 13 ms a call against about 1 s).
         ``"convex"``: the
         convex program of Verscheure et al. with IPOPT (globally optimal on its grid).
 

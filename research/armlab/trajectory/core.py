@@ -49,6 +49,7 @@ interpolation around every local peak (RNEA at each point).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -153,26 +154,44 @@ class LimitSamples:
     tau: np.ndarray | None = None
 
 
-def _unit_roots(coeffs: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Real roots in (0, 1) of the polynomials ``sum_i coeffs[i] s^i`` (each coefficient an
-    array of one shape, one polynomial per element): (flat element index, root) arrays.
-
-    The degree of each polynomial is its highest coefficient above ``1e-12`` times the sum of
-    their magnitudes; roots from the closed forms up to degree 2, else from the eigenvalues of
-    the companion matrix."""
-    c = np.stack([np.asarray(x, dtype=float).reshape(-1) for x in coeffs], axis=1)
-    # no root in [0, 1] where the Bernstein coefficients share one strict sign (convex hull;
-    # Farouki, CAGD 29 2012): most pieces, whose derivative does not vanish inside
-    D = c.shape[1] - 1
-    to_bernstein = np.array(
+@functools.cache
+def _to_bernstein(D: int) -> np.ndarray:
+    """The matrix taking the power coefficients of a degree-``D`` polynomial on [0, 1] to its
+    Bernstein coefficients (``b = c @ M.T``)."""
+    return np.array(
         [
             [math.comb(k, i) / math.comb(D, i) if i <= k else 0.0 for i in range(D + 1)]
             for k in range(D + 1)
         ]
     )
-    b = c @ to_bernstein.T
-    index = np.flatnonzero(~(np.all(b > 0, axis=1) | np.all(b < 0, axis=1)))
-    c = c[index]
+
+
+def _unit_roots(*polys: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Real roots in (0, 1) of the polynomials ``sum_i coeffs[i] s^i`` of every ``coeffs`` in
+    ``polys`` (each coefficient an array of one shape, one polynomial per element): (flat
+    element index, root) arrays, all of them together (unordered).
+
+    The degree of each polynomial is its highest coefficient above ``1e-12`` times the sum of
+    their magnitudes; roots from the closed forms up to degree 2, else from the eigenvalues of
+    the companion matrix."""
+    width = max(len(coeffs) for coeffs in polys)
+    kept: list[tuple[np.ndarray, np.ndarray]] = []
+    for coeffs in polys:
+        c = np.stack([np.asarray(x, dtype=float).reshape(-1) for x in coeffs], axis=1)
+        # no root in [0, 1] where the Bernstein coefficients share one strict sign (convex
+        # hull; Farouki, CAGD 29 2012): most pieces, whose derivative does not vanish inside
+        D = c.shape[1] - 1
+        # one coefficient per row (contiguous): the sign tests reduce across rows, not along
+        # each short one (numpy's slow case)
+        b = np.ascontiguousarray((c @ _to_bernstein(D).T).T)
+        index = np.flatnonzero(~(np.all(b > 0, axis=0) | np.all(b < 0, axis=0)))
+        # the rest on the few rows left, of all the polynomials at once (zero coefficients
+        # above their degree change nothing below)
+        padded = np.zeros((index.size, width))
+        padded[:, : D + 1] = c[index]
+        kept.append((index, padded))
+    index = np.concatenate([i for i, _ in kept])
+    c = np.concatenate([x for _, x in kept])
     scale = np.abs(c).sum(axis=1)
     big = np.abs(c) > 1e-12 * scale[:, None]
     deg = np.where(big.any(axis=1), c.shape[1] - 1 - np.argmax(big[:, ::-1], axis=1), 0)
@@ -262,6 +281,7 @@ def _peak_vertices(
     *,
     any_triple: bool = False,
     near: np.ndarray | None = None,
+    y_max: np.ndarray | None = None,
 ) -> np.ndarray:
     """Times [s] of the maxima of the parabolas through three consecutive samples of ``y``
     (n, n_joints) over ``t`` (n,) that lie in one piece (no knot between them: the signal is
@@ -269,25 +289,31 @@ def _peak_vertices(
 
     Triples whose middle sample is a local peak; with ``any_triple`` every concave triple whose
     parabola peaks between its ends (a peak next to a knot, whose samples fall on one side of
-    it). Only triples reaching 0.9 of the joint's largest ``y`` are refined. With ``near``
-    (sample indices), only the triples that contain one of those samples (the points a
-    previous step added: every other triple gave its vertex then).
+    it). Only triples reaching 0.9 of the joint's largest ``y`` (``y_max`` (n_joints,) if the
+    caller has it) are refined. With ``near`` (sample indices), only the triples that contain
+    one of those samples (the points a previous step added: every other triple gave its
+    vertex then).
     """
     if t.size < 3:
         return np.zeros(0)
-    if near is None:
+    if y_max is None:
+        y_max = np.ascontiguousarray(y.T).max(axis=1)  # across rows: numpy's fast reduction
+    if near is None:  # every triple: views
         first = np.arange(t.size - 2)
+        y0, y1, y2 = y[:-2], y[1:-1], y[2:]
+        p0, p1, p2 = piece[:-2], piece[1:-1], piece[2:]
+        ta, tb, tc = t[:-2], t[1:-1], t[2:]
     else:
         first = np.unique(np.clip(np.concatenate([near - 2, near - 1, near]), 0, t.size - 3))
-    y0, y1, y2 = y[first], y[first + 1], y[first + 2]
-    ok = np.maximum(np.maximum(y0, y1), y2) >= 0.9 * y.max(axis=0)
+        y0, y1, y2 = (np.take(y, first + d, axis=0) for d in range(3))
+        p0, p1, p2 = (piece[first + d] for d in range(3))
+        ta, tb, tc = (t[first + d] for d in range(3))
+    ok = np.maximum(np.maximum(y0, y1), y2) >= 0.9 * y_max
     if not any_triple:
         ok &= (y1 >= y0) & (y1 >= y2) & ((y1 > y0) | (y1 > y2))
-    p0, p1, p2 = piece[first], piece[first + 1], piece[first + 2]
-    ok &= ((p0 == p1) & (p1 == p2) & (t[first] < t[first + 1]) & (t[first + 1] < t[first + 2]))[
-        :, None
-    ]
-    k, j = np.nonzero(ok)  # the (triple, joint) pairs left: the vertices of those only
+    ok &= ((p0 == p1) & (p1 == p2) & (ta < tb) & (tb < tc))[:, None]
+    # the (triple, joint) pairs left, in row-major order: the vertices of those only
+    k, j = np.divmod(np.flatnonzero(ok), y.shape[1])
     i = first[k]
     t0, t1, t2 = t[i], t[i + 1], t[i + 2]
     y0, y1, y2 = y[i, j], y[i + 1, j], y[i + 2, j]
@@ -301,9 +327,19 @@ def _peak_vertices(
 
 
 def _merge_rows(a: np.ndarray, b: np.ndarray, old: np.ndarray, at: np.ndarray) -> np.ndarray:
-    """Rows of ``a`` where ``old`` is True and rows of ``b`` at the indices ``at``."""
+    """Rows of ``a`` where ``old`` is True and rows of ``b`` at the indices ``at`` (sorted)."""
     out = np.empty((old.size,) + a.shape[1:], dtype=a.dtype)
-    out[old], out[at] = a, b
+    if at.size > 16:
+        out[old], out[at] = a, b
+        return out
+    # a few rows (the peak refinement): slices of a around them, not a boolean mask
+    src = dst = 0
+    for r, row in zip(at.tolist(), b, strict=True):
+        out[dst:r] = a[src : src + r - dst]
+        src += r - dst
+        out[r] = row
+        dst = r + 1
+    out[dst:] = a[src:]
     return out
 
 
@@ -403,8 +439,9 @@ class Trajectory:
         # rounding noise of the knot data: each joint's largest values (a planner's sums can
         # cancel: q = q0 + delta s), and the rounding of the times they were evaluated at
         t_abs = np.abs(t[1:])[:, None] + h
-        Q, V, A = (np.abs(x).max(axis=0) for x in (self.q, self.qd, self.qdd))
-        J = np.abs(j).max(axis=0) if j.size else 0.0
+        # (each joint's maximum along a contiguous row: numpy's fast reduction)
+        Q, V, A = (np.abs(x.T).copy().max(axis=1) for x in (self.q, self.qd, self.qdd))
+        J = np.abs(j.T).copy().max(axis=1) if j.size else 0.0
         nd = _NOISE * (Q + V * t_abs + A * h * h + J * h**3)  # noise of d
         ne = _NOISE * h * (V + A * t_abs + J * h * h)  # noise of e
         if self.qddd is None:  # quartic closure onto the right knot's q and qd
@@ -423,16 +460,27 @@ class Trajectory:
         return h, j, f / 6 + e + 10 * r, -e / 2 - 15 * r, 6 * r
 
     def _evaluate(
-        self, k: np.ndarray, tau: np.ndarray, pieces
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(q, qd, qdd, qddd) of pieces ``k`` (m,) at ``tau`` (m,) [s] after their left knots."""
-        h, j, K3, K4, K5 = (x[k] for x in pieces)
+        self, k: np.ndarray, tau: np.ndarray, pieces, jerk: bool = True
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+        """(q, qd, qdd, qddd) of pieces ``k`` (m,) at ``tau`` (m,) [s] after their left knots
+        (``qddd`` None unless ``jerk``)."""
+        # np.take: rows of (n, n_joints) arrays several times faster than fancy indexing
         tau = tau[:, None]
+        q0, v0, a0 = (np.take(x, k, axis=0) for x in (self.q, self.qd, self.qdd))
+        if self.qddd is None and not jerk:  # j = K5 = 0 (quartic): the same values, fewer terms
+            h, K3, K4 = (np.take(pieces[i], k, axis=0) for i in (0, 2, 3))
+            s = tau / h
+            q = q0 + tau * (v0 + tau * (a0 / 2)) + s**3 * (K3 + s * K4)
+            qd = v0 + tau * a0 + s * s * (3 * K3 + s * (4 * K4)) / h
+            qdd = a0 + s * (6 * K3 + s * (12 * K4)) / h**2
+            return q, qd, qdd, None
+        h, j, K3, K4, K5 = (np.take(x, k, axis=0) for x in pieces)
         s = tau / h
-        q0, v0, a0 = self.q[k], self.qd[k], self.qdd[k]
         q = q0 + tau * (v0 + tau * (a0 / 2 + tau * j / 6)) + s**3 * (K3 + s * (K4 + s * K5))
         qd = v0 + tau * (a0 + tau * j / 2) + s * s * (3 * K3 + s * (4 * K4 + 5 * s * K5)) / h
         qdd = a0 + tau * j + s * (6 * K3 + s * (12 * K4 + 20 * s * K5)) / h**2
+        if not jerk:
+            return q, qd, qdd, None
         qddd = j + (6 * K3 + s * (24 * K4 + 60 * s * K5)) / h**3
         return q, qd, qdd, qddd
 
@@ -456,6 +504,7 @@ class Trajectory:
             return np.repeat(self.q, times.size, 0), z, z.copy(), z.copy()
         k = np.clip(np.searchsorted(self.t, times, side="right") - 1, 0, self.n_samples - 2)
         q, qd, qdd, qddd = self._evaluate(k, times - self.t[k], pieces)
+        assert qddd is not None
         end = times >= self.t[-1]  # the end of the motion: its stored values
         q[end], qd[end], qdd[end] = self.q[-1], self.qd[-1], self.qdd[-1]
         if self.qddd is not None:
@@ -469,7 +518,9 @@ class Trajectory:
             z = np.zeros((0, self.n_joints))
             return z, z.copy(), z.copy(), z.copy()
         k = np.arange(self.n_samples - 1)
-        return self._evaluate(k, np.diff(self.t), self._pieces())
+        q, qd, qdd, qddd = self._evaluate(k, np.diff(self.t), self._pieces())
+        assert qddd is not None
+        return q, qd, qdd, qddd
 
     def critical_times(self) -> np.ndarray:
         """Sorted times [s] strictly inside pieces where some joint's position, velocity,
@@ -493,12 +544,9 @@ class Trajectory:
         ]
         if self.qddd is not None:
             polys.append([24 * K4, 120 * K5])  # snap: jerk extremes
-        out = []
-        for p in polys:
-            row, s = _unit_roots(p)
-            piece = row // self.n_joints
-            out.append(self.t[piece] + s * h[piece, 0])
-        times = np.unique(np.concatenate(out))
+        row, s = _unit_roots(*polys)
+        piece = row // self.n_joints
+        times = np.unique(self.t[piece] + s * h[piece, 0])
         return times[(times > self.t[0]) & (times < self.t[-1])]
 
     def limit_samples(self, dt: float | None = None, *, robot: Robot | None = None) -> LimitSamples:
@@ -540,52 +588,70 @@ class Trajectory:
                 extra.append(self.t[k] + h[k] * (i + 1) / np.repeat(parts, parts - 1))
         times = np.unique(np.concatenate(extra))
         times = times[(times > self.t[0]) & (times < self.t[-1])]
-        times = times[np.searchsorted(self.t, times) == np.searchsorted(self.t, times, "right")]
-        ev = self._at(times, pieces)
-        left = self._evaluate(np.arange(n - 1), np.diff(self.t), pieces)  # left_limits()
+        k_t = np.searchsorted(self.t, times, "right") - 1  # the piece of each: 0 .. n - 2
+        inside = self.t[k_t] != times  # not at a knot (its values are below)
+        times, k_t = times[inside], k_t[inside]
+        jerk = self.qddd is not None  # without qddd: acceleration steps, no jerk defined
+        # the left limits (each piece at its end: left_limits()) and the points inside, in
+        # one evaluation
+        left_ev = self._evaluate(
+            np.concatenate([np.arange(n - 1), k_t]),
+            np.concatenate([np.diff(self.t), times - self.t[k_t]]),
+            pieces,
+            jerk,
+        )
         # the stored values (the evaluation at a knot returns them); with qddd, the jerk of
         # the piece that starts there
-        own = (self.q, self.qd, self.qdd, None) if self.qddd is None else self._at(self.t, pieces)
-        # sorted by time; at a knot its left limit first, then its own value
-        t_all = np.concatenate([self.t[1:], self.t, times])
-        order_key = np.concatenate([np.zeros(n - 1), np.ones(n), np.full(times.size, 2.0)])
-        piece = np.concatenate(
-            [
-                np.arange(n - 1),
-                np.arange(n),  # the last knot is a piece of its own
-                np.clip(np.searchsorted(self.t, times, "right") - 1, 0, n - 2),
-            ]
+        own = (self.q, self.qd, self.qdd, None) if not jerk else self._at(self.t, pieces)
+        # sorted by time; at a knot its left limit first, then its own value: knot i's own
+        # row follows the i left limits and i own rows before it and the c_i inside points
+        # before t_i; an inside point j of piece k follows 2 k + 1 knot rows and j points
+        c = np.searchsorted(times, self.t)
+        i = np.arange(n)
+        rows = np.concatenate(
+            [2 * i[1:] - 1 + c[1:], 2 * i + c, 2 * k_t + 1 + np.arange(times.size)]
         )
-        order = np.lexsort((order_key, t_all))
-        arrays: list[np.ndarray | None] = [
-            np.concatenate([left[i], own[i], ev[i]])[order] for i in range(3)
-        ]
-        # without qddd: acceleration steps, the jerk is not defined
-        arrays.append(None if own[3] is None else np.concatenate([left[3], own[3], ev[3]])[order])
-        q, qd, qdd, qddd = arrays
-        assert q is not None and qd is not None and qdd is not None
-        out = LimitSamples(t_all[order], q, qd, qdd, qddd)
+        order = np.empty(rows.size, dtype=int)
+        order[rows] = np.arange(rows.size)  # row r of the output comes from entry order[r]
+        t_all = np.concatenate([self.t[1:], self.t, times])
+        piece = np.concatenate([np.arange(n - 1), np.arange(n), k_t])[order]
+        # (the last knot is a piece of its own)
+
+        def merged(i: int) -> np.ndarray:
+            ev, kn = left_ev[i], own[i]
+            assert ev is not None and kn is not None
+            return np.take(np.concatenate([ev[: n - 1], kn, ev[n - 1 :]]), order, 0)
+
+        q, qd, qdd = merged(0), merged(1), merged(2)
+        out = LimitSamples(t_all[order], q, qd, qdd, merged(3) if jerk else None)
         if robot is None:
             return out
-        piece = piece[order]
         t_s = out.t
         tau = rigid_body.inverse_dynamics(robot, out.q, out.qd, out.qdd)
-        added: list[tuple[np.ndarray, tuple[np.ndarray, ...]]] = []
+        tau_max = np.ascontiguousarray(np.abs(tau).T).max(axis=1)  # across rows: fast
+        added: list[tuple[np.ndarray, tuple[np.ndarray | None, ...]]] = []
         new_rows: np.ndarray | None = None  # the rows the last step added
         for step in range(REFINE_STEPS):  # successive parabolic interpolation to each peak
-            vertex = _peak_vertices(t_s, np.abs(tau), piece, any_triple=step == 0, near=new_rows)
-            vertex = vertex[~np.isin(vertex, t_s)]
+            vertex = _peak_vertices(
+                t_s, np.abs(tau), piece, any_triple=step == 0, near=new_rows, y_max=tau_max
+            )
+            # not at a sample's time (t_s is sorted)
+            hit = np.searchsorted(t_s, vertex)
+            vertex = vertex[t_s[np.minimum(hit, t_s.size - 1)] != vertex]
             if not vertex.size:
                 break
-            state = self._at(vertex, pieces)
             new_piece = np.clip(np.searchsorted(self.t, vertex, "right") - 1, 0, n - 2)
+            # inside a piece (between two of its samples): its polynomial, as at() gives it
+            state = self._evaluate(new_piece, vertex - self.t[new_piece], pieces, jerk)
+            new_tau = rigid_body.inverse_dynamics(robot, *state[:3])
+            tau_max = np.maximum(tau_max, np.abs(new_tau).max(axis=0))
             # sorted, and at no sample's time: merged in place, the order stays by time
             at = np.searchsorted(t_s, vertex) + np.arange(vertex.size)  # their rows
             old = np.ones(t_s.size + vertex.size, bool)
             old[at] = False
             t_s = _merge_rows(t_s, vertex, old, at)
             piece = _merge_rows(piece, new_piece, old, at)
-            tau = _merge_rows(tau, rigid_body.inverse_dynamics(robot, *state[:3]), old, at)
+            tau = _merge_rows(tau, new_tau, old, at)
             added.append((vertex, state))
             new_rows = at
         if added:  # the states of the refined points, merged once
@@ -594,13 +660,11 @@ class Trajectory:
             at = np.searchsorted(t_s, vertex[k])
             old = np.ones(t_s.size, bool)
             old[at] = False
-            states = [np.concatenate([x[i] for _, x in added])[k] for i in range(4)]
             out.t = t_s
-            out.q = _merge_rows(out.q, states[0], old, at)
-            out.qd = _merge_rows(out.qd, states[1], old, at)
-            out.qdd = _merge_rows(out.qdd, states[2], old, at)
-            if out.qddd is not None:
-                out.qddd = _merge_rows(out.qddd, states[3], old, at)
+            for name, i in (("q", 0), ("qd", 1), ("qdd", 2), ("qddd", 3)):
+                if i < 3 or jerk:
+                    new = np.concatenate([x[i] for _, x in added])[k]
+                    setattr(out, name, _merge_rows(getattr(out, name), new, old, at))
         out.tau = tau
         return out
 
@@ -736,7 +800,7 @@ class Trajectory:
             if signal is None or scale is None:
                 return
             r = np.abs(signal) / np.asarray(scale, dtype=float)
-            k = np.argmax(r, axis=0)
+            k = np.argmax(np.ascontiguousarray(r.T), axis=1)  # along rows: numpy's fast case
             report.ratios[kind] = r[k, np.arange(r.shape[1])]
             report.at_s[kind] = smp.t[k]
 
