@@ -496,8 +496,9 @@ class _VariantPrefetch:
 
 
 def _preload_plotting() -> None:
-    """Import matplotlib and the plot modules in the study's process, once, so that the plot
-    processes forked later inherit them instead of each importing them (~0.3 s of CPU each)."""
+    """Import matplotlib and the plot modules in the study's process before its stages, so
+    that every plot process forked later inherits them instead of importing them (~0.3 s of
+    CPU each; the study's own process would import them for its share of the plots anyway)."""
     import matplotlib.backends.backend_agg  # noqa: F401
     import matplotlib.figure  # noqa: F401
 
@@ -519,7 +520,8 @@ class StagePlots:
         self.drawings: list[_FigureDrawing] = []
         self.waiting: list[str] = []  # prefixes of final plots not started yet
         self.variants: _VariantPrefetch | None = None
-        self._preloaded = False
+        if self.on:  # before the first stage: the core beside it has nothing to draw yet
+            _preload_plotting()
 
     def stage_done(self, ctx, stage: str) -> None:
         if not self.on:
@@ -537,9 +539,6 @@ class StagePlots:
                     jobs, self.out_dir, 2, parent_draws=False, prefetched=self.variants is not None
                 )
                 self.drawings.append(drawing.__enter__())
-        if self.drawings and not self._preloaded:  # after the first fork: it imports its own
-            _preload_plotting()
-            self._preloaded = True
 
     def names(self) -> set[str]:
         return {job[0] for d in self.drawings for job in d.jobs}
