@@ -20,6 +20,14 @@
    success rate and the largest duration change from "before". Goals (issue 15): v/a/j/tau
    median <= 50 ms at 5 waypoints, <= 300 ms at 20, 100 % success, durations within 0.5 %;
    ``--optimal-scaling-only`` runs this table alone.
+6. ``optimal`` success on random problems (issue 15): ``--success N`` (default 1000, 20 with
+   ``--quick``) random 5-waypoint v/a/j/tau problems on teachbot6 (its own limits, waypoints in
+   70 % of the ranges), each planned within every limit (``check_limits`` at ``T/4000``, 1e-9),
+   refused by name as *provably* infeasible (gravity alone at a waypoint over a torque limit,
+   by ``pinocchio``; these draws are run but not counted among the ``N``), or a failure (a
+   refusal not proved, an unnamed error, a plan over a limit); median / p90 / max IPOPT time.
+   Goal: 100 %. ``--success-only`` runs this table alone (~6 min for 1000 on one core: run it
+   with ``nice -n 19``).
 
 Run:  ``MPLBACKEND=Agg .venv/bin/python benchmarks/bench_trajectory.py [--quick]``
 """
@@ -439,6 +447,127 @@ def bench_optimal_scaling(quick: bool = False) -> dict:
     return results
 
 
+# ----------------------------------------------------------------------------- 6. success
+SUCCESS_CASES = 1000  # planner tests (problems not proved infeasible) in a full run
+SUCCESS_QUICK = 20
+SUCCESS_WAYPOINTS = 5
+SUCCESS_RANGE = 0.7  # waypoints uniform in this central fraction of each joint range
+#: the verdicts of one success case; the last three are failures of the planner
+VERDICTS = ("planned", "refused: proved infeasible", "refused: not proved", "unnamed error",
+            "plan over a limit")  # fmt: skip
+#: the evaluation a plan must pass: every limit within this (README, "Property tests"), on
+#: ``Trajectory.check_limits`` at ``dt = T / CHECK_SAMPLES``
+PROMISED_TOL = 1e-9
+
+
+def success_problem(robot, i: int) -> tuple[np.ndarray, str]:
+    """Problem ``i`` of the success benchmark: ``SUCCESS_WAYPOINTS`` waypoints uniform in
+    ``SUCCESS_RANGE`` of each joint range (seed ``(SEED + 6, i)``, so a case is re-run alone),
+    and why it is provably infeasible ("" if it is not proved so): gravity alone at a
+    waypoint above a joint's torque limit (``pinocchio.computeGeneralizedGravity``,
+    independent of armlab's dynamics). A waypoint is held at rest, so no motion through it
+    meets that limit."""
+    lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
+    mid, half = (lo + hi) / 2, (hi - lo) / 2 * SUCCESS_RANGE
+    rng = np.random.default_rng([SEED + 6, i])
+    w = mid + half * (2 * rng.random((SUCCESS_WAYPOINTS, robot.n_joints)) - 1)
+    data = robot.model.createData()
+    tau = robot.limits.effort_Nm
+    for k, q in enumerate(w):
+        g = np.abs(pin.computeGeneralizedGravity(robot.model, data, q))
+        if np.any(g > tau):
+            j = int(np.argmax(g / tau))
+            return w, (
+                f"gravity alone at waypoint {k} is {g[j] / tau[j]:.4f} x "
+                f"{robot.joint_names[j]}'s torque limit"
+            )
+    return w, ""
+
+
+def success_case(robot, i: int) -> dict:
+    """Plan problem ``i`` (:func:`success_problem`) with teachbot6's own v/a/j/tau limits and
+    classify it (:data:`VERDICTS`): a plan must pass ``check_limits`` within ``PROMISED_TOL``;
+    a refusal (an ``ArmlabError``) is accepted only for a problem proved infeasible."""
+    w, proof = success_problem(robot, i)
+    out: dict = {"case": i, "proof": proof, "message": "", "solve_s": np.nan, "T_s": np.nan}
+    t0 = time.perf_counter()
+    try:
+        tr = optimal(robot, w)
+    except ArmlabError as exc:
+        out["verdict"] = VERDICTS[1] if proof else VERDICTS[2]
+        out["message"] = f"{type(exc).__name__}: {exc}"
+    except Exception as exc:  # noqa: BLE001 -- what the benchmark counts
+        out["verdict"] = VERDICTS[3]
+        out["message"] = f"{type(exc).__name__}: {exc}"
+    else:
+        out["wall_s"] = time.perf_counter() - t0
+        out["solve_s"] = tr.stats["solve_time_s"]
+        out["T_s"] = tr.duration
+        out["backoff_rounds"] = tr.stats["backoff_rounds"]
+        rep = tr.check_limits(robot, dt=tr.duration / CHECK_SAMPLES)
+        bad = rep.violations(PROMISED_TOL)
+        out["verdict"] = VERDICTS[4] if bad else VERDICTS[0]
+        if bad:
+            kind, joint, ratio, _ = max(bad, key=lambda b: b[2])
+            out["message"] = f"{joint} {kind} ratio 1 + {ratio - 1:.2g}"
+    out.setdefault("wall_s", time.perf_counter() - t0)
+    return out
+
+
+def bench_success(n: int) -> dict:
+    """``optimal`` on random 5-waypoint v/a/j/tau problems (teachbot6, its own limits) until
+    ``n`` problems not proved infeasible have been planned or refused: each classified by
+    :func:`success_case`. The draws that are proved infeasible (gravity at a waypoint) are run
+    too -- the refusal must be a named error -- but counted apart: a problem without a
+    solution does not test the planner. Goal (issue 15): 100 % of the ``n`` planned within
+    every limit."""
+    robot = armlab.load_robot("teachbot6")
+    optimal(robot, success_problem(robot, 10**6)[0])  # the compiled problem: built, not timed
+    cases: list[dict] = []
+    tests = 0
+    i = 0
+    while tests < n:
+        c = success_case(robot, i)
+        cases.append(c)
+        tests += not c["proof"]
+        if c["verdict"] not in VERDICTS[:2]:  # a failure, named as it happens
+            print(f"  case {i}: {c['verdict']}: {c['message']}", flush=True)
+        i += 1
+    count = {v: sum(c["verdict"] == v for c in cases) for v in VERDICTS}
+    solve = np.array([c["solve_s"] for c in cases if c["verdict"] == VERDICTS[0]])
+    print()
+    print(
+        f"optimal() success: {SUCCESS_WAYPOINTS} random waypoints in {SUCCESS_RANGE:.0%} of the "
+        f"ranges, v/a/j/tau, teachbot6 (seed ({SEED + 6}, case))"
+    )
+    print(f"  draws {len(cases)}: {n} planner tests, {len(cases) - n} proved infeasible")
+    for v in VERDICTS:
+        print(f"  {v:<28}{count[v]:>6}")
+    if solve.size:
+        print(
+            f"  IPOPT solve [s]: median {np.median(solve):.3f}, p90 "
+            f"{np.percentile(solve, 90):.3f}, max {np.max(solve):.3f}"
+        )
+    return {"n": n, "count": count, "solve": solve, "cases": cases}
+
+
+def success_row(res: dict) -> None:
+    """README row of section 6."""
+    c, n, solve = res["count"], res["n"], res["solve"]
+    fails = c[VERDICTS[2]] + c[VERDICTS[3]] + c[VERDICTS[4]]
+    readme_row(
+        __file__,
+        f"`optimal`, {SUCCESS_WAYPOINTS} random waypoints, v/a/j/tau (teachbot6's limits): "
+        f"success on {f'{n:,}'.replace(',', ' ')} problems not proved infeasible",
+        f"{100 * c[VERDICTS[0]] / n:.1f} % planned within every limit (1e-9), {fails} failures "
+        f"({c[VERDICTS[2]]} refusals not proved, {c[VERDICTS[3]]} unnamed errors, "
+        f"{c[VERDICTS[4]]} plans over a limit); {c[VERDICTS[1]]} more draws refused by name, "
+        f"gravity at a waypoint over a torque limit; IPOPT median {np.median(solve):.2f} s, "
+        f"p90 {np.percentile(solve, 90):.2f} s, max {np.max(solve):.2f} s",
+        "neither peer can do it",
+    )
+
+
 # ----------------------------------------------------------------------------- main
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -451,9 +580,21 @@ def main() -> None:
         action="store_true",
         help="only the optimal() solve time by waypoint count",
     )
+    ap.add_argument(
+        "--success",
+        type=int,
+        metavar="N",
+        help=f"planner tests of the success table (default {SUCCESS_CASES}, {SUCCESS_QUICK} "
+        "with --quick)",
+    )
+    ap.add_argument("--success-only", action="store_true", help="only the success table")
     args = ap.parse_args()
+    n_success = args.success or (SUCCESS_QUICK if args.quick else SUCCESS_CASES)
     if args.optimal_scaling_only:
         scaling_row(bench_optimal_scaling(args.quick))
+        return
+    if args.success_only:
+        success_row(bench_success(n_success))
         return
     if args.scurves_only:
         scurve_row(bench_scurve_batch(args.quick))
@@ -561,6 +702,7 @@ def main() -> None:
     )
     scurves = bench_scurve_batch(args.quick)
     scaling = bench_optimal_scaling(args.quick)
+    success = bench_success(n_success)
 
     # ------------------------------------------------------------------------- README rows
     names = {"teachbot6": "teachbot6", "ur5": "UR5"}
@@ -596,6 +738,7 @@ def main() -> None:
     )
     scaling_row(scaling)
     scurve_row(scurves)
+    success_row(success)
 
 
 def scaling_row(res: dict) -> None:

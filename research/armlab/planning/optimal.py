@@ -61,14 +61,32 @@ The returned :class:`~armlab.trajectory.Trajectory` holds the exact piecewise po
 samples are the knots (jerk mode; ``Trajectory.at`` evaluates each cubic piece exactly, and the
 last knot is the goal at rest). An excess within the solver's tolerance (up to ``CHECK_TOL``) is
 removed by a uniform time stretch (:mod:`armlab.planning.tolerance`; ``stats`` key
-``tolerance_stretch``; none where the plan passes a pose whose gravity torque alone is above a
-limit -- slowing down would move the torque there towards gravity --, ``stats`` key
+``tolerance_stretch``; where the plan passes a pose whose gravity torque alone is above a
+limit -- slowing down would move the torque there towards gravity -- only the stretch the
+other limits need, kept if every torque still holds after it, else none, ``stats`` key
 ``tolerance_stretch_skipped``; the torque rows hold ``|tau| <= (1 - TORQUE_ROW_MARGIN)
 tau_max`` so that the solver's tolerance does not leave such a node above the limit). In
 acceleration mode each acceleration jump is replaced by a linear ramp of
 ``JUMP_RAMP_S`` (50 us): the box-average of the optimum over that width, which keeps velocity,
 acceleration and position within their bounds (an average stays within the range it averages),
 changes positions by ``|jump| ramp^2 / 24`` (< 1e-9 rad) and adds ``JUMP_RAMP_S`` to the duration.
+
+Back-off on a finer grid (issue 15)
+-----------------------------------
+The back-off lowers a joint's torque bound at every knot; it cannot reach an excess that
+the knots do not see. The 4 refusals among 1 000 random 5-waypoint teachbot6 problems
+(``bench_trajectory.py --success-only``) were of two kinds: (1) a slow segment (12 s, intervals of
+0.74 s) whose path crosses, between two knots, a pose where joint4's gravity torque alone is
+0.7 % above its limit, held there by the motion's dynamics -- each lower bound moved the knots
+and the excess grew (1.000005, 1.00014, 1.00023, 1.00026 after 4 rounds); (2) the bound
+lowered below the torque of a fixed end knot (gravity at rest, 0.9895 of the limit at the
+start, bound 0.9833), which made the re-solve infeasible by construction (IPOPT:
+``Infeasible_Problem_Detected``, the last plan kept and refused). So the first and
+last knots of jerk mode, whose states are fixed, keep the request's own torque bound
+(:meth:`OptimalProblem._bounds`; their torque is checked before the solve), and a plan the
+back-off leaves over a limit is solved once more on a grid twice as fine (``stats`` key
+``n_intervals_raised``, as for a solve that does not converge): the error between the knots
+falls with the square of the interval. Only a plan over a limit there too is refused.
 
 Replanning from a moving state (issue 15)
 -----------------------------------------
@@ -724,6 +742,18 @@ class OptimalProblem:
         lbg[m], ubg[m] = ls.lower_rad[joint[m]], ls.upper_rad[joint[m]]
         m = kind == "torque"
         lbg[m], ubg[m] = -(1.0 - TORQUE_ROW_MARGIN), 1.0 - TORQUE_ROW_MARGIN
+        if self.mode == "jerk" and st.torque_rows and ls.torque_Nm is not None:
+            # the first and last knots are fixed states (q, qd, qdd bounds): their torque
+            # rows are constants, checked against the request's own limit before the solve
+            # (_check_static_torque). A back-off bound below that constant would make the
+            # re-solve infeasible by construction (issue 15: gravity 0.9895 of joint4's limit
+            # at the start, bound backed off to 0.9833): they keep the request's limit
+            own = self.limits.torque_Nm
+            assert own is not None  # a backed-off torque limit comes from the request's
+            rows = np.flatnonzero(m)
+            ends = np.concatenate([rows[:n], rows[N * n : (N + 1) * n]])  # node-major rows
+            relax = own[joint[ends]] / ls.torque_Nm[joint[ends]]
+            lbg[ends], ubg[ends] = lbg[ends] * relax, ubg[ends] * relax
         m = kind == "duration"
         if np.any(m):
             lbg[m] = ubg[m] = self.duration
@@ -941,9 +971,10 @@ class OptimalProblem:
             traj, k_tol = absorb_tolerance(traj, self.robot, jl, torque=torque_on, dt=dt)
         except LimitViolation as exc:
             # the plan passes where gravity alone exceeds a torque limit and its own torque
-            # stays within it (the motion's dynamics hold the joint): no stretch applies
-            # there (slowing down moves the torque towards gravity), so none is made; the
-            # report below is the verdict (issue 15: 1 of 250 random 5-waypoint problems)
+            # stays within it (the motion's dynamics hold the joint): no torque-aware stretch
+            # applies there (slowing down moves the torque towards gravity), and the one the
+            # other limits need was not needed or broke a limit, so none is made; the report
+            # below is the verdict (issue 15: 1 of 250 random 5-waypoint problems)
             k_tol, stretch_skipped = 1.0, str(exc)
         drive_ratios: dict[str, np.ndarray] = {}
         if train is not None:
@@ -990,7 +1021,10 @@ class OptimalProblem:
             stats["energy_unit"] = unit
         self.stats = stats
         traj.stats = stats
-        refuse_violation(traj, "optimal", rounds)
+        try:
+            refuse_violation(traj, "optimal", rounds)
+        except InfeasibleError as exc:
+            raise _BackoffStalled(str(exc)) from None
         refuse_drive_violation(drive_ratios, traj, "optimal", rounds)
         wp_times = traj.meta["knot_times_s"][self.waypoint_nodes] + (
             JUMP_RAMP_S / 2 if self.mode != "jerk" else 0.0
@@ -1082,6 +1116,14 @@ class OptimalProblem:
 class _NotConverged(ArmlabError):
     """The solver stopped (iteration limit, restoration failure) with no limit violated at its
     last iterate: not a proof of infeasibility; :func:`optimal` retries on a finer grid."""
+
+
+class _BackoffStalled(_NotConverged, InfeasibleError):
+    """The fine-grid back-off ended with the plan still over a limit (the refusal of
+    :func:`~armlab.planning.timescale.refuse_violation`, its message): the excess lies between
+    the knots, where the node-wise torque rows do not see it (module docstring, "Back-off on a
+    finer grid"); :func:`optimal` retries on a grid twice as fine, and refuses with this
+    message if that does not meet the limits either."""
 
 
 def _kw(x):
@@ -1345,10 +1387,12 @@ def optimal(
         ``.stats`` (solver, iterations, solve_time_s, n_intervals, success, duration_s,
         binding limits ``[(kind, joint, ratio)]``, energy; with ``drive_limits`` the fine-grid
         ``drive_ratios``; ``n_intervals_raised`` when IPOPT did not converge on the requested
-        grid and the plan was solved once more with twice the intervals of every segment;
+        grid, or its back-off left the plan over a limit between the knots, and the plan was
+        solved once more with twice the intervals of every segment;
         ``tolerance_stretch``, the factor of the last stretch (module docstring), and
         ``tolerance_stretch_skipped``, why none was made where the plan passes a pose whose
-        gravity torque alone is above a limit) and ``.meta`` (waypoint times, ``qd_start``,
+        gravity torque alone is above a limit, :func:`~armlab.planning.tolerance.absorb_tolerance`)
+        and ``.meta`` (waypoint times, ``qd_start``,
         ``qdd_start``, ``qd_goal``, ...).
 
     Raises
@@ -1356,8 +1400,9 @@ def optimal(
     InfeasibleError
         A torque limit below the static gravity torque at a waypoint (or the torque of the start
         or goal state), a duration shorter than the minimum, a torque limit no trajectory
-        meets, a start state that cannot be braked within the limits — the message names the
-        limit and the joint.
+        meets, a start state that cannot be braked within the limits, a plan the back-off
+        leaves over a limit on the requested grid and on the grid twice as fine — the message
+        names the limit and the joint.
     InputError
         Bad shapes, values or keyword combinations; a waypoint outside a joint range
         (:func:`~armlab.trajectory.waypoints.validate_waypoints`).
@@ -1388,13 +1433,17 @@ def optimal(
     try:
         return prob.solve()
     except _NotConverged as first:
-        # IPOPT stopped without converging and with no limit violated at its last iterate: a
-        # finer grid once (twice the intervals of every segment), stated in the stats
+        # IPOPT stopped without converging and with no limit violated at its last iterate, or
+        # the back-off left the plan over a limit between the knots: a finer grid once (twice
+        # the intervals of every segment), stated in the stats
         finer = tuple(2 * n for n in prob.segment_intervals)
         try:
             traj = build_optimal(robot, waypoints, n_intervals=finer, **kw).solve()
+        except _BackoffStalled as again:
+            raise InfeasibleError(f"{again} (also with {finer} intervals per segment)") from None
         except _NotConverged:
-            raise ArmlabError(f"{first}; also with {finer} intervals per segment") from None
+            error = InfeasibleError if isinstance(first, _BackoffStalled) else ArmlabError
+            raise error(f"{first}; also with {finer} intervals per segment") from None
         traj.stats["n_intervals_raised"] = {
             "from": list(prob.segment_intervals),
             "to": list(finer),
