@@ -32,3 +32,31 @@ def test_robot_desc_dir_order(tmp_path, monkeypatch):
     monkeypatch.delenv("ARMLAB_ROBOT_DESC")
     assert "teachbot6" in list_robots()
     assert (robot_desc_dir() / "teachbot6" / "drives.toml").is_file()
+
+
+def test_the_console_script_runs_the_exit_handlers_and_flushes_its_output(tmp_path):
+    """``armlab`` (:func:`armlab.cli.console`) ends the process without tearing the interpreter
+    down: the exit handlers still run, the output is all there and the exit status is
+    main's."""
+    import subprocess
+    import sys
+
+    marker = tmp_path / "atexit_ran"
+    code = (
+        "import atexit, pathlib, sys; "
+        f"atexit.register(pathlib.Path({str(marker)!r}).write_text, 'yes'); "
+        "from armlab.cli import console; sys.argv = ['armlab'] + sys.argv[1:]; console()"
+    )
+    ok = subprocess.run(
+        [sys.executable, "-c", code, "info", "teachbot6"], capture_output=True, text=True
+    )
+    assert ok.returncode == 0, ok.stderr
+    assert "teachbot6" in ok.stdout and ok.stdout.endswith("\n")
+    assert marker.read_text() == "yes"
+    marker.unlink()
+    bad = subprocess.run(
+        [sys.executable, "-c", code, "info", "no_such_robot"], capture_output=True, text=True
+    )
+    assert bad.returncode == 2
+    assert bad.stderr.startswith("armlab: error:") and "no_such_robot" in bad.stderr
+    assert marker.read_text() == "yes"

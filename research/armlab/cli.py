@@ -16,7 +16,7 @@ import numpy as np
 
 from armlab.errors import ArmlabError, DesignFailure
 
-__all__ = ["main", "info_text", "build_parser"]
+__all__ = ["main", "console", "info_text", "build_parser"]
 
 #: ``armlab --help``'s description: plain text (the module docstring is reST for the API docs).
 SUMMARY = (
@@ -519,5 +519,23 @@ def main(argv: list[str] | None = None) -> int:
         return 130
 
 
+def console() -> None:
+    """The ``armlab`` console script: :func:`main`, then the process ends without tearing down
+    the interpreter.
+
+    The exit handlers run (``atexit``: multiprocessing's, Dask's, the open files' finalizers)
+    and the output is flushed; what is skipped is the destruction of every object, which
+    took 0.35 s after the demo study (CasADi's expression graphs of the optimiser's compiled
+    problems, measured) -- 6 % of the study's time, spent on memory the system frees at once.
+    """
+    code = main()
+    import atexit
+
+    atexit._run_exitfuncs()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    console()
