@@ -4,6 +4,7 @@ one process draws, a plot's error raised in the parent with its own type, a dead
 from __future__ import annotations
 
 import ast
+import math
 import multiprocessing
 import os
 import subprocess
@@ -313,3 +314,38 @@ def test_drive_model_variants_whose_process_dies_are_simulated_by_the_plot(tmp_p
     finally:
         prefetch.close()
     assert len(fig.axes) >= 2
+
+
+def test_the_tuning_run_beside_the_earlier_stages_gives_the_study_s_gains(tmp_path):
+    """With two workers the servo tuning runs in a forked process beside the kinematics and
+    plan stages (it needs the drives and the controller only): the stage takes its gains, the
+    same numbers one process tunes, and says so in its block."""
+    from armlab.study import run_spec
+
+    spec = _study(tmp_path, ["kinematics", "plan", "tuning"], 0.5)
+    one = run_spec(spec, tmp_path / "one", workers=1)
+    two = run_spec(spec, tmp_path / "two", workers=2)
+    assert one.summary["control"]["tuned_ahead"] is False
+    assert two.summary["control"]["tuned_ahead"] is True
+    g1, g2 = one.context.gains, two.context.gains
+    assert g1.summary() == g2.summary()
+    for joint in g1.joints:
+        assert g1[joint] == g2[joint]
+
+
+def test_a_side_process_that_fails_or_dies_gives_no_result():
+    """A side process whose function raises, or which dies, gives None: the stage that needs
+    the result then does the work itself."""
+    from armlab._fork import SideProcess
+
+    failing = SideProcess(math.sqrt, -1.0)  # ValueError in the child
+    dying = SideProcess(time.sleep, 60.0)
+    working = SideProcess(math.sqrt, 4.0)
+    dying._process.kill()
+    try:
+        assert failing.result(30.0) is None
+        assert dying.result(30.0) is None
+        assert working.result(30.0) == 2.0
+    finally:
+        for side in (failing, dying, working):
+            side.close()

@@ -393,7 +393,10 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         default=None,
         metavar="N",
-        help="processes that draw the report's plots (default: one per CPU this process may use)",
+        help=(
+            "processes that draw the report's plots and tune the servos beside the plan "
+            "(default: one per CPU this process may use)"
+        ),
     )
     s.set_defaults(func=_cmd_run)
     s = sub.add_parser(

@@ -12,7 +12,6 @@ import math
 import os
 import pickle
 import queue
-import signal
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -20,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from armlab._fork import SideProcess, can_fork, die_with, start_forked
 from armlab.io import atomic_open, atomic_write
 
 __all__ = ["write_report", "summary_text"]
@@ -217,10 +217,8 @@ def _figure_processes(n_jobs: int, workers: int | None) -> int:
     """How many processes draw the plots: ``workers`` (None: one), at most one per plot, and
     one where processes cannot be forked (the children inherit the study's state instead of
     receiving it pickled)."""
-    import multiprocessing
-
     n = 1 if workers is None else max(1, int(workers))
-    if "fork" not in multiprocessing.get_all_start_methods():
+    if not can_fork():
         return 1
     return max(1, min(n, n_jobs))
 
@@ -233,35 +231,6 @@ PNG_COMPRESS_LEVEL = 1
 #: a plot process that sends nothing for this long [s] is stopped and its plots are named as
 #: not drawn (a fork can inherit a lock another thread held; no study waits forever for it)
 PLOT_PROCESS_SILENCE_S = 600.0
-
-
-def _die_with(parent: int) -> None:
-    """In a forked plot process: end with the study's process, also when that one is killed
-    (-9), so that no plot is written into a folder a new run may own by then. Linux asks the
-    kernel (``PR_SET_PDEATHSIG``); elsewhere :func:`_draw_one` checks the parent before it
-    writes."""
-    try:
-        import ctypes
-
-        ctypes.CDLL(None).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):  # pragma: no cover - not Linux
-        pass
-    if os.getppid() != parent:  # it died before the request took effect
-        os._exit(0)
-
-
-def _start_forked(processes) -> None:
-    """Start forked processes with the study's objects frozen out of their garbage collector
-    (:func:`gc.freeze`): a collection in a child would otherwise touch, and so copy, every
-    page of the objects it inherited."""
-    import gc
-
-    gc.freeze()
-    try:
-        for process in processes:
-            process.start()
-    finally:
-        gc.unfreeze()
 
 
 def _draw_one(name: str, make: Callable[[], Any], out_dir: Path, parent: int | None = None) -> Path:
@@ -334,7 +303,7 @@ class _FigureDrawing:
         self._children = [
             mp.Process(target=self._child, daemon=True) for _ in range(self.processes - 1)
         ]
-        _start_forked(self._children)
+        start_forked(self._children)
         return self
 
     def _child(self) -> None:
@@ -348,7 +317,7 @@ class _FigureDrawing:
             self._queue.put((k, exc, path))
 
         parent = os.getppid()
-        _die_with(parent)
+        die_with(parent)
         try:
             self._work(send, parent)
         finally:
@@ -441,7 +410,13 @@ _STAGE_PLOTS = {
 }
 
 
-class _VariantPrefetch:
+def _simulate_variants(robot, trajectory, gains, options) -> dict:
+    from armlab.control.simulate import tracking_variants
+
+    return tracking_variants(robot, trajectory, gains, DRIVE_MODEL_VARIANTS, **options)
+
+
+class _VariantPrefetch(SideProcess):
     """The drive-model plot's variants (:data:`DRIVE_MODEL_VARIANTS`) simulated by a forked
     process while the tracking stage runs: they need the plan, the gains and the study's
     tracking options, not the stage's result, and were the report's longest job (issue 15:
@@ -452,47 +427,14 @@ class _VariantPrefetch:
     numbers, the error raised where it would have been)."""
 
     def __init__(self, ctx) -> None:
-        import multiprocessing
-
         from armlab.study.stages import tracking_options
 
-        mp = multiprocessing.get_context("fork")
-        self._receive, send = mp.Pipe(duplex=False)
-        args = (ctx.robot, ctx.trajectory, ctx.gains, tracking_options(ctx), send)
-        self._process = mp.Process(target=self._simulate, args=args, daemon=True)
-        _start_forked([self._process])
-        send.close()
-        self._taken: dict | None = None
-
-    @staticmethod
-    def _simulate(robot, trajectory, gains, options, send) -> None:
-        from armlab.control.simulate import tracking_variants
-
-        _die_with(os.getppid())
-        try:
-            result = tracking_variants(robot, trajectory, gains, DRIVE_MODEL_VARIANTS, **options)
-        except Exception:  # the plot simulates them again and raises the error there
-            result = None
-        send.send(result)
-        send.close()
+        options = tracking_options(ctx)
+        super().__init__(_simulate_variants, ctx.robot, ctx.trajectory, ctx.gains, options)
 
     def take(self) -> dict:
         """The simulated variants by name (``{}`` when there are none)."""
-        if self._taken is None:
-            self._taken = {}
-            try:
-                if self._receive.poll(PLOT_PROCESS_SILENCE_S):
-                    self._taken = self._receive.recv() or {}
-            except (EOFError, OSError):  # the process died: the plot simulates them
-                pass
-        return self._taken
-
-    def close(self) -> None:
-        """Stop the process if nobody took its result (no plot, a failed stage)."""
-        if self._process.is_alive():
-            self._process.terminate()
-        self._process.join()
-        self._receive.close()
+        return self.result(PLOT_PROCESS_SILENCE_S) or {}
 
 
 def _preload_plotting() -> None:

@@ -246,6 +246,7 @@ def run_spec(
         if out is not None:
             path = write_json(out / DESIGN_FILE, design_record(ctx.robot, ctx.controller, spec))
             ctx.files[DESIGN_FILE] = str(path)
+        ctx.tuning_ahead = _tuning_ahead(ctx)
         bar.update()
         for stage in STAGES:
             t0 = time.perf_counter()
@@ -307,8 +308,26 @@ def run_spec(
     finally:
         if early is not None:  # the study stopped before its report: no orphan plots
             early.abort()
+        if ctx.tuning_ahead is not None:
+            ctx.tuning_ahead.close()
+            ctx.tuning_ahead = None
         bar.close()
     return StudyResult(spec=spec, summary=summary, context=ctx, out_dir=out, files=files)
+
+
+def _tuning_ahead(ctx: StudyContext):
+    """With several workers, the servo tuning started in a forked process beside the
+    kinematics and plan stages (:attr:`StudyContext.tuning_ahead`): it needs the robot's
+    drives and the controller only. Not when the sizing stage may select the drive train."""
+    from armlab._fork import SideProcess, can_fork
+    from armlab.study.stages import tune_study_arm, tuning_options
+
+    spec = ctx.spec
+    if (ctx.workers or 1) < 2 or not can_fork() or "tuning" not in spec.study.stages:
+        return None
+    if ctx.robot.drives is None or spec.sizing.select:
+        return None
+    return SideProcess(tune_study_arm, ctx.robot, ctx.controller, tuning_options(ctx))
 
 
 def _checksums(out: Path, written: dict[str, str]) -> dict[str, str]:

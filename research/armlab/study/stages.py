@@ -93,6 +93,11 @@ class StudyContext:
     requirement_sizing: Any = None
     selection: Any = None
     drives_selected: bool = False
+    #: the servo tuning run by a forked process beside the kinematics and plan stages (``armlab
+    #: run --workers N``, :class:`armlab._fork.SideProcess`): the tuning depends on the robot's
+    #: drives and the controller only, so the stage takes its result unless the sizing stage
+    #: gave the robot another drive train
+    tuning_ahead: Any = None
     gains: Any = None
     tracking: Any = None
     #: the simulate_tracking options of ``tracking`` and its drive-model variants run so far
@@ -797,13 +802,9 @@ def _tuning_failures(gains, spec: dict) -> list[str]:
     return out
 
 
-def stage_tuning(ctx: StudyContext) -> dict:
-    """Robust cascade tuning of every joint (current PI, speed PI, position P) to the study's
-    control specs, discretised at the controller's servo period and checked continuous and
-    discrete over each joint's inertia range."""
-    from armlab.control import tune_arm
-
-    _needs_drives(ctx)
+def tuning_options(ctx: StudyContext) -> dict[str, Any]:
+    """The :func:`~armlab.control.tune_arm` options of the study's ``[control]`` table (those
+    it sets; the others keep ``tune_arm``'s defaults) and seed."""
     c = ctx.spec.control
     options = {
         "position_bandwidth_rad_s": c.position_bandwidth_rad_s,
@@ -816,16 +817,42 @@ def stage_tuning(ctx: StudyContext) -> dict:
         "n_inertia_samples": c.n_inertia_samples,
         "seed": ctx.spec.study.seed,
     }
-    gains = tune_arm(
-        ctx.robot,
-        controller=ctx.controller,
-        **{k: v for k, v in options.items() if v is not None},
-    )
+    return {k: v for k, v in options.items() if v is not None}
+
+
+def tune_study_arm(robot, controller: ControllerProfile | None, options: dict[str, Any]):
+    """The study's servo tuning: :func:`~armlab.control.tune_arm` of ``robot`` at the
+    controller's servo period with :func:`tuning_options` (also what the process that tunes
+    beside the earlier stages runs, :attr:`StudyContext.tuning_ahead`)."""
+    from armlab.control import tune_arm
+
+    return tune_arm(robot, controller=controller, **options)
+
+
+#: how long the tuning stage waits for the tuning run beside the earlier stages before it
+#: tunes itself [s] (it needs a fraction of a second; a process that fell silent is not
+#: waited for forever)
+TUNING_AHEAD_SILENCE_S = 600.0
+
+
+def stage_tuning(ctx: StudyContext) -> dict:
+    """Robust cascade tuning of every joint (current PI, speed PI, position P) to the study's
+    control specs, discretised at the controller's servo period and checked continuous and
+    discrete over each joint's inertia range."""
+    _needs_drives(ctx)
+    gains = None
+    if ctx.tuning_ahead is not None and not ctx.drives_selected:  # the same robot as then
+        gains = ctx.tuning_ahead.result(TUNING_AHEAD_SILENCE_S)
+    ahead = gains is not None
+    if gains is None:
+        gains = tune_study_arm(ctx.robot, ctx.controller, tuning_options(ctx))
     ctx.gains = gains
     return {
         "status": "ok",
         **verdict_block(_tuning_failures(gains, gains.spec)),
         "servo_period_s": ctx.controller.servo_period_s if ctx.controller else None,
+        # tuned by a process beside the earlier stages (the stage's time is then its wait)
+        "tuned_ahead": ahead,
         **_jsonable(gains.summary()),
     }
 
