@@ -349,3 +349,36 @@ def test_a_side_process_that_fails_or_dies_gives_no_result():
     finally:
         for side in (failing, dying, working):
             side.close()
+
+
+def test_the_motion_file_written_beside_the_stages_is_the_report_s(tmp_path, monkeypatch):
+    """With two workers the 3D animation is written by a process forked when the sizing stage
+    ends: the report links it as one process does. A study that stops after that leaves no
+    animation behind, as it leaves no plots."""
+    from armlab.errors import ArmlabError
+    from armlab.study import run_spec
+    from armlab.study import runner as study_runner
+
+    stages = ["kinematics", "plan", "static_load", "sizing", "tuning"]
+    spec = _study(tmp_path, stages, 0.5)
+    one = run_spec(spec, tmp_path / "one", workers=1)
+    two = run_spec(spec, tmp_path / "two", workers=2)
+
+    def motion_lines(folder):
+        text = (folder / "report.md").read_text()
+        return [line for line in text.splitlines() if "motion.html" in line]
+
+    assert (tmp_path / "two" / "motion.html").is_file()
+    assert motion_lines(tmp_path / "two") == motion_lines(tmp_path / "one") != []
+    assert "motion.html" in {p.name for p in two.files}
+    assert {p.name for p in two.files} == {p.name for p in one.files}
+
+    def broken(ctx):
+        raise ArmlabError("tuning broke on purpose")
+
+    monkeypatch.setitem(study_runner.STAGE_FUNCTIONS, "tuning", broken)
+    with pytest.raises(ArmlabError, match="tuning broke"):
+        run_spec(spec, tmp_path / "stopped", workers=2)
+    assert not (tmp_path / "stopped" / "motion.html").exists()
+    assert not list((tmp_path / "stopped").glob("*.png"))
+    assert not list((tmp_path / "stopped").glob("*.tmp"))

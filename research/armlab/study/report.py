@@ -462,6 +462,7 @@ class StagePlots:
         self.drawings: list[_FigureDrawing] = []
         self.waiting: list[str] = []  # prefixes of final plots not started yet
         self.variants: _VariantPrefetch | None = None
+        self.motion: SideProcess | None = None  # the 3D animation, once the plan is final
         if self.on:  # before the first stage: the core beside it has nothing to draw yet
             _preload_plotting()
 
@@ -470,6 +471,8 @@ class StagePlots:
             return
         if stage == "tuning" and "tracking" in ctx.spec.study.stages:
             self.variants = _VariantPrefetch(ctx)  # beside the tracking stage
+        if stage == "sizing" and ctx.trajectory is not None:  # after its drives, as plan_*
+            self.motion = SideProcess(_motion_file, ctx.robot, ctx.trajectory, self.out_dir)
         self.waiting += _STAGE_PLOTS.get(stage, ())
         busy = any(c.is_alive() for d in self.drawings for c in d._children)
         if not busy and self.waiting:
@@ -489,18 +492,22 @@ class StagePlots:
         try:
             return [path for d in self.drawings for path in d.finish()]
         finally:
-            self._close_variants()
+            self._close_sides()
 
     def abort(self) -> None:
         for d in self.drawings:
             d.abort()
         self.drawings = []
-        self._close_variants()
+        if self.motion is not None:  # its file goes with the plots
+            self.motion.result(PLOT_PROCESS_SILENCE_S)  # let it finish writing
+            (self.out_dir / MOTION_FILE).unlink(missing_ok=True)
+        self._close_sides()
 
-    def _close_variants(self) -> None:
-        if self.variants is not None:
-            self.variants.close()
-            self.variants = None
+    def _close_sides(self) -> None:
+        for side in (self.variants, self.motion):
+            if side is not None:
+                side.close()
+        self.variants = self.motion = None
 
 
 def write_report(
@@ -637,8 +644,15 @@ def write_report(
     rest = [job for job in jobs if job[0] not in started]
     processes = _figure_processes(len(jobs), workers)
     summary["study"]["plot_processes"] = processes
+    motion = None  # (report lines, whether the file was written)
+    if early is not None and early.motion is not None:  # written beside the stages
+        motion = early.motion.result(PLOT_PROCESS_SILENCE_S)
     with _FigureDrawing(rest, out_dir, processes, prefetched=variants is not None) as drawing:
-        lines += _motion_lines(ctx, out_dir, files)
+        if motion is None and ctx.trajectory is not None:
+            motion = _motion_file(ctx.robot, ctx.trajectory, out_dir)
+    if motion is not None:
+        lines += motion[0]
+        files += [out_dir / MOTION_FILE] if motion[1] else []
     files += drawing.paths
     if early is not None:
         files += early.finish()
@@ -649,16 +663,15 @@ def write_report(
     return [report, *files]
 
 
-#: The planned motion's 3D animation, written beside report.md (:func:`_motion_lines`).
+#: The planned motion's 3D animation, written beside report.md (:func:`_motion_file`).
 MOTION_FILE = "motion.html"
 
 
-def _motion_lines(ctx, out_dir: Path, files: list[Path]) -> list[str]:
+def _motion_file(robot, trajectory, out_dir: Path) -> tuple[list[str], bool]:
     """Write the planned motion as a self-contained 3D animation (:data:`MOTION_FILE`, see
-    :func:`armlab.viz.animate`) and return the report's lines linking it; when the plan stage
-    did not run, none; when meshcat is missing or fails, one line saying so (never an error)."""
-    if ctx.trajectory is None:
-        return []
+    :func:`armlab.viz.animate`): the report's lines linking it, and whether it was written;
+    when meshcat is missing or fails, one line saying so (never an error). With several
+    workers a process forked when the sizing stage ends writes it (:class:`StagePlots`)."""
     lines = ["## 3D motion", ""]
     try:
         import warnings
@@ -667,17 +680,16 @@ def _motion_lines(ctx, out_dir: Path, files: list[Path]) -> list[str]:
 
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            scene = animate(ctx.robot, ctx.trajectory, out_dir / MOTION_FILE)
+            scene = animate(robot, trajectory, out_dir / MOTION_FILE)
     except Exception as exc:  # the study never fails for its 3D view
         why = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-        return lines + [f"3D animation not written: {why}", ""]
-    files.append(out_dir / MOTION_FILE)
+        return lines + [f"3D animation not written: {why}", ""], False
     notes = "; ".join(str(w.message) for w in caught)
     lines.append(
         f"[3D animation of the planned motion]({MOTION_FILE}) (open in a browser; "
         f"{scene.n_frames} frames at {scene.fps:g} fps)" + (f"; {notes}" if notes else ".")
     )
-    return lines + [""]
+    return lines + [""], True
 
 
 def _key(stage: str) -> str:
