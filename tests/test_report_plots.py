@@ -306,8 +306,10 @@ def test_drive_model_variants_whose_process_dies_are_simulated_by_the_plot(tmp_p
     spec = _study(tmp_path, ["kinematics", "plan", "tuning", "tracking"], 0.5)
     ctx = run_spec(spec, tmp_path / "one", workers=1).context
     prefetch = _VariantPrefetch(ctx)
-    prefetch._process.kill()
-    prefetch._process.join()
+    assert len(prefetch.sides) == 2  # with and without the supply limit
+    for side in prefetch.sides:
+        side._process.kill()
+        side._process.join()
     try:
         assert prefetch.take() == {}
         fig = _drive_model_figure(ctx, prefetch)  # simulated here instead

@@ -410,31 +410,47 @@ _STAGE_PLOTS = {
 }
 
 
-def _simulate_variants(robot, trajectory, gains, options) -> dict:
+def _simulate_variants(robot, trajectory, gains, names, options) -> dict:
     from armlab.control.simulate import tracking_variants
 
-    return tracking_variants(robot, trajectory, gains, DRIVE_MODEL_VARIANTS, **options)
+    return tracking_variants(robot, trajectory, gains, names, **options)
 
 
-class _VariantPrefetch(SideProcess):
-    """The drive-model plot's variants (:data:`DRIVE_MODEL_VARIANTS`) simulated by a forked
-    process while the tracking stage runs: they need the plan, the gains and the study's
+class _VariantPrefetch:
+    """The drive-model plot's variants (:data:`DRIVE_MODEL_VARIANTS`) simulated by forked
+    processes while the tracking stage runs: they need the plan, the gains and the study's
     tracking options, not the stage's result, and were the report's longest job (issue 15:
-    ~2 s of CPU that could only start once the stage had ended).
+    ~2 s of CPU that could only start once the stage had ended). One process per time loop
+    of :func:`~armlab.control.simulate.tracking_variants` (the variants with the supply
+    limit, and those without), so that they end together with the other work.
 
-    :meth:`take` is called once, by the process that draws the plot; it returns ``{}`` when
-    the simulations failed or fell silent, and the plot then simulates them itself (the same
+    :meth:`take` is called once, by the process that draws the plot; a process that failed
+    or fell silent gives nothing, and the plot then simulates those variants itself (the same
     numbers, the error raised where it would have been)."""
 
     def __init__(self, ctx) -> None:
+        from armlab.control.simulate import DRIVE_VARIANTS
         from armlab.study.stages import tracking_options
 
         options = tracking_options(ctx)
-        super().__init__(_simulate_variants, ctx.robot, ctx.trajectory, ctx.gains, options)
+        limited = [n for n in DRIVE_MODEL_VARIANTS if DRIVE_VARIANTS[n].get("voltage_limit", True)]
+        groups = [limited, [n for n in DRIVE_MODEL_VARIANTS if n not in limited]]
+        self.sides = [
+            SideProcess(_simulate_variants, ctx.robot, ctx.trajectory, ctx.gains, g, options)
+            for g in groups
+            if g
+        ]
 
     def take(self) -> dict:
-        """The simulated variants by name (``{}`` when there are none)."""
-        return self.result(PLOT_PROCESS_SILENCE_S) or {}
+        """The simulated variants by name (those of a failed process missing)."""
+        out: dict = {}
+        for side in self.sides:
+            out.update(side.result(PLOT_PROCESS_SILENCE_S) or {})
+        return out
+
+    def close(self) -> None:
+        for side in self.sides:
+            side.close()
 
 
 def _preload_plotting() -> None:
