@@ -65,6 +65,14 @@ def test_a_plot_that_fails_in_a_child_raises_its_error_in_the_parent(tmp_path):
     assert not (tmp_path / "bad.png").exists()
 
 
+def _wait_for_the_first_plot(drawing) -> None:
+    """The parent waits until a child has taken the first plot (at most 5 s)."""
+    for _ in range(500):
+        if drawing._counter.value > 0:
+            return
+        time.sleep(0.01)
+
+
 def test_a_process_that_dies_is_named_not_waited_for(tmp_path):
     def dies():
         if multiprocessing.parent_process() is not None:  # only the child dies
@@ -74,10 +82,7 @@ def test_a_process_that_dies_is_named_not_waited_for(tmp_path):
     jobs = [("dies.png", "dies", dies), *_jobs(1)]
     with pytest.raises(RuntimeError, match=r"\['dies.png'\] were not drawn"):
         with _FigureDrawing(jobs, tmp_path, 2) as drawing:
-            for _ in range(500):  # the parent waits until the child has taken the first plot
-                if drawing._counter.value > 0:
-                    break
-                time.sleep(0.01)
+            _wait_for_the_first_plot(drawing)
 
 
 def test_a_process_that_hangs_is_stopped_and_named(tmp_path, monkeypatch):
@@ -96,10 +101,7 @@ def test_a_process_that_hangs_is_stopped_and_named(tmp_path, monkeypatch):
     t0 = time.monotonic()
     with pytest.raises(RuntimeError, match=r"\['hangs.png'\] were not drawn"):
         with _FigureDrawing(jobs, tmp_path, 2) as drawing:
-            for _ in range(500):  # the parent waits until the child has taken the first plot
-                if drawing._counter.value > 0:
-                    break
-                time.sleep(0.01)
+            _wait_for_the_first_plot(drawing)
     assert time.monotonic() - t0 < 30
     assert not any(child.is_alive() for child in drawing._children)
 

@@ -324,3 +324,16 @@ def test_study_verdict_names_the_limiting_factor_when_the_budget_fails():
     (failed,) = [f for f in res.summary["design"]["failed_checks"] if f.startswith("tracking")]
     assert f"limiting factor: {diag['limiting_factor']}" in failed
     assert "feed-forward of friction and efficiency measured" in failed
+
+
+def test_variant_loops_group_the_variants_by_the_supply_limit():
+    """The variants :func:`tracking_variants` runs in one time loop: those with the supply
+    limit, then those without; an empty group is left out."""
+    import armlab.control.simulate as sim
+
+    names = ("ideal", "no_voltage_limit", "no_losses", "with_loss_feedforward")
+    assert sim.variant_loops(names) == [
+        ("no_losses", "with_loss_feedforward"),
+        ("ideal", "no_voltage_limit"),
+    ]
+    assert sim.variant_loops(("ideal",)) == [("ideal",)]

@@ -16,7 +16,11 @@ import signal
 from collections.abc import Callable, Sequence
 from typing import Any
 
-__all__ = ["SideProcess", "can_fork", "die_with", "start_forked"]
+__all__ = ["SILENCE_S", "SideProcess", "can_fork", "die_with", "start_forked"]
+
+#: a forked process that sends nothing for this long [s] is given up on (a fork can inherit a
+#: lock another thread held; no study waits forever for it)
+SILENCE_S = 600.0
 
 
 def can_fork() -> bool:
@@ -56,34 +60,36 @@ def start_forked(processes: Sequence[Any]) -> None:
 
 
 class SideProcess:
-    """``fn(*args)`` run by a forked process beside the study; its result comes back pickled.
+    """``fn(*args, **kwargs)`` run by a forked process beside the study; its result comes back
+    pickled.
 
     :meth:`result` is asked once, by whichever process needs it; it is None when ``fn``
     raised, the process died or stayed silent for ``silence_s``, and the caller then does the
     work itself (the same result, any error raised where it would have been)."""
 
-    def __init__(self, fn: Callable[..., Any], *args: Any) -> None:
+    def __init__(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> None:
         import multiprocessing
 
         mp = multiprocessing.get_context("fork")
         self._receive, send = mp.Pipe(duplex=False)
-        self._process = mp.Process(target=self._run, args=(fn, args, send), daemon=True)
+        target_args = (fn, args, kwargs, send)
+        self._process = mp.Process(target=self._run, args=target_args, daemon=True)
         start_forked([self._process])
         send.close()
         self._asked = False
         self._result: Any = None
 
     @staticmethod
-    def _run(fn: Callable[..., Any], args: tuple, send) -> None:
+    def _run(fn: Callable[..., Any], args: tuple, kwargs: dict, send) -> None:
         die_with(os.getppid())
         try:
-            result = fn(*args)
+            result = fn(*args, **kwargs)
         except Exception:  # the caller does the work again and raises the error there
             result = None
         send.send(result)
         send.close()
 
-    def result(self, silence_s: float) -> Any:
+    def result(self, silence_s: float = SILENCE_S) -> Any:
         """``fn``'s result, or None (see the class)."""
         if not self._asked:
             self._asked = True

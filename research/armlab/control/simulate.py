@@ -898,6 +898,21 @@ DRIVE_VARIANTS: dict[str, dict[str, bool]] = {
 }
 
 
+def _switches(name: str) -> dict[str, bool]:
+    """The :func:`simulate_tracking` switches of a :data:`DRIVE_VARIANTS` name."""
+    return {"voltage_limit": True, "losses": True, **DRIVE_VARIANTS[name]}
+
+
+def variant_loops(names) -> list[tuple[str, ...]]:
+    """``names`` (:data:`DRIVE_VARIANTS`) grouped by the time loop :func:`tracking_variants`
+    runs them in: those with the supply limit, then those without (they part ways at every
+    saturating sub-step). Each group gives the same numbers simulated apart."""
+    groups = [
+        tuple(n for n in names if _switches(n)["voltage_limit"] is lim) for lim in (True, False)
+    ]
+    return [g for g in groups if g]
+
+
 def _loss_feedforward(ff: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """``(feed-forward with friction and efficiency, what that adds)``; a result without
     feed-forward gets the usual velocity, acceleration and gravity terms as well."""
@@ -919,7 +934,7 @@ def tracking_variants(
     for name in names:
         if name in out:
             continue
-        switches = {"voltage_limit": True, "losses": True, **DRIVE_VARIANTS[name]}
+        switches = _switches(name)
         ff_v = ff
         if name == "with_loss_feedforward":
             ff_v, extra = _loss_feedforward(ff)

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from armlab._fork import SideProcess, can_fork, die_with, start_forked
+from armlab._fork import SILENCE_S, SideProcess, can_fork, die_with, start_forked
 from armlab.io import atomic_open, atomic_write
 
 __all__ = ["write_report", "summary_text"]
@@ -229,8 +229,8 @@ PLOT_DPI = 110
 #: files ~10 % larger (issue 15, measured on the 18-panel loads plot: 0.43 -> 0.37 s, 390 -> 432 kB)
 PNG_COMPRESS_LEVEL = 1
 #: a plot process that sends nothing for this long [s] is stopped and its plots are named as
-#: not drawn (a fork can inherit a lock another thread held; no study waits forever for it)
-PLOT_PROCESS_SILENCE_S = 600.0
+#: not drawn (:data:`armlab._fork.SILENCE_S`)
+PLOT_PROCESS_SILENCE_S = SILENCE_S
 
 
 def _draw_one(name: str, make: Callable[[], Any], out_dir: Path, parent: int | None = None) -> Path:
@@ -410,12 +410,6 @@ _STAGE_PLOTS = {
 }
 
 
-def _simulate_variants(robot, trajectory, gains, names, options) -> dict:
-    from armlab.control.simulate import tracking_variants
-
-    return tracking_variants(robot, trajectory, gains, names, **options)
-
-
 class _VariantPrefetch:
     """The drive-model plot's variants (:data:`DRIVE_MODEL_VARIANTS`) simulated by forked
     processes while the tracking stage runs: they need the plan, the gains and the study's
@@ -429,23 +423,20 @@ class _VariantPrefetch:
     numbers, the error raised where it would have been)."""
 
     def __init__(self, ctx) -> None:
-        from armlab.control.simulate import DRIVE_VARIANTS
+        from armlab.control.simulate import tracking_variants, variant_loops
         from armlab.study.stages import tracking_options
 
         options = tracking_options(ctx)
-        limited = [n for n in DRIVE_MODEL_VARIANTS if DRIVE_VARIANTS[n].get("voltage_limit", True)]
-        groups = [limited, [n for n in DRIVE_MODEL_VARIANTS if n not in limited]]
         self.sides = [
-            SideProcess(_simulate_variants, ctx.robot, ctx.trajectory, ctx.gains, g, options)
-            for g in groups
-            if g
+            SideProcess(tracking_variants, ctx.robot, ctx.trajectory, ctx.gains, g, **options)
+            for g in variant_loops(DRIVE_MODEL_VARIANTS)
         ]
 
     def take(self) -> dict:
         """The simulated variants by name (those of a failed process missing)."""
         out: dict = {}
         for side in self.sides:
-            out.update(side.result(PLOT_PROCESS_SILENCE_S) or {})
+            out.update(side.result() or {})
         return out
 
     def close(self) -> None:
@@ -515,7 +506,7 @@ class StagePlots:
             d.abort()
         self.drawings = []
         if self.motion is not None:  # its file goes with the plots
-            self.motion.result(PLOT_PROCESS_SILENCE_S)  # let it finish writing
+            self.motion.result()  # let it finish writing
             (self.out_dir / MOTION_FILE).unlink(missing_ok=True)
         self._close_sides()
 
@@ -662,7 +653,7 @@ def write_report(
     summary["study"]["plot_processes"] = processes
     motion = None  # (report lines, whether the file was written)
     if early is not None and early.motion is not None:  # written beside the stages
-        motion = early.motion.result(PLOT_PROCESS_SILENCE_S)
+        motion = early.motion.result()
     with _FigureDrawing(rest, out_dir, processes, prefetched=variants is not None) as drawing:
         if motion is None and ctx.trajectory is not None:
             motion = _motion_file(ctx.robot, ctx.trajectory, out_dir)

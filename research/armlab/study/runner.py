@@ -320,14 +320,15 @@ def _tuning_ahead(ctx: StudyContext):
     kinematics and plan stages (:attr:`StudyContext.tuning_ahead`): it needs the robot's
     drives and the controller only. Not when the sizing stage may select the drive train."""
     from armlab._fork import SideProcess, can_fork
-    from armlab.study.stages import tune_study_arm, tuning_options
+    from armlab.control import tune_arm
+    from armlab.study.stages import tuning_options
 
     spec = ctx.spec
     if (ctx.workers or 1) < 2 or not can_fork() or "tuning" not in spec.study.stages:
         return None
     if ctx.robot.drives is None or spec.sizing.select:
         return None
-    return SideProcess(tune_study_arm, ctx.robot, ctx.controller, tuning_options(ctx))
+    return SideProcess(tune_arm, ctx.robot, controller=ctx.controller, **tuning_options(ctx))
 
 
 def _checksums(out: Path, written: dict[str, str]) -> dict[str, str]:

@@ -820,32 +820,19 @@ def tuning_options(ctx: StudyContext) -> dict[str, Any]:
     return {k: v for k, v in options.items() if v is not None}
 
 
-def tune_study_arm(robot, controller: ControllerProfile | None, options: dict[str, Any]):
-    """The study's servo tuning: :func:`~armlab.control.tune_arm` of ``robot`` at the
-    controller's servo period with :func:`tuning_options` (also what the process that tunes
-    beside the earlier stages runs, :attr:`StudyContext.tuning_ahead`)."""
-    from armlab.control import tune_arm
-
-    return tune_arm(robot, controller=controller, **options)
-
-
-#: how long the tuning stage waits for the tuning run beside the earlier stages before it
-#: tunes itself [s] (it needs a fraction of a second; a process that fell silent is not
-#: waited for forever)
-TUNING_AHEAD_SILENCE_S = 600.0
-
-
 def stage_tuning(ctx: StudyContext) -> dict:
     """Robust cascade tuning of every joint (current PI, speed PI, position P) to the study's
     control specs, discretised at the controller's servo period and checked continuous and
     discrete over each joint's inertia range."""
+    from armlab.control import tune_arm
+
     _needs_drives(ctx)
     gains = None
     if ctx.tuning_ahead is not None and not ctx.drives_selected:  # the same robot as then
-        gains = ctx.tuning_ahead.result(TUNING_AHEAD_SILENCE_S)
+        gains = ctx.tuning_ahead.result()
     ahead = gains is not None
     if gains is None:
-        gains = tune_study_arm(ctx.robot, ctx.controller, tuning_options(ctx))
+        gains = tune_arm(ctx.robot, controller=ctx.controller, **tuning_options(ctx))
     ctx.gains = gains
     return {
         "status": "ok",
