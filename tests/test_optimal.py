@@ -597,11 +597,16 @@ def test_a_back_off_left_over_a_limit_on_every_grid_is_refused_by_name(teachbot6
 
 
 def test_the_end_correction_reaches_the_goal_with_the_smallest_change():
-    """``_end_correction``: the jerks it corrects lead from the start exactly to the goal
-    (integrated piece by piece, as the planner does), the change is the smallest in the time
-    integral of its square (it lies in the span of the end-state sensitivities, weighted by
-    1 / h), and a control that already ends at the goal is left as it is."""
-    from armlab.planning.optimal import _end_correction
+    """The plan's end correction (``fit_piecewise`` from the solver's jerks): the jerks it
+    corrects lead from the start exactly to the goal (integrated piece by piece, as the
+    planner does), the change is the smallest in the time integral of its square (it lies in
+    the span of the end-state sensitivities, weighted by 1 / h), and a control that already
+    ends at the goal is left as it is."""
+    from armlab.planning.warmstart import fit_piecewise
+
+    def _end_correction(t, u, start, goal):  # as OptimalProblem._trajectory calls it
+        target = np.vstack([goal[0] - start[0], goal[1], np.zeros_like(goal[0])])
+        return fit_piecewise(np.diff(t), u, target, "jerk", start=start[1:]) - u
 
     rng = np.random.default_rng(5)
     t = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 0.4, 40))])

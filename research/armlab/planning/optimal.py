@@ -93,9 +93,10 @@ The controls the solver returns meet the integration equations to its constraint
 integrated forward they miss the goal by about that much, and the last piece, closed onto the
 goal, absorbed the miss -- a jerk up to 1e-4 over its limit and a needless back-off round in
 about one plan in five. The miss is now spread over every piece
-(:func:`_end_correction`, the smallest change in the time integral of the squared jerk
-change): 12 of 56 random problems lost their back-off round, 1.8e-5 shorter at most,
-7 % less solve time on average; the others changed by less than 2e-8.
+(:func:`~armlab.planning.warmstart.fit_piecewise`, the smallest change in the time integral
+of the squared jerk change, as for the warm start): 12 of 56 random problems lost their
+back-off round, 1.8e-5 shorter at most, 7 % less solve time on average; the others changed by
+less than 2e-8.
 
 Replanning from a moving state (issue 15)
 -----------------------------------------
@@ -832,27 +833,18 @@ class OptimalProblem:
         names = self.robot.joint_names
         t = np.concatenate([[0.0], np.cumsum(h)])
         (q0, v0, a0), (q1, v1) = self.boundary_states()
-        Q = np.empty_like(q)
-        Vv = np.empty_like(v)
-        Q[0], Vv[0] = q0, v0
         if self.mode == "jerk":
-            u = u + _end_correction(t, u, (q0, v0, a0), (q1, v1))
-            Aa = np.empty_like(a)
-            Aa[0] = a0
-            for k in range(self.N):
-                hk, uk = h[k], u[k]
-                Q[k + 1] = Q[k] + hk * Vv[k] + hk**2 / 2 * Aa[k] + hk**3 / 6 * uk
-                Vv[k + 1] = Vv[k] + hk * Aa[k] + hk**2 / 2 * uk
-                Aa[k + 1] = Aa[k] + hk * uk
+            # the solver's controls miss the goal by its constraint tolerance: the smallest
+            # change that ends on it, spread over every piece (module docstring)
+            goal = np.vstack([q1 - q0, v1, np.zeros(self.n)])
+            u = fit_piecewise(h, u, goal, "jerk", start=(v0, a0))
+            Q, Vv, Aa = integrate_piecewise(h, u, q0, "jerk", start=(v0, a0))
             # the goal state exactly (the corrected controls end within rounding of it)
             Q[-1], Vv[-1], Aa[-1] = q1, v1, 0.0
             J = np.vstack([u, u[-1:]])
             traj = Trajectory(t, Q, Vv, Aa, J, joint_names=names, method="optimal")
         else:
-            for k in range(self.N):
-                hk, uk = h[k], u[k]
-                Q[k + 1] = Q[k] + hk * Vv[k] + hk**2 / 2 * uk
-                Vv[k + 1] = Vv[k] + hk * uk
+            Q, Vv, _ = integrate_piecewise(h, u, q0, "acceleration", start=(v0, a0))
             Q[-1], Vv[-1] = q1, v1  # the goal state exactly, as above
             start = None
             if self.from_state:  # the caller's state itself (boundary_states)
@@ -1155,35 +1147,6 @@ def _binding_of(traj: Trajectory) -> tuple[str, str, float]:
 #: left the plan over a limit between the knots (factors of every segment's intervals; issue
 #: 15: one of 1 000 random problems stalled at 16 and 32 intervals per segment, planned at 48)
 FINER_GRIDS = (2, 3)
-
-
-def _end_correction(t: np.ndarray, u: np.ndarray, start, goal) -> np.ndarray:
-    """The smallest change of the piecewise-constant jerks ``u`` (N, n) on the knots ``t``
-    (N + 1,) -- in the time integral of its square -- after which they lead from ``start``
-    ``(q, qd, qdd)`` exactly to ``goal`` ``(q, qd)`` with zero acceleration.
-
-    The solver's controls meet the integration equations to its constraint tolerance, so
-    integrated forward they miss the goal by about that much. Left there, the last piece had
-    to absorb the miss (the trajectory closes each piece onto its right knot): a jerk up to
-    1e-4 over its limit in one plan in five, and a needless back-off round (issue 15,
-    measured on 143 random 5-waypoint problems). Spread over every piece, the change is of
-    the order of that tolerance. The end state is linear in ``u``: with ``T = t_N``, piece
-    ``k`` adds ``u_k ((T - t_k)^3 - (T - t_k+1)^3) / 6`` to the position, ``u_k ((T - t_k)^2 -
-    (T - t_k+1)^2) / 2`` to the velocity and ``u_k h_k`` to the acceleration.
-    """
-    q0, v0, a0 = (np.asarray(x, float) for x in start)
-    q1, v1 = (np.asarray(x, float) for x in goal)
-    T = t[-1]
-    before, after = T - t[:-1], T - t[1:]  # (N,) time left at each piece's start and end
-    h = before - after
-    S = np.stack([(before**3 - after**3) / 6, (before**2 - after**2) / 2, h])  # (3, N)
-    reached = np.stack(
-        [q0 + v0 * T + a0 * T**2 / 2 + S[0] @ u, v0 + a0 * T + S[1] @ u, a0 + S[2] @ u]
-    )  # (3, n)
-    miss = np.stack([q1, v1, np.zeros_like(q1)]) - reached
-    # minimise sum h_k du_k^2 subject to S du = miss: du = H^-1 S' (S H^-1 S')^-1 miss
-    SH = np.divide(S, h, out=np.zeros_like(S), where=h > 0)  # S H^-1 (no empty piece moves)
-    return SH.T @ np.linalg.solve(SH @ S.T, miss)
 
 
 def _ramped_trajectory(t, Q, V, U, names, start=None) -> Trajectory:
