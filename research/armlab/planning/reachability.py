@@ -91,7 +91,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from armlab.errors import InfeasibleError
-from armlab.planning.topp import ToppProblem, path_dynamics
+from armlab.planning.topp import ToppProblem
 from armlab.robot.limits import Limits
 
 __all__ = [
@@ -166,23 +166,18 @@ def interval_coefficients(prob: ToppProblem) -> dict:
     # the spline's interior knots: q'' has a kink there (its third derivative steps), where
     # the acceleration and torque can peak between the fractions above; one more row in each
     # interval holding a knot (the first, if several)
-    knots = prob.path.s_points[1:-1]
-    k_of = np.clip(np.searchsorted(s, knots, side="right") - 1, 0, K - 1)
-    first = np.unique(k_of, return_index=True)[1]
-    k_of, knots = k_of[first], knots[first]
+    k_of, knots = prob.knots_in_intervals()
     frac = np.full(K, np.nan)
     frac[k_of] = (knots - s[k_of]) / ds[k_of]
     pts = np.concatenate([(s[:-1, None] + ds[:, None] * np.array(other)).T.reshape(-1), knots])
     vel_pts = (s[:-1, None] + ds[:, None] * np.array(VELOCITY_FRACTIONS)).T.reshape(-1)
-    if not prob.coeffs:  # everything in one batch
-        prob.compute_coefficients(extra=pts, extra_d1=vel_pts)
-    ex = prob.coeffs.pop("extra", None)
-    ex_d1 = prob.coeffs.pop("extra_d1", None)
-    if ex is None or ex_d1 is None:  # nodes and midpoints computed before: the rest now
-        q, d1, d2, _ = prob.path(pts)
-        m, c, g = path_dynamics(prob.robot, q, d1, d2)
-        ex = {"d1": d1, "d2": d2, "m": m, "c": c, "g": g}
-        ex_d1 = prob.path(vel_pts)[1]
+    ex: dict[str, np.ndarray] | None
+    ex_d1: np.ndarray | None
+    if prob.coeffs:  # nodes and midpoints computed before: the rest now
+        ex, ex_d1 = prob.path_values(pts), prob.path.tangent(vel_pts)
+    else:  # everything in one batch
+        ex, ex_d1 = prob.compute_coefficients(extra=pts, extra_d1=vel_pts)
+    assert ex is not None and ex_d1 is not None
     Cn, Cm = prob.coeffs["node"], prob.coeffs["mid"]
     n = Cn["d1"].shape[1]
     limit: dict[float, dict[str, np.ndarray]] = {

@@ -267,13 +267,22 @@ class ToppProblem:
     method: str = "reachability"
 
     # ------------------------------------------------------------------ coefficients
-    def compute_coefficients(self, extra=None, extra_d1=None) -> dict:
-        """The path and its dynamics at the nodes (``"node"``) and interval midpoints
-        (``"mid"``): ``q, d1, d2, d3`` (``q`` and its first three derivatives in ``s``) and
-        ``m, c, g`` (:func:`path_dynamics`), each (n, n_joints); ``q'`` at
-        :data:`VELOCITY_POINTS` of each interval (``"vel_d1"``). With ``extra`` (m,) the same
-        at those ``s`` (``"extra"``), with ``extra_d1`` (p,) ``q'`` there (``"extra_d1"``):
-        one path evaluation and one batched RNEA for all of them."""
+    def path_values(self, pts) -> dict[str, np.ndarray]:
+        """The path and its dynamics at ``pts`` (m,): ``s``, ``q, d1, d2, d3`` (``q`` and its
+        first three derivatives in ``s``) and ``m, c, g`` (:func:`path_dynamics`), each
+        (m, n_joints); one path evaluation and one batched RNEA."""
+        pts = np.asarray(pts, dtype=float).reshape(-1)
+        q, d1, d2, d3 = self.path(pts)
+        m, c, g = path_dynamics(self.robot, q, d1, d2)
+        return {"s": pts, "q": q, "d1": d1, "d2": d2, "d3": d3, "m": m, "c": c, "g": g}
+
+    def compute_coefficients(
+        self, extra=None, extra_d1=None
+    ) -> tuple[dict[str, np.ndarray] | None, np.ndarray | None]:
+        """:attr:`coeffs`: the :meth:`path_values` at the nodes (``"node"``) and interval
+        midpoints (``"mid"``), and ``q'`` at :data:`VELOCITY_POINTS` of each interval
+        (``"vel_d1"``). With ``extra`` (m,) and ``extra_d1`` (p,), the same batch also gives
+        (and returns) the path values at ``extra`` and ``q'`` at ``extra_d1`` (else None)."""
         s = self.s
         K = s.size - 1
         ds = np.diff(s)
@@ -281,24 +290,23 @@ class ToppProblem:
         ex = np.zeros(0) if extra is None else np.asarray(extra, dtype=float).reshape(-1)
         ex_d1 = np.zeros(0) if extra_d1 is None else np.asarray(extra_d1, dtype=float).reshape(-1)
         vel = (s[:-1, None] + ds[:, None] * np.array(VELOCITY_POINTS)).T.reshape(-1)
-        q, d1, d2, d3 = self.path(np.concatenate([s, mid, ex]))
-        m, c, g = path_dynamics(self.robot, q, d1, d2)
+        values = self.path_values(np.concatenate([s, mid, ex]))
         tangents = self.path.tangent(np.concatenate([vel, ex_d1]))
-        values = {"q": q, "d1": d1, "d2": d2, "d3": d3, "m": m, "c": c, "g": g}
-        out: dict[str, Any] = {}
+        parts = {}
         start = 0
         for name, pts in (("node", s), ("mid", mid), ("extra", ex)):
             sl = slice(start, start + pts.size)
-            out[name] = {"s": pts, **{k: v[sl] for k, v in values.items()}}
+            parts[name] = {k: v[sl] for k, v in values.items()}
             start += pts.size
-        out["vel_d1"] = list(tangents[: vel.size].reshape(len(VELOCITY_POINTS), K, -1))
-        out["extra_d1"] = tangents[vel.size :]
-        if extra is None:
-            del out["extra"]
-        if extra_d1 is None:
-            del out["extra_d1"]
-        self.coeffs = out
-        return out
+        self.coeffs = {
+            "node": parts["node"],
+            "mid": parts["mid"],
+            "vel_d1": list(tangents[: vel.size].reshape(len(VELOCITY_POINTS), K, -1)),
+        }
+        return (
+            None if extra is None else parts["extra"],
+            None if extra_d1 is None else tangents[vel.size :],
+        )
 
     def static_check(self, ls: Limits) -> None:
         """Raise :class:`InfeasibleError` where gravity alone exceeds a torque limit of ``ls``
@@ -606,7 +614,7 @@ class ToppProblem:
         s_k, sd_k, t_k = (np.broadcast_to(x[:, None], (K + 1, 5)) for x in (s, sd, t))
         tau, ak, s_k, sd_k, t_k = (x[keep] for x in (tau, ak, s_k, sd_k, t_k))
         # the spline knots: s_k + sd_k tau + a tau^2 / 2 + a d^2 / 24 = knot (the sample's s)
-        k_of, knot = self._knots_in_intervals()
+        k_of, knot = self.knots_in_intervals()
         gap = knot - s[k_of] - a[k_of] * d**2 / 24
         root = np.sqrt(np.maximum(sd[k_of] ** 2 + 2 * a[k_of] * gap, 0.0))
         tau_kn = 2 * gap / np.maximum(sd[k_of] + root, 1e-300)
@@ -618,7 +626,7 @@ class ToppProblem:
         S = s_k + sd_k * tau + ak * tau**2 / 2 + ak * d**2 / 24
         return self._map(t_k + tau + d / 2, S, sd_k + ak * tau, ak, None)
 
-    def _knots_in_intervals(self) -> tuple[np.ndarray, np.ndarray]:
+    def knots_in_intervals(self) -> tuple[np.ndarray, np.ndarray]:
         """The path's interior spline knots, the first in each grid interval holding one, and
         their intervals: ``(k, s_knot)``, as the reachability pass's knot rows."""
         knots = self.path.s_points[1:-1]
