@@ -184,7 +184,7 @@ from typing import TYPE_CHECKING, Any, NoReturn
 import numpy as np
 
 from armlab._lazy import lazy_import
-from armlab.errors import ArmlabError, InfeasibleError, InputError, LimitViolation
+from armlab.errors import ArmlabError, InfeasibleError, InputError
 from armlab.planning.timescale import (
     CHECK_TOL,
     absorb_drive_tolerance,
@@ -967,22 +967,21 @@ class OptimalProblem:
         traj = self._trajectory(st, x)
         dt = self._check_dt(traj)
         # an excess within the solver's tolerance: a uniform stretch by k <= 1 + CHECK_TOL
-        stretch_skipped = None
-        try:
-            traj, k_tol = absorb_tolerance(traj, self.robot, jl, torque=torque_on, dt=dt)
-        except LimitViolation as exc:
-            # the plan passes where gravity alone exceeds a torque limit and its own torque
-            # stays within it (the motion's dynamics hold the joint): no torque-aware stretch
-            # applies there (slowing down moves the torque towards gravity), and the one the
-            # other limits need was not needed or broke a limit, so none is made; the report
-            # below is the verdict (issue 15: 1 of 250 random 5-waypoint problems)
-            k_tol, stretch_skipped = 1.0, str(exc)
+        # (where the plan passes a pose whose gravity alone exceeds a torque limit, held there
+        # by its dynamics, the report below is the verdict: issue 15, 1 of 250 random
+        # 5-waypoint problems)
+        absorbed = absorb_tolerance(traj, self.robot, jl, torque=torque_on, dt=dt)
+        traj, k_tol, samples = absorbed.traj, absorbed.k, absorbed.samples
+        stretch_skipped = absorbed.skipped
         drive_ratios: dict[str, np.ndarray] = {}
         if train is not None:
             traj, k_drive, drive_ratios = absorb_drive_tolerance(traj, self.robot, train, dt)
             k_tol *= k_drive
+            samples = samples if k_drive == 1.0 else None
         traj.meta["knot_times_s"] = traj.meta["knot_times_s"] * k_tol
-        traj.report = traj.check_limits(self.robot, dt=dt, limits=jl, torque=torque_on)
+        traj.report = traj.check_limits(
+            self.robot, dt=dt, limits=jl, torque=torque_on, samples=samples
+        )
         binding = [
             (k, traj.joint_names[i], float(r[i]))
             for k, r in {**traj.report.ratios, **drive_ratios}.items()

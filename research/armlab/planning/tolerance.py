@@ -19,11 +19,13 @@ still removed: the stretch they need (``k - 1 <= CHECK_TOL``, which changes a to
 ``2 (k - 1) |tau - g|``) is made and kept if every limit, torque included, holds after it
 (issue 15: 3 of 1 000 random 5-waypoint teachbot6 problems were left with a jerk 6e-9 to
 6e-8 over its limit -- where looked at, in the last interval, where the goal state is set
-exactly).
+exactly); otherwise none is made, and :attr:`Absorbed.skipped` says why. Either way the
+plan's own limit check is the verdict.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from armlab.errors import LimitViolation
@@ -32,46 +34,56 @@ from armlab.planning.timescale import CHECK_TOL, stretch_needed
 if TYPE_CHECKING:
     from armlab.robot.limits import Limits
     from armlab.robot.model import Robot
-    from armlab.trajectory.core import Trajectory
+    from armlab.trajectory.core import LimitSamples, Trajectory
 
-__all__ = ["absorb_tolerance", "STRETCH_MARGIN"]
+__all__ = ["Absorbed", "absorb_tolerance", "STRETCH_MARGIN"]
 
 #: the stretch factor is raised by this fraction (torque peaks between refined samples)
 STRETCH_MARGIN = 1e-9
 
 
+@dataclass
+class Absorbed:
+    """What :func:`absorb_tolerance` made of a plan."""
+
+    #: the plan, stretched by ``k`` or as it was (``k = 1``)
+    traj: Trajectory
+    k: float
+    #: why no stretch was made where the plan passes a pose whose gravity torque alone is
+    #: above a limit (module docstring); None otherwise
+    skipped: str | None
+    #: ``traj``'s limit samples at the caller's ``dt`` where they were computed (for its
+    #: :meth:`~armlab.trajectory.Trajectory.check_limits`), else None
+    samples: LimitSamples | None
+
+
 def absorb_tolerance(
     traj: Trajectory, robot: Robot, limits: Limits, *, torque: bool, dt: float | None = None
-) -> tuple[Trajectory, float]:
-    """``(trajectory, k)``: ``traj`` stretched in time by the smallest ``k`` (times
-    ``1 + STRETCH_MARGIN``) that brings every limit within ``limits`` if that ``k`` is at most
-    ``1 + CHECK_TOL``, else ``traj`` itself and ``k = 1``.
+) -> Absorbed:
+    """``traj`` stretched in time by the smallest ``k`` (times ``1 + STRETCH_MARGIN``) that
+    brings every limit within ``limits`` if that ``k`` is at most ``1 + CHECK_TOL``, else
+    ``traj`` itself (``k = 1``); where gravity alone exceeds a torque limit on the path, the
+    stretch the other limits need, kept if every limit still holds after it (module
+    docstring).
 
     ``dt`` [s] adds a uniform grid to the limit samples (the optimisers' fine check step).
     Times in ``meta`` are the caller's to scale by ``k``.
-
-    Raises
-    ------
-    LimitViolation
-        Gravity alone exceeds a torque limit on the path (:func:`stretch_needed`) and no
-        stretch of the other limits is needed, or the one they need breaks a limit (module
-        docstring): no stretch is made.
     """
-    samples = traj.limit_samples(dt, robot=robot if torque else None)
+    with_tau = robot if torque else None
+    samples = traj.limit_samples(dt, robot=with_tau)
+    skipped = None
     try:
         k, _, _ = stretch_needed(samples, robot, limits, torque=torque)
-    except LimitViolation:
-        # gravity alone above a torque limit on the path: the other limits' stretch, kept if
-        # every limit (torque included) still holds after it
+    except LimitViolation as exc:  # gravity alone above a torque limit on the path
+        skipped = str(exc)
         k, _, _ = stretch_needed(samples, robot, limits, torque=False)
-        if k <= 1.0 or k > 1.0 + CHECK_TOL:
-            raise
-        k *= 1.0 + STRETCH_MARGIN
-        cand = traj.stretched(k)
-        if not cand.check_limits(robot, dt=dt, limits=limits, torque=torque).ok():
-            raise
-        return cand, k
     if k <= 1.0 or k > 1.0 + CHECK_TOL:
-        return traj, 1.0
+        return Absorbed(traj, 1.0, skipped, samples)
     k *= 1.0 + STRETCH_MARGIN
-    return traj.stretched(k), k
+    cand = traj.stretched(k)
+    if skipped is None:
+        return Absorbed(cand, k, None, None)
+    cand_samples = cand.limit_samples(dt, robot=with_tau)
+    if cand.check_limits(robot, dt=dt, limits=limits, torque=torque, samples=cand_samples).ok():
+        return Absorbed(cand, k, None, cand_samples)
+    return Absorbed(traj, 1.0, skipped, samples)

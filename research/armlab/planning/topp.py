@@ -979,18 +979,24 @@ class ToppProblem:
         dt = self._dt(traj)
         t0 = _time.perf_counter()
         k_tol = 1.0
+        stretch_skipped = None
         drive_ratios: dict[str, np.ndarray] = {}
         # the first pass's report holds when nothing is over (a stretch would be k <= 1)
         if passes != ["convex"] or train is not None or not traj.report.ok(0.0):
             # an excess within the solver's tolerance: a uniform stretch by k <= 1 + CHECK_TOL
-            traj, k_tol = absorb_tolerance(traj, self.robot, jl, torque=torque_on, dt=dt)
+            absorbed = absorb_tolerance(traj, self.robot, jl, torque=torque_on, dt=dt)
+            traj, k_tol, samples = absorbed.traj, absorbed.k, absorbed.samples
+            stretch_skipped = absorbed.skipped
             if train is not None:
                 traj, k_drive, drive_ratios = absorb_drive_tolerance(
                     traj, self.robot, train, self._uniform_dt(traj)
                 )
                 k_tol *= k_drive
+                samples = samples if k_drive == 1.0 else None
             traj.meta["sd"] = np.asarray(traj.meta["sd"]) / k_tol
-            traj.report = traj.check_limits(self.robot, dt=dt, limits=jl, torque=torque_on)
+            traj.report = traj.check_limits(
+                self.robot, dt=dt, limits=jl, torque=torque_on, samples=samples
+            )
         spent["check"] += _time.perf_counter() - t0
         binding = [
             (k, traj.joint_names[i], float(r[i]))
@@ -1018,6 +1024,7 @@ class ToppProblem:
             "backoff_rounds": rounds,
             "duration_s": traj.duration,
             "tolerance_stretch": k_tol,
+            "tolerance_stretch_skipped": stretch_skipped,
             "binding": binding,
             "report_dt_s": dt,
             "ok": report_ok,
