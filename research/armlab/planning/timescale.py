@@ -83,7 +83,9 @@ def _ratio(signal, limit) -> np.ndarray:
 
 def stretch_needed(traj, robot: Robot, limits, *, torque: bool = True) -> tuple[float, str, str]:
     """Smallest time-stretch factor ``k >= 1`` that brings ``traj`` within ``limits``
-    (a :class:`~armlab.robot.Limits`; kinds that are None are not limited).
+    (a :class:`~armlab.robot.Limits`; kinds that are None are not limited). ``traj``: samples
+    with ``t, q, qd, qdd`` (and ``qddd``), typically its
+    :meth:`~armlab.trajectory.Trajectory.limit_samples` with ``robot``, whose torques are used.
 
     ``k = max(r_v, sqrt(r_a), cbrt(r_j), k_tau)`` with ``r`` the peak ratios of the samples
     and ``k_tau`` the exact factor for the torques: ``|g + (tau - g) x| <= tau_max`` with
@@ -113,7 +115,9 @@ def stretch_needed(traj, robot: Robot, limits, *, torque: bool = True) -> tuple[
     eff = limits.torque_Nm
     if torque and eff is not None and np.any(np.isfinite(eff)):
         g = rigid_body.gravity_torques(robot, traj.q)
-        tau = rigid_body.inverse_dynamics(robot, traj.q, traj.qd, traj.qdd)
+        tau = getattr(traj, "tau", None)  # limit samples carry their torques
+        if tau is None:
+            tau = rigid_body.inverse_dynamics(robot, traj.q, traj.qd, traj.qdd)
         over = np.abs(g) > eff * (1 + 1e-12)
         if np.any(over):
             k, j = np.argwhere(over)[0]
