@@ -276,7 +276,7 @@ def test_tracking_stays_within_the_servo_share_of_the_accuracy(teachbot6, arm_ga
     d = np.linalg.norm(fk(teachbot6, res.q[k])[:3, 3] - fk(teachbot6, res.q_ref[k])[:3, 3])
     assert d == pytest.approx(res.tcp_error_m[k], rel=1e-9)
     # the error at rest after the motion is within a few encoder counts at each joint
-    counts = np.array([teachbot6.drives[n].counts_per_rad for n in teachbot6.joint_names])
+    counts = np.array([teachbot6.drives[n].counts_per_rad() for n in teachbot6.joint_names])
     assert np.all(np.abs(res.final_error_rad) * counts <= 3.0)
     out = res.to_dict()
     json.dumps(out, allow_nan=False)
