@@ -23,7 +23,6 @@ import numpy as np
 from armlab.errors import InputError
 from armlab.robot import drivetrain
 from armlab.robot.controller import ControllerProfile, load_profile
-from armlab.robot.drives import available_torque_Nm
 from armlab.robot.drivetrain import DriveTrain
 
 __all__ = [
@@ -197,9 +196,7 @@ def evaluate_checks(
     out: dict[str, tuple[np.ndarray | float, np.ndarray | float]] = {}
     out["thesis_rule"] = (
         peak_tau,
-        available_torque_Nm(
-            drives.stall_torque_Nm, drives.ratio, drives.efficiency, drives.derating
-        ),
+        drives.available_joint_torque_Nm,
     )
     power_limit = np.where(np.isfinite(drives.power_W), drives.power_W, np.inf)
     out["thesis_power_rule"] = (peak_tau * abs_qd.max(axis=0), power_limit)

@@ -237,7 +237,9 @@ class DriveTrain:
         """Thesis table 4.3 rule, the model at rest in the motoring quadrant:
         ``T_stall x derating x N x eta`` in [N m]
         (:func:`armlab.robot.drives.available_torque_Nm`)."""
-        return self.continuous_torque_Nm * self.ratio * self.efficiency
+        from armlab.robot.drives import available_torque_Nm
+
+        return available_torque_Nm(self.stall_torque_Nm, self.ratio, self.efficiency, self.derating)
 
     def symbolic_coefficients(self) -> np.ndarray:
         """``(n_columns, 9)``: per column ``N, eta, eta_b, J_motor_side, b_m, F_c, F_v, Kt/R,
