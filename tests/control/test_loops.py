@@ -14,7 +14,6 @@ import warnings
 
 import numpy as np
 import pytest
-from oracles.cascade_pc import Cascade, response, step_figures
 
 import armlab
 from armlab.control import (
@@ -31,6 +30,7 @@ from armlab.control.plant import JointPlant
 from armlab.control.robust import tune_loops
 from armlab.errors import SpecError
 from armlab.robot.drives import RPM_TO_RAD_S
+from oracles.cascade_pc import Cascade, response, step_figures
 
 LOOPS = ("current", "speed", "position")
 
