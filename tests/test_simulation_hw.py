@@ -313,6 +313,8 @@ def test_study_verdict_names_the_limiting_factor_when_the_budget_fails():
             "kinematics.accuracy_samples": 0,
             "control.n_inertia_samples": 20,
             "tracking.accuracy_m": 1e-6,
+            # the thesis' feed-forward (the demo study adds the losses): the check offers them
+            "tracking.feedforward": ["velocity", "acceleration", "gravity"],
         },
     )
     res = run_spec(spec, None)
