@@ -24,6 +24,7 @@ The modules of the package:
 
 from armlab.control.check import check_cascade
 from armlab.control.discrete import IncrementalPID, quantise_da, quantise_encoder
+from armlab.control.feedforward import FEEDFORWARDS
 from armlab.control.force import (
     SEED_DESIGNS,
     ForceLoopResult,
@@ -52,13 +53,8 @@ from armlab.control.plant import (
     joint_plant,
     motor_speed_tf,
 )
-from armlab.control.simulate import (
-    FEEDFORWARDS,
-    POSITIONING_ACCURACY_M,
-    SERVO_SHARE,
-    TrackingResult,
-    simulate_tracking,
-)
+from armlab.control.result import POSITIONING_ACCURACY_M, SERVO_SHARE, TrackingResult
+from armlab.control.simulate import simulate_tracking
 from armlab.control.spec import TuningSpec
 from armlab.control.tuning import tune_arm, tune_cascade
 
