@@ -23,23 +23,11 @@ from armlab.sweep import (
     run_parameter_set,
     run_sweep_spec,
 )
+from cases import quick_study
 from conftest import start_sweep, sweep_env
 
 # A cheap study: teachbot6, joint waypoints, the kinematics checks and a short classical plan.
-QUICK_STUDY = """
-[study]
-name = "quick"
-stages = ["kinematics", "plan", "static_load"]
-report = false
-[robot]
-name = "teachbot6"
-[waypoints]
-unit = "deg"
-joint = [[0, 0, 0, 0, 0, 0], [20, 10, 10, 0, 20, 0]]
-[plan]
-planner = "ptp"
-check_dt_s = 0.01
-"""
+QUICK_STUDY = quick_study()
 
 
 def write(path: Path, text: str) -> Path:

@@ -14,6 +14,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from cases import quick_study
 from conftest import start_sweep, sweep_env
 
 DASK = [sys.executable, "-m", "dask"]
@@ -21,22 +22,7 @@ ARMLAB = [sys.executable, "-m", "armlab.cli"]
 
 # Each study does real work (the Monte-Carlo accuracy study of thesis 3.7 and a short plan) so
 # that the 24 studies take a few seconds on two workers: long enough to kill one mid-sweep.
-STUDY = """
-[study]
-name = "dask quick"
-stages = ["kinematics", "plan"]
-report = false
-[robot]
-name = "teachbot6"
-[waypoints]
-unit = "deg"
-joint = [[0, 0, 0, 0, 0, 0], [20, 10, 10, 0, 20, 0]]
-[plan]
-planner = "ptp"
-check_dt_s = 0.01
-[kinematics]
-accuracy_samples = 20000
-"""
+STUDY = quick_study("dask quick", ("kinematics", "plan"), accuracy_samples=20000)
 
 SWEEP = """
 [sweep]

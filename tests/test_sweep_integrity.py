@@ -31,24 +31,8 @@ from armlab.sweep import (
     run_parameter_set,
     run_sweep_spec,
 )
+from cases import quick_study
 from conftest import REPO, start_sweep
-
-STUDY = """
-[study]
-name = "integrity"
-stages = ["kinematics", "plan", "static_load"]
-report = false
-[robot]
-name = "{robot}"
-[waypoints]
-unit = "deg"
-joint = [[0, 0, 0, 0, 0, 0], [20, 10, 10, 0, 20, 0]]
-[plan]
-planner = "ptp"
-check_dt_s = 0.01
-[kinematics]
-accuracy_samples = {samples}
-"""
 
 
 def write_sweep(
@@ -63,7 +47,9 @@ def write_sweep(
 ) -> Path:
     """A study file and a sweep file over one parameter in ``folder``."""
     folder.mkdir(parents=True, exist_ok=True)
-    (folder / "study.toml").write_text(STUDY.format(robot=robot, samples=samples))
+    (folder / "study.toml").write_text(
+        quick_study("integrity", robot=robot, accuracy_samples=samples)
+    )
     extra = "" if stages is None else f'[set]\n"study.stages" = {json.dumps(stages)}\n'
     path = folder / name
     path.write_text(

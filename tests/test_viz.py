@@ -25,6 +25,7 @@ from armlab.planning import ptp_sync
 from armlab.robot import read_dh_table, urdf_from_dh
 from armlab.robot.dh import VISUAL_MATERIALS
 from armlab.robot.generate import description_urdf
+from cases import quick_study
 from conftest import PANDA_FINGERS, PANDA_URDF, REPO, UR5_URDF
 
 DESC = REPO / "robot_desc" / "teachbot6"
@@ -245,19 +246,7 @@ def test_panda_animation_uses_the_locked_model(tmp_path):
 
 
 # ---------------------------------------------------------------------------- study report
-STUDY = """
-[study]
-name = "viz"
-stages = ["kinematics", "plan"]
-report = true
-[robot]
-name = "teachbot6"
-[waypoints]
-unit = "deg"
-joint = [[0, 0, 0, 0, 0, 0], [20, 10, 10, 0, 20, 0]]
-[plan]
-planner = "ptp"
-"""
+STUDY = quick_study("viz", ("kinematics", "plan"), report=True, check_dt_s=None)
 
 
 def test_study_report_links_the_motion(tmp_path):
