@@ -276,7 +276,9 @@ def _ptp_case(planner: str, seed: int, rng) -> Case:
     w = _move(rng, robot, 2)
 
     def fn():
-        return ptp_sync(robot, w[0], w[1], profile, sync=sync, dt=dt, tau_max=None if torque else False, **kw)
+        return ptp_sync(
+            robot, w[0], w[1], profile, sync=sync, dt=dt, tau_max=None if torque else False, **kw
+        )
 
     lim = resolve_limits(robot, **kw)
     return Case(planner, seed, robot, fn, lim, torque, w, ptp=True, info={"sync": sync, "dt": dt})

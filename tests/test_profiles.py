@@ -14,7 +14,6 @@ import math
 
 import numpy as np
 import pytest
-from tolerances import assert_close_ulps
 
 from armlab.trajectory.profiles import (
     double_s_binding,
@@ -33,6 +32,7 @@ from armlab.trajectory.profiles import (
     trapezoid_profile_for_duration,
     trapezoid_speed_for_duration,
 )
+from tolerances import assert_close_ulps
 
 N = 200
 RNG = np.random.default_rng(20240607)

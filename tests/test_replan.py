@@ -141,7 +141,9 @@ def replan_case(seed: int, profile: str = "trapezoid"):
     state = {"qd_start": v0, "qd_goal": v1, **({"qdd_start": a0} if scurve else {})}
 
     def fn():
-        return ptp_sync(robot, w[0], w[1], profile, dt=dt, tau_max=None if torque else False, **state, **kw)
+        return ptp_sync(
+            robot, w[0], w[1], profile, dt=dt, tau_max=None if torque else False, **state, **kw
+        )
 
     case = Case(f"ptp_{profile}", seed, robot, fn, lim, torque, w, ptp=True, info={"dt": dt})
     return case, v0, a0, v1

@@ -228,7 +228,10 @@ def test_a_failing_design_is_not_ok(tmp_path, capsys):
     assert "forced_despite" in text and "joint2" in text
     # the C export too: the header names the study file and states every failed check, the
     # data file holds the table (issue 23: an empty ARMLAB_SP_SOURCE_FILE and no checks)
-    assert cli_main(["export", str(out), "--format", "c", "--force", "--out", str(tmp_path / "c")]) == 0
+    assert (
+        cli_main(["export", str(out), "--format", "c", "--force", "--out", str(tmp_path / "c")])
+        == 0
+    )
     header = (tmp_path / "c" / "setpoints.h").read_text()
     failed = s["design"]["failed_checks"]
     assert f'#define ARMLAB_SP_SOURCE_FILE "{s["study"]["source"]}"' in header
