@@ -55,7 +55,7 @@ docs: $(STAMP)
 
 # every benchmarks/bench_*.py (outputs in out/bench/); regenerates README.md's benchmark table
 bench: $(STAMP)
-	$(PY) -m pip install --quiet -e ".[test,bench]"
+	$(PY) -m pip install --quiet -c $(LOCK) -e ".[test,bench]"
 	$(PY) benchmarks/run_all.py --update-readme
 
 # the planner property checks of tests/test_planner_properties.py on many more random cases:
