@@ -707,4 +707,6 @@ def test_a_plan_whose_integration_misses_the_goal_needs_no_back_off(teachbot6):
     traj = optimal(teachbot6, w)
     # what the user sees of "no back-off round": every limit holds and the plan is not longer
     assert not traj.check_limits(teachbot6, dt=traj.duration / 4000).violations(1e-9)
-    assert traj.duration < 14.33458  # the backed-off plan took 14.334833 s
+    # halfway between this plan (14.334572 s) and the backed-off one (14.334833 s): a margin
+    # of 1.3e-4 s either way, far above the solver's round-off from machine to machine
+    assert traj.duration < 14.3347
