@@ -3,15 +3,17 @@ PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
+# the dependency versions .venv installs (pip constraints); `make lock` regenerates it
+LOCK := requirements/lock.txt
 
-.PHONY: demo test lint docs bench soak clean setup
+.PHONY: demo test test-latest lint docs bench soak clean setup lock
 
 setup: $(STAMP)
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml $(LOCK)
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e ".[test]"
+	$(PY) -m pip install --quiet -c $(LOCK) -e ".[test]"
 	touch $(STAMP)
 
 demo: $(STAMP)
@@ -19,6 +21,26 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	MPLBACKEND=Agg $(PY) -m pytest -q
+
+# the suite against the newest releases pyproject.toml allows (no lock), in its own .venv-latest
+test-latest:
+	rm -rf .venv-latest
+	$(PYTHON) -m venv .venv-latest
+	.venv-latest/bin/python -m pip install --quiet --upgrade pip
+	.venv-latest/bin/python -m pip install --quiet --upgrade -e ".[test]"
+	.venv-latest/bin/python -m pip freeze --exclude-editable > .venv-latest/versions.txt
+	MPLBACKEND=Agg .venv-latest/bin/python -m pytest -q
+
+# regenerate $(LOCK): the newest allowed releases of the test and docs extras, frozen
+lock:
+	rm -rf .venv-lock
+	$(PYTHON) -m venv .venv-lock
+	.venv-lock/bin/python -m pip install --quiet --upgrade pip
+	.venv-lock/bin/python -m pip install --quiet -e ".[test,docs]"
+	head -n 3 $(LOCK) > $(LOCK).new
+	.venv-lock/bin/python -m pip freeze --exclude-editable | grep -v '^armlab' >> $(LOCK).new
+	mv $(LOCK).new $(LOCK)
+	rm -rf .venv-lock
 
 # ruff (lint + format check) and mypy (files and settings in pyproject.toml [tool.mypy])
 lint: $(STAMP)
@@ -28,12 +50,12 @@ lint: $(STAMP)
 
 # the documentation (docs/, mkdocs.yml) into build/site; warnings are errors
 docs: $(STAMP)
-	$(PY) -m pip install --quiet -e ".[test,docs]"
+	$(PY) -m pip install --quiet -c $(LOCK) -e ".[test,docs]"
 	$(VENV)/bin/mkdocs build --strict
 
 # every benchmarks/bench_*.py (outputs in out/bench/); regenerates README.md's benchmark table
 bench: $(STAMP)
-	$(PY) -m pip install --quiet -e ".[test,bench]"
+	$(PY) -m pip install --quiet -c $(LOCK) -e ".[test,bench]"
 	$(PY) benchmarks/run_all.py --update-readme
 
 # the planner property checks of tests/test_planner_properties.py on many more random cases:
@@ -43,4 +65,4 @@ soak: $(STAMP)
 		--optimiser-cases 2000 --minutes 60 --out out/soak.json
 
 clean:
-	rm -rf $(VENV) out .pytest_cache
+	rm -rf $(VENV) .venv-latest .venv-lock out .pytest_cache

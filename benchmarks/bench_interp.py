@@ -113,7 +113,7 @@ def main() -> None:
             name, r, n = ours(
                 f"ptp_sync {profile} torque={torque}",
                 lambda p=profile, d=dt, tq=torque, e=extra: ptp_sync(
-                    robot, q0, q1, p, dt=d, torque=tq, **e
+                    robot, q0, q1, p, dt=d, tau_max=None if tq else False, **e
                 ),
             )
             rr, peer_name = None, "-"

@@ -40,9 +40,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")  # one core
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
-import sys  # noqa: E402
 import time  # noqa: E402
-from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
@@ -76,19 +74,13 @@ TOPP_STEP_RAD = 0.6  # max joint step between consecutive path waypoints
 CHECK_SAMPLES = 4000
 
 
-def ur5_urdf() -> Path:
-    base = Path(sys.prefix) / "lib"
-    for p in base.glob(
-        "python3*/site-packages/cmeel.prefix/share/example-robot-data/robots/"
-        "ur_description/urdf/ur5_robot.urdf"
-    ):
-        return p
-    raise SystemExit("example-robot-data UR5 URDF not found")
+#: the UR5 of the example-robot-data wheel (a test dependency; data only, no Python module)
+UR5 = "erd:ur_description/urdf/ur5_robot.urdf"
 
 
 def load(name: str):
     arg, payload, extra = ROBOTS[name]
-    robot = armlab.load_robot(ur5_urdf() if arg == "ur5" else arg)
+    robot = armlab.load_robot(UR5 if arg == "ur5" else arg)
     if payload is not None:
         robot = robot.with_payload(payload)
     return robot, extra
@@ -588,7 +580,15 @@ def main() -> None:
         "with --quick)",
     )
     ap.add_argument("--success-only", action="store_true", help="only the success table")
+    ap.add_argument(
+        "--peers-only",
+        action="store_true",
+        help="only the side-by-side with Ruckig and (where installed) TOPP-RA: notebook 03",
+    )
     args = ap.parse_args()
+    if args.peers_only:
+        peers_table(args.quick)
+        return
     n_success = args.success or (SUCCESS_QUICK if args.quick else SUCCESS_CASES)
     if args.optimal_scaling_only:
         scaling_row(bench_optimal_scaling(args.quick))
@@ -633,45 +633,10 @@ def main() -> None:
         rows.append((name, build, r1, r2, r3))
 
     print()
-    quick = ", quick" if args.quick else ""
-    print(f"armlab.trajectory optimisers vs peers (seed {SEED:d}{quick})")
-    hdr = (
-        f"{'benchmark':<47}{'robot':<11}{'n':>4}  {'ratio med':>9}  {'ratio max':>9}  "
-        f"{'ours [s] med':>12}  {'peer [s] med':>12}  {'feasible ours/peer':>18}"
-    )
-    print(hdr)
-    print("-" * len(hdr))
+    peers_header(args.quick)
     for name, build, r1, r2, r3 in rows:
-        print(
-            f"{'PTP v/a/j: optimal / Ruckig':<47}{name:<11}{r1['n']:>4}  "
-            f"{np.median(r1['ratios']):>9.4f}  {np.max(r1['ratios']):>9.4f}  "
-            f"{np.median(r1['ours_t']):>12.3f}  {np.median(r1['peer_t']):>12.6f}  "
-            f"{r1['ok']:>8}/{r1['peer_ok']:<9}"
-        )
-        n2 = len(r2["ratio_path"])
-        peer_ok = int(np.sum(r2["peer_worst"] <= 1 + 1e-6))
-        ok_path = int(np.sum(r2["ours_worst"] <= 1 + 1e-6))
-        ok_free = int(np.sum(r2["free_worst"] <= 1 + 1e-6))
-        print(
-            f"{'5-wp v/a/tau: time_optimal_path / TOPP-RA':<47}{name:<11}{n2:>4}  "
-            f"{np.median(r2['ratio_path']):>9.4f}  {np.max(r2['ratio_path']):>9.4f}  "
-            f"{np.median(r2['ours_t']):>12.3f}  {np.median(r2['peer_t']):>12.4f}  "
-            f"{ok_path:>8}/{peer_ok:<9}"
-        )
-        print(
-            f"{'5-wp v/a/tau: optimal (free path) / TOPP-RA':<47}{name:<11}{n2:>4}  "
-            f"{np.median(r2['ratio_free']):>9.4f}  {np.max(r2['ratio_free']):>9.4f}  "
-            f"{np.median(r2['free_t']):>12.3f}  {np.median(r2['peer_t']):>12.4f}  "
-            f"{ok_free:>8}/{peer_ok:<9}"
-        )
-        print(
-            f"{'  TOPP-RA worst limit ratio on the fine grid':<47}{name:<11}{n2:>4}  "
-            f"{np.median(r2['peer_worst']):>9.4f}  {np.max(r2['peer_worst']):>9.4f}"
-        )
-        print(
-            f"{'  time_optimal_path / TOPP-RA made feasible':<47}{name:<11}{n2:>4}  "
-            f"{np.median(r2['ratio_stretched']):>9.4f}  {np.max(r2['ratio_stretched']):>9.4f}"
-        )
+        ruckig_line(name, r1)
+        toppra_lines(name, r2)
         solved = len(r3["solve"])
         print(
             f"{'full v/a/j/tau, 3 wp, faster drives: success':<47}{name:<11}{r3['n']:>4}  "
@@ -739,6 +704,71 @@ def main() -> None:
     scaling_row(scaling)
     scurve_row(scurves)
     success_row(success)
+
+
+def peers_header(quick: bool) -> None:
+    print(f"armlab.trajectory optimisers vs peers (seed {SEED:d}{', quick' if quick else ''})")
+    hdr = (
+        f"{'benchmark':<47}{'robot':<11}{'n':>4}  {'ratio med':>9}  {'ratio max':>9}  "
+        f"{'ours [s] med':>12}  {'peer [s] med':>12}  {'feasible ours/peer':>18}"
+    )
+    print(hdr)
+    print("-" * len(hdr))
+
+
+def ruckig_line(name: str, r1: dict) -> None:
+    print(
+        f"{'PTP v/a/j: optimal / Ruckig':<47}{name:<11}{r1['n']:>4}  "
+        f"{np.median(r1['ratios']):>9.4f}  {np.max(r1['ratios']):>9.4f}  "
+        f"{np.median(r1['ours_t']):>12.3f}  {np.median(r1['peer_t']):>12.6f}  "
+        f"{r1['ok']:>8}/{r1['peer_ok']:<9}"
+    )
+
+
+def toppra_lines(name: str, r2: dict) -> None:
+    n2 = len(r2["ratio_path"])
+    peer_ok = int(np.sum(r2["peer_worst"] <= 1 + 1e-6))
+    ok_path = int(np.sum(r2["ours_worst"] <= 1 + 1e-6))
+    ok_free = int(np.sum(r2["free_worst"] <= 1 + 1e-6))
+    print(
+        f"{'5-wp v/a/tau: time_optimal_path / TOPP-RA':<47}{name:<11}{n2:>4}  "
+        f"{np.median(r2['ratio_path']):>9.4f}  {np.max(r2['ratio_path']):>9.4f}  "
+        f"{np.median(r2['ours_t']):>12.3f}  {np.median(r2['peer_t']):>12.4f}  "
+        f"{ok_path:>8}/{peer_ok:<9}"
+    )
+    print(
+        f"{'5-wp v/a/tau: optimal (free path) / TOPP-RA':<47}{name:<11}{n2:>4}  "
+        f"{np.median(r2['ratio_free']):>9.4f}  {np.max(r2['ratio_free']):>9.4f}  "
+        f"{np.median(r2['free_t']):>12.3f}  {np.median(r2['peer_t']):>12.4f}  "
+        f"{ok_free:>8}/{peer_ok:<9}"
+    )
+    print(
+        f"{'  TOPP-RA worst limit ratio on the fine grid':<47}{name:<11}{n2:>4}  "
+        f"{np.median(r2['peer_worst']):>9.4f}  {np.max(r2['peer_worst']):>9.4f}"
+    )
+    print(
+        f"{'  time_optimal_path / TOPP-RA made feasible':<47}{name:<11}{n2:>4}  "
+        f"{np.median(r2['ratio_stretched']):>9.4f}  {np.max(r2['ratio_stretched']):>9.4f}"
+    )
+
+
+def peers_table(quick: bool) -> None:
+    """Tables 1 and 2 alone (``--peers-only``, notebook 03): optimal vs Ruckig (a test
+    dependency) on teachbot6 and the UR5 of example-robot-data, and time_optimal_path /
+    optimal vs TOPP-RA where it is installed (the bench extra); no README rows."""
+    from importlib.util import find_spec
+
+    cases = QUICK if quick else CASES
+    rng = np.random.default_rng(SEED)
+    have_toppra = find_spec("toppra") is not None
+    peers_header(quick)
+    for name in ROBOTS:
+        robot, extra = load(name)
+        ruckig_line(name, bench_ruckig(robot, extra, rng, cases["ptp"]))
+        if have_toppra:
+            toppra_lines(name, bench_toppra(robot, extra, rng, cases["topp"]))
+    if not have_toppra:
+        print("TOPP-RA rows left out: toppra is not installed (pip install -e '.[test,bench]')")
 
 
 def scaling_row(res: dict) -> None:

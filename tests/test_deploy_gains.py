@@ -22,7 +22,7 @@ from armlab.deploy import (
     load_gains,
     write_gains,
 )
-from armlab.errors import InputError
+from armlab.errors import DesignFailure, InputError
 from armlab.study import export_study
 from conftest import make_study_folder
 
@@ -246,3 +246,35 @@ def test_export_study_with_gains(teachbot6, arm_gains, tmp_path, capsys):
     # never write into the study folder (its gains.json is the study's record)
     with pytest.raises(InputError, match="refusing to write into the study folder"):
         export_study(study, "json", None, study)
+
+
+def test_a_forced_gains_export_states_the_failed_checks(teachbot6, arm_gains, tmp_path):
+    """Issue 23: gains exported past failed checks say so (gains.json's source, gains.h's
+    ARMLAB_GAINS_FORCED and one comment line per check); the C files still compile."""
+    from armlab.trajectory import Trajectory
+
+    t, z = np.linspace(0, 1, 11), np.zeros((11, 6))
+    study = make_study_folder(tmp_path / "study", teachbot6, Trajectory(t, z, z, z), arm_gains)
+    summary = json.loads((study / "summary.json").read_text())
+    failed = ["tracking: joint2 error 2.1 mm > 1 mm", "sizing: joint3 */ motor_peak_torque"]
+    summary["design"] = {"verdict": "fail", "failed_checks": failed, "advisories": []}
+    (study / "summary.json").write_text(json.dumps(summary))
+    with pytest.raises(DesignFailure):
+        export_study(study, "c", None, tmp_path / "refused")
+    out = tmp_path / "out"
+    export_study(study, "c", None, out, force=True)
+    header = (out / "gains.h").read_text()
+    assert "#define ARMLAB_GAINS_FORCED 1" in header
+    assert "#define ARMLAB_GAINS_N_FAILED_CHECKS 2" in header
+    assert " *   tracking: joint2 error 2.1 mm > 1 mm" in header
+    assert " *   sizing: joint3 * / motor_peak_torque" in header  # no early end of comment
+    assert '#define ARMLAB_GAINS_SOURCE_FILE "gains.json"' in header
+    assert "#define ARMLAB_SP_FORCED 1" in (out / "setpoints.h").read_text()
+    export_study(study, "json", None, out, force=True)
+    assert (
+        json.loads((out / "gains.json").read_text())["provenance"]["source"]["forced_despite"]
+        == failed
+    )
+    if shutil.which("gcc") is not None:
+        for src in ("gains.c", "setpoints.c"):
+            subprocess.run([*GCC_STRICT, "-c", src], check=True, cwd=out, capture_output=True)

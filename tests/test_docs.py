@@ -9,6 +9,7 @@ key, a set-point column or a gains.json field that the pages do not name fails h
 from __future__ import annotations
 
 import csv
+import importlib
 import importlib.util
 import json
 import re
@@ -57,6 +58,22 @@ def test_nav_pages_exist_and_every_api_package_has_a_page():
         assert f"api/{package}.md" in nav
         assert f"::: armlab.{package}" in (DOCS / "api" / f"{package}.md").read_text()
     assert {"architecture.md", "references.md", "study-file.md", "outputs.md"} <= set(nav)
+
+
+def test_a_public_name_that_is_also_a_submodule_is_rendered_from_its_module():
+    """``armlab.planning.optimal`` (issue 23): a function imported over the submodule of its
+    name is listed by mkdocstrings as that submodule and so left out of the package's page; its
+    page renders it from the module (``::: armlab.planning.optimal.optimal``)."""
+    clashes = []
+    for package in API_PACKAGES:
+        module = importlib.import_module(f"armlab.{package}")
+        folder = REPO / "research" / "armlab" / package
+        for name in module.__all__:
+            if (folder / f"{name}.py").is_file() or (folder / name / "__init__.py").is_file():
+                clashes.append((package, name))
+                page = (DOCS / "api" / f"{package}.md").read_text()
+                assert f"::: armlab.{package}.{name}.{name}" in page, (package, name)
+    assert ("planning", "optimal") in clashes  # what it tests
 
 
 def test_study_file_page_names_every_table_and_key():

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from armlab.errors import InfeasibleError, InputError, LimitViolation
 from armlab.planning.via_points import via_velocities
-from armlab.robot import resolve_limits
+from armlab.robot import resolve_limits, rigid_body
 from armlab.trajectory import (
     cubic_via,
     double_s_profile,
@@ -331,6 +331,27 @@ def test_ptp_velocity_meets_acceleration_limit_by_slowing(teachbot6):
     assert traj.meta["binding"]["limit"] == "acceleration"
     assert traj.check_limits(teachbot6).ok(1e-9)
     assert traj.check_limits(teachbot6).ratios["acceleration"].max() == pytest.approx(1.0)
+
+
+def test_ptp_takes_tau_max_like_every_planner(teachbot6):
+    """Issue 23, item 10: ``tau_max`` (None: the robot's, False: off, a value: that limit) as
+    in optimal and time_optimal_path; the old ``torque=`` keyword is one line naming both."""
+    q0, q1 = np.zeros(6), np.array([0.8, 0.6, -0.5, 0.9, -0.4, 1.2])
+    free = ptp_sync(teachbot6, q0, q1, "trapezoid", tau_max=False)
+    assert "torque" not in free.report.ratios
+    own = ptp_sync(teachbot6, q0, q1, "trapezoid")
+    assert own.report.ok(1e-9) and "torque" in own.report.ratios
+    # a limit between gravity and the free plan's peak: the plan slows down and holds it
+    fine = free.sample(free.duration / 2000)
+    tau = np.abs(fine.torques(teachbot6)).max(axis=0)
+    g = np.abs(rigid_body.gravity_torques(teachbot6, fine.q)).max(axis=0)
+    tight = np.maximum(0.8 * tau, 1.05 * g)
+    assert np.any(tight < tau)  # what it tests: the free plan breaks the value
+    held = ptp_sync(teachbot6, q0, q1, "trapezoid", tau_max=tight)
+    assert held.duration > free.duration
+    assert held.check_limits(teachbot6, limits=resolve_limits(teachbot6, tau_max=tight)).ok(1e-9)
+    with pytest.raises(InputError, match=r"torque=False is now tau_max= .*tau_max=False"):
+        ptp_sync(teachbot6, q0, q1, torque=False)
 
 
 def test_ptp_degenerate_and_bad_input(teachbot6, ur5):

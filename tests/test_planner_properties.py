@@ -276,7 +276,9 @@ def _ptp_case(planner: str, seed: int, rng) -> Case:
     w = _move(rng, robot, 2)
 
     def fn():
-        return ptp_sync(robot, w[0], w[1], profile, sync=sync, dt=dt, torque=torque, **kw)
+        return ptp_sync(
+            robot, w[0], w[1], profile, sync=sync, dt=dt, tau_max=None if torque else False, **kw
+        )
 
     lim = resolve_limits(robot, **kw)
     return Case(planner, seed, robot, fn, lim, torque, w, ptp=True, info={"sync": sync, "dt": dt})
@@ -712,7 +714,7 @@ def test_uneven_limits_hold_between_knots(profile, sync, seed):
     for _ in range(10):
         q0, q1 = robot.random_q(rng, 2)
         v, a, j = _decades(rng, -1, 1, 6), _decades(rng, -1, 2, 6), _decades(rng, 0, 3, 6)
-        traj = ptp_sync(robot, q0, q1, profile, sync=sync, v_max=v, a_max=a, j_max=j, torque=False)
+        traj = ptp_sync(robot, q0, q1, profile, sync=sync, v_max=v, a_max=a, j_max=j, tau_max=False)
         lim = resolve_limits(robot, v_max=v, a_max=a, j_max=j)
         report = traj.check_limits(robot, dt=2.5e-4, limits=lim, torque=False)
         assert report.ok(1e-9), report.violations()

@@ -32,6 +32,7 @@ from armlab.trajectory.profiles import (
     trapezoid_profile_for_duration,
     trapezoid_speed_for_duration,
 )
+from tolerances import assert_close_ulps
 
 N = 200
 RNG = np.random.default_rng(20240607)
@@ -42,6 +43,10 @@ J = 10 ** RNG.uniform(-0.5, 3, N)  # jerk limit
 K = 1 + RNG.uniform(0, 2, N) * (RNG.uniform(size=N) < 0.8)  # stretch (1 for a fifth)
 CASES = list(zip(L, V, A, J, K, strict=True))
 REL = 1e-12
+# the scalar profile objects and the vectorised primitives evaluate one closed form in a different
+# order of operations (a quadratic's root, a max over joints): they agree to a few ulps, not bit
+# for bit (3 ulps at most over these cases on the development machine, 4e-17 on a fresh install)
+ULPS = 16
 
 
 # ---------------------------------------------------------------------- references
@@ -116,7 +121,8 @@ def test_trapezoid_for_a_duration():
         assert rel(vT[i], v_ref) < 1e-9
         assert rel(d / vT[i] + vT[i] / a, T[i]) < REL  # it takes T
         prof = trapezoid_profile_for_duration(d, T[i], a, v_max=v)
-        assert rel(prof.duration, T[i]) < REL and prof.params["v"] == vT[i]
+        assert rel(prof.duration, T[i]) < REL
+        assert_close_ulps(prof.params["v"], vT[i], ULPS)
 
 
 # ---------------------------------------------------------------------- double S
@@ -149,15 +155,16 @@ def test_double_s_for_a_duration():
             v_ref = a * (c - math.sqrt(c * c - 4 * d / a)) / 2
             assert rel(vT[i], v_ref) < 1e-9
         prof = double_s_profile_for_duration(d, T[i], a, j, v_max=v)
-        assert rel(prof.duration, T[i]) < REL and prof.params["v"] == vT[i]
+        assert rel(prof.duration, T[i]) < REL
+        assert_close_ulps(prof.params["v"], vT[i], ULPS)
         assert rel(prof.length, d) < 1e-12
 
 
 def test_infinite_limits_give_the_special_cases():
     inf = np.full(N, np.inf)
     # no jerk limit: the trapezoid
-    np.testing.assert_array_equal(double_s_min_times(L, V, A, inf), trapezoid_min_times(L, V, A))
-    np.testing.assert_array_equal(double_s_peak_speed(L, V, A, inf), trapezoid_peak_speed(L, V, A))
+    assert_close_ulps(double_s_min_times(L, V, A, inf), trapezoid_min_times(L, V, A), ULPS)
+    assert_close_ulps(double_s_peak_speed(L, V, A, inf), trapezoid_peak_speed(L, V, A), ULPS)
     # no acceleration limit: jerk only up to v, T = L/v + 2 sqrt(v/j) or 4 (L / 2j)^(1/3)
     T = double_s_min_times(L, V, inf, J)
     for i, (d, v, _, j, _) in enumerate(CASES):
@@ -204,7 +211,8 @@ def test_synchronised_profiles_match_the_scalar_profiles(jerk):
             else:
                 assert rel(t_min[i], trapezoid_ref(d[i], v[i], a[i])[0]) < REL
                 ref = trapezoid_profile_for_duration(d[i], T, a[i], v_max=v[i])
-            assert p.kind == ref.kind and p.params["v"] == ref.params["v"]
+            assert p.kind == ref.kind
+            assert_close_ulps(p.params["v"], ref.params["v"], ULPS)
             np.testing.assert_allclose(p.durations, ref.durations, rtol=REL, atol=1e-15)
             tt = np.linspace(0.0, T, 57)
             for x, y in zip(p.evaluate(tt), ref.evaluate(tt), strict=True):

@@ -226,6 +226,24 @@ def test_a_failing_design_is_not_ok(tmp_path, capsys):
     assert cli_main(["export", str(out), "--force", "--out", str(tmp_path / "f")]) == 0
     text = (tmp_path / "f" / "setpoints.csv").read_text()
     assert "forced_despite" in text and "joint2" in text
+    # the C export too: the header names the study file and states every failed check, the
+    # data file holds the table (issue 23: an empty ARMLAB_SP_SOURCE_FILE and no checks)
+    assert (
+        cli_main(["export", str(out), "--format", "c", "--force", "--out", str(tmp_path / "c")])
+        == 0
+    )
+    header = (tmp_path / "c" / "setpoints.h").read_text()
+    failed = s["design"]["failed_checks"]
+    assert f'#define ARMLAB_SP_SOURCE_FILE "{s["study"]["source"]}"' in header
+    assert f'#define ARMLAB_SP_SOURCE_SHA256 "{s["study"]["hash"]}"' in header
+    assert "#define ARMLAB_SP_FORCED 1" in header
+    assert f"#define ARMLAB_SP_N_FAILED_CHECKS {len(failed)}" in header
+    for check in failed:
+        assert f" *   {check}" in header
+    table = read_setpoints(tmp_path / "f" / "setpoints.csv")
+    data = (tmp_path / "c" / "setpoints.c").read_text()
+    rows = data.split("ARMLAB_SP_COUNTS[ARMLAB_SP_N_CYCLES][ARMLAB_SP_N_AXES] = {")[1]
+    assert rows.split("};")[0].count("{") == table.n_cycles > 0
 
 
 def test_run_force_writes_the_table_and_records_it(tmp_path):

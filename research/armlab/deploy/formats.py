@@ -41,6 +41,7 @@ __all__ = [
     "read_setpoints_file",
     "c_identifier",
     "c_string",
+    "c_source_lines",
     "c_int_type",
 ]
 
@@ -231,6 +232,39 @@ def c_string(text: str) -> str:
     return '"' + s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ") + '"'
 
 
+def c_source_lines(prefix: str, source) -> list[str]:
+    """The provenance lines of a C header: where its values come from and what a forced export
+    was forced past.
+
+    ``PREFIX_SOURCE_FILE`` and ``PREFIX_SOURCE_SHA256`` name the file (``source["file"]``
+    and ``["sha256"]``, or a study's ``["study"]`` and ``["study_sha256"]``; written when
+    ``source`` is given). ``PREFIX_FORCED`` is 1 when the export was forced past failed checks
+    (``source["forced_despite"]``), else 0; then ``PREFIX_N_FAILED_CHECKS`` counts them,
+    ``PREFIX_FAILED_CHECKS`` holds them in one string ("; " between them) and a comment lists
+    one per line, so that firmware can refuse a forced table with ``#if PREFIX_FORCED``.
+    """
+    src = dict(source or {})
+    failed = [str(c) for c in src.get("forced_despite") or []]
+    lines = []
+    if src:
+        file = src.get("file", src.get("study")) or ""
+        sha = src.get("sha256", src.get("study_sha256")) or ""
+        lines += [
+            f"#define {prefix}_SOURCE_FILE {c_string(file)}",
+            f"#define {prefix}_SOURCE_SHA256 {c_string(sha)}",
+        ]
+    lines.append(f"#define {prefix}_FORCED {1 if failed else 0}")
+    if failed:
+        lines += [
+            f"/* FORCED EXPORT: the design fails {len(failed)} check(s):",
+            *(" *   " + c.replace("*/", "* /").replace("\n", " ") for c in failed),
+            " */",
+            f"#define {prefix}_N_FAILED_CHECKS {len(failed)}",
+            f"#define {prefix}_FAILED_CHECKS {c_string('; '.join(failed))}",
+        ]
+    return lines
+
+
 #: ``<stdint.h>`` types from the narrowest, with their ranges.
 _C_INT_TYPES = (
     ("int8_t", -(2**7), 2**7 - 1),
@@ -307,12 +341,7 @@ def _c_files(table, header_name: str) -> tuple[bytes, bytes]:
         f"#define ARMLAB_SP_TRAJECTORY_SHA256 {c_string(meta.get('trajectory_sha256', ''))}",
         f"#define ARMLAB_SP_ARMLAB_VERSION {c_string(meta.get('armlab_version', ''))}",
     ]
-    src = meta.get("source") or {}
-    if src:
-        lines += [
-            f"#define ARMLAB_SP_SOURCE_FILE {c_string(src.get('file', ''))}",
-            f"#define ARMLAB_SP_SOURCE_SHA256 {c_string(src.get('sha256', ''))}",
-        ]
+    lines += c_source_lines("ARMLAB_SP", meta.get("source"))
     lines += [
         f"#define ARMLAB_SP_N_CYCLES {table.n_cycles}",
         f"#define ARMLAB_SP_N_AXES {table.n_axes}",

@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from armlab.deploy.formats import c_identifier, c_string
+from armlab.deploy.formats import c_identifier, c_source_lines, c_string
 from armlab.deploy.provenance import armlab_version, gains_sha256
 from armlab.errors import InputError
 from armlab.io import atomic_write_many
@@ -247,11 +247,7 @@ def gains_to_c_files(
         f"#define {P}_SHA256 {c_string(prov['gains_sha256'])}",
         f"#define {P}_ARMLAB_VERSION {c_string(prov['armlab_version'])}",
     ]
-    if prov.get("source"):
-        h += [
-            f"#define {P}_SOURCE_FILE {c_string(prov['source'].get('file', ''))}",
-            f"#define {P}_SOURCE_SHA256 {c_string(prov['source'].get('sha256', ''))}",
-        ]
+    h += c_source_lines(P, prov.get("source"))
     h += [
         f"#define {P}_N_JOINTS {n}",
         f"#define {P}_N_LOOPS 3",

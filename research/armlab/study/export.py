@@ -260,7 +260,11 @@ def export_study(
             )
     elif fmt == "ros2":
         raise InputError(f"{study}: no {GAINS_FILE} to export as ros2_control YAML")
-    gsource = {"file": GAINS_FILE, "sha256": file_sha256(gpath)} if gains is not None else None
+    gsource: dict[str, object] | None = None
+    if gains is not None:
+        gsource = {"file": GAINS_FILE, "sha256": file_sha256(gpath)}
+        if failed:
+            gsource["forced_despite"] = failed
 
     constraints = None
     if fmt in ("ros2", "trajectory"):

@@ -525,7 +525,14 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
         ctx.jerk_limited = plan.profile == "scurve"
         return _concat(
             [
-                T.ptp_sync(robot, Q[i], Q[i + 1], profile=plan.profile, dt=dt, torque=torque)
+                T.ptp_sync(
+                    robot,
+                    Q[i],
+                    Q[i + 1],
+                    profile=plan.profile,
+                    dt=dt,
+                    tau_max=None if torque else False,
+                )
                 for i in range(len(Q) - 1)
             ]
         )
