@@ -190,9 +190,11 @@ from armlab.planning.timescale import (
     absorb_drive_tolerance,
     backoff_solve,
     drive_check,
+    held_over_limit,
     refuse_drive_violation,
     refuse_violation,
     tighten_drive,
+    torque_stretch,
 )
 from armlab.planning.tolerance import absorb_tolerance
 from armlab.planning.transcription import HESSIAN, HESSIANS, Structure, structure
@@ -292,20 +294,20 @@ def _check_static_torque(robot, w: np.ndarray, ls: Limits, exact: np.ndarray, st
         qd, qdd = states
         gs = rigid_body.inverse_dynamics(robot, w[idx], qd[idx], qdd[idx])
         moving = np.any(qd[idx] != 0, axis=1) | np.any(qdd[idx] != 0, axis=1)
-    for k, g, mv in zip(idx, gs, moving, strict=True):
-        r = np.abs(g) / ls.torque_Nm
-        i = int(np.argmax(r))
-        if r[i] > 1.0:
-            what = (
-                f"at waypoint {k} in its {'start' if k == 0 else 'goal'} state "
-                f"({'qd_start, qdd_start' if k == 0 else 'qd_goal'})"
-                if mv
-                else f"to hold waypoint {k} against gravity"
-            )
-            raise InfeasibleError(
-                f"torque limit: {ls.joint_names[i]} needs {abs(g[i]):.4g} N m {what}, above its "
-                f"tau_max of {ls.torque_Nm[i]:.4g} N m"
-            )
+    over = held_over_limit(np.abs(gs) / ls.torque_Nm)
+    if over is not None:
+        m, i = over
+        k = int(idx[m])
+        what = (
+            f"at waypoint {k} in its {'start' if k == 0 else 'goal'} state "
+            f"({'qd_start, qdd_start' if k == 0 else 'qd_goal'})"
+            if moving[m]
+            else f"to hold waypoint {k} against gravity"
+        )
+        raise InfeasibleError(
+            f"torque limit: {ls.joint_names[i]} needs {abs(gs[m, i]):.4g} N m {what}, above its "
+            f"tau_max of {ls.torque_Nm[i]:.4g} N m"
+        )
 
 
 def _check_static_drive(robot, w: np.ndarray, ls: Limits, exact: np.ndarray, train) -> None:
@@ -315,9 +317,9 @@ def _check_static_drive(robot, w: np.ndarray, ls: Limits, exact: np.ndarray, tra
     gs = rigid_body.gravity_torques(robot, w[idx])
     z = np.zeros_like(gs)
     t_m, _ = drivetrain.motor_torque(gs, z, z, train)
-    r = drivetrain.envelope_ratio(t_m, z, train)
-    k, i = np.unravel_index(int(np.argmax(r)), r.shape)
-    if r[k, i] > 1.0:
+    over = held_over_limit(drivetrain.envelope_ratio(t_m, z, train))
+    if over is not None:
+        k, i = over
         raise InfeasibleError(
             f"motor envelope: the motor of {ls.joint_names[i]} needs {abs(t_m[k, i]):.4g} N m to "
             f"hold waypoint {idx[k]} against gravity, above the "
@@ -421,21 +423,15 @@ def _classical_segment(
 
 
 def _timescale_for_torque(robot, q, qd, qdd, tau_max) -> float:
-    """Smallest factor ``alpha >= 1`` so that slowing down by it fits the torque limits.
-
-    ``tau(alpha) = g + (tau - g) / alpha^2`` for a time-scaled trajectory.
-    """
+    """Smallest factor ``alpha >= 1`` so that slowing the warm start's samples down by it
+    meets the optimiser's torque rows, ``|tau| <= (1 - TORQUE_ROW_MARGIN) tau_max``
+    (:func:`~armlab.planning.timescale.torque_stretch`, exact; samples where gravity alone is
+    over the limit are left to the solver)."""
     if tau_max is None:
         return 1.0
     taus = rigid_body.inverse_dynamics(robot, q, qd, qdd)
     gs = rigid_body.gravity_torques(robot, q)
-    need = 1.0
-    for tau, g in zip(taus, gs, strict=True):
-        room = tau_max - np.abs(g)
-        if np.any(room <= 0):
-            continue
-        need = max(need, float(np.max(np.abs(tau - g) / room)))
-    return float(np.sqrt(need)) * 1.02 if need > 1.0 else 1.0
+    return float(np.max(torque_stretch(taus, gs, (1.0 - TORQUE_ROW_MARGIN) * tau_max)))
 
 
 def _timescale_for_drive(robot, q, qd, qdd, train) -> float:

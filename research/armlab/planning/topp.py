@@ -126,6 +126,7 @@ from armlab.planning.timescale import (
     absorb_drive_tolerance,
     backoff_solve,
     drive_check,
+    held_over_limit,
     refuse_drive_violation,
     refuse_violation,
     tighten_drive,
@@ -315,9 +316,9 @@ class ToppProblem:
             return
         for name in ("node", "mid"):
             C = self.coeffs[name]
-            r = np.abs(C["g"]) / ls.torque_Nm
-            k, i = np.unravel_index(int(np.argmax(r)), r.shape)
-            if r[k, i] > 1.0:
+            over = held_over_limit(np.abs(C["g"]) / ls.torque_Nm)
+            if over is not None:
+                k, i = over
                 raise InfeasibleError(
                     f"torque limit: {ls.joint_names[i]} needs {abs(C['g'][k, i]):.4g} N m to "
                     f"hold the path at s = {C['s'][k]:.3f} against gravity, above its tau_max "
