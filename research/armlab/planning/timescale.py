@@ -170,11 +170,11 @@ def stretch_needed(traj, robot: Robot, limits, *, torque: bool = True) -> tuple[
         with np.errstate(divide="ignore", invalid="ignore"):
             over = held_over_limit(np.abs(g) / eff)
         if over is not None:
-            k, j = over
+            m, i = over
             raise LimitViolation(
-                f"{robot.name}: gravity alone needs {abs(g[k, j]):.4g} N m at "
-                f"{robot.joint_names[j]} (t = {traj.t[k]:.4g} s), above its torque limit "
-                f"{eff[j]:.4g} N m: no slower motion can meet it"
+                f"{robot.name}: gravity alone needs {abs(g[m, i]):.4g} N m at "
+                f"{robot.joint_names[i]} (t = {traj.t[m]:.4g} s), above its torque limit "
+                f"{eff[i]:.4g} N m: no slower motion can meet it"
             )
         kk = torque_stretch(tau, g, eff)
         jj = int(np.argmax(kk.max(axis=0)))
