@@ -244,7 +244,10 @@ class MotionProfile:
 # results are arrays (0-d for scalars); the scalar entry points and the profile builders below,
 # the PTP synchroniser and the optimiser's warm start all call these.
 def _floats(*xs) -> list[np.ndarray]:
-    return [np.asarray(x, float) for x in np.broadcast_arrays(*xs)]
+    arrs = [np.asarray(x, float) for x in xs]
+    if all(x.shape == arrs[0].shape for x in arrs[1:]):  # the common case, without its cost
+        return arrs
+    return [np.asarray(x, float) for x in np.broadcast_arrays(*arrs)]
 
 
 def trapezoid_ramp_length(v, a_acc, a_dec=None) -> np.ndarray:
@@ -327,7 +330,9 @@ def double_s_peak_speed(length, v_max, a_max, j_max) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         plateau = a * (-a / j + np.sqrt(a * a / (j * j) + 4 * L / a)) / 2
         vp = np.where(plateau >= a * a / j, plateau, (L * np.sqrt(j) / 2) ** (2 / 3))
-    return np.where(np.isinf(j), trapezoid_peak_speed(L, v, a), np.minimum(vp, v))
+    vp = np.minimum(vp, v)
+    trap = np.isinf(j)
+    return np.where(trap, trapezoid_peak_speed(L, v, a), vp) if np.any(trap) else vp
 
 
 def double_s_min_times(length, v_max, a_max, j_max) -> np.ndarray:
@@ -341,30 +346,55 @@ def double_s_min_times(length, v_max, a_max, j_max) -> np.ndarray:
     vp = double_s_peak_speed(L, v, a, j)
     with np.errstate(invalid="ignore", divide="ignore"):
         T = np.where(L > 0, L / vp + double_s_ramp(vp, a, j)[1], 0.0)
-    return np.where(np.isinf(j), trapezoid_min_times(L, v, a), T)
+    trap = np.isinf(j)
+    return np.where(trap, trapezoid_min_times(L, v, a), T) if np.any(trap) else T
 
 
-def double_s_speed_for_duration(length, duration, a_max, j_max, v_max=np.inf) -> np.ndarray:
-    """Peak speeds [unit/s] of the symmetric double S profiles lasting ``duration`` [s].
+def double_s_speed_for_duration(
+    length, duration, a_max, j_max, v_max=np.inf, *, peak=None, t_min=None
+) -> np.ndarray:
+    """Peak speeds [unit/s] of the symmetric double S profiles lasting ``duration`` [s], in
+    closed form (arrays broadcast).
 
-    The duration ``L / v + Ta(v)`` decreases with the peak speed ``v`` on ``(0, v_p]``
-    (:func:`double_s_peak_speed`; Biagiotti & Melchiorri §3.4), so ``v`` is found by bisection
-    to the last bit; ``v_p`` itself where ``duration`` is not above the minimum; the closed
-    form :func:`trapezoid_speed_for_duration` where ``j = inf``; ``0`` for ``L <= 0``. Arrays
-    broadcast.
+    The duration ``T = L / v + Ta(v)`` (Biagiotti & Melchiorri §3.4) is solved for the peak
+    speed ``v`` on ``(0, v_p]``:
+
+    * acceleration limit reached (``v j >= a^2``, ``Ta = a / j + v / a``): the quadratic
+      ``v^2 / a - b v + L = 0``, ``b = T - a / j``, smaller root
+      ``v = 2 L / (b + sqrt(b^2 - 4 L / a))``;
+    * not reached (``Tj = sqrt(v / j)``, ``Ta = 2 Tj``): with ``u = Tj`` the cubic
+      ``2 u^3 - T u^2 + L / j = 0``, whose middle root is wanted. Its largest root is
+      ``u0 = T/6 + T/3 cos(phi/3)``, ``phi = 2 asin(sqrt(27 L / (j T^3)))``; the other two
+      solve ``x^2 - s x - L / (2 j u0) = 0`` with ``s = T/2 - u0 = 2T/3 sin^2(phi/6)``
+      (Vieta), and the middle one is its positive root -- no cancellation at any length.
+
+    The regime is the one whose root satisfies its own condition (the duration is monotone
+    in ``v``, so there is one). ``j = inf`` is the trapezoid,
+    :func:`trapezoid_speed_for_duration` (with ``a = inf`` too, the velocity step
+    ``v = L / T``); ``v_p`` itself where ``duration`` is not above the minimum; ``0`` for
+    ``L <= 0``. Checked against a bisection to the last bit (``tests/oracles/double_s.py``)
+    within 1e-9 relative. ``peak`` and ``t_min``: :func:`double_s_peak_speed` and
+    :func:`double_s_min_times` of the same arguments when the caller has them.
     """
     L, T, a, j, v = _floats(length, duration, a_max, j_max, v_max)
-    v_hi = double_s_peak_speed(L, v, a, j)
-    lo, hi = np.zeros_like(v_hi), v_hi.copy()
-    for _ in range(200):  # halve until the bracket cannot shrink (~55 halvings near T_min)
-        mid = 0.5 * (lo + hi)
-        if np.all((mid <= lo) | (mid >= hi)):
-            break
-        with np.errstate(invalid="ignore", divide="ignore"):
-            slow = L / mid + double_s_ramp(mid, a, j)[1] > T  # too slow: raise the speed
-        lo, hi = np.where(slow, mid, lo), np.where(slow, hi, mid)
-    vT = np.where(T <= double_s_min_times(L, v, a, j), v_hi, hi)
-    vT = np.where(np.isinf(j), trapezoid_speed_for_duration(L, T, a, a, v), vT)
+    v_hi = double_s_peak_speed(L, v, a, j) if peak is None else peak
+    t_min = double_s_min_times(L, v, a, j) if t_min is None else t_min
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        aj = np.where(np.isinf(j), 0.0, a / j)  # 0 for the trapezoid
+        b = T - aj
+        disc = b * b - 4 * L / a
+        va = 2 * L / (b + np.sqrt(np.maximum(disc, 0.0)))
+        phi = 2 * np.arcsin(np.sqrt(np.minimum(27 * L / (j * T**3), 1.0)))
+        u0 = T / 6 + T / 3 * np.cos(phi / 3)
+        sv = 2 * T / 3 * np.sin(phi / 6) ** 2
+        u = (sv + np.sqrt(sv * sv + 2 * L / (j * u0))) / 2
+        vb = j * u * u
+        plateau = (disc >= 0) & (b > 0) & (va * j >= a * a)  # j = inf: always
+        vT = np.where(plateau, va, vb)
+    vT = np.where(T <= t_min, v_hi, np.minimum(vT, v_hi))
+    trap = np.isinf(j)
+    if np.any(trap):  # the trapezoid's own closed form (and the velocity step, a = inf)
+        vT = np.where(trap, trapezoid_speed_for_duration(L, T, a, a, v), vT)
     return np.where(L > 0, vT, 0.0)
 
 
@@ -578,48 +608,6 @@ def synchronised_profiles(
 
 
 # ---------------------------------------------------------------------- batched, closed form
-def _double_s_speed_closed(
-    length, duration, a_max, j_max, v_max=np.inf, *, peak=None, t_min=None
-) -> np.ndarray:
-    """:func:`double_s_speed_for_duration` in closed form (arrays broadcast).
-
-    The duration ``T = L / v + Ta(v)`` (Biagiotti & Melchiorri §3.4) is solved for the peak
-    speed ``v`` on ``(0, v_p]``:
-
-    * acceleration limit reached (``v j >= a^2``, ``Ta = a / j + v / a``): the quadratic
-      ``v^2 / a - b v + L = 0``, ``b = T - a / j``, smaller root
-      ``v = 2 L / (b + sqrt(b^2 - 4 L / a))``;
-    * not reached (``Tj = sqrt(v / j)``, ``Ta = 2 Tj``): with ``u = Tj`` the cubic
-      ``2 u^3 - T u^2 + L / j = 0``, whose middle root is wanted. Its largest root is
-      ``u0 = T/6 + T/3 cos(phi/3)``, ``phi = 2 asin(sqrt(27 L / (j T^3)))``; the other two
-      solve ``x^2 - s x - L / (2 j u0) = 0`` with ``s = T/2 - u0 = 2T/3 sin^2(phi/6)``
-      (Vieta), and the middle one is its positive root -- no cancellation at any length.
-
-    The regime is the one whose root satisfies its own condition (the duration is monotone
-    in ``v``, so there is one). ``j = inf`` is the trapezoid (the first case with
-    ``a / j = 0``); ``v_p`` itself where ``duration`` is not above the minimum; ``0`` for
-    ``L <= 0``. ``peak`` and ``t_min``: :func:`double_s_peak_speed` and
-    :func:`double_s_min_times` of the same arguments when the caller has them.
-    """
-    L, T, a, j, v = _floats(length, duration, a_max, j_max, v_max)
-    v_hi = double_s_peak_speed(L, v, a, j) if peak is None else peak
-    t_min = double_s_min_times(L, v, a, j) if t_min is None else t_min
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        aj = a / j  # 0 for the trapezoid
-        b = T - aj
-        disc = b * b - 4 * L / a
-        va = 2 * L / (b + np.sqrt(np.maximum(disc, 0.0)))
-        phi = 2 * np.arcsin(np.sqrt(np.minimum(27 * L / (j * T**3), 1.0)))
-        u0 = T / 6 + T / 3 * np.cos(phi / 3)
-        sv = 2 * T / 3 * np.sin(phi / 6) ** 2
-        u = (sv + np.sqrt(sv * sv + 2 * L / (j * u0))) / 2
-        vb = j * u * u
-        plateau = (disc >= 0) & (b > 0) & (va * j >= a * a)  # j = inf: always
-        vT = np.where(plateau, va, vb)
-    vT = np.where(T <= t_min, v_hi, np.minimum(vT, v_hi))
-    return np.where(L > 0, vT, 0.0)
-
-
 @dataclass
 class SCurveBatch:
     """Time-synchronised rest-to-rest double S profiles of many problems (see
@@ -699,130 +687,15 @@ class SCurveBatch:
         return sgn * s, sgn * v, sgn * a
 
 
-def _ramp_one(v: float, a: float, j: float) -> tuple[float, float]:
-    """Scalar :func:`double_s_ramp` (finite ``a``)."""
-    if v <= 0:
-        return 0.0, 0.0
-    if math.isinf(j):
-        return 0.0, v / a
-    if v * j >= a * a:
-        return a / j, a / j + v / a
-    tj = math.sqrt(v / j)
-    return tj, 2 * tj
-
-
-def _one_joint(L: float, v: float, a: float, j: float) -> tuple[float, float]:
-    """Scalar (shortest duration, peak speed) of one joint: :func:`double_s_min_times` and
-    :func:`double_s_peak_speed` with plain floats (finite ``a``)."""
-    if L <= 0:
-        return 0.0, 0.0
-    if math.isinf(j):  # the trapezoid (:func:`trapezoid_min_times`)
-        if L >= v * v / a:
-            return L / v + v / a, v
-        vp = math.sqrt(L * a)
-        return 2 * vp / a, vp
-    a2j = a * a / j
-    plateau = a * (-a / j + math.sqrt(a * a / (j * j) + 4 * L / a)) / 2
-    vp = plateau if plateau >= a2j else (L * math.sqrt(j) / 2) ** (2 / 3)
-    vp = min(vp, v)
-    # the ramp of _ramp_one, inline
-    ta = a / j + vp / a if vp * j >= a * a else 2 * math.sqrt(vp / j)
-    return L / vp + ta, vp
-
-
-def _speed_one(L: float, T: float, a: float, j: float, vp: float, t_min: float) -> float:
-    """Scalar ``_double_s_speed_closed`` (finite ``a``)."""
-    if L <= 0:
-        return 0.0
-    if T <= t_min:
-        return vp
-    b = T - (0.0 if math.isinf(j) else a / j)
-    disc = b * b - 4 * L / a
-    if b > 0 and disc >= 0:
-        va = 2 * L / (b + math.sqrt(disc))
-        if math.isinf(j) or va * j >= a * a:
-            return min(va, vp)
-    phi = 2 * math.asin(math.sqrt(min(27 * L / (j * T**3), 1.0)))
-    u0 = T / 6 + T / 3 * math.cos(phi / 3)
-    sv = 2 * T / 3 * math.sin(phi / 6) ** 2
-    u = (sv + math.sqrt(sv * sv + 2 * L / (j * u0))) / 2
-    return min(j * u * u, vp)
-
-
-def _limit_list(x, n: int, name: str, inf_ok: bool) -> list[float]:
-    """A limit broadcast to ``n`` joints as floats, checked > 0 (and finite unless
-    ``inf_ok``)."""
-    if isinstance(x, np.ndarray) and x.shape == (n,):
-        out = x.tolist()
-        if min(out) > 0 and (inf_ok or max(out) < math.inf):
-            return out
-    arr = np.asarray(x, float)
-    if arr.ndim == 0:
-        out = [float(arr)] * n
-    elif arr.size == n:
-        out = arr.reshape(-1).tolist()
-    else:
-        try:
-            out = np.broadcast_to(arr, (n,)).tolist()
-        except ValueError:
-            raise InputError(
-                f"synchronised_scurves: {name} of shape {arr.shape} does not fit {n} joints"
-            ) from None
-    for val in out:
-        if not val > 0 or (not inf_ok and math.isinf(val)):
-            raise InputError(f"synchronised_scurves: {name} must be > 0 and finite")
-    return out
-
-
-def _scurves_small(D: np.ndarray, v, a, j) -> SCurveBatch:
-    """:func:`synchronised_scurves` of one problem with plain floats (numpy's per-call cost
-    dominates at a handful of joints)."""
-    n = D.shape[-1]
-    dist = D.reshape(-1).tolist()
-    if not math.isfinite(sum(dist)) and not all(math.isfinite(x) for x in dist):
-        raise InputError("synchronised_scurves: distances must be finite")
-    vs = _limit_list(v, n, "v_max", False)
-    as_ = _limit_list(a, n, "a_max", False)
-    js = _limit_list(j, n, "j_max", True)
-    first = [_one_joint(abs(dist[i]), vs[i], as_[i], js[i]) for i in range(n)]
-    T = max([f[0] for f in first], default=0.0)
-    t_min, vp, ap, tj, ta, tv = [], [], [], [], [], []
-    for i in range(n):
-        a_i, j_i = as_[i], js[i]
-        t_i, p_i = first[i]
-        s = p_i if T <= t_i else _speed_one(abs(dist[i]), T, a_i, j_i, p_i, t_i)
-        rj, ra = _ramp_one(s, a_i, j_i)
-        t_min.append(t_i)
-        vp.append(s)
-        ap.append(0.0 if s <= 0 else (a_i if j_i == math.inf else min(j_i * rj, a_i)))
-        tj.append(rj)
-        ta.append(ra)
-        tv.append(max(T - 2 * ra, 0.0) if s > 0 else T)
-    shape = D.shape
-    arr = np.array(t_min + vp + ap + js + tj + ta + tv + as_).reshape((8, *shape))
-    return SCurveBatch(
-        duration=np.array([T]).reshape(shape[:-1]),
-        t_min=arr[0],
-        distance=D,
-        v=arr[1],
-        a=arr[2],
-        j=arr[3],
-        tj=arr[4],
-        ta=arr[5],
-        tv=arr[6],
-        a_max=arr[7],
-    )
-
-
 def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch:
     """Time-synchronised rest-to-rest double S profiles of many problems at once, closed form.
 
     The batch form of :func:`synchronised_profiles` (Jiang 1987, eq. 1-5 with a double S per
     joint, Biagiotti & Melchiorri §3.4): each joint's shortest duration in closed form
     (:func:`double_s_min_times`), the common duration the largest, and each joint's peak
-    speed for it solved in closed form (a quadratic or a cubic, no iteration; see
-    ``_double_s_speed_closed``). A rest-to-rest motion through waypoints where the arm stops
-    (zero-velocity waypoints) is a batch of its segments:
+    speed for it solved in closed form (a quadratic or a cubic, no iteration;
+    :func:`double_s_speed_for_duration`). A rest-to-rest motion through waypoints where the arm
+    stops (zero-velocity waypoints) is a batch of its segments:
     ``synchronised_scurves(np.diff(waypoints, axis=0), v, a, j)``.
 
     Parameters
@@ -844,8 +717,6 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
     D = np.asarray(distances, float)
     if D.ndim == 0:
         raise InputError("synchronised_scurves: distances must have a joint axis (..., n_joints)")
-    if D.ndim == 1 or (D.ndim == 2 and D.shape[0] == 1 and D.shape[1] <= 32):
-        return _scurves_small(D, v_max, a_max, j_max)
     if not np.all(np.isfinite(D)):
         raise InputError("synchronised_scurves: distances must be finite")
     v, a, j = (np.asarray(x, float) for x in (v_max, a_max, j_max))
@@ -858,21 +729,10 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
         raise InputError(
             f"synchronised_scurves: limits do not broadcast to distances {D.shape}"
         ) from None
-    if np.any(np.isinf(j)):
-        peak = double_s_peak_speed(L, v, a, j)
-        t_min = double_s_min_times(L, v, a, j)
-    else:  # the same expressions without the trapezoid's branch
-        with np.errstate(invalid="ignore", divide="ignore"):
-            aj = a / j
-            plateau = a * (-aj + np.sqrt(a * a / (j * j) + 4 * L / a)) / 2
-            peak = np.where(plateau >= a * a / j, plateau, (L * np.sqrt(j) / 2) ** (2 / 3))
-            peak = np.minimum(peak, v)
-            reached = peak * j >= a * a
-            tj0 = np.where(reached, aj, np.sqrt(peak / j))
-            ta0 = np.where(reached, tj0 + peak / a, 2 * tj0)
-            t_min = np.where(L > 0, L / peak + np.where(peak > 0, ta0, 0.0), 0.0)
+    peak = double_s_peak_speed(L, v, a, j)
+    t_min = double_s_min_times(L, v, a, j)
     T = t_min.max(axis=-1) if t_min.shape[-1] else np.zeros(t_min.shape[:-1])
-    vp = _double_s_speed_closed(L, T[..., None], a, j, v, peak=peak, t_min=t_min)
+    vp = double_s_speed_for_duration(L, T[..., None], a, j, v, peak=peak, t_min=t_min)
     tj, ta = double_s_ramp(vp, a, j)
     with np.errstate(invalid="ignore", over="ignore"):
         ap = np.where(np.isinf(j), a, np.minimum(j * tj, a))
