@@ -379,8 +379,8 @@ def bench_optimal_scaling(quick: bool = False) -> dict:
     """``optimal`` on teachbot6 by waypoint count, before / after issue 15 (module docstring, 5)."""
     import importlib
 
-    # the module (``armlab.planning.optimal`` the attribute is the function)
-    optimal_module = importlib.import_module("armlab.planning.optimal")
+    # the module whose solve reads WARM_RESOLVE
+    optimal_module = importlib.import_module("armlab.planning.optimal_problem")
     transcription = importlib.import_module("armlab.planning.transcription")
     pivot_now = transcription.MUMPS_PIVOT_ORDER
     robot = armlab.load_robot("teachbot6")

@@ -10,7 +10,7 @@ so the smallest ``k`` that meets every limit follows in closed form from the sam
 (:func:`stretch_needed`). The classical planners use it to slow down instead of violating a
 limit, and say which limit set the pace (``Trajectory.meta["slowdown"]``).
 
-The optimising planners (:mod:`armlab.planning.optimal`, :mod:`armlab.planning.topp`) impose
+The optimising planners (:mod:`armlab.planning.optimiser`, :mod:`armlab.planning.topp`) impose
 their limits on a grid and check the solution on a finer one; where a limit is exceeded by
 more than ``CHECK_TOL`` between the grid points it is multiplied by
 ``(1 - BACKOFF_MARGIN) / ratio`` and the problem re-solved (:func:`backoff_solve`, the one

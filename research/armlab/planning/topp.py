@@ -54,7 +54,7 @@ Jerk pass (not convex in ``(a, b)``)
 jerk limit is given we solve a second, *nonconvex* problem in the time domain on the same
 s-grid: the nodes keep their ``s_k``; each interval gets a duration ``dt_k`` and a constant
 path jerk ``u_k`` (``s(t)`` piecewise cubic, integrated exactly — the same transcription as
-:mod:`armlab.planning.optimal` with one "joint" ``s``). Joint velocity, acceleration, jerk
+:mod:`armlab.planning.optimiser` with one "joint" ``s``). Joint velocity, acceleration, jerk
 (both one-sided values) and torque are constrained at the nodes. It is warm-started from the
 first pass's solution slowed down until its jerk fits, and solved with IPOPT: a local optimum.
 
@@ -99,13 +99,13 @@ otherwise). The path itself
 must stay in the joint ranges (checked densely when the problem is built). Intervals where a
 limit is still exceeded by more than ``1e-6`` are tightened by the excess (plus 0.1 %) and the
 problem re-solved; residues after that tighten the whole limit kind slightly (``max_backoff``
-rounds; the jerk pass backs off whole joint limits, as :mod:`armlab.planning.optimal` does: both
+rounds; the jerk pass backs off whole joint limits, as :mod:`armlab.planning.optimiser` does: both
 loops are :func:`armlab.planning.timescale.backoff_solve`). ``traj.report`` is the final
 check: exact for velocity and acceleration, "feasible on the refined samples" for torque, not
 a proof between them. The convex pass
 is globally optimal on its grid, the reachability pass greedy on its (denser) rows; the jerk
 pass is a local optimum. Jerk-free results have
-acceleration steps, replaced by 50 us ramps as in :mod:`armlab.planning.optimal`.
+acceleration steps, replaced by 50 us ramps as in :mod:`armlab.planning.optimiser`.
 """
 
 from __future__ import annotations
@@ -120,7 +120,7 @@ from scipy.interpolate import CubicSpline
 
 from armlab._lazy import lazy_import
 from armlab.errors import InfeasibleError, InputError
-from armlab.planning.optimal import CHECK_SAMPLES, JUMP_RAMP_S
+from armlab.planning.optimal_problem import CHECK_SAMPLES, JUMP_RAMP_S
 from armlab.planning.timescale import (
     CHECK_TOL,
     absorb_drive_tolerance,
