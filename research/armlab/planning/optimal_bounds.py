@@ -9,17 +9,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from armlab._lazy import lazy_import
 from armlab.planning.transcription import Structure
 from armlab.robot.limits import Limits
 from armlab.robot.symbolic import (
     dynamic_parameters,
 )
-
-if TYPE_CHECKING:
-    import casadi as ca  # the real module for the type checker (CasADi ships type stubs)
-else:
-    ca = lazy_import("casadi")  # CasADi loads at the first symbolic build, not with the package
 
 if TYPE_CHECKING:
     pass

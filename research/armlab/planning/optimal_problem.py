@@ -14,6 +14,13 @@ import numpy as np
 
 from armlab._lazy import lazy_import
 from armlab.errors import ArmlabError, InfeasibleError
+from armlab.planning import optimal_bounds, optimal_warmstart
+from armlab.planning.optimal_bounds import (
+    H_MIN_S,
+    TIME_REGULARISATION,
+    TORQUE_ROW_MARGIN,
+    _energy_weights,
+)
 from armlab.planning.timescale import (
     CHECK_TOL,
     absorb_drive_tolerance,
@@ -40,13 +47,6 @@ else:
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
-from armlab.planning import optimal_bounds, optimal_warmstart
-from armlab.planning.optimal_bounds import (
-    H_MIN_S,
-    TIME_REGULARISATION,
-    TORQUE_ROW_MARGIN,
-    _energy_weights,
-)
 
 __all__ = [
     "OptimalProblem",

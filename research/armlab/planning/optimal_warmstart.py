@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from armlab._lazy import lazy_import
+from armlab.planning.optimal_bounds import H_MIN_S, TORQUE_ROW_MARGIN
 from armlab.planning.timescale import (
     torque_stretch,
 )
@@ -28,13 +28,7 @@ from armlab.trajectory.profiles import (
 )
 
 if TYPE_CHECKING:
-    import casadi as ca  # the real module for the type checker (CasADi ships type stubs)
-else:
-    ca = lazy_import("casadi")  # CasADi loads at the first symbolic build, not with the package
-
-if TYPE_CHECKING:
     pass
-from armlab.planning.optimal_bounds import H_MIN_S, TORQUE_ROW_MARGIN
 
 if TYPE_CHECKING:
     from armlab.planning.optimal_problem import OptimalProblem

@@ -181,8 +181,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from armlab._lazy import lazy_import
 from armlab.errors import ArmlabError, InfeasibleError, InputError
+from armlab.planning.optimal_problem import (
+    OBJECTIVES,
+    OptimalProblem,
+    _BackoffStalled,
+    _NotConverged,
+    default_intervals,
+)
 from armlab.planning.timescale import (
     held_over_limit,
 )
@@ -197,19 +203,7 @@ from armlab.trajectory.waypoints import (
 )
 
 if TYPE_CHECKING:
-    import casadi as ca  # the real module for the type checker (CasADi ships type stubs)
-else:
-    ca = lazy_import("casadi")  # CasADi loads at the first symbolic build, not with the package
-
-if TYPE_CHECKING:
     from armlab.robot.model import Robot
-from armlab.planning.optimal_problem import (
-    OBJECTIVES,
-    OptimalProblem,
-    _BackoffStalled,
-    _NotConverged,
-    default_intervals,
-)
 
 __all__ = ["optimal", "build_optimal", "FINER_GRIDS"]
 
