@@ -145,7 +145,7 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
             f"synchronised_scurves: limits do not broadcast to distances {D.shape}"
         ) from None
     peak = double_s_peak_speed(L, v, a, j)
-    t_min = double_s_min_times(L, v, a, j)
+    t_min = double_s_min_times(L, v, a, j, peak=peak)
     T = t_min.max(axis=-1) if t_min.shape[-1] else np.zeros(t_min.shape[:-1])
     vp = double_s_speed_for_duration(L, T[..., None], a, j, v, peak=peak, t_min=t_min)
     tj, ta = double_s_ramp(vp, a, j)

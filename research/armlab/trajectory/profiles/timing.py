@@ -113,15 +113,16 @@ def double_s_peak_speed(length, v_max, a_max, j_max) -> np.ndarray:
     return np.where(trap, trapezoid_peak_speed(L, v, a), vp) if np.any(trap) else vp
 
 
-def double_s_min_times(length, v_max, a_max, j_max) -> np.ndarray:
+def double_s_min_times(length, v_max, a_max, j_max, *, peak=None) -> np.ndarray:
     """Shortest durations [s] of symmetric rest-to-rest double S profiles (arrays broadcast).
 
     ``T = L / v_p + Ta(v_p)`` with ``v_p`` from :func:`double_s_peak_speed` (Biagiotti &
-    Melchiorri §3.4); the trapezoid's :func:`trapezoid_min_times` where ``j = inf``;
-    ``0`` for ``L <= 0``. ``inf`` switches a limit off (not all three).
+    Melchiorri §3.4; ``peak`` if the caller has it); the trapezoid's
+    :func:`trapezoid_min_times` where ``j = inf``; ``0`` for ``L <= 0``. ``inf`` switches a
+    limit off (not all three).
     """
     L, v, a, j = _floats(length, v_max, a_max, j_max)
-    vp = double_s_peak_speed(L, v, a, j)
+    vp = double_s_peak_speed(L, v, a, j) if peak is None else peak
     with np.errstate(invalid="ignore", divide="ignore"):
         T = np.where(L > 0, L / vp + double_s_ramp(vp, a, j)[1], 0.0)
     trap = np.isinf(j)
@@ -156,7 +157,7 @@ def double_s_speed_for_duration(
     """
     L, T, a, j, v = _floats(length, duration, a_max, j_max, v_max)
     v_hi = double_s_peak_speed(L, v, a, j) if peak is None else peak
-    t_min = double_s_min_times(L, v, a, j) if t_min is None else t_min
+    t_min = double_s_min_times(L, v, a, j, peak=v_hi) if t_min is None else t_min
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         aj = np.where(np.isinf(j), 0.0, a / j)  # 0 for the trapezoid
         b = T - aj
