@@ -23,7 +23,10 @@ A profile stretched in time by ``k`` is the profile built with ``(v / k, a / k^2
 every regime test above is invariant under that scaling, so :meth:`MotionProfile.stretched`
 is exact.
 
-This module is the one implementation of that timing. The primitives are vectorised (arguments
+This package is the one implementation of that timing, a module per concept: :mod:`.motion`
+(the profile type), :mod:`.timing` (the primitives), :mod:`.rest_to_rest` (profiles and their
+synchronisation), :mod:`.batch` (many problems at once), :mod:`.from_state` and
+:mod:`.jerk_move` (from a moving state). The primitives are vectorised (arguments
 broadcast, ``inf`` switches a limit off): :func:`trapezoid_peak_speed`,
 :func:`trapezoid_min_times`, :func:`trapezoid_speed_for_duration` and :func:`double_s_ramp`,
 :func:`double_s_peak_speed`, :func:`double_s_min_times`, :func:`double_s_speed_for_duration`
@@ -35,8 +38,10 @@ the SHU step table (:mod:`armlab.planning.steps`) and the requirement moves of t
 
 :func:`synchronised_scurves` is the batch form of :func:`synchronised_profiles`: many
 problems (``(n_problems, n_joints)`` moves, or the segments of a path that stops at its
-waypoints) at once, every step in closed form (the peak speed for a given duration from a
-quadratic or a cubic instead of a bisection), for planners that need thousands of plans.
+waypoints) at once, on the same primitives, for planners that need thousands of plans. Every
+step is in closed form: the peak speed for a given duration from a quadratic or a cubic
+(:func:`double_s_speed_for_duration`; the bisection it replaced is the tests' oracle,
+``tests/oracles/double_s.py``).
 
 From a moving state (replanning, :func:`~armlab.planning.ptp_sync` with ``qd_start``):
 :func:`trapezoid_min_time_from_state`, :func:`trapezoid_blocked_from_state`,
