@@ -15,11 +15,15 @@ module                 planners
                        problem (:mod:`.optimal_problem`), its bounds
                        (:mod:`.optimal_bounds`), transcription (:mod:`.transcription`)
                        and warm start (:mod:`.optimal_warmstart`, :mod:`.warmstart`)
-:mod:`.topp`           time-optimal path parameterisation along a fixed joint path;
-                       its default first pass is :mod:`.reachability` (Pham & Pham 2018)
+:mod:`.topp`           time-optimal path parameterisation along a fixed joint path
+                       (:func:`time_optimal_path`): the path (:mod:`.topp_path`), the
+                       problem (:mod:`.topp_problem`), its first pass
+                       :mod:`.reachability` (Pham & Pham 2018; :mod:`.topp_convex` with
+                       the motor envelope), the jerk pass (:mod:`.topp_jerk`)
 :mod:`.timescale`      the back-offs: stretch a plan in time until every limit holds
                        (classical planners); re-solve with tightened limits
-                       (``backoff_solve``: optimal, topp)
+                       (``backoff_solve``: optimal, topp); the one rule of a held
+                       torque over its limit (``held_over_limit``)
 =====================  ===============================================================
 
 Limits come from :func:`armlab.robot.resolve_limits` (the robot's, overridden per call);
