@@ -47,7 +47,7 @@ from _readme import readme_row  # noqa: E402
 
 import armlab  # noqa: E402
 from armlab.errors import ArmlabError  # noqa: E402
-from armlab.planning.optimal import optimal  # noqa: E402
+from armlab.planning import optimal  # noqa: E402
 from armlab.planning.timescale import drive_check  # noqa: E402
 from armlab.robot import drivetrain  # noqa: E402
 

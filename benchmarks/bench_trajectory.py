@@ -10,7 +10,8 @@
 3. The full problem with all four limits (no peer does it): success rate and solve time over
    random 3-waypoint requests. Goal: 100 % success, median solve < 1 s on one core.
 4. The rest-to-rest v/a/j PTP in closed form (``synchronised_scurves``) vs Ruckig: the same
-   durations, time per problem (goal <= 10 x Ruckig) and batched rate (goal >= 100 000/s);
+   durations, time per problem (goal <= 10 x Ruckig, met by the scalar copy of the engine that
+   issue 23 removed; one numpy engine takes ~40 x) and batched rate (goal >= 100 000/s);
    ``--scurves-only`` runs this table alone.
 5. ``optimal`` solve time by waypoint count (2, 5, 10, 20; teachbot6, its own limits, random
    waypoints in 70 % of the ranges), v/a/j and v/a/j/tau, with the settings before issue 15
@@ -371,8 +372,8 @@ def bench_optimal_scaling(quick: bool = False) -> dict:
     """``optimal`` on teachbot6 by waypoint count, before / after issue 15 (module docstring, 5)."""
     import importlib
 
-    # the module (``armlab.planning.optimal`` the attribute is the function)
-    optimal_module = importlib.import_module("armlab.planning.optimal")
+    # the module whose solve reads WARM_RESOLVE
+    optimal_module = importlib.import_module("armlab.planning.optimal_problem")
     transcription = importlib.import_module("armlab.planning.transcription")
     pivot_now = transcription.MUMPS_PIVOT_ORDER
     robot = armlab.load_robot("teachbot6")

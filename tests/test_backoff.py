@@ -10,9 +10,12 @@ from armlab.errors import InfeasibleError
 from armlab.planning.timescale import (
     BACKOFF_MARGIN,
     CHECK_TOL,
+    HOLD_RTOL,
     backoff_solve,
+    held_over_limit,
     over_limits,
     tighten_limits,
+    torque_stretch,
 )
 
 
@@ -88,3 +91,74 @@ def test_tighten_limits_backs_off_only_the_joints_over_their_limit(teachbot6):
     np.testing.assert_allclose(new.torque_Nm, want, rtol=1e-15)
     np.testing.assert_array_equal(new.velocity_rad_s, lim.velocity_rad_s)
     assert "back-off" in new.sources["torque"][0] and "back-off" not in new.sources["torque"][1]
+
+
+# ---------------------------------------------------------------------------- the held-torque rule
+def test_torque_stretch_is_the_smallest_factor_that_fits():
+    """``tau(k) = g + (tau - g) / k^2`` at the factor of ``torque_stretch``: within the limit
+    everywhere (1e-12 relative: round-off of the quadratic), on it where ``k > 1``; a factor 1e-6
+    smaller breaks it there (independent of the closed form: the definition, evaluated)."""
+    rng = np.random.default_rng(3)
+    lim = np.array([2.0, 5.0, 0.5])
+    g = rng.uniform(-0.99, 0.99, (400, 3)) * lim  # gravity within the limit
+    tau = g + rng.normal(0.0, 3.0, (400, 3)) * lim
+    k = torque_stretch(tau, g, lim)
+    assert np.all(k >= 1.0)
+    fit = np.abs(g + (tau - g) / k**2) / lim
+    assert np.all(fit <= 1.0 + 1e-12)
+    slowed = k > 1.0
+    assert slowed.sum() > 100  # the draw exercises the rule
+    np.testing.assert_allclose(fit[slowed], 1.0, rtol=1e-12)
+    tighter = np.abs(g + (tau - g) / (k * (1 - 1e-6)) ** 2) / lim
+    assert np.all(tighter[slowed] > 1.0)
+    # where gravity alone is over the limit no factor helps: 1, left to the caller
+    over = torque_stretch(np.array([[3.0]]), np.array([[2.5]]), np.array([2.0]))
+    assert over[0, 0] == 1.0
+
+
+def test_held_over_limit_names_the_first_sample_and_its_worst_joint():
+    r = np.array([[0.5, 0.9], [1.0 + 1e-13, 0.2], [0.3, 1.2], [1.5, 1.1]])
+    assert held_over_limit(r) == (2, 1)  # 1 + 1e-13 is round-off (HOLD_RTOL), not over
+    assert held_over_limit(r[:2]) is None
+    assert held_over_limit(np.array([1.0 + 10 * HOLD_RTOL, 0.0])) == (0, 0)
+
+
+@pytest.fixture(scope="module")
+def one_joint(tmp_path_factory):
+    """The optimiser tests' 1 kg arm of 0.2 m on a horizontal axis (gravity matters)."""
+    import armlab
+    from test_optimal import ONE_JOINT_URDF
+
+    path = tmp_path_factory.mktemp("one") / "one.urdf"
+    path.write_text(ONE_JOINT_URDF)
+    return armlab.load_robot(path)
+
+
+def test_the_planners_refuse_one_held_pose_by_one_rule(one_joint):
+    """A goal whose gravity torque is 1e-9 over the limit: the classical stretch
+    (``ptp_sync``), the optimiser and TOPP refuse it by name, each through ``held_over_limit``;
+    1e-9 under it, neither the stretch nor TOPP refuses it for that (they plan, or refuse
+    another limit by name: TOPP's rows keep LIMIT_MARGIN from every limit)."""
+    from armlab.errors import LimitViolation
+    from armlab.planning import optimal, ptp_sync, time_optimal_path
+    from armlab.robot import rigid_body
+
+    q0, q1 = np.array([-1.2]), np.array([0.0])  # the arm horizontal at the goal
+    g = float(abs(rigid_body.gravity_torques(one_joint, q1[None])[0, 0]))
+    over = g / (1 + 1e-9)
+    with pytest.raises(LimitViolation, match="gravity alone"):
+        ptp_sync(one_joint.with_limits(effort_Nm=np.array([over])), q0, q1, a_max=2.0)
+    with pytest.raises(InfeasibleError, match="hold waypoint 1 against gravity"):
+        optimal(one_joint, np.array([q0, q1]), a_max=2.0, j_max=False, tau_max=over)
+    with pytest.raises(InfeasibleError, match="against gravity"):
+        time_optimal_path(one_joint, np.array([q0, q1]), a_max=2.0, j_max=False, tau_max=over)
+    under = g * (1 + 1e-9)
+    traj = ptp_sync(one_joint.with_limits(effort_Nm=np.array([under])), q0, q1, a_max=2.0)
+    assert traj.report.ok(1e-9)
+    try:  # (the optimiser's iteration limit, its refusal here, takes seconds: not run)
+        out = time_optimal_path(
+            one_joint, np.array([q0, q1]), a_max=2.0, j_max=False, tau_max=under
+        )
+        assert out.report.ok(1e-6)
+    except InfeasibleError as exc:
+        assert "against gravity" not in str(exc)

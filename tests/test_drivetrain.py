@@ -242,7 +242,7 @@ MOVE = np.array([[0, -0.5, -0.6, 0, 0.3, 0], [0.3, 0.2, 0.9, 0.5, -0.5, 0.8]])
 
 
 def test_optimal_with_drive_limits_stays_in_the_envelope(heavy):
-    from armlab.planning.optimal import optimal
+    from armlab.planning import optimal
 
     box = optimal(heavy, MOVE, a_max=False, j_max=False, n_intervals=16)
     plan = optimal(heavy, MOVE, a_max=False, j_max=False, n_intervals=16, drive_limits=True)
@@ -267,7 +267,7 @@ def test_topp_with_drive_limits_stays_in_the_envelope(heavy):
 
 
 def test_drive_limits_bad_input(heavy):
-    from armlab.planning.optimal import optimal
+    from armlab.planning import optimal
     from armlab.study.spec import parse_study
 
     with pytest.raises(armlab.InputError, match="drive_limits must be true or false"):

@@ -12,7 +12,7 @@ from matplotlib.figure import Figure
 
 import armlab
 from armlab.errors import InfeasibleError, InputError
-from armlab.planning.optimal import JUMP_RAMP_S
+from armlab.planning.optimal_problem import JUMP_RAMP_S
 from armlab.planning.topp import LIMIT_MARGIN
 from armlab.plots import plot_limit_profiles, plot_phase_plane, plot_torque_ratio
 from armlab.trajectory import (
@@ -392,7 +392,7 @@ def test_plots_return_figures(teachbot6):
 
 def test_a_plan_left_violating_after_backoff_is_refused(teachbot6):
     """A solved plan whose fine-grid report still breaks a limit is never handed out."""
-    from armlab.planning.optimal import refuse_violation
+    from armlab.planning.timescale import refuse_violation
     from armlab.trajectory import ptp_sync
 
     traj = ptp_sync(teachbot6, np.zeros(6), np.array([0.5, 0.2, 0.3, 0.0, 0.0, 0.0]))
@@ -588,7 +588,7 @@ def test_a_back_off_left_over_a_limit_on_every_grid_is_refused_by_name(teachbot6
     """The retries on finer grids (stand-in solves, no IPOPT): twice, then three times the
     intervals of every segment, and an InfeasibleError naming the limit and the grids when
     they stall too."""
-    optimal_module = importlib.import_module("armlab.planning.optimal")
+    optimal_module = importlib.import_module("armlab.planning.optimal_problem")
     grids = []
 
     def stalled(self):

@@ -13,7 +13,7 @@ from scipy.optimize import linprog
 
 import armlab
 from armlab.errors import InfeasibleError, InputError
-from armlab.planning.optimal import JUMP_RAMP_S
+from armlab.planning.optimal_problem import JUMP_RAMP_S
 from armlab.planning.reachability import (
     LIMIT_FRACTIONS,
     VELOCITY_FRACTIONS,

@@ -15,12 +15,12 @@ from armlab.errors import InfeasibleError, InputError
 from armlab.planning import ptp_sync
 from armlab.robot import resolve_limits
 from armlab.trajectory.profiles import (
-    _ramps_distance,
     trapezoid_blocked_from_state,
     trapezoid_from_state,
     trapezoid_min_time,
     trapezoid_min_time_from_state,
 )
+from armlab.trajectory.profiles.from_state import _ramps_distance
 from test_planner_properties import (
     NAMED,
     Case,

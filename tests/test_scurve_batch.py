@@ -1,8 +1,9 @@
 """Batched, closed-form time-synchronised S-curves (armlab.trajectory.profiles).
 
-References: the bisection of :func:`double_s_speed_for_duration` (to the last bit) and the
-per-problem :func:`synchronised_profiles` (Jiang 1987 eq. 1-5 with Biagiotti & Melchiorri
-§3.4's double S); the profiles themselves are sampled and checked against their limits.
+References: the bisection oracle of the peak speed for a duration
+(``tests/oracles/double_s.py``, to the last bit) and the per-problem
+:func:`synchronised_profiles` (Jiang 1987 eq. 1-5 with Biagiotti & Melchiorri §3.4's double S);
+the profiles themselves are sampled and checked against their limits.
 """
 
 from __future__ import annotations
@@ -12,12 +13,12 @@ import pytest
 
 from armlab.errors import InputError
 from armlab.trajectory.profiles import (
-    _double_s_speed_closed,
     double_s_min_times,
     double_s_speed_for_duration,
     synchronised_profiles,
     synchronised_scurves,
 )
+from oracles.double_s import double_s_speed_bisection
 
 V = np.array([2.0, 2.0, 2.5, 3.0, 3.0, 4.0])
 A = np.array([5.0, 6.0, 5.0, 8.0, 9.0, 12.0])
@@ -42,10 +43,14 @@ def test_closed_form_speed_is_the_bisection():
     j[::9] = np.inf
     T = double_s_min_times(L, v, a, j) * (1 + _decades(rng, -9, 1, n))
     T[::5] = double_s_min_times(L, v, a, j)[::5]
-    ours = _double_s_speed_closed(L, T, a, j, v)
-    ref = double_s_speed_for_duration(L, T, a, j, v)
-    np.testing.assert_allclose(ours, ref, rtol=1e-9)
-    assert np.all(_double_s_speed_closed(0.0, 1.0, 1.0, 1.0, 1.0) == 0.0)
+    ours = double_s_speed_for_duration(L, T, a, j, v)
+    ref = double_s_speed_bisection(L, T, a, j, v)
+    np.testing.assert_allclose(ours, ref, rtol=1e-9)  # the oracle's last bit, 1e-16, with room
+    assert np.all(double_s_speed_for_duration(0.0, 1.0, 1.0, 1.0, 1.0) == 0.0)
+    # the velocity step (no acceleration nor jerk limit): v = L / T
+    np.testing.assert_allclose(
+        double_s_speed_for_duration([1.0, 2.0], 4.0, np.inf, np.inf, 1.0), [0.25, 0.5], rtol=1e-15
+    )
 
 
 def test_batch_is_synchronised_profiles_problem_by_problem():

@@ -367,7 +367,7 @@ def test_bad_start_states_are_named(teachbot6, kw, match):
 def test_scalar_and_vector_speed_changes_are_one_formula():
     """The root finders' scalar speed change and the vectorised one give the same phases
     and distance (two spellings of one formula: they must not drift apart)."""
-    from armlab.trajectory.profiles import _speed_change, _speed_change_one
+    from armlab.trajectory.profiles.jerk_move import _speed_change, _speed_change_one
 
     rng = np.random.default_rng(7)
     for _ in range(500):

@@ -11,14 +11,19 @@ module                 planners
 :mod:`.cartesian`      Cartesian motions timed along those paths through IK (Li, Meng,
                        Chen; HEU thesis 6.3)
 :mod:`.online`         the online interpolator with speed override (Li, Meng, Chen)
-:mod:`.optimal`        time-synchronised optimal trajectories: the problem
-                       (:class:`OptimalProblem`), its transcription
-                       (:mod:`.transcription`) and warm start (:mod:`.warmstart`)
-:mod:`.topp`           time-optimal path parameterisation along a fixed joint path;
-                       its default first pass is :mod:`.reachability` (Pham & Pham 2018)
+:mod:`.optimiser`      time-synchronised optimal trajectories (:func:`optimal`): the
+                       problem (:mod:`.optimal_problem`), its bounds
+                       (:mod:`.optimal_bounds`), transcription (:mod:`.transcription`)
+                       and warm start (:mod:`.optimal_warmstart`, :mod:`.warmstart`)
+:mod:`.topp`           time-optimal path parameterisation along a fixed joint path
+                       (:func:`time_optimal_path`): the path (:mod:`.topp_path`), the
+                       problem (:mod:`.topp_problem`), its first pass
+                       :mod:`.reachability` (Pham & Pham 2018; :mod:`.topp_convex` with
+                       the motor envelope), the jerk pass (:mod:`.topp_jerk`)
 :mod:`.timescale`      the back-offs: stretch a plan in time until every limit holds
                        (classical planners); re-solve with tightened limits
-                       (``backoff_solve``: optimal, topp)
+                       (``backoff_solve``: optimal, topp); the one rule of a held
+                       torque over its limit (``held_over_limit``)
 =====================  ===============================================================
 
 Limits come from :func:`armlab.robot.resolve_limits` (the robot's, overridden per call);
@@ -29,7 +34,8 @@ timing (PTP, steps, Cartesian, the optimiser's warm start) is
 
 from armlab.planning.cartesian import arc3, blend, follow_path, line, track_path
 from armlab.planning.online import OnlineInterpolator, OnlineRun, OnlineSample
-from armlab.planning.optimal import OptimalProblem, build_optimal, optimal
+from armlab.planning.optimal_problem import OptimalProblem
+from armlab.planning.optimiser import build_optimal, optimal
 from armlab.planning.paths import ArcPath, BlendPath, CartesianPath, JointPath, LinePath
 from armlab.planning.ptp import ptp_sync
 from armlab.planning.steps import StepPlan, trapezoid_steps

@@ -91,7 +91,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from armlab.errors import InfeasibleError
-from armlab.planning.topp import ToppProblem
+from armlab.planning.topp_problem import ToppProblem
 from armlab.robot.limits import Limits
 
 __all__ = [

@@ -10,7 +10,7 @@ so the smallest ``k`` that meets every limit follows in closed form from the sam
 (:func:`stretch_needed`). The classical planners use it to slow down instead of violating a
 limit, and say which limit set the pace (``Trajectory.meta["slowdown"]``).
 
-The optimising planners (:mod:`armlab.planning.optimal`, :mod:`armlab.planning.topp`) impose
+The optimising planners (:mod:`armlab.planning.optimiser`, :mod:`armlab.planning.topp`) impose
 their limits on a grid and check the solution on a finer one; where a limit is exceeded by
 more than ``CHECK_TOL`` between the grid points it is multiplied by
 ``(1 - BACKOFF_MARGIN) / ratio`` and the problem re-solved (:func:`backoff_solve`, the one
@@ -38,6 +38,9 @@ if TYPE_CHECKING:
 
 __all__ = [
     "stretch_needed",
+    "torque_stretch",
+    "held_over_limit",
+    "HOLD_RTOL",
     "finish",
     "check_in_range",
     "backoff_solve",
@@ -58,6 +61,54 @@ __all__ = [
 CHECK_TOL = 1e-6
 #: a broken limit is backed off by its peak ratio and this fraction more
 BACKOFF_MARGIN = 1e-3
+#: a held torque (gravity alone, or a fixed boundary state) is over its limit above
+#: ``1 + HOLD_RTOL`` times it: round-off of RNEA, ~1e-15 relative, with room (a pose whose
+#: gravity torque equals the limit to the last bits is not refused; issue 15)
+HOLD_RTOL = 1e-12
+
+
+def held_over_limit(ratio) -> tuple[int, int] | None:
+    """Where a torque no path speed changes is over its limit: the first sample of ``ratio``
+    (samples, joints) -- ``|g| / tau_max`` of gravity alone, or a motor's holding torque over
+    its envelope -- with a ratio above ``1 + HOLD_RTOL``, and its worst joint, as
+    ``(sample, joint)``; None if every ratio is within.
+
+    The one rule of "gravity alone is over a limit": along a time-scaled path
+    ``tau(k) = g + (tau - g) / k^2`` tends to ``g`` as ``k -> inf`` (:func:`torque_stretch`), so
+    a pose with ``|g| > tau_max`` cannot be passed or held at any speed. The planners name the
+    joint and pose from it (waypoints of :func:`~armlab.planning.optimal`, path points of
+    :func:`~armlab.planning.time_optimal_path`, samples of :func:`stretch_needed`).
+    """
+    r = np.atleast_2d(np.asarray(ratio, float))
+    if r.size == 0:
+        return None
+    over = np.flatnonzero(np.max(r, axis=1) > 1.0 + HOLD_RTOL)
+    if over.size == 0:
+        return None
+    k = int(over[0])
+    return k, int(np.argmax(r[k]))
+
+
+def torque_stretch(tau, g, tau_max) -> np.ndarray:
+    """Smallest time-stretch factors ``k >= 1`` (samples, joints) that bring the torques
+    ``tau`` (samples, joints) within ``|tau| <= tau_max``, gravity torques ``g`` at the same
+    poses.
+
+    Stretching by ``k`` gives ``tau(k) = g + (tau - g) x`` with ``x = 1 / k^2`` (module
+    docstring); ``|g + d x| <= tau_max``, ``d = tau - g``, holds for ``x`` in an interval that
+    contains 0 when ``|g| <= tau_max``; its upper end ``x_max = (tau_max - g) / d`` (``d > 0``)
+    or ``(-tau_max - g) / d`` (``d < 0``) gives ``k = 1 / sqrt(x_max)`` where ``x_max < 1``.
+    Exact: no margin. Where gravity alone is over the limit (:func:`held_over_limit`) no
+    ``k`` helps: ``k = 1`` is returned there, the caller decides.
+    """
+    tau, g = np.asarray(tau, float), np.asarray(g, float)
+    eff = np.asarray(tau_max, float)
+    d = tau - g
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xmax = np.where(d > 0, (eff - g) / d, np.where(d < 0, (-eff - g) / d, np.inf))
+    xmax = np.clip(xmax, 0.0, np.inf)
+    kk = np.where(xmax >= 1, 1.0, 1.0 / np.sqrt(np.maximum(xmax, 1e-300)))
+    return np.where(np.abs(g) > eff * (1 + HOLD_RTOL), 1.0, kk)
 
 
 def check_in_range(robot: Robot, q, what: str) -> None:
@@ -88,9 +139,7 @@ def stretch_needed(traj, robot: Robot, limits, *, torque: bool = True) -> tuple[
     :meth:`~armlab.trajectory.Trajectory.limit_samples` with ``robot``, whose torques are used.
 
     ``k = max(r_v, sqrt(r_a), cbrt(r_j), k_tau)`` with ``r`` the peak ratios of the samples
-    and ``k_tau`` the exact factor for the torques: ``|g + (tau - g) x| <= tau_max`` with
-    ``x = 1 / k^2`` is an interval in ``x`` that contains 0 whenever gravity alone is within
-    the limit.
+    and ``k_tau`` the exact factor for the torques (:func:`torque_stretch`).
 
     Returns
     -------
@@ -118,19 +167,16 @@ def stretch_needed(traj, robot: Robot, limits, *, torque: bool = True) -> tuple[
         tau = getattr(traj, "tau", None)  # limit samples carry their torques
         if tau is None:
             tau = rigid_body.inverse_dynamics(robot, traj.q, traj.qd, traj.qdd)
-        over = np.abs(g) > eff * (1 + 1e-12)
-        if np.any(over):
-            k, j = np.argwhere(over)[0]
-            raise LimitViolation(
-                f"{robot.name}: gravity alone needs {abs(g[k, j]):.4g} N m at "
-                f"{robot.joint_names[j]} (t = {traj.t[k]:.4g} s), above its torque limit "
-                f"{eff[j]:.4g} N m: no slower motion can meet it"
-            )
-        d = tau - g
         with np.errstate(divide="ignore", invalid="ignore"):
-            xmax = np.where(d > 0, (eff - g) / d, np.where(d < 0, (-eff - g) / d, np.inf))
-        xmax = np.clip(xmax, 0.0, np.inf)
-        kk = np.where(xmax >= 1, 1.0, 1.0 / np.sqrt(np.maximum(xmax, 1e-300)))
+            over = held_over_limit(np.abs(g) / eff)
+        if over is not None:
+            m, i = over
+            raise LimitViolation(
+                f"{robot.name}: gravity alone needs {abs(g[m, i]):.4g} N m at "
+                f"{robot.joint_names[i]} (t = {traj.t[m]:.4g} s), above its torque limit "
+                f"{eff[i]:.4g} N m: no slower motion can meet it"
+            )
+        kk = torque_stretch(tau, g, eff)
         jj = int(np.argmax(kk.max(axis=0)))
         cands.append((float(kk.max()), "torque", jj))
     k, kind, j = max(cands, key=lambda c: c[0])

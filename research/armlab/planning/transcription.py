@@ -12,7 +12,7 @@ the motor's envelope at the same points (:func:`_drive_rows`), and its RMS over 
 continuous rating. The compiled NLP depends only on the robot's kinematic tree, the sizes and
 the flags, so it is built once and cached (:func:`structure`); the payload, limits, drive data,
 directions of motion, scales and grid fractions are parameters. The problem and its solve are
-in :mod:`armlab.planning.optimal`.
+in :mod:`armlab.planning.optimiser`.
 
 Solve time (issue 15, teachbot6, 5 waypoints, 64 intervals, v/a/j/tau, cProfile and IPOPT's
 timing statistics): ~85 % of a call is IPOPT, ~15 % the warm start and the fine-grid checks.
@@ -402,7 +402,7 @@ def _drive_rows(cols, weights, p_dc, p_sig, p_eps, n: int) -> tuple[list[tuple],
     lower rows -1: conservative) -- and ``k_w = derating Kt Ke / R x N sigma qd`` (= the
     derated back-EMF term, ``|w_m|`` by the sign bounds) give the rows of
     :data:`DRIVE_ROW_TAGS`: ``e + k_w <= derating Kt U / R``, ``e - k_w >= -...``, ``|e| <=
-    derating T_peak``; :meth:`~armlab.planning.optimal.OptimalProblem._bounds` switches each
+    derating T_peak``; :func:`~armlab.planning.optimal_bounds.bounds` switches each
     on by ``sigma`` (module :mod:`armlab.robot.drivetrain`: max of the branches moving forward,
     min backwards). The RMS numerator ``sum_k w_k T_k^2`` uses the smooth quadrant blend
     ``T_in = tau_out / N (eta_b + (1/eta - eta_b) p)``, ``p = 1 - sigma^2 (1 - logistic(sigma

@@ -227,6 +227,14 @@ class DriveTrain:
         return self.stall_torque_Nm * self.derating
 
     @property
+    def standstill_torque_Nm(self) -> np.ndarray:
+        """Where the voltage line meets zero speed, derated: ``derating Kt U / R`` in [N m]
+        (the envelope's bound at standstill before the peak rating caps it)."""
+        return (
+            self.derating * self.torque_constant_Nm_A * self.supply_voltage_V / self.resistance_ohm
+        )
+
+    @property
     def peak_motor_torque_Nm(self) -> np.ndarray:
         """derating x peak rating (the stall torque where the data sheet gives none), in [N m]
         (:attr:`armlab.robot.drives.Drive.peak_motor_torque_Nm`)."""

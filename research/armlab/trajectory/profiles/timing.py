@@ -1,0 +1,177 @@
+"""Timing primitives of rest-to-rest trapezoids and double S profiles (vectorised): the one
+implementation of that timing (Biagiotti & Melchiorri §3.2, §3.4; SHU controller paper, table 1)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "trapezoid_ramp_length",
+    "trapezoid_peak_speed",
+    "trapezoid_min_times",
+    "trapezoid_speed_for_duration",
+    "double_s_ramp",
+    "double_s_peak_speed",
+    "double_s_min_times",
+    "double_s_speed_for_duration",
+]
+
+
+# ---------------------------------------------------------------------- timing primitives
+# The one implementation of trapezoid and double-S timing. Vectorised: arguments broadcast,
+# results are arrays (0-d for scalars); the scalar entry points and the profile builders below,
+# the PTP synchroniser and the optimiser's warm start all call these.
+def _floats(*xs) -> list[np.ndarray]:
+    arrs = [np.asarray(x, float) for x in xs]
+    if all(x.shape == arrs[0].shape for x in arrs[1:]):  # the common case, without its cost
+        return arrs
+    return [np.asarray(x, float) for x in np.broadcast_arrays(*arrs)]
+
+
+def trapezoid_ramp_length(v, a_acc, a_dec=None) -> np.ndarray:
+    """Distance [unit] of the two ramps of a rest-to-rest trapezoid cruising at ``v`` [unit/s]:
+    ``S1 + S2 = v^2 / 2 (1/a1 + 1/a2)`` (SHU controller paper, table 1); arrays broadcast."""
+    v, a1, a2 = _floats(v, a_acc, a_acc if a_dec is None else a_dec)
+    with np.errstate(invalid="ignore"):
+        return v * v / 2 * (1 / a1 + 1 / a2)
+
+
+def trapezoid_peak_speed(length, v_max, a_acc, a_dec=None) -> np.ndarray:
+    """Peak speed [unit/s] of the shortest rest-to-rest trapezoid over ``length`` >= 0.
+
+    ``v_p = v_max`` if ``L >= S1 + S2`` (:func:`trapezoid_ramp_length`), else the triangle's
+    ``v_p = sqrt(2 L a1 a2 / (a1 + a2))`` (SHU controller paper, table 1). Arrays broadcast;
+    an infinite acceleration gives the pure velocity step.
+    """
+    L, v, a1, a2 = _floats(length, v_max, a_acc, a_acc if a_dec is None else a_dec)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        triangle = np.sqrt(2 * L * a1 * a2 / (a1 + a2))
+    return np.where(L >= trapezoid_ramp_length(v, a1, a2), v, triangle)
+
+
+def trapezoid_min_times(length, v_max, a_acc, a_dec=None) -> np.ndarray:
+    """Shortest durations [s] of rest-to-rest trapezoids over ``length`` >= 0 (arrays broadcast).
+
+    ``T = L / v + v / (2 a1) + v / (2 a2)`` with a cruise phase, ``T = v_p / a1 + v_p / a2``
+    without (SHU controller paper, table 1); ``T = 0`` for ``L <= 0``.
+    """
+    L, v, a1, a2 = _floats(length, v_max, a_acc, a_acc if a_dec is None else a_dec)
+    vp = trapezoid_peak_speed(L, v, a1, a2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cruise = L >= trapezoid_ramp_length(v, a1, a2)
+        T = np.where(cruise, L / v + v / (2 * a1) + v / (2 * a2), vp / a1 + vp / a2)
+    return np.where(L > 0, T, 0.0)
+
+
+def trapezoid_speed_for_duration(length, duration, a_acc, a_dec=None, v_max=np.inf) -> np.ndarray:
+    """Cruise speeds [unit/s] of the trapezoids with ramps ``(a1, a2)`` lasting ``duration`` [s]
+
+    The smaller root of ``L = v T - v^2 h / 2``, ``h = 1/a1 + 1/a2`` (SHU controller paper,
+    table 1, solved for ``v``), in the cancellation-free form ``v = 2 L / (T + sqrt(T^2 - 2 L h))``;
+    at most ``v_max``, and the fastest trapezoid's peak where ``duration`` is not above its
+    minimum. Arrays broadcast; ``0`` for ``L <= 0``.
+    """
+    L, T, a1, a2, v = _floats(length, duration, a_acc, a_acc if a_dec is None else a_dec, v_max)
+    h = 1 / a1 + 1 / a2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        vT = 2 * L / (T + np.sqrt(np.maximum(T * T - 2 * L * h, 0.0)))
+    fastest = T <= trapezoid_min_times(L, v, a1, a2)
+    vT = np.where(fastest, trapezoid_peak_speed(L, v, a1, a2), np.minimum(vT, v))
+    return np.where(L > 0, vT, 0.0)
+
+
+def double_s_ramp(v, a_max, j_max) -> tuple[np.ndarray, np.ndarray]:
+    """``(Tj, Ta)`` [s] of a symmetric double S accelerating from rest to ``v`` (arrays broadcast).
+
+    Biagiotti & Melchiorri §3.4: ``Tj = a / j``, ``Ta = Tj + v / a`` if ``v j >= a^2`` (the
+    acceleration limit is reached); else ``Tj = sqrt(v / j)``, ``Ta = 2 Tj``. ``j = inf`` gives
+    the trapezoid's ``(0, v / a)``, ``a = inf`` the jerk-only ramp; ``v = 0`` gives ``(0, 0)``.
+    """
+    v, a, j = _floats(v, a_max, j_max)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        plateau = np.isinf(j) | (np.isfinite(a) & (v * j >= a * a))
+        tj = np.where(plateau, np.where(np.isinf(j), 0.0, a / j), np.sqrt(v / j))
+        ta = np.where(plateau, tj + v / a, 2 * tj)
+    moving = v > 0
+    return np.where(moving, tj, 0.0), np.where(moving, ta, 0.0)
+
+
+def double_s_peak_speed(length, v_max, a_max, j_max) -> np.ndarray:
+    """Peak speed [unit/s] of the shortest symmetric rest-to-rest double S over ``length`` >= 0.
+
+    The largest ``v <= v_max`` whose ramps fit, ``v Ta(v) <= L`` (Biagiotti & Melchiorri §3.4):
+    ``v^2 / a + v a / j = L`` where the acceleration limit is reached (``v >= a^2 / j``), else
+    ``2 v sqrt(v / j) = L``, i.e. ``v = (L sqrt(j) / 2)^(2/3)``. ``j = inf`` is the trapezoid
+    (:func:`trapezoid_peak_speed`). Arrays broadcast; ``a`` and ``j`` may be ``inf``.
+    """
+    L, v, a, j = _floats(length, v_max, a_max, j_max)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        plateau = a * (-a / j + np.sqrt(a * a / (j * j) + 4 * L / a)) / 2
+        vp = np.where(plateau >= a * a / j, plateau, (L * np.sqrt(j) / 2) ** (2 / 3))
+    vp = np.minimum(vp, v)
+    trap = np.isinf(j)
+    return np.where(trap, trapezoid_peak_speed(L, v, a), vp) if np.any(trap) else vp
+
+
+def double_s_min_times(length, v_max, a_max, j_max, *, peak=None) -> np.ndarray:
+    """Shortest durations [s] of symmetric rest-to-rest double S profiles (arrays broadcast).
+
+    ``T = L / v_p + Ta(v_p)`` with ``v_p`` from :func:`double_s_peak_speed` (Biagiotti &
+    Melchiorri §3.4; ``peak`` if the caller has it); the trapezoid's
+    :func:`trapezoid_min_times` where ``j = inf``; ``0`` for ``L <= 0``. ``inf`` switches a
+    limit off (not all three).
+    """
+    L, v, a, j = _floats(length, v_max, a_max, j_max)
+    vp = double_s_peak_speed(L, v, a, j) if peak is None else peak
+    with np.errstate(invalid="ignore", divide="ignore"):
+        T = np.where(L > 0, L / vp + double_s_ramp(vp, a, j)[1], 0.0)
+    trap = np.isinf(j)
+    return np.where(trap, trapezoid_min_times(L, v, a), T) if np.any(trap) else T
+
+
+def double_s_speed_for_duration(
+    length, duration, a_max, j_max, v_max=np.inf, *, peak=None, t_min=None
+) -> np.ndarray:
+    """Peak speeds [unit/s] of the symmetric double S profiles lasting ``duration`` [s], in
+    closed form (arrays broadcast).
+
+    The duration ``T = L / v + Ta(v)`` (Biagiotti & Melchiorri §3.4) is solved for the peak
+    speed ``v`` on ``(0, v_p]``:
+
+    * acceleration limit reached (``v j >= a^2``, ``Ta = a / j + v / a``): the quadratic
+      ``v^2 / a - b v + L = 0``, ``b = T - a / j``, smaller root
+      ``v = 2 L / (b + sqrt(b^2 - 4 L / a))``;
+    * not reached (``Tj = sqrt(v / j)``, ``Ta = 2 Tj``): with ``u = Tj`` the cubic
+      ``2 u^3 - T u^2 + L / j = 0``, whose middle root is wanted. Its largest root is
+      ``u0 = T/6 + T/3 cos(phi/3)``, ``phi = 2 asin(sqrt(27 L / (j T^3)))``; the other two
+      solve ``x^2 - s x - L / (2 j u0) = 0`` with ``s = T/2 - u0 = 2T/3 sin^2(phi/6)``
+      (Vieta), and the middle one is its positive root -- no cancellation at any length.
+
+    The regime is the one whose root satisfies its own condition (the duration is monotone
+    in ``v``, so there is one). ``j = inf`` is the trapezoid,
+    :func:`trapezoid_speed_for_duration` (with ``a = inf`` too, the velocity step
+    ``v = L / T``); ``v_p`` itself where ``duration`` is not above the minimum; ``0`` for
+    ``L <= 0``. Checked against a bisection to the last bit (``tests/oracles/double_s.py``)
+    within 1e-9 relative. ``peak`` and ``t_min``: :func:`double_s_peak_speed` and
+    :func:`double_s_min_times` of the same arguments when the caller has them.
+    """
+    L, T, a, j, v = _floats(length, duration, a_max, j_max, v_max)
+    v_hi = double_s_peak_speed(L, v, a, j) if peak is None else peak
+    t_min = double_s_min_times(L, v, a, j, peak=v_hi) if t_min is None else t_min
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        aj = np.where(np.isinf(j), 0.0, a / j)  # 0 for the trapezoid
+        b = T - aj
+        disc = b * b - 4 * L / a
+        va = 2 * L / (b + np.sqrt(np.maximum(disc, 0.0)))
+        phi = 2 * np.arcsin(np.sqrt(np.minimum(27 * L / (j * T**3), 1.0)))
+        u0 = T / 6 + T / 3 * np.cos(phi / 3)
+        sv = 2 * T / 3 * np.sin(phi / 6) ** 2
+        u = (sv + np.sqrt(sv * sv + 2 * L / (j * u0))) / 2
+        vb = j * u * u
+        plateau = (disc >= 0) & (b > 0) & (va * j >= a * a)  # j = inf: always
+        vT = np.where(plateau, va, vb)
+    vT = np.where(T <= t_min, v_hi, np.minimum(vT, v_hi))
+    trap = np.isinf(j)
+    if np.any(trap):  # the trapezoid's own closed form (and the velocity step, a = inf)
+        vT = np.where(trap, trapezoid_speed_for_duration(L, T, a, a, v), vT)
+    return np.where(L > 0, vT, 0.0)
