@@ -13,14 +13,8 @@ import pinocchio as pin
 from _readme import readme_row, sci, sig
 
 import armlab
-from armlab.dynamics import (
-    inverse_dynamics,
-    joint_torques,
-    requirement_moves,
-    select_drives,
-    size,
-    static_load,
-)
+from armlab.dynamics import inverse_dynamics, requirement_moves, select_drives, size, static_load
+from armlab.dynamics.inverse import joint_torques
 from armlab.trajectory import Trajectory
 
 # ----------------------------------------------------------------------------- parameters

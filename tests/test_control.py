@@ -12,28 +12,24 @@ import numpy as np
 import pytest
 
 from armlab.control import (
-    INERTIA_CASES,
-    SEED_DESIGNS,
     ArmGains,
     CascadeModel,
-    IncrementalPID,
     LoopGains,
     check_cascade,
     force_loop,
-    force_loop_model,
     force_robustness,
-    incremental_coefficients,
     inertia_range,
     joint_plant,
     margins,
-    motor_speed_tf,
-    quantise_da,
     simulate_tracking,
     tune_arm,
     tune_cascade,
 )
-from armlab.control.force import force_margins, force_open_loop
+from armlab.control.discrete import IncrementalPID, quantise_da
+from armlab.control.force import SEED_DESIGNS, force_loop_model, force_margins, force_open_loop
+from armlab.control.gains import incremental_coefficients
 from armlab.control.loops import freq_grid, pid_tf_discrete
+from armlab.control.plant import INERTIA_CASES, motor_speed_tf
 from armlab.errors import InputError, SpecError
 from armlab.kinematics import fk
 from armlab.robot.drives import RPM_TO_RAD_S

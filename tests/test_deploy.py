@@ -22,21 +22,13 @@ from hypothesis import strategies as st
 
 import armlab
 from armlab.cli import main as cli_main
-from armlab.deploy import (
-    CHECKS,
-    ControllerProfile,
-    file_sha256,
-    list_profiles,
-    load_profile,
-    load_trajectory,
-    read_setpoints,
-    save_trajectory,
-    setpoint_table,
-    trajectory_sha256,
-)
+from armlab.deploy import load_trajectory, read_setpoints, save_trajectory, setpoint_table
+from armlab.deploy.checks import CHECKS
 from armlab.deploy.formats import c_int_type
 from armlab.deploy.numtext import format_list, format_rows
+from armlab.deploy.provenance import file_sha256, trajectory_sha256
 from armlab.errors import InputError, LimitViolation
+from armlab.robot import ControllerProfile, list_profiles, load_profile
 from armlab.study import export_study
 from armlab.trajectory import Trajectory
 from conftest import make_study_folder

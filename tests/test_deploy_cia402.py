@@ -17,7 +17,6 @@ import pytest
 from armlab.cli import main as cli_main
 from armlab.deploy import (
     cia402_csp,
-    load_profile,
     read_cia402_csp,
     read_cia402_objects,
     read_setpoints,
@@ -25,6 +24,7 @@ from armlab.deploy import (
 )
 from armlab.deploy.cia402 import Cia402Object, interpolation_period
 from armlab.errors import InputError
+from armlab.robot import load_profile
 from armlab.study import export_study
 from armlab.trajectory import Trajectory
 from conftest import make_study_folder

@@ -16,14 +16,15 @@ import pytest
 import yaml
 
 from armlab.cli import main as cli_main
-from armlab.control import ArmGains, CascadeGains, LoopGains, PlantSummary
+from armlab.control import ArmGains, CascadeGains, LoopGains
+from armlab.control.gains import PlantSummary
 from armlab.deploy import (
-    check_joint_trajectory,
     jtc_constraints,
     render_follow_joint_trajectory,
     ros2_controllers_yaml,
     setpoint_table,
 )
+from armlab.deploy.ros2 import check_joint_trajectory
 from armlab.dynamics.sizing import lever_arms_m
 from armlab.errors import InputError
 from armlab.io import write_json

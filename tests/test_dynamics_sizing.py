@@ -11,9 +11,6 @@ from matplotlib.figure import Figure
 
 import armlab
 from armlab.dynamics import (
-    CHECK_NAMES,
-    THESIS_TABLE_4_2,
-    THESIS_TABLE_4_3,
     inverse_dynamics,
     load_catalogue,
     requirement_moves,
@@ -21,7 +18,8 @@ from armlab.dynamics import (
     size,
     static_load,
 )
-from armlab.dynamics.checks import SizingOptions, evaluate_checks
+from armlab.dynamics.checks import CHECK_NAMES, SizingOptions, evaluate_checks
+from armlab.dynamics.reference import THESIS_TABLE_4_2, THESIS_TABLE_4_3
 from armlab.plots import plot_joint_loads, plot_operating_points
 from armlab.robot.drives import Drive, Encoder, Motor, Reducer
 from armlab.robot.drivetrain import DriveTrain

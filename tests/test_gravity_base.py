@@ -13,7 +13,9 @@ import pytest
 
 import armlab
 from armlab.control import simulate_tracking, tune_arm
-from armlab.dynamics import build_static_load, inverse_dynamics, joint_torques, static_load
+from armlab.dynamics import inverse_dynamics, static_load
+from armlab.dynamics.inverse import joint_torques
+from armlab.dynamics.static_load import build_static_load
 from armlab.errors import InputError
 from armlab.planning.topp import path_dynamics
 from armlab.robot import rigid_body

@@ -14,7 +14,8 @@ import pytest
 import armlab
 from armlab.dynamics import size
 from armlab.errors import InputError, SpecError
-from armlab.robot import Limits, description_limits, load_robot, resolve_limits
+from armlab.robot import Limits, load_robot, resolve_limits
+from armlab.robot.limits import description_limits
 from armlab.study import parse_study
 from armlab.study.stages import StudyContext, build_robot, planning_robot
 from armlab.trajectory import optimal, ptp_sync

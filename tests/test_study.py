@@ -16,17 +16,15 @@ import armlab.kinematics
 import armlab.trajectory
 from armlab.errors import InputError, SpecError
 from armlab.study import (
-    KEY_FIGURES,
-    STAGES,
     apply_overrides,
-    check_key,
     demo_study_path,
-    key_figures,
     load_study,
     parse_study,
     run_spec,
     run_study,
 )
+from armlab.study.runner import KEY_FIGURES, key_figures
+from armlab.study.spec import STAGES, check_key
 from armlab.study.stages import build_robot
 
 DESIGN_KEYS = ("robot", "static_load", "trajectory", "sizing", "control", "tracking", "export")

@@ -18,66 +18,29 @@ paper, §8 (fault handling: over-speed, over-limit -> made into pre-flight check
 * :func:`save_trajectory`, :func:`load_trajectory` — a study's ``trajectory.npz``.
 """
 
-from armlab.deploy.checks import CHECKS, PreflightFailure, PreflightReport, preflight
 from armlab.deploy.cia402 import Cia402Csp, cia402_csp, read_cia402_csp, read_cia402_objects
-from armlab.deploy.gains_export import (
-    gains_to_c_files,
-    gains_to_c_header,
-    gains_to_json,
-    gains_to_ros2_yaml,
-    load_gains,
-    render_gains,
-    write_gains,
-)
-from armlab.deploy.provenance import file_sha256, gains_sha256, trajectory_sha256
+from armlab.deploy.gains_export import load_gains, write_gains
 from armlab.deploy.ros2 import (
-    JtcConstraints,
-    check_joint_trajectory,
     jtc_constraints,
     render_follow_joint_trajectory,
     ros2_controllers_yaml,
 )
-from armlab.deploy.table import SetpointTable, counts_per_rad, read_setpoints, setpoint_table
+from armlab.deploy.table import SetpointTable, read_setpoints, setpoint_table
 from armlab.deploy.trajfile import load_trajectory, save_trajectory
-from armlab.robot.controller import (
-    DEFAULT_PROFILE,
-    ControllerProfile,
-    list_profiles,
-    load_profile,
-)
 
 __all__ = [
-    "CHECKS",
-    "PreflightFailure",
-    "PreflightReport",
-    "preflight",
     "Cia402Csp",
+    "SetpointTable",
     "cia402_csp",
+    "jtc_constraints",
+    "load_gains",
+    "load_trajectory",
     "read_cia402_csp",
     "read_cia402_objects",
-    "gains_to_c_files",
-    "gains_to_c_header",
-    "gains_to_json",
-    "gains_to_ros2_yaml",
-    "load_gains",
-    "render_gains",
-    "write_gains",
-    "DEFAULT_PROFILE",
-    "ControllerProfile",
-    "list_profiles",
-    "load_profile",
-    "file_sha256",
-    "gains_sha256",
-    "trajectory_sha256",
-    "JtcConstraints",
-    "check_joint_trajectory",
-    "jtc_constraints",
+    "read_setpoints",
     "render_follow_joint_trajectory",
     "ros2_controllers_yaml",
-    "SetpointTable",
-    "counts_per_rad",
-    "read_setpoints",
-    "setpoint_table",
-    "load_trajectory",
     "save_trajectory",
+    "setpoint_table",
+    "write_gains",
 ]
