@@ -43,7 +43,7 @@ def inertias(teachbot6):
 
 @pytest.fixture(scope="module")
 def arm_gains(teachbot6):
-    return tune_arm(teachbot6, n_inertia_samples=200)
+    return tune_arm(teachbot6, n_inertia_samples=200, controller="reference_dda")
 
 
 def planned(robot):
@@ -263,7 +263,14 @@ def test_gains_json_round_trip_reproduces_the_margins(teachbot6, arm_gains, iner
 # ---------------------------------------------------------------------------- simulation
 def test_tracking_stays_within_the_servo_share_of_the_accuracy(teachbot6, arm_gains):
     traj = planned(teachbot6)
-    res = simulate_tracking(teachbot6, traj, arm_gains, feedforward="velocity", t_after_s=0.5)
+    res = simulate_tracking(
+        teachbot6,
+        traj,
+        arm_gains,
+        feedforward="velocity",
+        t_after_s=0.5,
+        controller="reference_dda",
+    )
     # 0.5 mm: half of the thesis' ~1 mm Monte-Carlo positioning accuracy
     assert res.accuracy_m == pytest.approx(0.5e-3)
     assert res.within_accuracy, res.tcp_max_error_m
@@ -279,7 +286,9 @@ def test_tracking_stays_within_the_servo_share_of_the_accuracy(teachbot6, arm_ga
     assert set(out["joints"]) == set(teachbot6.joint_names)
     assert out["tcp"]["max_error_m"] == res.tcp_max_error_m
     # without feed-forward the P position loop lags: the thesis' case for 5.2
-    lag = simulate_tracking(teachbot6, traj, arm_gains, feedforward="none", t_after_s=0.0)
+    lag = simulate_tracking(
+        teachbot6, traj, arm_gains, feedforward="none", t_after_s=0.0, controller="reference_dda"
+    )
     assert lag.tcp_max_error_m > 10 * res.tcp_max_error_m
 
 
@@ -290,7 +299,13 @@ def test_holding_still_against_gravity(teachbot6, arm_gains):
         t, np.vstack([q, q]), np.zeros((2, 6)), np.zeros((2, 6)), joint_names=teachbot6.joint_names
     )
     res = simulate_tracking(
-        teachbot6, rest, arm_gains, feedforward="none", quantise=False, t_after_s=0.0
+        teachbot6,
+        rest,
+        arm_gains,
+        feedforward="none",
+        quantise=False,
+        t_after_s=0.0,
+        controller="reference_dda",
     )
     assert np.abs(res.error_rad).max() < 1e-6
     assert np.abs(res.qd).max() < 1e-4
@@ -299,9 +314,13 @@ def test_holding_still_against_gravity(teachbot6, arm_gains):
 def test_simulation_input_errors(teachbot6, arm_gains):
     traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.1), "trapezoid", dt=1e-3)
     with pytest.raises(InputError, match="feedforward"):
-        simulate_tracking(teachbot6, traj, arm_gains, feedforward="jerk")
+        simulate_tracking(
+            teachbot6, traj, arm_gains, feedforward="jerk", controller="reference_dda"
+        )
     with pytest.raises(InputError, match="no gains for joints"):
-        simulate_tracking(teachbot6, traj, {"joint1": arm_gains["joint1"]})
+        simulate_tracking(
+            teachbot6, traj, {"joint1": arm_gains["joint1"]}, controller="reference_dda"
+        )
 
 
 # ---------------------------------------------------------------------------- force loop
@@ -379,5 +398,9 @@ def test_plots_return_figures(teachbot6, arm_gains, inertias):
         plots.force_figure([force_loop(700.0, duration_s=1.0)]),
     ]
     traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.05), "trapezoid", dt=1e-3)
-    figs.append(plots.tracking_figure(simulate_tracking(teachbot6, traj, arm_gains)))
+    figs.append(
+        plots.tracking_figure(
+            simulate_tracking(teachbot6, traj, arm_gains, controller="reference_dda")
+        )
+    )
     assert all(isinstance(f, Figure) and f.axes for f in figs)

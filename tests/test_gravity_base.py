@@ -178,7 +178,7 @@ def test_static_load_gravity_term_matches_rnea(tilted, reference):
 
 @pytest.fixture(scope="module")
 def gains(upright):
-    return tune_arm(upright, n_inertia_samples=5)
+    return tune_arm(upright, n_inertia_samples=5, controller="reference_dda")
 
 
 @pytest.mark.parametrize("feedforward", ["gravity", "computed_torque"])
@@ -188,7 +188,14 @@ def test_simulation_feedforward_holds_the_tilted_arm(tilted, reference, gains, f
     q = np.array([0.3, -0.6, 0.9, 0.2, 0.7, 0.0])
     rest = Trajectory(np.array([0.0, 0.05]), np.vstack([q, q]), np.zeros((2, 6)), np.zeros((2, 6)))
     res = simulate_tracking(
-        tilted, rest, gains, feedforward=feedforward, quantise=False, t_after_s=0.0, tcp=False
+        tilted,
+        rest,
+        gains,
+        feedforward=feedforward,
+        quantise=False,
+        t_after_s=0.0,
+        tcp=False,
+        controller="reference_dda",
     )
     drives = [tilted.drives[n] for n in tilted.joint_names]
     NKt = np.array([d.reducer.ratio * d.motor.torque_constant_Nm_A for d in drives])

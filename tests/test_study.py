@@ -434,7 +434,11 @@ def test_full_chain_outputs_are_what_independent_computations_give(tmp_path, cap
     assert min(pm) >= 45.0  # the study's (default) spec
     # the tracking verdict comes back from the folder's files alone
     res = simulate_tracking(
-        robot, saved, gains, feedforward=("velocity", "acceleration", "gravity")
+        robot,
+        saved,
+        gains,
+        feedforward=("velocity", "acceleration", "gravity"),
+        controller="reference_dda",
     )
     assert res.tcp_max_error_m == pytest.approx(summary["tracking"]["tcp"]["max_error_m"], rel=1e-9)
     assert summary["tracking"]["tcp"]["within_accuracy"] == (res.tcp_max_error_m <= 0.5e-3)

@@ -52,7 +52,8 @@ from armlab.errors import (
 if TYPE_CHECKING:  # the names _VERBS resolves on first use (for type checkers and IDEs)
     from armlab.control import simulate_tracking, tune_arm
     from armlab.deploy import setpoint_table
-    from armlab.dynamics import size, static_load
+    from armlab.dynamics import size
+    from armlab.dynamics.static_load import static_load
     from armlab.kinematics import fk, ik, ik_all
     from armlab.planning import (
         cubic_via,

@@ -265,7 +265,7 @@ def _cmd_export(args) -> int:
     from armlab.study import export_study
 
     result = export_study(
-        args.study_dir, fmt=args.format, profile=args.profile, out_dir=args.out, force=args.force
+        args.study_dir, fmt=args.format, controller=args.profile, out_dir=args.out, force=args.force
     )
     for note in result.notes:
         print(f"armlab: {note}", file=sys.stderr)

@@ -51,7 +51,7 @@ from armlab.control.loops import (
 )
 from armlab.control.plant import INERTIA_CASES, JointPlant, inertia_range, joint_plant
 from armlab.errors import ArmlabError, SpecError
-from armlab.robot.controller import ControllerProfile
+from armlab.robot.controller import ControllerProfile, load_profile
 
 if TYPE_CHECKING:
     import control as ct  # the real module for the type checker
@@ -919,16 +919,16 @@ def controller_spec(controller: ControllerProfile, spec: dict) -> dict:
     return out
 
 
-def tune_arm(robot: Robot, *, controller: ControllerProfile | None = None, **spec) -> ArmGains:
+def tune_arm(robot: Robot, *, controller: ControllerProfile | str, **spec) -> ArmGains:
     """:func:`tune_cascade` for every joint (one inertia-range computation shared).
 
     Parameters
     ----------
     robot : Robot
-    controller : ControllerProfile, optional
-        The joint controller: its servo period is the speed and position loops' sample time and
-        its D/A range and bits are the speed loop's output (:func:`controller_spec`). None: the
-        sample times and D/A of ``spec`` (or :class:`TuningSpec`'s defaults).
+    controller : ControllerProfile or str
+        The joint controller (:func:`armlab.robot.load_profile`): its servo period is the speed
+        and position loops' sample time and its D/A range and bits are the speed loop's output
+        (:func:`controller_spec`).
     **spec
         Fields of :class:`TuningSpec`; and ``engine`` (``"numpy"``, the default, or
         ``"python-control"``: see :func:`tune_cascade`).
@@ -939,8 +939,7 @@ def tune_arm(robot: Robot, *, controller: ControllerProfile | None = None, **spe
         ``.joints[name]`` in joint order; ``to_json()`` is a study's ``gains.json``.
     """
     engine: dict[str, Any] = {"engine": str(spec.pop("engine"))} if "engine" in spec else {}
-    if controller is not None:
-        spec = controller_spec(controller, spec)
+    spec = controller_spec(load_profile(controller), spec)
     sp = TuningSpec.from_kwargs("", **spec)
     inertias = inertia_range(robot, n_samples=sp.n_inertia_samples, seed=sp.seed)
     joints = {

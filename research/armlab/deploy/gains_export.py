@@ -155,14 +155,18 @@ def load_gains(path: str | os.PathLike) -> ArmGains:
 
 # ---------------------------------------------------------------------- YAML
 def gains_to_ros2_yaml(
-    gains, *, controller: str = "joint_trajectory_controller", source: dict | None = None, **kw
+    gains,
+    *,
+    controller_name: str = "joint_trajectory_controller",
+    source: dict | None = None,
+    **kw,
 ) -> str:
     """The ros2_control controllers YAML of ``gains``
     (:func:`armlab.deploy.ros2.ros2_controllers_yaml`; ``kw``: its ``update_rate_hz``,
     ``constraints``, ``joints``, ``ff_velocity_scale``)."""
     from armlab.deploy.ros2 import ros2_controllers_yaml
 
-    return ros2_controllers_yaml(gains, controller_name=controller, source=source, **kw)
+    return ros2_controllers_yaml(gains, controller_name=controller_name, source=source, **kw)
 
 
 # ---------------------------------------------------------------------- C

@@ -6,7 +6,6 @@ Stable names (DESIGN.md): :func:`inverse_dynamics`, :func:`static_load`, :func:`
 :func:`select_drives`, :func:`load_catalogue`, :func:`hold_check`.
 """
 
-from armlab.dynamics.checks import SizingOptions
 from armlab.dynamics.holding import HoldReport, hold_check
 from armlab.dynamics.inverse import JointLoads, inverse_dynamics
 from armlab.dynamics.requirements import requirement_moves
@@ -20,7 +19,6 @@ __all__ = [
     "HoldReport",
     "JointLoads",
     "Selection",
-    "SizingOptions",
     "SizingReport",
     "StaticLoadReport",
     "hold_check",

@@ -237,16 +237,15 @@ def selection_for_study(spec: StudySpec) -> StudyContext:
         Bad input (names the study key), an infeasible plan, or a joint without a passing
         catalogue entry (:class:`armlab.InfeasibleError` naming the joint and the check).
     """
-    from armlab.dynamics import SizingOptions, size
+    from armlab.dynamics import size
 
     ctx = StudyContext(spec=spec)
     ctx.controller = controller_profile(spec)
     ctx.robot = build_robot(spec)
     for stage in ("kinematics", "plan", "static_load"):
         STAGE_FUNCTIONS[stage](ctx)
-    options = SizingOptions(controller=ctx.controller)
-    duty = select_and_install(ctx, options)
-    ctx.sizing = size(ctx.robot, duty, dt=spec.plan.check_dt_s, options=options)
+    duty = select_and_install(ctx)
+    ctx.sizing = size(ctx.robot, duty, dt=spec.plan.check_dt_s, controller=ctx.controller)
     return ctx
 
 
@@ -694,7 +693,7 @@ def selection_duty(ctx: StudyContext) -> list:
     return [ctx.trajectory, *hold_trajectories(ctx.robot, static)]
 
 
-def select_and_install(ctx: StudyContext, options) -> list:
+def select_and_install(ctx: StudyContext) -> list:
     """Select every joint's motor + reducer from the catalogue against :func:`selection_duty`
     and make them the robot's drive train (limits resolved again: motor speed / ratio, available
     torque, derived acceleration and jerk where the study gives none). Returns the duty cycle.
@@ -706,13 +705,14 @@ def select_and_install(ctx: StudyContext, options) -> list:
     """
     from armlab.dynamics import select_drives
 
+    assert ctx.controller is not None  # run_study sets it before the stages
     duty = selection_duty(ctx)
     sel = select_drives(
         ctx.robot,
         duty,
         catalogue=_catalogue(ctx.spec),
         dt=ctx.spec.plan.check_dt_s,
-        options=options,
+        controller=ctx.controller,
     )
     ctx.selection = sel
     ctx.robot.drives = sel.require().drives(ctx.robot)
@@ -737,15 +737,14 @@ def stage_sizing(ctx: StudyContext) -> dict:
     each joint's worst static pose, become the robot's drive train for the later stages, and are
     sized on that same duty cycle.
     """
-    from armlab.dynamics import SizingOptions, requirement_moves, select_drives, size
+    from armlab.dynamics import requirement_moves, select_drives, size
 
     assert ctx.controller is not None  # run_study sets it before the stages
-    options = SizingOptions(controller=ctx.controller)
     duty = [ctx.trajectory]
     if ctx.robot.drives is None and ctx.spec.sizing.select:
-        duty = select_and_install(ctx, options)
+        duty = select_and_install(ctx)
     _needs_drives(ctx)
-    res = size(ctx.robot, duty, dt=ctx.spec.plan.check_dt_s, options=options)
+    res = size(ctx.robot, duty, dt=ctx.spec.plan.check_dt_s, controller=ctx.controller)
     ctx.sizing = res
     block = {"status": "ok", **verdict_block(_sizing_failures(res)), **_to_dict(res)}
     if ctx.drives_selected:
@@ -757,7 +756,7 @@ def stage_sizing(ctx: StudyContext) -> dict:
         # HEU thesis tables 4.2/4.3: the drives against each joint's worst case (full speed and
         # acceleration from its worst static pose), beside the planned cycle
         moves = requirement_moves(ctx.robot, ctx.static_load)
-        ctx.requirement_sizing = size(ctx.robot, moves, options=options)
+        ctx.requirement_sizing = size(ctx.robot, moves, controller=ctx.controller)
         adv = [
             f.replace("sizing:", "worst-case move:", 1)
             for f in _sizing_failures(ctx.requirement_sizing)
@@ -773,7 +772,7 @@ def stage_sizing(ctx: StudyContext) -> dict:
             [ctx.trajectory],
             catalogue=_catalogue(ctx.spec),
             dt=ctx.spec.plan.check_dt_s,
-            options=options,
+            controller=ctx.controller,
         )
         ctx.selection = sel
         block["selection"] = {"status": "ok", **_to_dict(sel)}
@@ -827,6 +826,7 @@ def stage_tuning(ctx: StudyContext) -> dict:
     from armlab.control import tune_arm
 
     _needs_drives(ctx)
+    assert ctx.controller is not None  # run_study sets it before the stages
     gains = None
     if ctx.tuning_ahead is not None and not ctx.drives_selected:  # the same robot as then
         gains = ctx.tuning_ahead.result()
