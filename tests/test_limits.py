@@ -251,7 +251,7 @@ def test_setpoint_preflight_needs_a_velocity_limit(teachbot6):
 
 def test_limits_type_contract(teachbot6):
     lim = teachbot6.limits
-    assert isinstance(lim, Limits) and armlab.Limits is Limits
+    assert isinstance(lim, Limits) and armlab.robot.Limits is Limits
     d = lim.to_dict()
     json.dumps(d)
     assert d["velocity_rad_s"]["joint3"] == pytest.approx(2200 * RPM / 385)
