@@ -57,6 +57,7 @@ def test_nav_pages_exist_and_every_api_package_has_a_page():
         assert f"api/{package}.md" in nav
         assert f"::: armlab.{package}" in (DOCS / "api" / f"{package}.md").read_text()
     assert {"architecture.md", "references.md", "study-file.md", "outputs.md"} <= set(nav)
+    assert "api/armlab.md" in nav and "::: armlab\n" in (DOCS / "api" / "armlab.md").read_text()
 
 
 def test_study_file_page_names_every_table_and_key():

@@ -46,7 +46,7 @@ def report(teachbot6, moves):
 def test_requirement_moves_reach_speed_and_acceleration(teachbot6, static, moves):
     lim = teachbot6.limits
     # the required speed is the URDF's (thesis table 2.1), not the drive-capped robot.limits
-    required = armlab.robot.description_limits(teachbot6.model).velocity_rad_s
+    required = armlab.robot.limits.description_limits(teachbot6.model).velocity_rad_s
     assert required[2] > lim.velocity_rad_s[2]  # joint 3: 0.65 rad/s > 2200 rpm / 385
     assert len(moves) == 6
     for j, tr in enumerate(moves):

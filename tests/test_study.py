@@ -465,7 +465,7 @@ def test_cartesian_line_study_starts_and_ends_at_the_waypoints():
     doc["study"]["stages"] = ["kinematics", "plan"]
     res = run_spec(parse_study(doc))
     assert res.summary["trajectory"]["method"] == "line"
-    tcp = armlab.kinematics.tool_positions(res.robot, res.trajectory.q[[0, -1]])
+    tcp = armlab.kinematics.forward.tool_positions(res.robot, res.trajectory.q[[0, -1]])
     np.testing.assert_allclose(tcp, np.array(rows)[:, :3], atol=1e-9)
     # the straight line at 0.05 m/s takes at least its length / speed
     assert res.trajectory.duration >= 0.15 / 0.05
