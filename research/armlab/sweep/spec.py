@@ -9,7 +9,7 @@ Format (TOML)::
     mode = "grid"            # "grid" (every combination), "random" or "lhs" (Latin hypercube)
     samples = 16             # random / lhs: number of parameter sets
     seed = 0                 # random / lhs: the draw is reproducible from the file
-    figures = ["duration_s"] # key figures (armlab.study.runner.key_figures) plotted vs each parameter
+    figures = ["duration_s"] # key figures (study.runner.key_figures) plotted vs each parameter
     retries = 2              # resubmissions of a set whose worker died (beyond Dask's own)
     rerun_errors = false     # a re-run also repeats the sets that ended in an error
 
