@@ -188,3 +188,24 @@ def test_controller_is_handed_over_one_way():
         armlab.size(robot, None, options=None)
     with pytest.raises(TypeError, match="controller"):
         armlab.simulate_tracking(robot, None, None)  # type: ignore[call-arg]
+
+
+def test_planners_take_the_torque_limit_as_tau_max():
+    """Every planner with joint limits takes the torque limit as ``tau_max`` (None the robot's,
+    False off, a value replaces it), as ``optimal`` does; ``torque=`` fails naming it."""
+    import inspect
+
+    import armlab
+    import armlab.planning
+
+    with_limits = []
+    for name in armlab.planning.__all__:
+        obj = getattr(armlab.planning, name)
+        if inspect.isfunction(obj) and "v_max" in inspect.signature(obj).parameters:
+            params = inspect.signature(obj).parameters
+            assert "torque" not in params and params["tau_max"].default is None, name
+            with_limits.append(name)
+    assert {"ptp_sync", "cubic_via", "quintic_via", "follow_path", "optimal"} <= set(with_limits)
+    robot = armlab.load_robot("teachbot6")
+    with pytest.raises(TypeError, match=r"ptp_sync\(\): torque= is now tau_max="):
+        armlab.ptp_sync(robot, [0.0] * 6, [0.1] * 6, torque=False)

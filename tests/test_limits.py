@@ -74,7 +74,7 @@ def test_a_plan_at_the_velocity_limit_passes_the_motor_speed_check(teachbot6):
     its limit runs its motor at exactly the rated speed (the URDF's 0.65 rad/s would not)."""
     q0 = np.zeros(6)
     q1 = np.array([0.0, 0.0, 2.5, 0.0, 0.0, 0.0])
-    traj = ptp_sync(teachbot6, q0, q1, dt=0.002, torque=False)
+    traj = ptp_sync(teachbot6, q0, q1, dt=0.002, tau_max=False)
     assert np.max(np.abs(traj.qd[:, 2])) == pytest.approx(teachbot6.limits.velocity_rad_s[2])
     check = size(teachbot6, traj, controller="reference_dda").joint("joint3").check("motor_speed")
     assert check.ok and check.value == pytest.approx(check.limit, rel=1e-9)
@@ -149,7 +149,7 @@ def test_study_override_below_the_hardware_is_taken(teachbot6):
     assert set(lim.sources["velocity"]) == {"study [limits] velocity_rad_s"}
     np.testing.assert_array_equal(lim.jerk_rad_s3, teachbot6.limits.jerk_rad_s3)
     # a plan of the study honours them
-    traj = ptp_sync(robot, np.zeros(6), np.full(6, 0.5), torque=False)
+    traj = ptp_sync(robot, np.zeros(6), np.full(6, 0.5), tau_max=False)
     assert np.max(np.abs(traj.qd)) == pytest.approx(0.1, rel=1e-9)
 
 
@@ -199,7 +199,7 @@ def test_speed_scale_scales_v_a_j_by_s_s2_s3(teachbot6):
 # ---------------------------------------------------------------------------- per call
 def test_ptp_sync_and_optimal_both_take_j_max_false_as_off(teachbot6):
     q0, q1 = np.zeros(6), np.array([0.3, -0.2, 0.25, 0.4, 0.3, 0.5])
-    ptp = ptp_sync(teachbot6, q0, q1, "trapezoid", j_max=False, torque=False)
+    ptp = ptp_sync(teachbot6, q0, q1, "trapezoid", j_max=False, tau_max=False)
     opt = optimal(teachbot6, [q0, q1], j_max=False, tau_max=False, n_intervals=12)
     for traj in (ptp, opt):
         assert "jerk" not in traj.report.ratios and traj.report.ok(1e-6)
@@ -227,7 +227,7 @@ def test_per_call_keywords_share_one_rule(teachbot6):
 
 # ---------------------------------------------------------------------------- checkers
 def test_check_limits_takes_a_limits(teachbot6):
-    traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.3), torque=False)
+    traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.3), tau_max=False)
     full = traj.check_limits(teachbot6, torque=False)
     half = traj.check_limits(teachbot6, torque=False, limits=teachbot6.limits.scaled(0.5))
     np.testing.assert_allclose(half.ratios["velocity"], 2 * full.ratios["velocity"])
@@ -242,7 +242,7 @@ def test_check_limits_takes_a_limits(teachbot6):
 def test_setpoint_preflight_needs_a_velocity_limit(teachbot6):
     from armlab.deploy import setpoint_table
 
-    traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.05), torque=False)
+    traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.05), tau_max=False)
     setpoint_table(teachbot6, traj, controller="reference_dda")  # the robot's limits: fine
     blind = teachbot6.with_limits(velocity_rad_s=None)
     with pytest.raises(InputError, match="set-point pre-flight: missing velocity limit"):

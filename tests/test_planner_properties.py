@@ -242,11 +242,13 @@ def make_case(planner: str, seed: int) -> Case:
             info["velocities"] = vel
 
             def fn():
-                return cubic_via(robot, w, velocities=vel, dt=dt, torque=torque, **kw)
+                return cubic_via(
+                    robot, w, velocities=vel, dt=dt, tau_max=None if torque else False, **kw
+                )
         else:
 
             def fn():
-                return quintic_via(robot, w, dt=dt, torque=torque, **kw)
+                return quintic_via(robot, w, dt=dt, tau_max=None if torque else False, **kw)
 
         # repeated waypoints merge: the via points kept are the distinct ones
         keep = np.concatenate([[True], np.any(np.abs(np.diff(w, axis=0)) > 1e-12, axis=1)])
@@ -276,7 +278,9 @@ def _ptp_case(planner: str, seed: int, rng) -> Case:
     w = _move(rng, robot, 2)
 
     def fn():
-        return ptp_sync(robot, w[0], w[1], profile, sync=sync, dt=dt, torque=torque, **kw)
+        return ptp_sync(
+            robot, w[0], w[1], profile, sync=sync, dt=dt, tau_max=None if torque else False, **kw
+        )
 
     lim = resolve_limits(robot, **kw)
     return Case(planner, seed, robot, fn, lim, torque, w, ptp=True, info={"sync": sync, "dt": dt})
@@ -330,7 +334,7 @@ def _cartesian_case(planner: str, seed: int, rng) -> Case:
     def near() -> np.ndarray:
         return T0[:3, 3] + rng.normal(size=3) * reach
 
-    common = dict(q_start=q0, dt=dt, profile=profile, torque=torque, **kw)
+    common = dict(q_start=q0, dt=dt, profile=profile, tau_max=None if torque else False, **kw)
     info: dict[str, Any] = {"profile": profile, "reach": reach, "dt": dt}
     if planner == "line":
         T1 = T0.copy()
@@ -712,7 +716,7 @@ def test_uneven_limits_hold_between_knots(profile, sync, seed):
     for _ in range(10):
         q0, q1 = robot.random_q(rng, 2)
         v, a, j = _decades(rng, -1, 1, 6), _decades(rng, -1, 2, 6), _decades(rng, 0, 3, 6)
-        traj = ptp_sync(robot, q0, q1, profile, sync=sync, v_max=v, a_max=a, j_max=j, torque=False)
+        traj = ptp_sync(robot, q0, q1, profile, sync=sync, v_max=v, a_max=a, j_max=j, tau_max=False)
         lim = resolve_limits(robot, v_max=v, a_max=a, j_max=j)
         report = traj.check_limits(robot, dt=2.5e-4, limits=lim, torque=False)
         assert report.ok(1e-9), report.violations()

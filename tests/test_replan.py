@@ -141,7 +141,9 @@ def replan_case(seed: int, profile: str = "trapezoid"):
     state = {"qd_start": v0, "qd_goal": v1, **({"qdd_start": a0} if scurve else {})}
 
     def fn():
-        return ptp_sync(robot, w[0], w[1], profile, dt=dt, torque=torque, **state, **kw)
+        return ptp_sync(
+            robot, w[0], w[1], profile, dt=dt, tau_max=None if torque else False, **state, **kw
+        )
 
     case = Case(f"ptp_{profile}", seed, robot, fn, lim, torque, w, ptp=True, info={"dt": dt})
     return case, v0, a0, v1
@@ -193,11 +195,11 @@ def test_replanning_mid_motion_continues_the_motion(teachbot6):
     (the old plan is one of the candidates the minimum-time replan beats)."""
     q0 = np.array([0.0, -0.3, 0.4, 0.0, 0.5, 0.0])
     q1 = np.array([0.8, 0.2, -0.2, 0.9, -0.4, 1.2])
-    first = ptp_sync(teachbot6, q0, q1, "trapezoid", dt=1e-3, torque=False)
+    first = ptp_sync(teachbot6, q0, q1, "trapezoid", dt=1e-3, tau_max=False)
     tc = 0.4 * first.duration
     q, qd, qdd, _ = first.at([tc])
     again = ptp_sync(
-        teachbot6, q[0], q1, "trapezoid", dt=1e-3, torque=False, qd_start=qd[0], qdd_start=qdd[0]
+        teachbot6, q[0], q1, "trapezoid", dt=1e-3, tau_max=False, qd_start=qd[0], qdd_start=qdd[0]
     )
     assert again.duration <= first.duration - tc + 1e-9
     np.testing.assert_allclose(again.qd[0], qd[0], atol=1e-12)
@@ -224,7 +226,7 @@ def test_common_duration_skips_a_joints_gap(teachbot6):
         v_max=2.0,
         a_max=2.0,
         dt=1e-3,
-        torque=False,
+        tau_max=False,
         qd_start=v0,
         qd_goal=v1,
     )

@@ -302,11 +302,11 @@ def test_replanning_mid_motion_continues_the_motion(teachbot6):
     moving-state path (a zero start state) is the classic plan, bit for bit."""
     q0 = np.array([0.0, -0.3, 0.4, 0.0, 0.5, 0.0])
     q1 = np.array([0.8, 0.2, -0.2, 0.9, -0.4, 1.2])
-    first = ptp_sync(teachbot6, q0, q1, "scurve", dt=1e-3, torque=False)
+    first = ptp_sync(teachbot6, q0, q1, "scurve", dt=1e-3, tau_max=False)
     tc = 0.4 * first.duration
     q, qd, qdd, _ = first.at([tc])
     again = ptp_sync(
-        teachbot6, q[0], q1, "scurve", dt=1e-3, torque=False, qd_start=qd[0], qdd_start=qdd[0]
+        teachbot6, q[0], q1, "scurve", dt=1e-3, tau_max=False, qd_start=qd[0], qdd_start=qdd[0]
     )
     assert again.duration <= first.duration - tc + 1e-9
     np.testing.assert_allclose(again.at([0.0])[2][0], qdd[0], atol=1e-12)
@@ -329,7 +329,7 @@ def test_torque_lowers_acceleration_and_jerk_from_the_same_state(teachbot6):
 
     def fn():
         return ptp_sync(
-            teachbot6, w[0], w[1], "scurve", torque=True, qd_start=v0, qdd_start=a0, **kw
+            teachbot6, w[0], w[1], "scurve", tau_max=None, qd_start=v0, qdd_start=a0, **kw
         )
 
     traj = fn()

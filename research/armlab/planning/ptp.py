@@ -54,6 +54,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from armlab._keywords import renamed_keywords
 from armlab.errors import InputError, LimitViolation
 from armlab.planning.timescale import finish, stretch_needed
 from armlab.robot import rigid_body
@@ -148,6 +149,7 @@ def _from_state_profiles(delta, v0, a0, v1, v, a, j):
     return profs, T, bj, ("velocity" if cruise else "acceleration"), gap_moved
 
 
+@renamed_keywords(torque="tau_max= (False: no torque limit)")
 def ptp_sync(
     robot: Robot,
     q_start,
@@ -159,7 +161,7 @@ def ptp_sync(
     j_max=None,
     dt: float | None = None,
     sync: str = "time",
-    torque: bool = True,
+    tau_max=None,
     qd_start=None,
     qdd_start=None,
     qd_goal=None,
@@ -186,8 +188,10 @@ def ptp_sync(
         ``"time"``: each joint keeps its own acceleration and is slowed to end at ``T``;
         ``"phase"``: one normalised profile for all joints (a straight line in joint space).
         ``"velocity"`` is always phase-synchronous.
-    torque : bool
-        Also keep the inverse-dynamics torques within ``effort`` (slowing down if needed).
+    tau_max : None, False, float or array (n_joints,)
+        Torque limit in [N m] (:func:`armlab.robot.resolve_limits`): None the robot's, False
+        no torque check, a value replaces it; the inverse-dynamics torques are kept within it
+        (slowing down if needed).
     qd_start, qdd_start, qd_goal : array (n_joints,), optional
         Replanning from a moving state: the joint speeds [rad/s] and accelerations [rad/s^2]
         now, and the speeds [rad/s] wanted at the goal (default: rest; the goal
@@ -228,8 +232,15 @@ def ptp_sync(
         "velocity": ("velocity",),
     }[profile]
     lim = resolve_limits(
-        robot, v_max=v_max, a_max=a_max, j_max=j_max, need=need, where=f"ptp_sync {profile}"
+        robot,
+        v_max=v_max,
+        a_max=a_max,
+        j_max=j_max,
+        tau_max=tau_max,
+        need=need,
+        where=f"ptp_sync {profile}",
     )
+    torque = tau_max is not False
     v, a, j = lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3
     assert v is not None  # resolve_limits raises when a needed limit is missing
     v0 = validate_joint_state(robot, qd_start, "qd_start", v, "velocity", where="ptp_sync")

@@ -503,11 +503,11 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
     plan, robot = ctx.spec.plan, planning_robot(ctx)
     Q = ctx.waypoints_q
     assert Q is not None  # set by stage_kinematics, which runs first
-    torque = plan.torque_limits
+    tau_max = None if plan.torque_limits else False
     if plan.planner in ("optimal", "path"):
         ctx.jerk_limited = True if plan.jerk_limits is None else plan.jerk_limits
         limits: dict[str, Any] = {
-            "tau_max": None if torque else False,
+            "tau_max": tau_max,
             "j_max": None if ctx.jerk_limited else False,
             "drive_limits": plan.drive_limits,  # the envelope replaces the torque box
         }
@@ -524,7 +524,7 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
         ctx.jerk_limited = plan.profile == "scurve"
         return _concat(
             [
-                T.ptp_sync(robot, Q[i], Q[i + 1], profile=plan.profile, dt=dt, torque=torque)
+                T.ptp_sync(robot, Q[i], Q[i + 1], profile=plan.profile, dt=dt, tau_max=tau_max)
                 for i in range(len(Q) - 1)
             ]
         )
@@ -534,7 +534,7 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
         if plan.duration_s is not None:
             d = np.linalg.norm(np.diff(Q, axis=0), axis=1)
             durations = plan.duration_s * d / d.sum()
-        return T.cubic_via(robot, Q, durations=durations, dt=dt, torque=torque)
+        return T.cubic_via(robot, Q, durations=durations, dt=dt, tau_max=tau_max)
     poses = ctx.waypoint_poses
     speed = plan.speed_m_s
     if speed is None:
@@ -546,15 +546,15 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
         parts, q0 = [], Q[0]
         for i in range(len(poses) - 1):
             parts.append(
-                T.line(robot, poses[i], poses[i + 1], speed, q_start=q0, dt=dt, torque=torque)
+                T.line(robot, poses[i], poses[i + 1], speed, q_start=q0, dt=dt, tau_max=tau_max)
             )
             q0 = parts[-1].q[-1]
         return _concat(parts)
     if plan.planner == "arc3":
         return T.arc3(
-            robot, poses[0], poses[1], poses[2], speed, q_start=Q[0], dt=dt, torque=torque
+            robot, poses[0], poses[1], poses[2], speed, q_start=Q[0], dt=dt, tau_max=tau_max
         )
-    return T.blend(robot, poses, plan.blend_radius_m, speed, q_start=Q[0], dt=dt, torque=torque)
+    return T.blend(robot, poses, plan.blend_radius_m, speed, q_start=Q[0], dt=dt, tau_max=tau_max)
 
 
 def stage_plan(ctx: StudyContext) -> dict:
