@@ -209,3 +209,25 @@ def test_planners_take_the_torque_limit_as_tau_max():
     robot = armlab.load_robot("teachbot6")
     with pytest.raises(TypeError, match=r"ptp_sync\(\): torque= is now tau_max="):
         armlab.ptp_sync(robot, [0.0] * 6, [0.1] * 6, torque=False)
+
+
+@pytest.mark.parametrize("profile", ["trapezoid", "scurve"])
+def test_ptp_sync_tau_max_value_replaces_the_robots(profile):
+    """A ``tau_max`` value is the torque limit the plan keeps (joint 1 at a fifth of its own:
+    a slower motion whose inverse-dynamics torque stays within it; 1e-6 relative: the
+    stretch's bisection tolerance), not the robot's."""
+    import numpy as np
+
+    import armlab
+    from armlab.robot import resolve_limits
+
+    robot = armlab.load_robot("teachbot6")
+    q0, q1 = np.zeros(6), np.radians([90, 35, 10, 60, -30, 90])
+    tau = robot.limits.torque_Nm.copy()
+    tau[0] *= 0.2
+    own = armlab.ptp_sync(robot, q0, q1, profile)
+    assert own.check_limits(robot, torque=True).ratios["torque"][0] > 0.3  # binds below 0.2
+    slow = armlab.ptp_sync(robot, q0, q1, profile, tau_max=tau)
+    ratios = slow.check_limits(robot, torque=True, limits=resolve_limits(robot, tau_max=tau))
+    assert ratios.ratios["torque"].max() <= 1 + 1e-6
+    assert slow.duration > 1.1 * own.duration
