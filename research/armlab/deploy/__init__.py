@@ -5,7 +5,8 @@ pulses per axis per period, x2/x4 encoder decoding, 12-bit +-10 V D/A); HR SJ-1 
 paper, §8 (fault handling: over-speed, over-limit -> made into pre-flight checks); DESIGN.md
 "Set-point table".
 
-* :func:`load_profile` — the controller (``data/profiles/*.toml``; default ``reference_dda``).
+* the controller is :func:`armlab.robot.load_profile` (``data/profiles/*.toml``, e.g.
+  ``reference_dda``), handed as ``controller=`` to each function that depends on it.
 * :func:`setpoint_table` — a trajectory sampled per controller cycle, in encoder counts, with
   positions, velocities and accelerations, checked on every cycle; :meth:`SetpointTable.write`
   to CSV/JSON/NPZ/C (header + data file), :func:`read_setpoints`.
