@@ -1,9 +1,9 @@
 """Benchmark of armlab.control: tuning time per joint, 6-joint closed-loop simulation speed.
 
 Run headless: ``MPLBACKEND=Agg .venv/bin/python benchmarks/bench_control.py``.
-Prints four tables: ``tune_arm`` on the python-control models (the original evaluation, kept
-as the reference: "before") beside the closed-form numpy engine ("after") with the largest
-relative difference of any gain or margin between them; robust tuning per teachbot6 joint
+Prints four tables: ``tune_arm`` time with the largest relative difference of any margin or
+crossover it reports from the same figures on the loops built with python-control
+(``tests/oracles/cascade_pc.py``, the oracle of the tests); robust tuning per teachbot6 joint
 (time, crossovers, worst margins); simulation speed (simulated seconds per wall second,
 6 joints at the 1 kHz servo rate; "loop" is the servo loop alone, "call" the whole call with
 set-point evaluation, feed-forward and the TCP forward kinematics of every sample); and our
@@ -25,7 +25,7 @@ PARAMS = {
     "feedforwards": ["none", "velocity", "velocity+acceleration+gravity", "computed_torque"],
     "repeats": 3,  # simulation runs per row (best wall time kept)
     "margin_grid": 1500,
-    "tune_repeats": 3,  # tune_arm runs per engine (best wall time kept)
+    "tune_repeats": 3,  # tune_arm runs (best wall time kept)
     "goal_tune_s": 0.5,  # issue 15: tune_arm(teachbot6)
     "goal_realtime": 10.0,  # simulated seconds per wall second
 }
@@ -33,8 +33,10 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", PARAMS["blas_threads"])
 os.environ.setdefault("OMP_NUM_THREADS", PARAMS["blas_threads"])
 os.environ.setdefault("MPLBACKEND", "Agg")
 
+import sys  # noqa: E402
 import time  # noqa: E402
 import warnings  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 import control as ct  # noqa: E402
 import numpy as np  # noqa: E402
@@ -50,55 +52,53 @@ from armlab.control import (  # noqa: E402
     tune_arm,
     tune_cascade,
 )
-from armlab.control.loops import freq_grid  # noqa: E402
+from armlab.control.margins import freq_grid, margins  # noqa: E402
 from armlab.trajectory import ptp_sync  # noqa: E402
 
 _COMPARED = (
-    "kp",
-    "ki",
-    "phase_margin_deg",
-    "gain_margin_dB",
-    "phase_margin_discrete_deg",
-    "gain_margin_discrete_dB",
-    "crossover_rad_s",
+    ("phase_margin_deg", False),
+    ("gain_margin_dB", False),
+    ("crossover_rad_s", False),
+    ("phase_margin_discrete_deg", True),
+    ("gain_margin_discrete_dB", True),
+    ("crossover_discrete_rad_s", True),
 )
 
 
-def engine_table(robot) -> dict[str, tuple[float, float]]:
-    """``tune_arm`` wall and CPU time per engine (inertia range included), best of repeats,
-    and the largest relative difference of the gains and margins from the reference; returns
-    {engine: (best wall time [s], largest relative difference)}."""
-    print(f"\n## tune_arm({robot.name}): python-control models (before) vs closed form (after)\n")
-    print("| engine | wall [s] | CPU [s] | max rel. diff. of gains and margins vs reference |")
-    print("|---|---|---|---|")
-    results = {}
-    for engine in ("python-control", "numpy"):
-        best, cpu, gains = float("inf"), float("inf"), None
-        for _ in range(PARAMS["tune_repeats"]):
-            t0, c0 = time.perf_counter(), time.process_time()
-            gains = tune_arm(
-                robot,
-                n_inertia_samples=PARAMS["n_inertia_samples"],
-                engine=engine,
-                controller="reference_dda",
-            )
-            best = min(best, time.perf_counter() - t0)
-            cpu = min(cpu, time.process_time() - c0)
-        results[engine] = (best, cpu, gains)
-    ref = results["python-control"][2]
-    out = {}
-    for engine, (best, cpu, gains) in results.items():
-        worst = 0.0
-        for name in robot.joint_names:
-            for loop, lg in gains[name].loops().items():
-                other = ref[name].loops()[loop]
-                for key in _COMPARED:
-                    a, b = getattr(lg, key), getattr(other, key)
+def tune_table(robot) -> tuple[float, float]:
+    """``tune_arm`` wall and CPU time (inertia range included), best of repeats, and the largest
+    relative difference of its robustness rows' margins and crossovers from python-control's
+    loops (the tests' oracle) on the same gains; returns (best wall time [s], difference)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from oracles.cascade_pc import Cascade, response
+
+    print(f"\n## tune_arm({robot.name}) and its figures against python-control's loops\n")
+    print("| wall [s] | CPU [s] | max rel. diff. of margins and crossovers vs python-control |")
+    print("|---|---|---|")
+    best, cpu, gains = float("inf"), float("inf"), None
+    for _ in range(PARAMS["tune_repeats"]):
+        t0, c0 = time.perf_counter(), time.process_time()
+        gains = tune_arm(
+            robot, n_inertia_samples=PARAMS["n_inertia_samples"], controller="reference_dda"
+        )
+        best = min(best, time.perf_counter() - t0)
+        cpu = min(cpu, time.process_time() - c0)
+    assert gains is not None
+    inertias = inertia_range(robot, n_samples=PARAMS["n_inertia_samples"])
+    worst = 0.0
+    for name in robot.joint_names:
+        plant = joint_plant(robot, name, inertias=inertias)
+        for loop, lg in gains[name].loops().items():
+            for row in lg.robustness:
+                oracle = Cascade(plant.at(row["label"]), gains[name])
+                for key, disc in _COMPARED:
+                    w = freq_grid(lg.sample_time_s if disc else None, n=1500)
+                    ref = margins(w, response(oracle.open_loop(loop, disc), w))
+                    a, b = row[key], getattr(ref, key.replace("_discrete", ""))
                     if np.isfinite(a) and np.isfinite(b) and b != 0:
                         worst = max(worst, abs(a - b) / abs(b))
-        print(f"| {engine} | {best:.3f} | {cpu:.3f} | {worst:.1e} |")
-        out[engine] = (best, worst)
-    return out
+    print(f"| {best:.3f} | {cpu:.3f} | {worst:.1e} |")
+    return best, worst
 
 
 def main() -> None:
@@ -112,8 +112,8 @@ def main() -> None:
     inertias = inertia_range(robot, n_samples=PARAMS["n_inertia_samples"])
     t_inertia = time.perf_counter() - t0
 
-    # ------------------------------------------------------------------ before / after
-    engines = engine_table(robot)
+    # ------------------------------------------------------------------ tune_arm
+    t_tune, diff = tune_table(robot)
 
     # ------------------------------------------------------------------ tuning
     print(
@@ -187,12 +187,12 @@ def main() -> None:
     print("|---|---|---|---|---|")
     t_margins, pm_diff = {"ours": [], "peer": []}, 0.0
     plant = joint_plant(robot, "joint2", inertias=inertias)
-    m = CascadeModel(plant.at("nominal"), gains["joint2"])
+    m = CascadeModel(plant, gains["joint2"], cases=("nominal",))
     for loop in ("current", "speed", "position"):
         for disc in (False, True):
-            L = m.open_loop(loop, disc)
+            L = m.open_loop(loop, disc, "nominal")
             t0 = time.perf_counter()
-            ours = m.margins(loop, disc, n=PARAMS["margin_grid"])
+            ours = m.margins(loop, disc, n=PARAMS["margin_grid"])[0]
             t_ours = time.perf_counter() - t0
             t0 = time.perf_counter()
             frd = ct.frd(L, freq_grid(L.dt or None, n=PARAMS["margin_grid"]))
@@ -208,15 +208,12 @@ def main() -> None:
             )
 
     # ------------------------------------------------------------------ README rows
-    (t_np, diff_np), (t_pc, _) = engines["numpy"], engines["python-control"]
     readme_row(
         __file__,
         f"`tune_arm({robot.name})`: robust tuning of all {robot.n_joints} joints "
-        f"(goal <= {PARAMS['goal_tune_s']:g} s, same gains)",
-        f"{t_np:.3f} s with the numpy engine (closed-form frequency responses over the "
-        f"frequency x inertia grid), gains and margins within {diff_np:.1e} (relative) of the "
-        "python-control engine",
-        f'python-control engine (`engine="python-control"`) {t_pc:.2f} s',
+        f"(goal <= {PARAMS['goal_tune_s']:g} s)",
+        f"{t_tune:.3f} s (closed-form frequency responses over the frequency x inertia grid), "
+        f"margins and crossovers within {diff:.1e} (relative) of python-control's loops",
     )
     readme_row(
         __file__,

@@ -8,10 +8,8 @@ Runs side by side, on the same parameter sets:
   function -- the floor any local pool could reach.
 
 Then the overhead per task of each backend, from tasks that do nothing. First, studies per
-second of one worker (this process, sequential) with the servo tuning on python-control's
-models (the evaluation before issue 15, ``engine="python-control"``) and in closed form
-(``engine="numpy"``, the default), with the mean time per study (``--engines-only``: this
-table alone). Every worker is warmed
+second of one worker (this process, sequential), with the mean time per study
+(``--one-worker-only``: this figure alone). Every worker is warmed
 up first (armlab imported, robot loaded, CasADi functions built), so the figures are steady-state
 throughput. Goal: 2 workers >= 1.8x the rate of 1 worker on the default study (on 2 cores).
 
@@ -153,44 +151,34 @@ def pool_run(n_workers: int, doc, base, source, sets) -> tuple[float, float]:
     return rate, per_task
 
 
-def engine_rates(doc, base, source, sets) -> dict[str, float]:
-    """Studies per second of one worker per tuning engine (returned), and the mean time per
-    study."""
-    from armlab.control import tuning
+def one_worker_rate(doc, base, source, sets) -> float:
+    """Studies per second of one worker (this process, sequential; returned), and the mean
+    time per study."""
     from armlab.sweep.task import run_parameter_set
 
-    default = tuning.tune_cascade.__kwdefaults__["engine"]
-    print(f"\none worker, {len(sets)} studies sequentially, per servo-tuning engine")
-    print(f"{'engine':<16}{'studies/s/worker':>18}{'s per study':>16}")
-    rates = {}
-    try:
-        for engine in ("python-control", "numpy"):
-            tuning.tune_cascade.__kwdefaults__["engine"] = engine
-            _check([run_parameter_set(doc, base, source, sets[0][1], sets[0][0])])  # warm
-            t0 = time.perf_counter()
-            rows = [run_parameter_set(doc, base, source, s, k) for k, s in sets]
-            rate = len(sets) / (time.perf_counter() - t0)
-            _check(rows)
-            elapsed = float(np.mean([r["elapsed_s"] for r in rows]))
-            print(f"{engine:<16}{rate:>18.3f}{elapsed:>16.2f}")
-            rates[engine] = rate
-    finally:
-        tuning.tune_cascade.__kwdefaults__["engine"] = default
-    return rates
+    _check([run_parameter_set(doc, base, source, sets[0][1], sets[0][0])])  # warm
+    t0 = time.perf_counter()
+    rows = [run_parameter_set(doc, base, source, s, k) for k, s in sets]
+    rate = len(sets) / (time.perf_counter() - t0)
+    _check(rows)
+    elapsed = float(np.mean([r["elapsed_s"] for r in rows]))
+    print(f"\none worker, {len(sets)} studies sequentially")
+    print(f"{'studies/s/worker':>18}{'s per study':>16}")
+    print(f"{rate:>18.3f}{elapsed:>16.2f}")
+    return rate
 
 
 def main() -> None:
     import sys
 
     doc, base, source, sets = _sets()
-    engines = engine_rates(doc, base, source, sets)
+    one_rate = one_worker_rate(doc, base, source, sets)
     engine_row = (
         __file__,
-        f"demo study (no report, no workspace clouds), one worker, {len(sets)} studies in a row: "
-        "servo tuning on python-control's models -> in closed form (before -> after issue 15)",
-        f"{engines['python-control']:.3f} -> {engines['numpy']:.3f} studies/s",
+        f"demo study (no report, no workspace clouds), one worker, {len(sets)} studies in a row",
+        f"{one_rate:.3f} studies/s",
     )
-    if "--engines-only" in sys.argv[1:]:
+    if "--one-worker-only" in sys.argv[1:]:
         readme_row(*engine_row)
         return
     t0 = time.perf_counter()

@@ -97,6 +97,22 @@ def panda():
     return armlab.load_robot(PANDA_URDF, lock_joints=PANDA_FINGERS, tool_frame="panda_hand")
 
 
+@pytest.fixture(scope="session")
+def inertias(teachbot6):
+    """teachbot6's inertia range on 200 workspace samples (the tests/control modules)."""
+    from armlab.control import inertia_range
+
+    return inertia_range(teachbot6, n_samples=200, seed=0)
+
+
+@pytest.fixture(scope="session")
+def arm_gains(teachbot6):
+    """teachbot6's gains tuned to the default spec on 200 inertia samples."""
+    from armlab.control import tune_arm
+
+    return tune_arm(teachbot6, n_inertia_samples=200, controller="reference_dda")
+
+
 def make_study_folder(folder: Path, robot, trajectory, gains=None, profile=None) -> Path:
     """A study folder as ``armlab run`` leaves it for a design that passed, assembled from
     objects (for export tests whose trajectory no planner would produce): design.json,

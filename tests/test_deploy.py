@@ -168,7 +168,7 @@ def test_counts_per_rev_from_drives_and_profile_decoding(teachbot6):
     t4 = setpoint_table(teachbot6, tr, controller="reference_dda")
     np.testing.assert_allclose(t4.counts_per_joint_rev, [4000.0 * r for r in RATIOS])
     np.testing.assert_allclose(
-        t4.counts_per_rad, [teachbot6.drives[j].counts_per_rad for j in teachbot6.joint_names]
+        t4.counts_per_rad, [teachbot6.drives[j].counts_per_rad() for j in teachbot6.joint_names]
     )
     t2 = setpoint_table(teachbot6, tr, load_profile().replace(decoding=2))
     np.testing.assert_allclose(t2.counts_per_joint_rev, [2000.0 * r for r in RATIOS])
@@ -188,7 +188,7 @@ def test_round_trip_60s_1ms_six_joints(teachbot6, motion60, table60, tmp_path):
     # against the plan evaluated independently at the cycle times
     t = np.arange(60001) * 1e-3
     q_plan, qd_plan, _, _ = motion60.at(t)
-    cpr = np.array([teachbot6.drives[j].counts_per_rad for j in teachbot6.joint_names])
+    cpr = np.array([teachbot6.drives[j].counts_per_rad() for j in teachbot6.joint_names])
     err_counts = np.abs(integrated / cpr - q_plan) * cpr
     assert err_counts.max() <= 0.5 + 1e-6  # rounding to nearest: half a count
     assert np.array_equal(back.counts, np.rint(q_plan * cpr).astype(np.int64))
@@ -412,7 +412,7 @@ def test_pulse_limit_4095_passes_4096_refused(teachbot6):
     joint 5 (189 713 counts/rad) needs ~4096 pulses per cycle at 0.8635 rad/s, below its
     0.875 rad/s limit."""
     prof = load_profile().with_cycle(0.025)
-    cpr = teachbot6.drives["joint5"].counts_per_rad
+    cpr = teachbot6.drives["joint5"].counts_per_rad()
     ok = trapezoid_move(teachbot6, "joint5", 4094.5 / (cpr * 0.025), 3.0, 1.0)
     table = setpoint_table(teachbot6, ok, prof)
     assert np.abs(table.dcounts[:, 4]).max() == 4095
@@ -432,7 +432,7 @@ def test_start_pose_range_continuity_and_order(teachbot6):
     tr = one_joint_bump(teachbot6, "joint3", 0.5)
     q0 = np.zeros(6)
     setpoint_table(teachbot6, tr, q_current=q0, controller="reference_dda")
-    cpr3 = teachbot6.drives["joint3"].counts_per_rad
+    cpr3 = teachbot6.drives["joint3"].counts_per_rad()
     off = q0.copy()
     off[2] = 2.0 / cpr3  # two counts away
     with pytest.raises(LimitViolation, match=r"cycle 0 .*joint joint3, start pose"):
@@ -582,7 +582,7 @@ def test_cli_refuses_too_fast_and_leaves_nothing(teachbot6, tmp_path, capsys):
 
 
 def test_cli_refuses_4096_pulses_with_profile_file(teachbot6, tmp_path, capsys):
-    cpr = teachbot6.drives["joint5"].counts_per_rad
+    cpr = teachbot6.drives["joint5"].counts_per_rad()
     tr = trapezoid_move(teachbot6, "joint5", 4095.6 / (cpr * 0.025), 3.0, 1.0)
     study = make_study(tmp_path, teachbot6, tr)
     prof = write_profile(tmp_path / "dda25.toml", name="dda25", cycle_s=0.025)
@@ -635,7 +635,7 @@ def test_any_motion_within_limits_passes_and_round_trips(teachbot6, scale, cycle
     terms = ((k1, share), (k2, 1.0 - share))
     tr = cosine_motion(teachbot6, duration_s=5.0, n=501, scale=scale, terms=terms)
     prof = load_profile().with_cycle(cycle_ms * 1e-3)
-    cpr = np.array([teachbot6.drives[j].counts_per_rad for j in teachbot6.joint_names])
+    cpr = np.array([teachbot6.drives[j].counts_per_rad() for j in teachbot6.joint_names])
     v_peak = np.abs(tr.qd).max(axis=0)
     if np.any(v_peak * cpr * prof.cycle_s > 4000):  # too close to the card's pulse limit
         return

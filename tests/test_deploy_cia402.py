@@ -76,7 +76,7 @@ def test_export_counts_round_trip_to_setpoints_csv(teachbot6, motion, tmp_path, 
     assert np.ptp(sp.counts, axis=0).min() > 1000  # every axis really moves
     assert csp.target_position.dtype == np.int64
     # velocity offset: the planned velocity in counts/s, independent of the table's rounding
-    cpr = np.array([teachbot6.drives[j].counts_per_rad for j in teachbot6.joint_names])
+    cpr = np.array([teachbot6.drives[j].counts_per_rad() for j in teachbot6.joint_names])
     _, qd, _, _ = motion.at(np.arange(4001) * 1e-3)
     # (rounded once; the table holds qd to 1e-9 rad/s, 2.6e-4 counts/s at most here)
     assert np.abs(csp.velocity_offset - qd * cpr).max() <= 0.5 + 0.5e-9 * cpr.max() + 1e-9
@@ -111,7 +111,13 @@ def test_object_dictionary_factor_group_limits_home(teachbot6, motion):
         motor = teachbot6.drives[j].motor
         assert by[(a, 0x6076, 0)] == round(motor.stall_torque_Nm * 1000)
         assert by[(a, 0x607E, 0)] == 0
-        assert 1000 <= by[(a, 0x6072, 0)] <= 65535
+        # max torque: the derated peak sizing allows; teachbot6's motors give no peak, so the
+        # stall torque stands for it (joint 2 derated to 0.8, thesis table 4.3)
+        d = teachbot6.drives[j]
+        assert not np.isfinite(motor.peak_torque_Nm)
+        assert by[(a, 0x6072, 0)] == round(
+            1000 * d.derating * motor.stall_torque_Nm / (by[(a, 0x6076, 0)] / 1000)
+        )
 
 
 def test_torque_offset_is_the_motor_torque_of_the_plan(teachbot6, motion):
@@ -131,7 +137,11 @@ def test_torque_offset_is_the_motor_torque_of_the_plan(teachbot6, motion):
         for a, j in enumerate(teachbot6.joint_names):
             d = teachbot6.drives[j]
             N, eta = d.reducer.ratio, d.reducer.efficiency
-            t_in = tau[a] / (N * eta) if tau[a] * qd[a] >= 0 else tau[a] * eta / N
+            # efficiency by quadrant, passing linearly through standstill over 1 % of the
+            # joint speed limit (rated speed, reducer input limit) (docs/drives.md)
+            w_lim = min(d.motor.rated_speed_rpm, d.reducer.max_input_speed_rpm) * np.pi / 30
+            share = min(abs(qd[a]) / (0.01 * w_lim / N), 1.0) if tau[a] * qd[a] < 0 else 0.0
+            t_in = tau[a] * ((1 - share) / (N * eta) + share * eta / N)
             t_m = (
                 t_in
                 + (d.motor.rotor_inertia_kg_m2 + d.reducer.inertia_kg_m2) * N * qdd[a]

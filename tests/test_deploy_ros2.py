@@ -244,7 +244,7 @@ def test_constraints_keep_the_tool_point_within_the_budget(teachbot6, constraint
 
 
 def test_stopped_velocity_and_encoder_floor(teachbot6, gains6, constraints):
-    cpr = np.array([teachbot6.drives[j].counts_per_rad for j in teachbot6.joint_names])
+    cpr = np.array([teachbot6.drives[j].counts_per_rad() for j in teachbot6.joint_names])
     assert constraints.stopped_velocity_tolerance_rad_s == pytest.approx(
         max(1.0 / (cpr * 1e-3)), rel=1e-12
     )

@@ -134,7 +134,9 @@ def test_symbolic_twin_agrees_with_the_numeric_model():
     dt = dtm.DriveTrain.from_drives([_drive()])
     coeffs = dt.symbolic_coefficients()[0]
     x = ca.SX.sym("x", 4)
-    expr = dtm.motor_torque_symbolic(x[0], x[1], x[2], x[3], list(coeffs))
+    expr = dtm.motor_torque_symbolic(
+        x[0], x[1], x[2], x[3], list(coeffs), float(dt.quadrant_band_rad_s[0])
+    )
     f = ca.Function("tm", [x], [expr])
     rng = np.random.default_rng(5)
     tau, qd, qdd = (rng.normal(size=(100, 1)) * s for s in (3.0, 1.0, 5.0))
@@ -145,9 +147,14 @@ def test_symbolic_twin_agrees_with_the_numeric_model():
         [float(f([tau[k, 0], qd[k, 0], qdd[k, 0], direction[k, 0]])) for k in range(100)]
     )
     assert sym == pytest.approx(num[:, 0], rel=1e-12, abs=1e-15)
-    # the branches: max of the two while moving forward, min backwards
+    # the branches: the motor torque lies between them (a blend inside the quadrant band);
+    # beyond the band it is the max of the two moving forward, the min backwards
     mot, back = dtm.motor_torque_branches(tau, qd, qdd, direction, list(coeffs))
-    fwd, bwd = qd[:, 0] > 0, qd[:, 0] < 0
+    tol = 1e-12 * np.abs(num)
+    assert np.all(num >= np.minimum(mot, back) - tol) and np.all(num <= np.maximum(mot, back) + tol)
+    out = np.abs(qd) >= dt.quadrant_band_rad_s
+    fwd, bwd = (qd > 0) & out, (qd < 0) & out
+    assert fwd.sum() > 20 and bwd.sum() > 20
     assert np.maximum(mot, back)[fwd] == pytest.approx(num[fwd])
     assert np.minimum(mot, back)[bwd] == pytest.approx(num[bwd])
 

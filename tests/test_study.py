@@ -366,7 +366,8 @@ def test_full_chain_outputs_are_what_independent_computations_give(tmp_path, cap
 
     from armlab.cli import main
     from armlab.control import joint_plant, simulate_tracking
-    from armlab.control.loops import CascadeModel, freq_grid
+    from armlab.control.loops import CascadeModel
+    from armlab.control.margins import freq_grid
     from armlab.control.plant import INERTIA_CASES, inertia_range
     from armlab.deploy import load_gains, load_trajectory, read_setpoints
 

@@ -104,7 +104,7 @@ def info_text(
                 f"{name:<{w}}{d.motor.model:<{mw}}{d.motor.stall_torque_Nm:>11.4g}"
                 f"{d.motor.rated_speed_rpm:>12.0f}  {d.reducer.model:<{rw}}"
                 f"{d.reducer.ratio:>7g}{d.reducer.efficiency:>6.2f}"
-                f"{d.encoder.counts_per_joint_rev(d.reducer.ratio):>12.0f}"
+                f"{d.counts_per_motor_rev() * d.reducer.ratio:>12.0f}"
             )
     return "\n".join(lines)
 

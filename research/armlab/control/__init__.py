@@ -7,8 +7,14 @@ The modules of the package:
 
     gains       LoopGains / CascadeGains / ArmGains and their JSON (gains.json)
     plant       JointPlant: motor + reducer + reflected arm inertia range (min/nominal/max)
-    loops       the three loops as python-control models, continuous and discrete; margins
-    tuning      robust inside-out tuning (tune_cascade, tune_arm), check_cascade
+    lti         small state-space systems as numpy matrices (series, feedback, ZOH)
+    loops       CascadeModel: the three loops, continuous and discrete, over the inertia cases
+    margins     phase and gain margins from a sampled frequency response
+    steps       step-response overshoot and settling time
+    spec        TuningSpec: what the tuned cascade must meet
+    robust      the per-loop searches robust over the inertia range
+    check       check_cascade: every loop's figures over the inertia range
+    tuning      tune_cascade, tune_arm
     discrete    incremental PID with anti-windup, D/A and encoder quantisers
     simulate    closed-loop simulation of all joints on the nonlinear arm (Pinocchio ABA)
     force       Kong et al. 1998's outer force loop and its robustness study
@@ -16,12 +22,15 @@ The modules of the package:
 (figures: armlab.plots.servo -- Bode, steps, root loci, tracking error, force responses)
 """
 
+from armlab.control.check import check_cascade
 from armlab.control.force import ForceLoopResult, ForceRobustness, force_loop, force_robustness
 from armlab.control.gains import ArmGains, CascadeGains, LoopGains
-from armlab.control.loops import CascadeModel, Margins, margins
+from armlab.control.loops import CascadeModel
+from armlab.control.margins import Margins, margins
 from armlab.control.plant import InertiaRange, JointPlant, inertia_range, joint_plant
 from armlab.control.simulate import TrackingResult, simulate_tracking
-from armlab.control.tuning import TuningSpec, check_cascade, tune_arm, tune_cascade
+from armlab.control.spec import TuningSpec
+from armlab.control.tuning import tune_arm, tune_cascade
 
 __all__ = [
     "ArmGains",

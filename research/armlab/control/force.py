@@ -228,14 +228,15 @@ def force_open_loop(
 
 
 def force_margins(environment_stiffness_N_m: float, gains=None, **model):
-    """Stability margins of the force loop (:class:`armlab.control.loops.Margins`): phase and
+    """Stability margins of the force loop (:class:`armlab.control.margins.Margins`): phase and
     gain margin, crossover in [rad/s], from its frequency response up to Nyquist. ``model``:
     the keywords of :func:`force_open_loop`."""
-    from armlab.control.loops import _response, freq_grid, margins
+    from armlab.control.lti import response
+    from armlab.control.margins import freq_grid, margins
 
     L = force_open_loop(environment_stiffness_N_m, gains, **model)
     w = freq_grid(L.dt, w_min=1e-3, n=6000)
-    return margins(w, _response(ct.ss(L), w, L.dt))
+    return margins(w, response(ct.ss(L), w, L.dt))
 
 
 def force_loop_model(

@@ -16,13 +16,22 @@ that figure uses Ce in V/rpm as if it were V s/rad (a factor 60 / 2 pi = 9.55); 
 
 Inertia at the motor::
 
-    J = J_rotor + J_reducer_input + M_jj(q) / N^2
+    J = J_rotor + J_reducer_input + k M_jj(q) / N^2
 
 with ``M_jj(q)`` the diagonal of Pinocchio's joint-space mass matrix (armature excluded) over the
 workspace: ``min`` and ``max`` over uniform random configurations in the joint ranges (with and
 without the payload), ``nominal`` at the centre of the joint ranges with the payload (the thesis
-tunes at the workspace centre, 5.3). The reflected inertia is divided by N^2 only (ideal gear;
-the reducer efficiency is a torque loss, not an inertia change).
+tunes at the workspace centre, 5.3). The reducer's efficiency acts on the torque that
+accelerates the arm, as in the drive-train model the simulation runs
+(:meth:`armlab.robot.drives.Drive.load_inertia_at_motor_kg_m2`): the motor feels the arm as
+``M_jj / (eta N^2)`` while it drives it and ``eta_b M_jj / N^2`` while the arm back-drives it.
+The tuned range spans both: ``min`` uses ``k = eta_b`` with the smallest ``M_jj``, ``max``
+``k = 1 / eta`` with the largest; ``nominal`` (and an inertia given as a number) is the ideal
+gear, ``k = 1``.
+
+Every other drive number of the plant (current limit, speed limit) is the joint's
+:class:`~armlab.robot.drives.Drive`'s answer: the tuning and the simulation see the motor sizing
+sized.
 """
 
 from __future__ import annotations
@@ -36,7 +45,7 @@ import numpy as np
 from armlab._lazy import lazy_import
 from armlab.errors import SpecError
 from armlab.robot import rigid_body
-from armlab.robot.drives import RPM_TO_RAD_S
+from armlab.robot.drives import RPM_TO_RAD_S, Drive
 
 if TYPE_CHECKING:
     import control as ct  # the real module for the type checker
@@ -166,9 +175,12 @@ class JointPlant:
     Attributes
     ----------
     joint : str
+    drive : Drive
+        The joint's drive (after study overrides): the one home of every drive number.
     ratio : float
         Reducer ratio N (motor / joint speed).
     efficiency : float
+        Motoring reducer efficiency (``drive.reducer.efficiency``).
     Kt, Ke : float
         Torque constant [N m/A] and back-EMF constant [V s/rad].
     R, L : float
@@ -182,16 +194,16 @@ class JointPlant:
     inertia : str or float
         The case this plant object stands for (its :attr:`J`).
     supply_voltage_V, current_limit_A, speed_limit_rad_s : float
-        Amplifier voltage; peak current (motor peak torque / Kt, at most supply / R); max motor
-        speed (no-load speed and reducer input limit).
-    counts_per_rad : float
-        Encoder counts per motor radian (pulses x decoding / 2 pi).
+        Amplifier voltage; current limit (:attr:`Drive.current_limit_A`: the derated peak
+        torque / Kt, at most supply / R); max motor speed (:attr:`Drive.max_motor_speed_rad_s`:
+        no-load speed and reducer input limit).
     payload_kg : float
     estimated : bool
         Motor constants ESTIMATED in drives.toml (not from the maker).
     """
 
     joint: str
+    drive: Drive
     ratio: float
     efficiency: float
     Kt: float
@@ -206,18 +218,25 @@ class JointPlant:
     supply_voltage_V: float = 24.0
     current_limit_A: float = math.inf
     speed_limit_rad_s: float = math.inf
-    counts_per_rad: float = 4000 / (2 * math.pi)
     payload_kg: float = 0.0
     estimated: bool = False
     extra: dict = field(default_factory=dict)
 
     # ------------------------------------------------------------------ inertia
     def J_motor(self, case: str | float | None = None) -> float:
-        """Total inertia at the motor [kg m^2] for a case (``min``/``nominal``/``max``) or an
-        arm inertia at the joint in [kg m^2] (float)."""
+        """Total inertia at the motor [kg m^2] for a case (``min``/``nominal``/``max``, the
+        reducer efficiency included at the two ends: module docstring) or an arm inertia at the
+        joint in [kg m^2] (float, ideal gear)."""
         case = self.inertia if case is None else case
-        arm = float(case) if not isinstance(case, str) else self.J_arm[case]
-        return self.J_rotor + self.J_reducer + arm / self.ratio**2
+        d = self.drive
+        if not isinstance(case, str):
+            return d.motor_side_inertia_kg_m2 + float(case) / self.ratio**2
+        arm = self.J_arm[case]
+        if case == "nominal":
+            return d.motor_side_inertia_kg_m2 + arm / self.ratio**2
+        return d.motor_side_inertia_kg_m2 + d.load_inertia_at_motor_kg_m2(
+            arm, motoring=case == "max"
+        )
 
     @property
     def J(self) -> float:
@@ -366,15 +385,9 @@ def joint_plant(
         raise SpecError(f"{name}: inertia = {inertia!r} must be >= 0 [kg m^2]")
     rng = inertias if inertias is not None else inertia_range(robot, n_samples=n_samples, seed=seed)
     Kt, R = motor.torque_constant_Nm_A, motor.resistance_ohm
-    peak_torque = (
-        motor.peak_torque_Nm if math.isfinite(motor.peak_torque_Nm) else 3.0 * motor.stall_torque_Nm
-    )
-    current_limit = min(peak_torque / Kt, motor.supply_voltage_V / R)
-    speed_limit = motor.no_load_speed_rad_s
-    if math.isfinite(reducer.max_input_speed_rpm) and reducer.max_input_speed_rpm > 0:
-        speed_limit = min(speed_limit, reducer.max_input_speed_rpm * RPM_TO_RAD_S)
     return JointPlant(
         joint=name,
+        drive=drive,
         ratio=float(reducer.ratio),
         efficiency=float(reducer.efficiency),
         Kt=Kt,
@@ -387,9 +400,8 @@ def joint_plant(
         J_arm=rng.of(j),
         inertia=inertia,
         supply_voltage_V=motor.supply_voltage_V,
-        current_limit_A=current_limit,
-        speed_limit_rad_s=speed_limit,
-        counts_per_rad=drive.encoder.pulses_per_rev * drive.encoder.decoding / (2 * math.pi),
+        current_limit_A=drive.current_limit_A,
+        speed_limit_rad_s=drive.max_motor_speed_rad_s,
         payload_kg=rng.payload_kg,
         estimated="ESTIMATED" in (motor.source or "").upper(),
     )

@@ -19,9 +19,12 @@ of the SHU controller paper, §1), all joints at once (vectorised):
    PWM, ``w_m`` held over the servo period): the back-EMF eats the voltage the current needs;
 5. drive train (``losses=True``): the motor torque ``Kt i`` reaches the joint through
    :mod:`armlab.robot.drivetrain` -- motor viscous friction, reducer efficiency by quadrant
-   (motoring ``eta``, back-driven ``1/eta_b``), joint Coulomb and viscous friction. The rotor
+   (motoring ``eta``, back-driven ``1/eta_b`` at any back-driving speed: the physical
+   reducer, whose holding band at rest contains the drive model's passage through standstill,
+   :func:`~armlab.robot.drivetrain.quadrant_share`), joint Coulomb and viscous friction. The
+   rotor
    inertia is solved implicitly: the Pinocchio model gets the armature ``k J N^2`` with
-   ``k = eta`` (motoring) or ``1/eta_b`` (back-driven), the torque ``k N (T_m - b_m w_m) -
+   ``k = eta`` (motoring) to ``1/eta_b`` (back-driven), the torque ``k N (T_m - b_m w_m) -
    tau_f`` -- the same equation as :func:`~armlab.robot.drivetrain.joint_torque_delivered`,
    solved for the acceleration (an explicit rotor term would be unstable: the reflected rotor
    inertia is up to 15 x the arm's). At rest the reducer's static friction holds: the joint
@@ -306,9 +309,7 @@ def _feedforward_current(robot, dt, cas, ff, q_d, qd_d, qdd_d) -> np.ndarray:
         fric = np.zeros((n, nj))
     if "efficiency" in ff:
         # the joint torque (with the friction if selected) through the reducer by quadrant
-        tau_out = tau + fric
-        motoring = tau_out * qd_d >= 0.0
-        t_in = np.where(motoring, tau_out / (N * dt.efficiency), tau_out * dt.back_efficiency / N)
+        t_in = dtm.reducer_input_torque(tau + fric, qd_d, dt)
     else:
         t_in = (tau + fric) / N
     return (t_in + t_motor) / Kt
@@ -522,7 +523,7 @@ def _run_variants(
     da_range, da_bits = float(prof.dac_range_V), int(prof.dac_bits)
 
     arm0_j = robot.model.armature.copy()
-    refl_j = Jm_j * N_j**2
+    refl_j = dt.reflected_inertia_kg_m2
     arm0, refl = flat(arm0_j), flat(refl_j)
     models = []
     for _ in range(nv):  # one model per variant: its armature follows that variant's quadrant
@@ -787,8 +788,10 @@ def _run_variants(
         t_in = Kt * i_mean - bm * (N * v)
         if any_loss:
             # quadrant of the reducer input torque left after the rotor's acceleration
-            motoring = (t_in - Jm * N * a_prev) * v >= 0.0
-            kq = np.where(motoring, eta, 1.0 / eta_b)
+            # the physical reducer: back-driven efficiency at any back-driving speed, static
+            # friction at rest (below); the drive model's passage through rest
+            # (drivetrain.quadrant_share) lies inside this holding band
+            kq = np.where((t_in - Jm * N * a_prev) * v >= 0.0, eta, 1.0 / eta_b)
             moving = kq * N * t_in - Fv * v - Fc * np.sign(v)
             # at rest: static friction holds the torque the joint needs (bias, qdd = 0) if it
             # lies inside the band the reducer can transmit, [eta N T, N T / eta_b] -+ F_c

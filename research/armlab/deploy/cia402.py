@@ -421,8 +421,7 @@ def cia402_csp(
         ratio = _rational(d.reducer.ratio, f"joint {j} reducer ratio")
         feed = _rational(float(per_rev[a]), f"joint {j} counts per joint revolution")
         resolution = feed / ratio
-        peak = d.motor.peak_torque_Nm
-        peak = peak if math.isfinite(peak) and peak > 0 else d.motor.stall_torque_Nm
+        peak = d.peak_motor_torque_Nm  # derated: the peak sizing allows
         rows: list[tuple[int, int, str, str, int, str]] = [
             (0x6060, 0, "modes of operation", "INTEGER8", MODE_CSP, "8 = cyclic sync position"),
             (0x60C2, 1, "interpolation time period value", "UNSIGNED8", value, "x 10^index s"),

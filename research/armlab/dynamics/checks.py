@@ -23,7 +23,6 @@ import numpy as np
 from armlab.errors import InputError
 from armlab.robot import drivetrain
 from armlab.robot.controller import ControllerProfile
-from armlab.robot.drives import available_torque_Nm
 from armlab.robot.drivetrain import DriveTrain
 
 __all__ = [
@@ -141,12 +140,7 @@ def counts_per_joint_rev_of(drives: DriveTrain, controller: ControllerProfile) -
                 f"entries for {drives.ratio.size} joints"
             )
         return c
-    per_motor_rev = (
-        drives.counts_per_motor_rev
-        if controller.decoding is None
-        else drives.pulses_per_rev * float(controller.decoding)
-    )
-    return per_motor_rev * drives.ratio
+    return drives.counts_per_joint_rev(controller.decoding)
 
 
 def _margin(value, limit):
@@ -202,9 +196,7 @@ def evaluate_checks(
     out: dict[str, tuple[np.ndarray | float, np.ndarray | float]] = {}
     out["thesis_rule"] = (
         peak_tau,
-        available_torque_Nm(
-            drives.stall_torque_Nm, drives.ratio, drives.efficiency, drives.derating
-        ),
+        drives.available_joint_torque_Nm,
     )
     power_limit = np.where(np.isfinite(drives.power_W), drives.power_W, np.inf)
     out["thesis_power_rule"] = (peak_tau * abs_qd.max(axis=0), power_limit)
@@ -222,7 +214,7 @@ def evaluate_checks(
     out["reducer_input_speed"] = (peak_wm, drives.reducer_max_input_speed_rad_s)
     rms = drivetrain.rms_torque(t_m, np.asarray(weights, float))
     out["motor_rms_torque"] = (rms, drives.continuous_torque_Nm)
-    out["motor_peak_torque"] = (np.abs(t_m).max(axis=0), drives.peak_torque_Nm * drives.derating)
+    out["motor_peak_torque"] = (np.abs(t_m).max(axis=0), drives.peak_motor_torque_Nm)
     out["motor_speed"] = (peak_wm, drives.rated_speed_rad_s)
     t_env = drivetrain.envelope_torque(w_m, drives)
     ratio = drivetrain.envelope_ratio(t_m, w_m, drives)

@@ -282,7 +282,7 @@ def inverse_dynamics(robot: Robot, trajectory, *, drives=None, threads: int = 1)
         loads.motor_torque_Nm, loads.motor_speed_rad_s, loads.motoring = motor_side(
             tau, qd, qdd, arrays
         )
-        loads.reflected_inertia_kg_m2 = arrays.inertia_motor_side_kg_m2 * arrays.ratio**2
+        loads.reflected_inertia_kg_m2 = arrays.reflected_inertia_kg_m2
     return loads
 
 

@@ -418,7 +418,7 @@ class ToppProblem:
         sig = np.sign(d1)
         sig_f = np.where(d1 != 0, sig, np.sign(d2))  # at rest along the path: along q''
         line = tr.derating * tr.torque_constant_Nm_A * tr.supply_voltage_V / tr.resistance_ohm
-        peak = tr.derating * tr.peak_torque_Nm
+        peak = tr.peak_motor_torque_Nm
         # tangent points no lower than 2 % of the top path speed: any b0 > 0 gives an upper
         # bound, and near rest a tiny one would make the rows badly scaled
         root = np.sqrt(np.maximum(b0, 0.0))
@@ -432,11 +432,14 @@ class ToppProblem:
             delta = (g + f_c * sig_f) * gain
             branches.append((alpha, beta, gamma, delta))
         emf = kc * N * np.abs(d1)  # derated Kt Ke / R x |w_m| / sd
+        # inside the quadrant band (joint speed below it at the linearisation point) the motor
+        # torque is a blend of the two branches (drivetrain.quadrant_share): both bound it
+        in_band = np.abs(d1) * root[:, None] < tr.quadrant_band_rad_s
         rows = []
         for k, (alpha, beta, gamma, delta) in enumerate(branches):
             motoring = k == 0
             for side in (1.0, -1.0):  # upper rows: e <= bound; lower: -e <= bound
-                active = (sig * side >= 0) | (not motoring)
+                active = (sig * side >= 0) | (not motoring) | in_band
                 for bound, with_emf in ((line, True), (peak, False)):
                     gam = side * gamma + (emf if with_emf else 0.0)
                     pos = np.maximum(gam, 0.0)  # negative parts dropped (conservative)

@@ -121,12 +121,12 @@ def plot_operating_points(loads: JointLoads, robot: Robot, *, drives=None, joint
         arr = drivetrain.DriveTrain.from_drives([d])
         w = loads.motor_speed_rad_s[:, j]
         t = loads.motor_torque_Nm[:, j]
-        w_nl = float(arr.supply_voltage_V[0] / arr.back_emf_V_s_rad[0])
+        w_nl = float(arr.no_load_speed_rad_s[0])
         ws = np.linspace(-w_nl, w_nl, 401)
         env = drivetrain.envelope_torque(ws[:, None], arr)[:, 0]
         ax.plot(ws * RAD_S_TO_RPM, env, color="C3", lw=1.2, label="envelope")
         ax.plot(ws * RAD_S_TO_RPM, -env, color="C3", lw=1.2)
-        stall = float(arr.derating[0]) * float(arr.stall_torque_Nm[0])
+        stall = float(d.continuous_motor_torque_Nm)
         ax.axhline(stall, color="C1", ls="--", lw=0.8, label="continuous")
         ax.axhline(-stall, color="C1", ls="--", lw=0.8)
         rated = float(arr.rated_speed_rad_s[0]) * RAD_S_TO_RPM

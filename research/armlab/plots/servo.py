@@ -13,7 +13,8 @@ import numpy as np
 
 from armlab._lazy import lazy_import
 from armlab.control.gains import LOOPS, CascadeGains
-from armlab.control.loops import CascadeArrays, CascadeModel, freq_grid, margins
+from armlab.control.loops import CascadeModel
+from armlab.control.margins import freq_grid, margins
 from armlab.control.plant import JointPlant
 from armlab.plots._figure import new_figure
 
@@ -38,7 +39,7 @@ def bode_figure(
     fig = new_figure(figsize=(8, 6))
     ax_m, ax_p = fig.subplots(2, 1, sharex=True)
     dt = getattr(gains, loop).sample_time_s
-    arr = CascadeArrays(plant, gains)  # the tuning's own closed-form responses, every case
+    arr = CascadeModel(plant, gains)  # the tuning's own closed-form responses, every case
     for disc, ls in ((False, "--"), (True, "-")):
         if disc and not discrete:
             continue
@@ -70,7 +71,7 @@ def step_figure(plant: JointPlant, gains: CascadeGains) -> Figure:
     max inertia (discrete solid, continuous dashed)."""
     fig = new_figure(figsize=(11, 3.5))
     axes = fig.subplots(1, 3)
-    arr = CascadeArrays(plant, gains)  # the tuning's own state-space loops, every case
+    arr = CascadeModel(plant, gains)  # the tuning's own state-space loops, every case
     for ax, loop in zip(axes, LOOPS, strict=True):
         lg = getattr(gains, loop)
         wc = lg.crossover_rad_s if math.isfinite(lg.crossover_rad_s) else 1.0 / lg.sample_time_s
@@ -99,8 +100,7 @@ def root_locus_figure(
     marked. Discrete loops are drawn with the unit circle."""
     fig = new_figure(figsize=(6, 5))
     ax = fig.subplots()
-    m = CascadeModel(plant.at("nominal"), gains)
-    L = m.open_loop(loop, discrete)
+    L = CascadeModel(plant, gains).open_loop(loop, discrete, "nominal")
     ks = np.concatenate([np.logspace(-3, 0, 120), np.logspace(0, 1.5, 60)[1:]])
     data = ct.root_locus_map(L, gains=ks)
     loci = np.asarray(data.loci)

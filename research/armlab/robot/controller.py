@@ -244,12 +244,11 @@ class ControllerProfile:
                 f"robot {robot.name} has no drive train (drives.toml): the controller profile "
                 "must give counts_per_joint_rev"
             )
-        out = []
-        for i in index:
-            d = robot.drives[robot.joint_names[i]]
-            decoding = d.encoder.decoding if self.decoding is None else int(self.decoding)
-            out.append(d.encoder.pulses_per_rev * decoding * d.reducer.ratio / (2.0 * math.pi))
-        return np.asarray(out, dtype=float)
+        drives = robot.drives
+        return np.array(
+            [drives[robot.joint_names[i]].counts_per_rad(self.decoding) for i in index],
+            dtype=float,
+        )
 
     def home_positions_rad(self, n_axes: int) -> np.ndarray:
         """Joint angle of each axis' homing reference in [rad], ``(n_axes,)`` (zeros if unset).

@@ -23,9 +23,14 @@ __all__ = [
     "drives_toml",
     "RPM_TO_RAD_S",
     "available_torque_Nm",
+    "QUADRANT_BAND_SHARE",
 ]
 
 RPM_TO_RAD_S = 2.0 * math.pi / 60.0
+
+#: share of the joint speed limit over which the reducer passes from motoring to back-driven
+#: efficiency through standstill (ASSUMED: :attr:`Drive.quadrant_band_rad_s`)
+QUADRANT_BAND_SHARE = 0.01
 
 
 def available_torque_Nm(stall_torque_Nm, ratio, efficiency, derating=1.0) -> Any:
@@ -152,14 +157,10 @@ class Reducer:
 
 @dataclass(frozen=True)
 class Encoder:
-    """An incremental encoder on the motor shaft."""
+    """An incremental encoder on the motor shaft (counts: :meth:`Drive.counts_per_rad`)."""
 
     pulses_per_rev: int
     decoding: int = 4
-
-    def counts_per_joint_rev(self, ratio: float) -> float:
-        """Counts per joint revolution: pulses x decoding x reducer ratio."""
-        return self.pulses_per_rev * self.decoding * ratio
 
 
 @dataclass(frozen=True)
@@ -185,22 +186,119 @@ class Drive:
     jerk_rad_s3: float = math.nan
     derating: float = 1.0
 
+    # ------------------------------------------------------------------ the one home
+    # Every quantity of a joint's drive is answered here, with one rule each; the vectorised
+    # DriveTrain (armlab.robot.drivetrain), the limits, sizing, the servo plant and the
+    # simulation, the set-point table, CiA 402 and ros2 exports read these properties.
+    @property
+    def peak_torque_given(self) -> bool:
+        """True when the motor data sheet gives a peak torque (else the stall torque stands
+        in for it: :attr:`peak_motor_torque_Nm`)."""
+        p = self.motor.peak_torque_Nm
+        return p is not None and math.isfinite(p) and p > 0
+
+    @property
+    def peak_motor_torque_rating_Nm(self) -> float:
+        """The motor's peak torque rating in [N m]: the data sheet's peak torque, else the
+        continuous stall torque (conservative: a data sheet without a peak figure promises no
+        more), before derating."""
+        return float(
+            self.motor.peak_torque_Nm if self.peak_torque_given else self.motor.stall_torque_Nm
+        )
+
+    @property
+    def peak_motor_torque_Nm(self) -> float:
+        """The largest motor torque the drive may give, in [N m]: derating x the peak rating
+        (:attr:`peak_motor_torque_rating_Nm`). Sizing's peak check, the envelope, the servo
+        plant's current limit (hence the tuning and the simulation), the derived acceleration
+        limit and CiA 402 0x6072 all use this one number."""
+        return self.derating * self.peak_motor_torque_rating_Nm
+
+    @property
+    def continuous_motor_torque_Nm(self) -> float:
+        """The continuous (RMS) motor torque rating in [N m]: derating x stall torque."""
+        return self.derating * self.motor.stall_torque_Nm
+
+    @property
+    def current_limit_A(self) -> float:
+        """The amplifier's current limit in [A]: the current of the peak torque,
+        ``peak_motor_torque_Nm / Kt``, at most the standstill current the supply can drive,
+        ``U / R`` (armature equation ``U = R i + Ke w``, HEU thesis ch. 5)."""
+        m = self.motor
+        return min(
+            self.peak_motor_torque_Nm / m.torque_constant_Nm_A,
+            m.supply_voltage_V / m.resistance_ohm,
+        )
+
     @property
     def available_torque_Nm(self) -> float:
-        """Thesis rule: stall torque x ratio x efficiency x derating, in [N m] (table 4.3)."""
+        """Thesis rule: stall torque x ratio x efficiency x derating, in [N m] (table 4.3):
+        the continuous rating delivered at rest in the motoring quadrant (holding counts as
+        motoring)."""
         return available_torque_Nm(
             self.motor.stall_torque_Nm, self.reducer.ratio, self.reducer.efficiency, self.derating
         )
 
     @property
-    def reflected_inertia_kg_m2(self) -> float:
-        """(rotor + reducer input inertia) x ratio^2, seen at the joint, in [kg m^2]."""
-        return (self.motor.rotor_inertia_kg_m2 + self.reducer.inertia_kg_m2) * self.reducer.ratio**2
+    def motor_side_inertia_kg_m2(self) -> float:
+        """Rotor + reducer input inertia, on the motor shaft, in [kg m^2]."""
+        return self.motor.rotor_inertia_kg_m2 + self.reducer.inertia_kg_m2
 
     @property
-    def counts_per_rad(self) -> float:
-        """Encoder counts per joint radian."""
-        return self.encoder.counts_per_joint_rev(self.reducer.ratio) / (2.0 * math.pi)
+    def reflected_inertia_kg_m2(self) -> float:
+        """(rotor + reducer input inertia) x ratio^2, seen at the joint, in [kg m^2]."""
+        return self.motor_side_inertia_kg_m2 * self.reducer.ratio**2
+
+    def load_inertia_at_motor_kg_m2(self, joint_inertia_kg_m2, motoring: bool):
+        """A joint-side (arm) inertia seen at the motor shaft through the reducer, in [kg m^2].
+
+        The reducer's losses act on the torque that accelerates the arm (drive-train model,
+        :mod:`armlab.robot.drivetrain`): motoring, the motor supplies ``J qdd / (N eta)``, so the
+        arm weighs ``J / (eta N^2)``; back-driven, ``J eta_b / N^2``. Scalars or arrays."""
+        r = self.reducer
+        k = 1.0 / r.efficiency if motoring else r.back_driven_efficiency
+        return joint_inertia_kg_m2 * k / r.ratio**2
+
+    def counts_per_motor_rev(self, decoding: int | None = None) -> float:
+        """Encoder counts per motor revolution: ``pulses_per_rev x decoding``, with the
+        controller's decoding when it sets one (``decoding``), else the encoder's."""
+        dec = self.encoder.decoding if decoding is None else int(decoding)
+        return float(self.encoder.pulses_per_rev * dec)
+
+    def counts_per_rad(self, decoding: int | None = None) -> float:
+        """Encoder counts per joint radian: ``pulses_per_rev x decoding x ratio / (2 pi)``
+        (``decoding`` as :meth:`counts_per_motor_rev`)."""
+        return self.counts_per_motor_rev(decoding) * self.reducer.ratio / (2.0 * math.pi)
+
+    @property
+    def motor_speed_limit_rad_s(self) -> float:
+        """The motor shaft speed the drive may run at, in [rad/s]: the motor's speed limit
+        (rated table speed, else no-load ``U / Ke``) and the reducer's maximum input speed,
+        whichever is lower. The joint velocity limit is this over the ratio."""
+        red = self.reducer.max_input_speed_rad_s
+        lim = self.motor.speed_limit_rad_s
+        return min(lim, red) if math.isfinite(red) and red > 0 else lim
+
+    @property
+    def max_motor_speed_rad_s(self) -> float:
+        """The fastest the motor shaft can physically turn, in [rad/s]: the no-load speed
+        ``U / Ke`` and the reducer's maximum input speed, whichever is lower (the servo's speed
+        command saturates here)."""
+        red = self.reducer.max_input_speed_rad_s
+        lim = self.motor.no_load_speed_rad_s
+        return min(lim, red) if math.isfinite(red) and red > 0 else lim
+
+    @property
+    def quadrant_band_rad_s(self) -> float:
+        """Joint speed over which the reducer passes from the motoring to the back-driven
+        efficiency, in [rad/s] (:func:`armlab.robot.drivetrain.quadrant_share`).
+
+        At rest the drive holds as in the motoring quadrant (thesis table 4.3); once the load
+        back-drives the motor, the back-driven efficiency applies. Data sheets give no curve for
+        the passage through standstill, so it is ASSUMED linear over 1 % of the joint speed
+        limit (:data:`QUADRANT_BAND_SHARE`): the motor torque is then continuous through
+        ``qd = 0`` (a set-point table's torque offset has no step at start and stop)."""
+        return QUADRANT_BAND_SHARE * self.motor_speed_limit_rad_s / self.reducer.ratio
 
     def to_dict(self) -> dict:
         return asdict(self)

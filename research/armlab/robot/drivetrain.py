@@ -24,6 +24,11 @@ With the rigid-body joint torque ``tau`` (:func:`armlab.robot.rigid_body.inverse
   and the input torque is ``tau_out / (N eta)``; the load **back-drives** the motor where
   ``tau_out qd < 0`` and the input torque is ``tau_out eta_b / N`` (the losses help the motor).
   ``eta_b`` is ``reducer.back_efficiency``, derived equal to ``eta`` when not given.
+  **Through standstill** the data sheets give no curve; the back-driven share rises linearly
+  with ``|qd|`` over the drive's quadrant band (ASSUMED 1 % of the joint speed limit,
+  :func:`quadrant_share`), so the motor torque is continuous in time through every start,
+  stop and reversal: one rule for holding (motoring) and for moving, used by sizing, the
+  planners' checks, the feed-forward of the simulation and every exported torque.
 * **reflected inertia and motor friction** on the motor shaft::
 
       T_m = T_in + (J_rotor + J_reducer_input) N qdd + b_m w_m,     w_m = N qd
@@ -90,6 +95,9 @@ __all__ = [
     "friction_direction",
     "joint_friction",
     "motor_torque",
+    "quadrant_share",
+    "reducer_input_torque",
+    "transmission_efficiency",
     "motor_side",
     "joint_torque_delivered",
     "voltage_line_torque",
@@ -130,7 +138,17 @@ class DriveTrain:
     power_W : table power in [W] (NaN when not given)
     reducer_rated_torque_Nm, reducer_peak_torque_Nm, reducer_max_input_speed_rad_s
     counts_per_motor_rev, pulses_per_rev : encoder
+    quadrant_band_rad_s : joint speed over which the reducer passes from motoring to
+        back-driven efficiency through standstill [rad/s] (:func:`quadrant_share`)
+    reflected_inertia_kg_m2 : ``(J_rotor + J_reducer) N^2`` seen at the joint [kg m^2]
+    drives : the :class:`~armlab.robot.drives.Drive` of each column, whose answers these are
     """
+
+    def counts_per_joint_rev(self, decoding: int | None = None) -> np.ndarray:
+        """Encoder counts per joint revolution of each column, ``(n_columns,)``:
+        :meth:`~armlab.robot.drives.Drive.counts_per_rad` x 2 pi (``decoding``: the
+        controller's, if it sets one)."""
+        return np.array([2.0 * math.pi * d.counts_per_rad(decoding) for d in self.drives])
 
     ratio: np.ndarray
     efficiency: np.ndarray
@@ -153,6 +171,9 @@ class DriveTrain:
     reducer_max_input_speed_rad_s: np.ndarray
     counts_per_motor_rev: np.ndarray
     pulses_per_rev: np.ndarray
+    quadrant_band_rad_s: np.ndarray
+    reflected_inertia_kg_m2: np.ndarray
+    drives: tuple[Drive, ...] = ()
 
     @classmethod
     def from_drives(cls, drives: list[Drive]) -> DriveTrain:
@@ -161,23 +182,18 @@ class DriveTrain:
         def arr(f):
             return np.array([float(f(d)) for d in drives])
 
-        def peak(d: Drive) -> float:
-            p = d.motor.peak_torque_Nm
-            return p if math.isfinite(p) and p > 0 else d.motor.stall_torque_Nm
-
+        # every number is the Drive's own answer (armlab.robot.drives.Drive): one rule each
         return cls(
             ratio=arr(lambda d: d.reducer.ratio),
             efficiency=arr(lambda d: d.reducer.efficiency),
             back_efficiency=arr(lambda d: d.reducer.back_driven_efficiency),
             derating=arr(lambda d: d.derating),
-            inertia_motor_side_kg_m2=arr(
-                lambda d: d.motor.rotor_inertia_kg_m2 + d.reducer.inertia_kg_m2
-            ),
+            inertia_motor_side_kg_m2=arr(lambda d: d.motor_side_inertia_kg_m2),
             viscous_Nm_s_rad=arr(lambda d: d.motor.viscous_friction_Nm_s_rad),
             coulomb_friction_Nm=arr(lambda d: d.reducer.coulomb_friction_Nm),
             joint_viscous_Nm_s_rad=arr(lambda d: d.reducer.viscous_friction_Nm_s_rad),
             stall_torque_Nm=arr(lambda d: d.motor.stall_torque_Nm),
-            peak_torque_Nm=arr(peak),
+            peak_torque_Nm=arr(lambda d: d.peak_motor_torque_rating_Nm),
             # the same motor speed bounds the joint velocity limit (armlab.robot.resolve_limits)
             rated_speed_rad_s=arr(lambda d: d.motor.speed_limit_rad_s),
             torque_constant_Nm_A=arr(lambda d: d.motor.torque_constant_Nm_A),
@@ -188,18 +204,16 @@ class DriveTrain:
             reducer_rated_torque_Nm=arr(lambda d: d.reducer.rated_torque_Nm),
             reducer_peak_torque_Nm=arr(lambda d: d.reducer.peak_torque_Nm),
             reducer_max_input_speed_rad_s=arr(lambda d: d.reducer.max_input_speed_rad_s),
-            counts_per_motor_rev=arr(lambda d: d.encoder.pulses_per_rev * d.encoder.decoding),
+            counts_per_motor_rev=arr(lambda d: d.counts_per_motor_rev()),
             pulses_per_rev=arr(lambda d: d.encoder.pulses_per_rev),
+            quadrant_band_rad_s=arr(lambda d: d.quadrant_band_rad_s),
+            reflected_inertia_kg_m2=arr(lambda d: d.reflected_inertia_kg_m2),
+            drives=tuple(drives),
         )
 
     @property
     def n_columns(self) -> int:
         return int(self.ratio.size)
-
-    @property
-    def reflected_inertia_kg_m2(self) -> np.ndarray:
-        """``(J_rotor + J_reducer) N^2``: the motor-side inertia seen at the joint [kg m^2]."""
-        return self.inertia_motor_side_kg_m2 * self.ratio**2
 
     @property
     def no_load_speed_rad_s(self) -> np.ndarray:
@@ -208,15 +222,24 @@ class DriveTrain:
 
     @property
     def continuous_torque_Nm(self) -> np.ndarray:
-        """The RMS bound: stall torque x derating, in [N m]."""
+        """The RMS bound: stall torque x derating, in [N m]
+        (:attr:`armlab.robot.drives.Drive.continuous_motor_torque_Nm`)."""
         return self.stall_torque_Nm * self.derating
+
+    @property
+    def peak_motor_torque_Nm(self) -> np.ndarray:
+        """derating x peak rating (the stall torque where the data sheet gives none), in [N m]
+        (:attr:`armlab.robot.drives.Drive.peak_motor_torque_Nm`)."""
+        return self.peak_torque_Nm * self.derating
 
     @property
     def available_joint_torque_Nm(self) -> np.ndarray:
         """Thesis table 4.3 rule, the model at rest in the motoring quadrant:
         ``T_stall x derating x N x eta`` in [N m]
         (:func:`armlab.robot.drives.available_torque_Nm`)."""
-        return self.continuous_torque_Nm * self.ratio * self.efficiency
+        from armlab.robot.drives import available_torque_Nm
+
+        return available_torque_Nm(self.stall_torque_Nm, self.ratio, self.efficiency, self.derating)
 
     def symbolic_coefficients(self) -> np.ndarray:
         """``(n_columns, 9)``: per column ``N, eta, eta_b, J_motor_side, b_m, F_c, F_v, Kt/R,
@@ -317,6 +340,42 @@ def joint_friction(qd, qdd, dt: DriveTrain) -> np.ndarray:
     return dt.coulomb_friction_Nm * friction_direction(qd, qdd) + dt.joint_viscous_Nm_s_rad * qd
 
 
+def quadrant_share(tau_out, qd, band_rad_s) -> np.ndarray:
+    """Share ``a`` in [0, 1] of the back-driven efficiency in the reducer's transmission.
+
+    ``a = 0`` where the motor drives the load or holds it (``tau_out qd >= 0``: power flows
+    motor -> load, holding included, thesis table 4.3); where the load back-drives the motor
+    (``tau_out qd < 0``) ``a = min(|qd| / v_b, 1)`` with ``v_b = band_rad_s`` the drive's
+    quadrant band (:attr:`armlab.robot.drives.Drive.quadrant_band_rad_s`, ASSUMED 1 % of the
+    joint speed limit; :attr:`DriveTrain.quadrant_band_rad_s`). The transmission
+    (:func:`transmission_efficiency`) is then continuous through ``qd = 0``, and exactly the
+    back-driven one beyond the band. Since the input and output torques have one sign,
+    ``tau_out`` may be either of them.
+    """
+    tau_out, qd = np.asarray(tau_out, float), np.asarray(qd, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frac = np.minimum(np.abs(qd) / band_rad_s, 1.0)
+    return np.where(tau_out * qd < 0.0, np.nan_to_num(frac, nan=1.0), 0.0)
+
+
+def transmission_efficiency(share, efficiency, back_efficiency) -> np.ndarray:
+    """``k = 1 / ((1 - a) / eta + a eta_b)``: output torque = ``k N`` x input torque, with the
+    quadrant share ``a`` (:func:`quadrant_share`): ``eta`` motoring and holding, ``1 / eta_b``
+    back-driven. The one rule of the reducer's losses: the drive-train model, its inverse and
+    the simulated reducer use it."""
+    return 1.0 / ((1.0 - share) / efficiency + share * back_efficiency)
+
+
+def reducer_input_torque(tau_out, qd, dt: DriveTrain) -> np.ndarray:
+    """The reducer input (motor-side) torque of an output torque ``tau_out`` [N m] at joint
+    speed ``qd`` [rad/s]: ``tau_out / (k N)`` (:func:`transmission_efficiency` with the
+    quadrant share of :func:`quadrant_share`: efficiency by quadrant, continuous through rest)."""
+    tau_out = np.asarray(tau_out, float)
+    share = quadrant_share(tau_out, qd, dt.quadrant_band_rad_s)
+    k = transmission_efficiency(share, dt.efficiency, dt.back_efficiency)
+    return tau_out / (k * dt.ratio)
+
+
 def motor_torque(tau, qd, qdd, dt: DriveTrain) -> tuple[np.ndarray, np.ndarray]:
     """Motor torque needed for a motion, and where the motor drives the load.
 
@@ -331,18 +390,18 @@ def motor_torque(tau, qd, qdd, dt: DriveTrain) -> tuple[np.ndarray, np.ndarray]:
     Returns
     -------
     motor_torque_Nm : array (n_samples, n_columns)
-        ``T_m = T_in + J N qdd + b_m N qd`` with ``T_in = tau_out / (N eta)`` motoring,
-        ``tau_out eta_b / N`` back-driven, ``tau_out = tau + tau_f`` (module docstring).
+        ``T_m = T_in + J N qdd + b_m N qd`` with ``T_in = tau_out / (N eta)`` motoring or
+        holding, ``tau_out eta_b / N`` back-driven, passing from one to the other over the
+        quadrant band (:func:`quadrant_share`); ``tau_out = tau + tau_f`` (module docstring).
     motoring : bool array (n_samples, n_columns)
         True where ``tau_out qd >= 0`` (the motor drives the load; holding included).
     """
     tau, qd, qdd = _arrays(tau, qd, qdd)
     N = dt.ratio
     tau_out = tau + joint_friction(qd, qdd, dt)
-    motoring = tau_out * qd >= 0.0
-    t_in = np.where(motoring, tau_out / (N * dt.efficiency), tau_out * (dt.back_efficiency / N))
+    t_in = reducer_input_torque(tau_out, qd, dt)
     t_m = t_in + (dt.inertia_motor_side_kg_m2 * N) * qdd + dt.viscous_Nm_s_rad * (N * qd)
-    return t_m, motoring
+    return t_m, tau_out * qd >= 0.0
 
 
 def motor_side(tau, qd, qdd, dt: DriveTrain) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -359,7 +418,8 @@ def joint_torque_delivered(t_m, qd, qdd, dt: DriveTrain) -> np.ndarray:
     :func:`motor_torque` (``motor_torque(joint_torque_delivered(T, ...), ...) == T``).
 
     ``T_in = T_m - J N qdd - b_m N qd``; ``tau_out = T_in N eta`` where ``T_in qd >= 0``
-    (motoring), ``T_in N / eta_b`` otherwise; minus the joint friction ``tau_f``. At rest
+    (motoring), ``T_in N / eta_b`` back-driven beyond the quadrant band, the inverse of the
+    blend inside it (:func:`quadrant_share`); minus the joint friction ``tau_f``. At rest
     (``qd = 0``) the Coulomb term follows ``sign(qdd)`` as in :func:`joint_friction`; a
     simulation that resolves stiction itself passes the acceleration it has in mind.
 
@@ -376,8 +436,9 @@ def joint_torque_delivered(t_m, qd, qdd, dt: DriveTrain) -> np.ndarray:
     t_m, qd, qdd = _arrays(t_m, qd, qdd)
     N = dt.ratio
     t_in = t_m - (dt.inertia_motor_side_kg_m2 * N) * qdd - dt.viscous_Nm_s_rad * (N * qd)
-    motoring = t_in * qd >= 0.0
-    tau_out = np.where(motoring, t_in * N * dt.efficiency, t_in * N / dt.back_efficiency)
+    # sign(T_in) = sign(tau_out), so the quadrant (and the band share) follows from T_in
+    share = quadrant_share(t_in, qd, dt.quadrant_band_rad_s)
+    tau_out = t_in * N * transmission_efficiency(share, dt.efficiency, dt.back_efficiency)
     return tau_out - joint_friction(qd, qdd, dt)
 
 
@@ -483,12 +544,15 @@ def motor_torque_branches(tau, qd, qdd, direction, coeffs) -> tuple[Any, Any]:
     return tau_out / (N * eta) + r, tau_out * eta_b / N + r
 
 
-def motor_torque_symbolic(tau, qd, qdd, direction, coeffs):
-    """The exact motor torque as a CasADi expression (``if_else`` on the quadrant): the twin
-    of :func:`motor_torque` for a known ``direction`` (tests compare the two)."""
+def motor_torque_symbolic(tau, qd, qdd, direction, coeffs, band):
+    """The exact motor torque as a CasADi expression: the twin of :func:`motor_torque` for a
+    known ``direction``, with the drive's quadrant band ``band`` [rad/s]
+    (:func:`quadrant_share`; tests compare the two). The two branches of
+    :func:`motor_torque_branches` bound it: it lies between them (a convex blend)."""
     import casadi as ca
 
     mot, back = motor_torque_branches(tau, qd, qdd, direction, coeffs)
     N, eta, eta_b, J, b_m, f_c, f_v = coeffs[:7]
     tau_out = tau + f_c * direction + f_v * qd
-    return ca.if_else(tau_out * qd >= 0, mot, back)
+    share = ca.if_else(tau_out * qd < 0, ca.fmin(ca.fabs(qd) / band, 1.0), 0.0)
+    return (1.0 - share) * mot + share * back

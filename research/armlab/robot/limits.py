@@ -449,9 +449,8 @@ def drive_train_limits(drives, names: Sequence[str], model) -> tuple[np.ndarray,
     acc, jerk = [], []
     for j, d in enumerate(_drive_list(drives, names)):
         m, r = d.motor, d.reducer
-        peak_motor = m.peak_torque_Nm if math.isfinite(m.peak_torque_Nm) else m.stall_torque_Nm
+        peak = min(d.peak_motor_torque_Nm * r.ratio * r.efficiency, r.peak_torque_Nm)
         gain = r.ratio * r.efficiency * d.derating
-        peak = min(peak_motor * gain, r.peak_torque_Nm)
         total = d.reflected_inertia_kg_m2 + float(inertia[j])
         if peak <= gravity[j] or total <= 0:
             raise InputError(
