@@ -263,7 +263,7 @@ def test_drive_model_variants_simulated_beside_the_tracking_stage_are_the_plot_s
     """With two workers the drive-model plot's variants are simulated by a process forked at
     the end of the tuning stage, beside the tracking stage: the plot is the file one process
     draws, and the variants are those simulated in the study's own process."""
-    from armlab.control.simulate import tracking_variants
+    from armlab.control.diagnosis import tracking_variants
     from armlab.study import run_spec
     from armlab.study.report import DRIVE_MODEL_VARIANTS, _VariantPrefetch
 

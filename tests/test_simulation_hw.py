@@ -17,7 +17,7 @@ import pinocchio as pin
 import pytest
 
 from armlab.control import simulate_tracking, tune_arm
-from armlab.control.simulate import diagnose_tracking
+from armlab.control.diagnosis import diagnose_tracking
 from armlab.errors import InputError, RobotDescriptionError
 from armlab.robot import drivetrain as dtm
 from armlab.robot import rigid_body
@@ -299,15 +299,16 @@ def test_variants_simulated_together_are_each_simulated_alone(
     """The drive-model variants run in one time loop (every operation element-wise over
     variant and joint; each variant jumps over its own linear sub-steps) and give, bit for
     bit, what each gives alone -- quantisation on, so one flipped encoder count would show."""
+    import armlab.control.diagnosis as diag
     import armlab.control.simulate as sim
 
     monkeypatch.setattr(sim, "_LINEAR_PERIODS", linear)
     names = ("ideal", "no_voltage_limit", "no_losses", "with_loss_feedforward")
     opts = {"feedforward": FF, "t_after_s": 0.1, "controller": "reference_dda"}
-    together = sim.tracking_variants(teachbot6, move, gains, names, **opts)
+    together = diag.tracking_variants(teachbot6, move, gains, names, **opts)
     assert set(together) == set(names)
     for name in names:
-        kw = {**opts, **sim.DRIVE_VARIANTS[name]}
+        kw = {**opts, **diag.DRIVE_VARIANTS[name]}
         if name == "with_loss_feedforward":
             kw["feedforward"] = (*FF, "friction", "efficiency")
         alone = simulate_tracking(teachbot6, move, gains, **kw)
@@ -337,6 +338,8 @@ def test_study_verdict_names_the_limiting_factor_when_the_budget_fails():
             "kinematics.accuracy_samples": 0,
             "control.n_inertia_samples": 20,
             "tracking.accuracy_m": 1e-6,
+            # the thesis' feed-forward (the demo study adds the losses): the check offers them
+            "tracking.feedforward": ["velocity", "acceleration", "gravity"],
         },
     )
     res = run_spec(spec, None)
@@ -354,11 +357,11 @@ def test_study_verdict_names_the_limiting_factor_when_the_budget_fails():
 def test_variant_loops_group_the_variants_by_the_supply_limit():
     """The variants :func:`tracking_variants` runs in one time loop: those with the supply
     limit, then those without; an empty group is left out."""
-    import armlab.control.simulate as sim
+    import armlab.control.diagnosis as diag
 
     names = ("ideal", "no_voltage_limit", "no_losses", "with_loss_feedforward")
-    assert sim.variant_loops(names) == [
+    assert diag.variant_loops(names) == [
         ("no_losses", "with_loss_feedforward"),
         ("ideal", "no_voltage_limit"),
     ]
-    assert sim.variant_loops(("ideal",)) == [("ideal",)]
+    assert diag.variant_loops(("ideal",)) == [("ideal",)]

@@ -29,7 +29,7 @@ from armlab.control.margins import freq_grid, margins
 from armlab.control.plant import JointPlant
 from armlab.control.robust import tune_loops
 from armlab.errors import SpecError
-from armlab.robot.drives import RPM_TO_RAD_S
+from armlab.robot.drives import RPM_TO_RAD_S, Drive, Encoder, Motor, Reducer
 from oracles.cascade_pc import Cascade, response, step_figures
 
 LOOPS = ("current", "speed", "position")
@@ -104,22 +104,36 @@ def _odd_gains(plant):
 
 def thesis_plant() -> JointPlant:
     """The thesis' joint-6 motor (5.4.1: Ra 2.27 ohm, La 0.11 mH, Cm 5.9e-3 N m/A,
-    Ce 0.62e-3 V/rpm, J 3.81e-7 kg m^2) on a 1:50 reducer driving a wide arm-inertia range."""
-    return JointPlant(
-        joint="thesis",
+    Ce 0.62e-3 V/rpm, J 3.81e-7 kg m^2) on a 1:50 reducer driving a wide arm-inertia range;
+    a 3 A current limit (peak torque 3 Kt, ASSUMED) and an 800 rad/s input limit (ASSUMED)."""
+    motor = Motor(
+        model="thesis joint 6",
+        stall_torque_Nm=5.9e-3,
+        rated_speed_rpm=3000.0,
+        current_A=1.0,
+        torque_constant_Nm_A=5.9e-3,
+        back_emf_V_s_rad=0.62e-3 / RPM_TO_RAD_S,
+        resistance_ohm=2.27,
+        inductance_H=0.11e-3,
+        rotor_inertia_kg_m2=3.81e-7,
+        viscous_friction_Nm_s_rad=1e-7,
+        supply_voltage_V=24.0,
+        peak_torque_Nm=3.0 * 5.9e-3,
+    )
+    reducer = Reducer(
+        model="1:50",
         ratio=50.0,
         efficiency=0.8,
-        Kt=5.9e-3,
-        Ke=0.62e-3 / RPM_TO_RAD_S,
-        R=2.27,
-        L=0.11e-3,
-        B=1e-7,
-        J_rotor=3.81e-7,
-        J_reducer=1e-7,
-        J_arm={"min": 2e-4, "nominal": 1e-3, "max": 4e-3},
-        current_limit_A=3.0,
-        speed_limit_rad_s=800.0,
+        rated_torque_Nm=1.0,
+        peak_torque_Nm=2.0,
+        max_input_speed_rpm=800.0 / RPM_TO_RAD_S,
+        inertia_kg_m2=1e-7,
     )
+    drive = Drive("thesis", motor, reducer, Encoder(1000))
+    plant = JointPlant.of_drive(drive, {"min": 2e-4, "nominal": 1e-3, "max": 4e-3})
+    assert plant.current_limit_A == pytest.approx(3.0, rel=1e-12)
+    assert plant.speed_limit_rad_s == pytest.approx(800.0, rel=1e-12)
+    return plant
 
 
 def test_other_plants_loops_are_python_controls(teachbot6):

@@ -28,7 +28,8 @@ from armlab.control.gains import ArmGains, CascadeGains, LoopGains
 from armlab.control.loops import CascadeModel
 from armlab.control.margins import Margins, margins
 from armlab.control.plant import InertiaRange, JointPlant, inertia_range, joint_plant
-from armlab.control.simulate import TrackingResult, simulate_tracking
+from armlab.control.result import TrackingResult
+from armlab.control.simulate import simulate_tracking
 from armlab.control.spec import TuningSpec
 from armlab.control.tuning import tune_arm, tune_cascade
 

@@ -222,6 +222,39 @@ class JointPlant:
     estimated: bool = False
     extra: dict = field(default_factory=dict)
 
+    @classmethod
+    def of_drive(
+        cls,
+        drive: Drive,
+        J_arm: dict[str, float],
+        *,
+        inertia: str | float = "nominal",
+        payload_kg: float = 0.0,
+    ) -> JointPlant:
+        """The plant of a drive (every number its answer) with the arm inertia range ``J_arm``
+        (``min``/``nominal``/``max`` at the joint, in [kg m^2])."""
+        motor, reducer = drive.motor, drive.reducer
+        return cls(
+            joint=drive.joint,
+            drive=drive,
+            ratio=float(reducer.ratio),
+            efficiency=float(reducer.efficiency),
+            Kt=motor.torque_constant_Nm_A,
+            Ke=motor.back_emf_V_s_rad,
+            R=motor.resistance_ohm,
+            L=motor.inductance_H,
+            B=float(motor.viscous_friction_Nm_s_rad or 0.0),
+            J_rotor=motor.rotor_inertia_kg_m2,
+            J_reducer=float(reducer.inertia_kg_m2 or 0.0),
+            J_arm=dict(J_arm),
+            inertia=inertia,
+            supply_voltage_V=motor.supply_voltage_V,
+            current_limit_A=drive.current_limit_A,
+            speed_limit_rad_s=drive.max_motor_speed_rad_s,
+            payload_kg=float(payload_kg),
+            estimated="ESTIMATED" in (motor.source or "").upper(),
+        )
+
     # ------------------------------------------------------------------ inertia
     def J_motor(self, case: str | float | None = None) -> float:
         """Total inertia at the motor [kg m^2] for a case (``min``/``nominal``/``max``, the
@@ -384,24 +417,4 @@ def joint_plant(
     if not isinstance(inertia, str) and not (math.isfinite(float(inertia)) and float(inertia) >= 0):
         raise SpecError(f"{name}: inertia = {inertia!r} must be >= 0 [kg m^2]")
     rng = inertias if inertias is not None else inertia_range(robot, n_samples=n_samples, seed=seed)
-    Kt, R = motor.torque_constant_Nm_A, motor.resistance_ohm
-    return JointPlant(
-        joint=name,
-        drive=drive,
-        ratio=float(reducer.ratio),
-        efficiency=float(reducer.efficiency),
-        Kt=Kt,
-        Ke=motor.back_emf_V_s_rad,
-        R=R,
-        L=motor.inductance_H,
-        B=float(motor.viscous_friction_Nm_s_rad or 0.0),
-        J_rotor=motor.rotor_inertia_kg_m2,
-        J_reducer=float(reducer.inertia_kg_m2 or 0.0),
-        J_arm=rng.of(j),
-        inertia=inertia,
-        supply_voltage_V=motor.supply_voltage_V,
-        current_limit_A=drive.current_limit_A,
-        speed_limit_rad_s=drive.max_motor_speed_rad_s,
-        payload_kg=rng.payload_kg,
-        estimated="ESTIMATED" in (motor.source or "").upper(),
-    )
+    return JointPlant.of_drive(drive, rng.of(j), inertia=inertia, payload_kg=rng.payload_kg)

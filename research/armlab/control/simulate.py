@@ -70,14 +70,15 @@ tracking simulation passes when its TCP error stays within 0.5 mm along the whol
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 
 from armlab.control.discrete import IncrementalPID
+from armlab.control.feedforward import feedforward_current, feedforwards
 from armlab.control.gains import ArmGains, CascadeGains
+from armlab.control.result import POSITIONING_ACCURACY_M, SERVO_SHARE, TrackingResult
 from armlab.errors import InputError
 from armlab.robot import drivetrain as dtm
 from armlab.robot import rigid_body
@@ -86,182 +87,7 @@ from armlab.robot.controller import ControllerProfile, load_profile
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
 
-__all__ = [
-    "TrackingResult",
-    "simulate_tracking",
-    "POSITIONING_ACCURACY_M",
-    "SERVO_SHARE",
-    "FEEDFORWARDS",
-    "diagnose_tracking",
-    "tracking_variants",
-    "DRIVE_VARIANTS",
-]
-
-#: Total positioning accuracy the thesis' Monte-Carlo analysis finds achievable, in [m].
-POSITIONING_ACCURACY_M = 1.0e-3
-#: Share of that budget given to the servo tracking error.
-SERVO_SHARE = 0.5
-FEEDFORWARDS = (
-    "velocity",
-    "acceleration",
-    "gravity",
-    "friction",
-    "efficiency",
-    "computed_torque",
-)
-
-
-@dataclass
-class TrackingResult:
-    """Result of :func:`simulate_tracking`.
-
-    Attributes
-    ----------
-    t : ndarray (n_samples,)
-        Servo sample times in [s].
-    q_ref, q : ndarray (n_samples, n_joints)
-        Set-point and simulated joint positions in [rad].
-    qd : ndarray (n_samples, n_joints)
-        Simulated joint speeds in [rad/s].
-    current_A : ndarray (n_samples, n_joints)
-        Mean motor current over each servo period in [A].
-    da_V : ndarray (n_samples, n_joints)
-        D/A output (current set-point) in [V].
-    tcp_error_m : ndarray (n_samples,)
-        Distance between the tool positions of ``q`` and ``q_ref`` in [m].
-    joint_names : list of str
-    feedforward : tuple of str
-    accuracy_m : float
-        Tolerance on the TCP error in [m] (servo share of the positioning accuracy).
-    wall_time_s : float
-        Time the simulation loop took in [s].
-    voltage_V : ndarray (n_samples, n_joints)
-        Mean armature voltage the amplifier applied over each servo period in [V].
-    saturated_share : ndarray (n_samples, n_joints)
-        Share of each servo period the amplifier spent at its voltage limit (0..1).
-    peak_voltage_demand_V : ndarray (n_joints,)
-        Largest |voltage| the current loop asked for (before the supply limit) in [V].
-    peak_current_A : ndarray (n_joints,)
-        Largest |current| at any current-loop sample in [A].
-    supply_voltage_V : ndarray (n_joints,)
-        The amplifier's supply (voltage limit) per joint in [V].
-    model : dict
-        What the simulation included (``voltage_limit``, ``losses``, ``quantise``, the
-        controller profile, periods).
-    """
-
-    t: np.ndarray
-    q_ref: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
-    current_A: np.ndarray
-    da_V: np.ndarray
-    tcp_error_m: np.ndarray
-    joint_names: list
-    feedforward: tuple
-    accuracy_m: float
-    wall_time_s: float = math.nan
-    meta: dict = field(default_factory=dict)
-    voltage_V: np.ndarray | None = None
-    saturated_share: np.ndarray | None = None
-    peak_voltage_demand_V: np.ndarray | None = None
-    peak_current_A: np.ndarray | None = None
-    supply_voltage_V: np.ndarray | None = None
-    model: dict = field(default_factory=dict)
-
-    @property
-    def error_rad(self) -> np.ndarray:
-        """``q_ref - q`` (n_samples, n_joints) in [rad]."""
-        return self.q_ref - self.q
-
-    @property
-    def max_error_rad(self) -> np.ndarray:
-        """Per-joint max |error| (n_joints,) in [rad]."""
-        return np.abs(self.error_rad).max(axis=0)
-
-    @property
-    def tcp_max_error_m(self) -> float:
-        return float(self.tcp_error_m.max())
-
-    @property
-    def final_error_rad(self) -> np.ndarray:
-        return self.error_rad[-1]
-
-    @property
-    def within_accuracy(self) -> bool:
-        """True if the TCP error stays within :attr:`accuracy_m` the whole time."""
-        return self.tcp_max_error_m <= self.accuracy_m
-
-    @property
-    def realtime_factor(self) -> float:
-        """Simulated seconds per wall-clock second."""
-        return float((self.t[-1] - self.t[0]) / self.wall_time_s)
-
-    @property
-    def sample_time_s(self) -> float:
-        return float(self.t[1] - self.t[0]) if self.t.size > 1 else math.nan
-
-    @property
-    def saturation_time_s(self) -> np.ndarray:
-        """Time each joint's amplifier spent at its voltage limit, (n_joints,) in [s]."""
-        if self.saturated_share is None:
-            return np.zeros(len(self.joint_names))
-        return self.saturated_share.sum(axis=0) * self.sample_time_s
-
-    @property
-    def peak_voltage_V(self) -> np.ndarray:
-        """Largest |mean armature voltage| over a servo period, (n_joints,) in [V]."""
-        if self.voltage_V is None:
-            return np.full(len(self.joint_names), math.nan)
-        return np.abs(self.voltage_V).max(axis=0)
-
-    def to_dict(self) -> dict:
-        """summary.json "tracking": per joint max_error_rad, peak voltage and current, time in
-        saturation; tcp max_error_m (+ context)."""
-        n = len(self.joint_names)
-
-        def per(x, k):
-            return float(x[k]) if x is not None else None
-
-        sat = self.saturation_time_s
-        dur = float(self.t[-1] - self.t[0]) if self.t.size > 1 else math.nan
-        joints = {}
-        for k, name in enumerate(self.joint_names):
-            joints[name] = {
-                "max_error_rad": float(self.max_error_rad[k]),
-                "final_error_rad": float(self.final_error_rad[k]),
-                "peak_voltage_V": per(self.peak_voltage_V, k),
-                "peak_voltage_demand_V": per(self.peak_voltage_demand_V, k),
-                "supply_voltage_V": per(self.supply_voltage_V, k),
-                "peak_current_A": per(self.peak_current_A, k),
-                "time_in_saturation_s": float(sat[k]),
-                "saturation_share": float(sat[k] / dur) if dur > 0 else 0.0,
-            }
-        assert len(joints) == n
-        return {
-            "joints": joints,
-            "tcp": {
-                "max_error_m": self.tcp_max_error_m,
-                "final_error_m": float(self.tcp_error_m[-1]),
-                "accuracy_m": self.accuracy_m,
-                "within_accuracy": self.within_accuracy,
-            },
-            "feedforward": list(self.feedforward),
-            "duration_s": dur,
-            "sample_time_s": self.sample_time_s,
-            "quantise": bool(self.meta.get("quantise", True)),
-            "model": dict(self.model),
-        }
-
-
-def _feedforwards(feedforward) -> tuple[str, ...]:
-    if feedforward is None or feedforward == "none":
-        return ()
-    ff = (feedforward,) if isinstance(feedforward, str) else tuple(feedforward)
-    bad = [f for f in ff if f not in FEEDFORWARDS]
-    if bad:
-        raise InputError(f"unknown feedforward {bad}; choose from {FEEDFORWARDS} or 'none'")
-    return ff
+__all__ = ["simulate_tracking"]
 
 
 def _cascades(robot, gains) -> list[CascadeGains]:
@@ -282,37 +108,6 @@ def _whole(x: float, what: str) -> int:
     if k < 0 or abs(x - k) > 1e-6:
         raise InputError(f"{what} must be a whole number >= 0, got {x}")
     return k
-
-
-def _feedforward_current(robot, dt, cas, ff, q_d, qd_d, qdd_d) -> np.ndarray:
-    """Feed-forward current (n, n_joints) [A] from the selected terms (module docstring)."""
-    n, nj = q_d.shape
-    N, Kt = dt.ratio, dt.torque_constant_Nm_A
-    tau = np.zeros((n, nj))  # joint side, through the reducer
-    t_motor = np.zeros((n, nj))  # motor side, before the reducer
-    if "computed_torque" in ff:
-        tau += rigid_body.inverse_dynamics(robot, q_d, qd_d, qdd_d)
-    else:
-        if "gravity" in ff:
-            tau += rigid_body.gravity_torques(robot, q_d)
-        if "acceleration" in ff:
-            J_arm = np.array(
-                [c.plant.inertia_joint_kg_m2["nominal"] if c.plant else 0.0 for c in cas]
-            )
-            tau += J_arm * qdd_d
-    if "computed_torque" in ff or "acceleration" in ff:
-        t_motor += dt.inertia_motor_side_kg_m2 * N * qdd_d
-    if "friction" in ff:
-        t_motor += dt.viscous_Nm_s_rad * N * qd_d
-        fric = dtm.joint_friction(qd_d, qdd_d, dt)
-    else:
-        fric = np.zeros((n, nj))
-    if "efficiency" in ff:
-        # the joint torque (with the friction if selected) through the reducer by quadrant
-        t_in = dtm.reducer_input_torque(tau + fric, qd_d, dt)
-    else:
-        t_in = (tau + fric) / N
-    return (t_in + t_motor) / Kt
 
 
 def simulate_tracking(
@@ -340,7 +135,7 @@ def simulate_tracking(
     gains : ArmGains or dict of str to CascadeGains
         Tuned at the controller's servo period (checked).
     feedforward : str or iterable of str
-        Subset of :data:`FEEDFORWARDS`, or ``"none"``.
+        Subset of :data:`armlab.control.feedforward.FEEDFORWARDS`, or ``"none"``.
     quantise : bool
         The profile's D/A resolution and the encoder's counts.
     t_after_s : float
@@ -367,7 +162,7 @@ def simulate_tracking(
         No drives, wrong joint count, unknown feed-forward, gains tuned at another servo period
         than the controller's, a current-loop period that does not divide the servo period.
     """
-    variant = (_feedforwards(feedforward), bool(voltage_limit), bool(losses))
+    variant = (feedforwards(feedforward), bool(voltage_limit), bool(losses))
     return _simulate_many(
         robot,
         trajectory,
@@ -541,7 +336,7 @@ def _run_variants(
     w_ff = np.zeros((n, nvj))
     for k, (ff, _, _) in enumerate(variants):
         if ff:
-            i_ff[:, part[k]] = _feedforward_current(robot, dt, cas, ff, q_d, qd_d, qdd_d)
+            i_ff[:, part[k]] = feedforward_current(robot, dt, cas, ff, q_d, qd_d, qdd_d)
         if "velocity" in ff or "computed_torque" in ff:
             w_ff[:, part[k]] = N_j * qd_d
     vlim = np.repeat([v[1] for v in variants], nj)
@@ -889,159 +684,3 @@ def _delayed(hist: list, d: np.ndarray) -> np.ndarray:
     while len(hist) > int(d.max()) + 1:
         hist.pop(0)
     return out
-
-
-#: the drive-model variants of a tracking result: the :func:`simulate_tracking` switches of
-#: each (``with_loss_feedforward``: the full model with friction and efficiency fed forward)
-DRIVE_VARIANTS: dict[str, dict[str, bool]] = {
-    "ideal": {"voltage_limit": False, "losses": False},
-    "no_voltage_limit": {"voltage_limit": False},
-    "no_losses": {"losses": False},
-    "with_loss_feedforward": {},
-}
-
-
-def _switches(name: str) -> dict[str, bool]:
-    """The :func:`simulate_tracking` switches of a :data:`DRIVE_VARIANTS` name."""
-    return {"voltage_limit": True, "losses": True, **DRIVE_VARIANTS[name]}
-
-
-def variant_loops(names) -> list[tuple[str, ...]]:
-    """``names`` (:data:`DRIVE_VARIANTS`) grouped by the time loop :func:`tracking_variants`
-    runs them in: those with the supply limit, then those without (they part ways at every
-    saturating sub-step). Each group gives the same numbers simulated apart."""
-    groups = [
-        tuple(n for n in names if _switches(n)["voltage_limit"] is lim) for lim in (True, False)
-    ]
-    return [g for g in groups if g]
-
-
-def _loss_feedforward(ff: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """``(feed-forward with friction and efficiency, what that adds)``; a result without
-    feed-forward gets the usual velocity, acceleration and gravity terms as well."""
-    extra = tuple(f for f in ("friction", "efficiency") if f not in ff)
-    return (ff or ("velocity", "acceleration", "gravity")) + extra, extra
-
-
-def tracking_variants(
-    robot: Robot, trajectory, gains, names, *, known=None, **options
-) -> dict[str, TrackingResult]:
-    """The motion :func:`simulate_tracking` gives with ``options`` (the full drive model)
-    simulated under each named :data:`DRIVE_VARIANTS` instead; those in ``known`` are reused,
-    ``with_loss_feedforward`` is left out when both are already fed forward. It needs no
-    full-model result, so it can run beside that simulation."""
-    opts = {k: v for k, v in options.items() if k not in ("voltage_limit", "losses", "tcp")}
-    ff = _feedforwards(opts.pop("feedforward", ("velocity",)))
-    out = {n: known[n] for n in names if known and n in known}
-    todo: dict[str, tuple[tuple[str, ...], bool, bool]] = {}
-    for name in names:
-        if name in out:
-            continue
-        switches = _switches(name)
-        ff_v = ff
-        if name == "with_loss_feedforward":
-            ff_v, extra = _loss_feedforward(ff)
-            if not extra:
-                continue
-        todo[name] = (ff_v, switches["voltage_limit"], switches["losses"])
-    if todo:  # simulated together, each as it would be alone
-        runs = _simulate_many(robot, trajectory, gains, list(todo.values()), **opts)
-        out.update(zip(todo, runs, strict=True))
-    return out
-
-
-def diagnose_tracking(
-    robot: Robot, trajectory, gains, result: TrackingResult, *, cache: dict | None = None, **options
-) -> dict:
-    """Why a tracking simulation misses its budget, and what fixes it -- measured, not asserted.
-
-    Re-simulates the same motion with one effect removed at a time (the supply-voltage limit,
-    the reducer's efficiency and friction) and once with the feed-forward of friction and
-    efficiency added (a fix that needs no hardware change).
-
-    Parameters
-    ----------
-    robot, trajectory, gains :
-        As given to :func:`simulate_tracking`.
-    result : TrackingResult
-        The full-model result to diagnose.
-    cache : dict, optional
-        Variants already simulated (:func:`tracking_variants` names); the ones run here are
-        added to it.
-    **options :
-        The other :func:`simulate_tracking` options of ``result`` (feed-forward, quantise,
-        controller, ...).
-
-    Returns
-    -------
-    dict
-        ``tcp_max_error_m`` per variant (``full``, ``no_voltage_limit``, ``no_losses``,
-        ``with_loss_feedforward``), ``limiting_factor`` (a phrase naming the effect and the
-        joints), ``offer`` (the measured effect of the feed-forward, and what else would be
-        needed).
-    """
-    ff = tuple(result.feedforward)
-    variants = tracking_variants(
-        robot,
-        trajectory,
-        gains,
-        ("no_voltage_limit", "no_losses", "with_loss_feedforward"),
-        known=cache,
-        **options,
-    )
-    if cache is not None:
-        cache.update(variants)
-    extra = _loss_feedforward(ff)[1]
-    err = {"full": result.tcp_max_error_m}
-    err.update({k: r.tcp_max_error_m for k, r in variants.items()})
-    budget = result.accuracy_m
-    gain_v = err["full"] - err["no_voltage_limit"]
-    gain_l = err["full"] - err["no_losses"]
-    sat = result.saturation_time_s
-    sat_joints = [n for n, s in zip(result.joint_names, sat, strict=True) if s > 0]
-    worst = result.joint_names[int(np.argmax(result.max_error_rad))]
-    feedback_limited = max(gain_v, gain_l) < 0.1 * err["full"]
-    if feedback_limited:
-        factor = (
-            f"the feedback itself (an ideal drive tracks within "
-            f"{min(err['no_voltage_limit'], err['no_losses']) * 1e3:.3g} mm too; largest joint "
-            f"error on {worst}): servo bandwidth or feed-forward"
-        )
-    elif gain_v >= gain_l:
-        factor = (
-            f"amplifier supply voltage (saturated on {', '.join(sat_joints) or 'no joint'}; "
-            f"{err['no_voltage_limit'] * 1e3:.3g} mm without the limit)"
-        )
-    else:
-        factor = (
-            f"reducer efficiency and friction ({err['no_losses'] * 1e3:.3g} mm with an "
-            f"ideal reducer; largest joint error on {worst})"
-        )
-    if "with_loss_feedforward" in err:
-        e = err["with_loss_feedforward"]
-        verdict = "within" if e <= budget else "still above"
-        offer = (
-            f"feed-forward of friction and efficiency measured: {e * 1e3:.3g} mm ({verdict} "
-            f"the {budget * 1e3:.3g} mm budget; [tracking] feedforward += {list(extra)})"
-        )
-    else:
-        offer = "feed-forward of friction and efficiency is already on"
-    if "with_loss_feedforward" not in err or err["with_loss_feedforward"] > budget:
-        if feedback_limited:  # the drive is not what limits: the loops or the motion are
-            ct = "" if "computed_torque" in ff else ", computed-torque feed-forward"
-            offer += (
-                f"; next: a faster position loop (control.position_bandwidth_rad_s){ct} "
-                "or a slower motion (plan.speed_scale)"
-            )
-        else:
-            offer += (
-                "; next: retune within the saturation (lower position bandwidth) or plan "
-                "inside the motor envelope (plan.drive_limits = true)"
-            )
-    return {
-        "tcp_max_error_m": err,
-        "accuracy_m": budget,
-        "limiting_factor": factor,
-        "offer": offer,
-        "saturation_time_s": {n: float(s) for n, s in zip(result.joint_names, sat, strict=True)},
-    }

@@ -122,7 +122,7 @@ def _accuracy_budget(summary: dict, record: dict) -> tuple[float, str]:
     v = doc.get("accuracy_m")
     if isinstance(v, (int, float)) and math.isfinite(v) and v > 0:
         return float(v), "the study's [tracking] accuracy_m"
-    from armlab.control.simulate import POSITIONING_ACCURACY_M, SERVO_SHARE
+    from armlab.control.result import POSITIONING_ACCURACY_M, SERVO_SHARE
 
     return (
         POSITIONING_ACCURACY_M * SERVO_SHARE,

@@ -173,11 +173,11 @@ def _figures(
 
 def _drive_model_figure(ctx, variants: _VariantPrefetch | None = None):
     """The study's motion under each drive model: the tracking stage's result and its
-    variants (:func:`armlab.control.simulate.tracking_variants`; those the stage's diagnosis
+    variants (:func:`armlab.control.diagnosis.tracking_variants`; those the stage's diagnosis
     ran or ``variants`` simulated beside the stage are reused, the others simulated when the
     report is drawn -- by another process when several draw, so the study's context keeps
     only the diagnosis's)."""
-    from armlab.control.simulate import tracking_variants
+    from armlab.control.diagnosis import tracking_variants
     from armlab.plots.servo import drive_model_figure
 
     res = ctx.tracking
@@ -203,7 +203,7 @@ def _drive_model_figure(ctx, variants: _VariantPrefetch | None = None):
 
 
 #: the drive models of the report's drive-model plot beside the study's full model
-#: (:data:`armlab.control.simulate.DRIVE_VARIANTS`)
+#: (:data:`armlab.control.diagnosis.DRIVE_VARIANTS`)
 DRIVE_MODEL_VARIANTS = ("ideal", "no_voltage_limit", "with_loss_feedforward")
 #: figures that take longest (simulations, many axes), started first so that the processes
 #: drawing the others finish together (a scheduling hint: the files do not depend on it)
@@ -415,7 +415,7 @@ class _VariantPrefetch:
     processes while the tracking stage runs: they need the plan, the gains and the study's
     tracking options, not the stage's result, and were the report's longest job (issue 15:
     ~2 s of CPU that could only start once the stage had ended). One process per time loop
-    of :func:`~armlab.control.simulate.tracking_variants` (the variants with the supply
+    of :func:`~armlab.control.diagnosis.tracking_variants` (the variants with the supply
     limit, and those without), so that they end together with the other work.
 
     :meth:`take` is called once, by the process that draws the plot; a process that failed
@@ -423,7 +423,7 @@ class _VariantPrefetch:
     numbers, the error raised where it would have been)."""
 
     def __init__(self, ctx) -> None:
-        from armlab.control.simulate import tracking_variants, variant_loops
+        from armlab.control.diagnosis import tracking_variants, variant_loops
         from armlab.study.stages import tracking_options
 
         options = tracking_options(ctx)

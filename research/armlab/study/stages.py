@@ -873,7 +873,7 @@ def stage_tracking(ctx: StudyContext) -> dict:
     failed = []
     block: dict[str, Any] = {}
     if not res.within_accuracy:
-        from armlab.control.simulate import diagnose_tracking
+        from armlab.control.diagnosis import diagnose_tracking
 
         diag = diagnose_tracking(
             ctx.robot, ctx.trajectory, ctx.gains, res, cache=ctx.tracking_variants, **opts
