@@ -78,7 +78,9 @@ def tune_table(robot) -> tuple[float, float]:
     best, cpu, gains = float("inf"), float("inf"), None
     for _ in range(PARAMS["tune_repeats"]):
         t0, c0 = time.perf_counter(), time.process_time()
-        gains = tune_arm(robot, n_inertia_samples=PARAMS["n_inertia_samples"])
+        gains = tune_arm(
+            robot, n_inertia_samples=PARAMS["n_inertia_samples"], controller="reference_dda"
+        )
         best = min(best, time.perf_counter() - t0)
         cpu = min(cpu, time.process_time() - c0)
     assert gains is not None
@@ -163,7 +165,9 @@ def main() -> None:
             best, call = None, float("inf")
             for _ in range(PARAMS["repeats"]):
                 t0 = time.perf_counter()
-                res = simulate_tracking(robot, traj, gains, feedforward=ffs, quantise=quant)
+                res = simulate_tracking(
+                    robot, traj, gains, feedforward=ffs, quantise=quant, controller="reference_dda"
+                )
                 call = min(call, time.perf_counter() - t0)
                 best = res if best is None or res.wall_time_s < best.wall_time_s else best
             sim_s = best.t[-1] - best.t[0]

@@ -69,7 +69,7 @@ def main() -> None:
 
     robot = armlab.load_robot(ROBOT)
     traj = cosine_motion(robot, DURATION_S, PLAN_SAMPLES)
-    t_table, table = best(lambda: setpoint_table(robot, traj, None), 1)
+    t_table, table = best(lambda: setpoint_table(robot, traj, "reference_dda"), 1)
     rows = [("setpoint_table (sample + counts + checks)", "-", t_table, None, None)]
     suffix = {"csv": ".csv", "json": ".json", "npz": ".npz", "c": ".h"}
     with tempfile.TemporaryDirectory() as tmp:

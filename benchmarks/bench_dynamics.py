@@ -13,14 +13,8 @@ import pinocchio as pin
 from _readme import readme_row, sci, sig
 
 import armlab
-from armlab.dynamics import (
-    inverse_dynamics,
-    joint_torques,
-    requirement_moves,
-    select_drives,
-    size,
-    static_load,
-)
+from armlab.dynamics import inverse_dynamics, requirement_moves, select_drives, size, static_load
+from armlab.dynamics.inverse import joint_torques
 from armlab.trajectory import Trajectory
 
 # ----------------------------------------------------------------------------- parameters
@@ -78,8 +72,12 @@ def main() -> None:
             lambda: joint_torques(robot, traj.q, traj.qd, traj.qdd, threads=2),
         ),
         ("inverse_dynamics (+ motor side)", n, lambda: inverse_dynamics(robot, traj)),
-        ("size: full sizing, 1 thread", n, lambda: size(robot, traj)),
-        ("size: full sizing, 2 threads", n, lambda: size(robot, traj, threads=2)),
+        ("size: full sizing, 1 thread", n, lambda: size(robot, traj, controller="reference_dda")),
+        (
+            "size: full sizing, 2 threads",
+            n,
+            lambda: size(robot, traj, threads=2, controller="reference_dda"),
+        ),
     ]
     static = static_load(robot)
     moves = requirement_moves(robot, static)
@@ -89,7 +87,7 @@ def main() -> None:
         (
             "select_drives (108 combinations x 6 joints)",
             n_moves,
-            lambda: select_drives(robot, moves),
+            lambda: select_drives(robot, moves, controller="reference_dda"),
         ),
     ]
     print(
@@ -110,7 +108,7 @@ def main() -> None:
         f"\ngoal: full sizing of the 10 s trajectory < {GOAL_SIZING_MS:g} ms -> "
         f"{sizing_best * 1e3:.1f} ms, {verdict}"
     )
-    report = size(robot, traj)
+    report = size(robot, traj, controller="reference_dda")
     print(f"sizing verdict of the sine trajectory: ok={report.ok}, failures={report.failures()}")
     t1, t2 = (best_s[f"joint_torques (rneaInParallel, {k})"] for k in ("1 thread", "2 threads"))
     readme_row(

@@ -128,7 +128,7 @@ def main() -> None:
         name, r, n = ours(
             f"quintic_via 2 points torque={torque}",
             lambda tq=torque: quintic_via(
-                robot, W2, durations=[T], dt=T / (N_POINTS - 1), torque=tq
+                robot, W2, durations=[T], dt=T / (N_POINTS - 1), tau_max=None if tq else False
             ),
         )
         rows.append((name, r, n, "jtraj", peer(lambda n=n: rtb.jtraj(q0, q1, n), n)))
@@ -160,7 +160,14 @@ def main() -> None:
         name, r, n = ours(
             f"line + IK + limits torque={torque}",
             lambda tq=torque: line(
-                robot, T0, T1, LINE_SPEED, q_start=qc, orientation="hold", dt=dtl, torque=tq
+                robot,
+                T0,
+                T1,
+                LINE_SPEED,
+                q_start=qc,
+                orientation="hold",
+                dt=dtl,
+                tau_max=None if tq else False,
             ),
         )
 

@@ -54,14 +54,15 @@ def noop(i: int) -> int:
 
 
 def _study_task(doc, study_dir, source, params, key):
-    from armlab.sweep import run_parameter_set
+    from armlab.sweep.task import run_parameter_set
 
     return run_parameter_set(doc, study_dir, source, params, key)
 
 
 def _sets():
-    from armlab.study import apply_overrides, read_study_document
-    from armlab.sweep import parameter_key
+    from armlab.study import apply_overrides
+    from armlab.study.spec import read_study_document
+    from armlab.sweep.spec import parameter_key
 
     doc, base, source = read_study_document(None if PARAMS["study"] == "demo" else PARAMS["study"])
     doc = apply_overrides(doc, PARAMS["overrides"])
@@ -153,7 +154,7 @@ def pool_run(n_workers: int, doc, base, source, sets) -> tuple[float, float]:
 def one_worker_rate(doc, base, source, sets) -> float:
     """Studies per second of one worker (this process, sequential; returned), and the mean
     time per study."""
-    from armlab.sweep import run_parameter_set
+    from armlab.sweep.task import run_parameter_set
 
     _check([run_parameter_set(doc, base, source, sets[0][1], sets[0][0])])  # warm
     t0 = time.perf_counter()
@@ -181,7 +182,7 @@ def main() -> None:
         readme_row(*engine_row)
         return
     t0 = time.perf_counter()
-    from armlab.sweep import run_parameter_set
+    from armlab.sweep.task import run_parameter_set
 
     one = run_parameter_set(doc, base, source, sets[0][1], sets[0][0])
     _check([one])

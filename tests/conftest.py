@@ -110,7 +110,7 @@ def arm_gains(teachbot6):
     """teachbot6's gains tuned to the default spec on 200 inertia samples."""
     from armlab.control import tune_arm
 
-    return tune_arm(teachbot6, n_inertia_samples=200)
+    return tune_arm(teachbot6, n_inertia_samples=200, controller="reference_dda")
 
 
 def make_study_folder(folder: Path, robot, trajectory, gains=None, profile=None) -> Path:

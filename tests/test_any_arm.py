@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from armlab.cli import info_text, main
-from armlab.dynamics import SizingOptions, size
+from armlab.dynamics import size
 from armlab.dynamics.selection import select_drives
 from armlab.errors import ArmlabError, InfeasibleError, RobotDescriptionError
 from armlab.robot import load_profile, load_robot
@@ -93,9 +93,7 @@ def test_drives_file_reproduces_the_selection_and_its_sizing(ur5_run, tmp_path):
     robot = ctx.robot.copy()
     robot.drives = back
     duty = selection_duty(ctx)
-    again = size(
-        robot, duty, dt=ctx.spec.plan.check_dt_s, options=SizingOptions(controller=ctx.controller)
-    )
+    again = size(robot, duty, dt=ctx.spec.plan.check_dt_s, controller=ctx.controller)
     for j, (a, b) in enumerate(zip(again.joints, ctx.sizing.joints, strict=True)):
         assert [c.to_dict() for c in a.checks] == [c.to_dict() for c in b.checks]
         chosen = ctx.selection.joints[j].chosen
@@ -140,7 +138,7 @@ price = 10
     ctx = ur5_run.context
     robot = ctx.robot.copy()
     robot.drives = None
-    sel = select_drives(robot, selection_duty(ctx), catalogue=tiny)
+    sel = select_drives(robot, selection_duty(ctx), catalogue=tiny, controller="reference_dda")
     first = sel.joints[0]
     assert not first.ok and "thesis_rule" in first.failed_by_all
     with pytest.raises(InfeasibleError, match=r"no catalogue entry passes for shoulder_pan_joint"):

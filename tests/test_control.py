@@ -10,22 +10,13 @@ import control as ct
 import numpy as np
 import pytest
 
-from armlab.control import (
-    SEED_DESIGNS,
-    IncrementalPID,
-    LoopGains,
-    force_loop,
-    force_loop_model,
-    force_robustness,
-    incremental_coefficients,
-    joint_plant,
-    motor_speed_tf,
-    quantise_da,
-    simulate_tracking,
-)
-from armlab.control.force import force_margins, force_open_loop
+from armlab.control import LoopGains, force_loop, force_robustness, joint_plant, simulate_tracking
+from armlab.control.discrete import IncrementalPID, quantise_da
+from armlab.control.force import SEED_DESIGNS, force_loop_model, force_margins, force_open_loop
+from armlab.control.gains import incremental_coefficients
 from armlab.control.loops import pid_response
 from armlab.control.margins import freq_grid
+from armlab.control.plant import motor_speed_tf
 from armlab.errors import InputError, SpecError
 from armlab.kinematics import fk
 from armlab.robot.drives import RPM_TO_RAD_S
@@ -121,7 +112,14 @@ def test_da_quantiser_is_12_bit_plus_minus_10V():
 # ---------------------------------------------------------------------------- simulation
 def test_tracking_stays_within_the_servo_share_of_the_accuracy(teachbot6, arm_gains):
     traj = planned(teachbot6)
-    res = simulate_tracking(teachbot6, traj, arm_gains, feedforward="velocity", t_after_s=0.5)
+    res = simulate_tracking(
+        teachbot6,
+        traj,
+        arm_gains,
+        feedforward="velocity",
+        t_after_s=0.5,
+        controller="reference_dda",
+    )
     # 0.5 mm: half of the thesis' ~1 mm Monte-Carlo positioning accuracy
     assert res.accuracy_m == pytest.approx(0.5e-3)
     assert res.within_accuracy, res.tcp_max_error_m
@@ -137,7 +135,9 @@ def test_tracking_stays_within_the_servo_share_of_the_accuracy(teachbot6, arm_ga
     assert set(out["joints"]) == set(teachbot6.joint_names)
     assert out["tcp"]["max_error_m"] == res.tcp_max_error_m
     # without feed-forward the P position loop lags: the thesis' case for 5.2
-    lag = simulate_tracking(teachbot6, traj, arm_gains, feedforward="none", t_after_s=0.0)
+    lag = simulate_tracking(
+        teachbot6, traj, arm_gains, feedforward="none", t_after_s=0.0, controller="reference_dda"
+    )
     assert lag.tcp_max_error_m > 10 * res.tcp_max_error_m
 
 
@@ -148,7 +148,13 @@ def test_holding_still_against_gravity(teachbot6, arm_gains):
         t, np.vstack([q, q]), np.zeros((2, 6)), np.zeros((2, 6)), joint_names=teachbot6.joint_names
     )
     res = simulate_tracking(
-        teachbot6, rest, arm_gains, feedforward="none", quantise=False, t_after_s=0.0
+        teachbot6,
+        rest,
+        arm_gains,
+        feedforward="none",
+        quantise=False,
+        t_after_s=0.0,
+        controller="reference_dda",
     )
     assert np.abs(res.error_rad).max() < 1e-6
     assert np.abs(res.qd).max() < 1e-4
@@ -157,9 +163,13 @@ def test_holding_still_against_gravity(teachbot6, arm_gains):
 def test_simulation_input_errors(teachbot6, arm_gains):
     traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.1), "trapezoid", dt=1e-3)
     with pytest.raises(InputError, match="feedforward"):
-        simulate_tracking(teachbot6, traj, arm_gains, feedforward="jerk")
+        simulate_tracking(
+            teachbot6, traj, arm_gains, feedforward="jerk", controller="reference_dda"
+        )
     with pytest.raises(InputError, match="no gains for joints"):
-        simulate_tracking(teachbot6, traj, {"joint1": arm_gains["joint1"]})
+        simulate_tracking(
+            teachbot6, traj, {"joint1": arm_gains["joint1"]}, controller="reference_dda"
+        )
 
 
 # ---------------------------------------------------------------------------- force loop
@@ -237,5 +247,9 @@ def test_plots_return_figures(teachbot6, arm_gains, inertias):
         plots.force_figure([force_loop(700.0, duration_s=1.0)]),
     ]
     traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.05), "trapezoid", dt=1e-3)
-    figs.append(plots.tracking_figure(simulate_tracking(teachbot6, traj, arm_gains)))
+    figs.append(
+        plots.tracking_figure(
+            simulate_tracking(teachbot6, traj, arm_gains, controller="reference_dda")
+        )
+    )
     assert all(isinstance(f, Figure) and f.axes for f in figs)

@@ -22,21 +22,13 @@ from hypothesis import strategies as st
 
 import armlab
 from armlab.cli import main as cli_main
-from armlab.deploy import (
-    CHECKS,
-    ControllerProfile,
-    file_sha256,
-    list_profiles,
-    load_profile,
-    load_trajectory,
-    read_setpoints,
-    save_trajectory,
-    setpoint_table,
-    trajectory_sha256,
-)
+from armlab.deploy import load_trajectory, read_setpoints, save_trajectory, setpoint_table
+from armlab.deploy.checks import CHECKS
 from armlab.deploy.formats import c_int_type
 from armlab.deploy.numtext import format_list, format_rows
+from armlab.deploy.provenance import file_sha256, trajectory_sha256
 from armlab.errors import InputError, LimitViolation
+from armlab.robot import ControllerProfile, list_profiles, load_profile
 from armlab.study import export_study
 from armlab.trajectory import Trajectory
 from conftest import make_study_folder
@@ -114,7 +106,7 @@ def motion60(teachbot6):
 
 @pytest.fixture(scope="module")
 def table60(teachbot6, motion60):
-    return setpoint_table(teachbot6, motion60)
+    return setpoint_table(teachbot6, motion60, controller="reference_dda")
 
 
 def write_profile(path: Path, **fields) -> Path:
@@ -173,7 +165,7 @@ def test_profile_errors(tmp_path):
 def test_counts_per_rev_from_drives_and_profile_decoding(teachbot6):
     """counts per joint rev = 1000 pulses x 4 x ratio (thesis table 4.3); x2 halves them."""
     tr = one_joint_bump(teachbot6, "joint1", 0.3)
-    t4 = setpoint_table(teachbot6, tr)
+    t4 = setpoint_table(teachbot6, tr, controller="reference_dda")
     np.testing.assert_allclose(t4.counts_per_joint_rev, [4000.0 * r for r in RATIOS])
     np.testing.assert_allclose(
         t4.counts_per_rad, [teachbot6.drives[j].counts_per_rad() for j in teachbot6.joint_names]
@@ -342,7 +334,9 @@ GCC_STRICT = ["gcc", "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror"]
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not available")
 def test_c_files_compile_strict_and_checksum(teachbot6, tmp_path):
-    table = setpoint_table(teachbot6, cosine_motion(teachbot6, duration_s=6.0, n=601))
+    table = setpoint_table(
+        teachbot6, cosine_motion(teachbot6, duration_s=6.0, n=601), controller="reference_dda"
+    )
     table.write(tmp_path / "sp.h", "c")
     (tmp_path / "main.c").write_text(C_PROGRAM)
     for src in ("sp.c", "main.c"):
@@ -376,7 +370,7 @@ def test_axis_order_and_sign(teachbot6, tmp_path):
     tr = cosine_motion(teachbot6, duration_s=4.0, n=401)
     prof = load_profile().replace(axis_order=(6, 5, 4, 3, 2, 1), axis_sign=(1, -1, 1, 1, 1, 1))
     t = setpoint_table(teachbot6, tr, prof)
-    ref = setpoint_table(teachbot6, tr)
+    ref = setpoint_table(teachbot6, tr, controller="reference_dda")
     assert t.joint_names == teachbot6.joint_names[::-1]
     assert np.array_equal(t.counts[:, 1], -ref.counts[:, 4])  # joint5 on axis 2, reversed
     assert np.array_equal(t.counts[:, 0], ref.counts[:, 5])
@@ -396,7 +390,7 @@ def test_one_percent_too_fast_is_refused_naming_cycle_joint_limit(teachbot6):
     v = 1.01 * teachbot6.limits.velocity_rad_s[1]
     tr = one_joint_bump(teachbot6, "joint2", v)
     with pytest.raises(LimitViolation) as ei:
-        setpoint_table(teachbot6, tr)
+        setpoint_table(teachbot6, tr, controller="reference_dda")
     f = ei.value.failure
     assert (f.check, f.joint) == ("speed", "joint2")
     # independent: first cycle whose planned speed exceeds the limit
@@ -408,7 +402,9 @@ def test_one_percent_too_fast_is_refused_naming_cycle_joint_limit(teachbot6):
     assert f"cycle {first}" in msg and "joint joint2" in msg and "speed limit" in msg
     assert f.limit == pytest.approx(0.26) and f.value > 0.26
     # the same motion at 99 % passes
-    setpoint_table(teachbot6, one_joint_bump(teachbot6, "joint2", 0.99 * 0.26))
+    setpoint_table(
+        teachbot6, one_joint_bump(teachbot6, "joint2", 0.99 * 0.26), controller="reference_dda"
+    )
 
 
 def test_pulse_limit_4095_passes_4096_refused(teachbot6):
@@ -435,14 +431,14 @@ def test_pulse_limit_4095_passes_4096_refused(teachbot6):
 def test_start_pose_range_continuity_and_order(teachbot6):
     tr = one_joint_bump(teachbot6, "joint3", 0.5)
     q0 = np.zeros(6)
-    setpoint_table(teachbot6, tr, q_current=q0)
+    setpoint_table(teachbot6, tr, q_current=q0, controller="reference_dda")
     cpr3 = teachbot6.drives["joint3"].counts_per_rad()
     off = q0.copy()
     off[2] = 2.0 / cpr3  # two counts away
     with pytest.raises(LimitViolation, match=r"cycle 0 .*joint joint3, start pose"):
-        setpoint_table(teachbot6, tr, q_current=off)
+        setpoint_table(teachbot6, tr, q_current=off, controller="reference_dda")
     with pytest.raises(InputError, match="q_current has shape"):
-        setpoint_table(teachbot6, tr, q_current=np.zeros(5))
+        setpoint_table(teachbot6, tr, q_current=np.zeros(5), controller="reference_dda")
     # beyond the range of joint 3 (upper 160 deg): start near the top and go up
     t = np.linspace(0, 1, 101)
     q = np.zeros((101, 6))
@@ -452,7 +448,7 @@ def test_start_pose_range_continuity_and_order(teachbot6):
     qdd = np.zeros_like(q)
     qdd[:, 2] = 0.2 * np.pi**2 / 2 * np.cos(np.pi * t)
     with pytest.raises(LimitViolation) as ei:
-        setpoint_table(teachbot6, Trajectory(t, q, qd, qdd))
+        setpoint_table(teachbot6, Trajectory(t, q, qd, qdd), controller="reference_dda")
     f = ei.value.failure
     assert (f.check, f.joint) == ("joint range", "joint3")
     first = int(np.argmax(q[:, 2] > np.radians(160) + 1e-9))  # samples are on the 10 ms grid
@@ -464,7 +460,11 @@ def test_start_pose_range_continuity_and_order(teachbot6):
     qd = np.zeros_like(q)
     qd[:, 0] = v
     with pytest.raises(LimitViolation) as ei:
-        setpoint_table(teachbot6, Trajectory(np.linspace(0, 1, 11), q, qd, np.zeros_like(q)))
+        setpoint_table(
+            teachbot6,
+            Trajectory(np.linspace(0, 1, 11), q, qd, np.zeros_like(q)),
+            controller="reference_dda",
+        )
     f = ei.value.failure
     assert (f.check, f.joint, f.cycle) == ("continuity", "joint1", 1)
     assert f.value == pytest.approx(v, rel=1e-3) and f.limit == pytest.approx(3.5e-3)
@@ -654,5 +654,5 @@ def test_any_motion_within_limits_passes_and_round_trips(teachbot6, scale, cycle
 
 def test_trajectory_of_one_sample_is_one_cycle(teachbot6):
     z = np.zeros((1, 6))
-    table = setpoint_table(teachbot6, Trajectory([0.0], z, z, z))
+    table = setpoint_table(teachbot6, Trajectory([0.0], z, z, z), controller="reference_dda")
     assert table.n_cycles == 1 and np.all(table.dcounts == 0)

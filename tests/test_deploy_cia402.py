@@ -17,7 +17,6 @@ import pytest
 from armlab.cli import main as cli_main
 from armlab.deploy import (
     cia402_csp,
-    load_profile,
     read_cia402_csp,
     read_cia402_objects,
     read_setpoints,
@@ -25,6 +24,7 @@ from armlab.deploy import (
 )
 from armlab.deploy.cia402 import Cia402Object, interpolation_period
 from armlab.errors import InputError
+from armlab.robot import load_profile
 from armlab.study import export_study
 from armlab.trajectory import Trajectory
 from conftest import make_study_folder
@@ -121,8 +121,8 @@ def test_object_dictionary_factor_group_limits_home(teachbot6, motion):
 
 
 def test_torque_offset_is_the_motor_torque_of_the_plan(teachbot6, motion):
-    table = setpoint_table(teachbot6, motion)
-    csp = cia402_csp(teachbot6, table)
+    table = setpoint_table(teachbot6, motion, controller="reference_dda")
+    csp = cia402_csp(teachbot6, table, controller="reference_dda")
     rated = np.array(
         [
             round(teachbot6.drives[j].motor.stall_torque_Nm * 1000) / 1000
@@ -157,7 +157,11 @@ def test_axis_sign_and_modulo_axis(teachbot6, motion, tmp_path):
         axis_sign=(1, 1, 1, 1, 1, -1), modulo_axes=("joint6",)
     )
     table = setpoint_table(teachbot6, motion, prof)
-    ref = cia402_csp(teachbot6, setpoint_table(teachbot6, motion))
+    ref = cia402_csp(
+        teachbot6,
+        setpoint_table(teachbot6, motion, controller="reference_dda"),
+        controller="reference_dda",
+    )
     csp = cia402_csp(teachbot6, table, prof)
     period = 4000 * 128
     assert csp.modulo_counts.tolist() == [0, 0, 0, 0, 0, period]
@@ -177,7 +181,7 @@ def test_axis_sign_and_modulo_axis(teachbot6, motion, tmp_path):
 
 
 def test_refusals(teachbot6, ur5, motion):
-    table = setpoint_table(teachbot6, motion)
+    table = setpoint_table(teachbot6, motion, controller="reference_dda")
     z = np.zeros((11, ur5.n_joints))
     t = np.linspace(0, 1, 11)
     prof = load_profile("generic_1khz").replace(counts_per_joint_rev=(2**17,) * 6)

@@ -15,13 +15,9 @@ import yaml
 
 import armlab
 from armlab.cli import main as cli_main
-from armlab.deploy import (
-    file_sha256,
-    gains_sha256,
-    gains_to_ros2_yaml,
-    load_gains,
-    write_gains,
-)
+from armlab.deploy import load_gains, write_gains
+from armlab.deploy.gains_export import gains_to_ros2_yaml
+from armlab.deploy.provenance import file_sha256, gains_sha256
 from armlab.errors import DesignFailure, InputError
 from armlab.study import export_study
 from conftest import make_study_folder

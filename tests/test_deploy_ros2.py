@@ -16,14 +16,15 @@ import pytest
 import yaml
 
 from armlab.cli import main as cli_main
-from armlab.control import ArmGains, CascadeGains, LoopGains, PlantSummary
+from armlab.control import ArmGains, CascadeGains, LoopGains
+from armlab.control.gains import PlantSummary
 from armlab.deploy import (
-    check_joint_trajectory,
     jtc_constraints,
     render_follow_joint_trajectory,
     ros2_controllers_yaml,
     setpoint_table,
 )
+from armlab.deploy.ros2 import check_joint_trajectory
 from armlab.dynamics.sizing import lever_arms_m
 from armlab.errors import InputError
 from armlab.io import write_json
@@ -148,7 +149,9 @@ def gains6(teachbot6):
 
 @pytest.fixture(scope="module")
 def constraints(teachbot6, gains6):
-    return jtc_constraints(teachbot6, gains6, accuracy_m=BUDGET_M, accuracy_source="test")
+    return jtc_constraints(
+        teachbot6, gains6, accuracy_m=BUDGET_M, accuracy_source="test", controller="reference_dda"
+    )
 
 
 # ---------------------------------------------------------------------- controllers YAML
@@ -249,16 +252,18 @@ def test_stopped_velocity_and_encoder_floor(teachbot6, gains6, constraints):
     for j, c in zip(teachbot6.joint_names, cpr, strict=True):
         assert constraints.goal_rad[j] * c >= 1.0  # at least one count
     with pytest.raises(InputError, match=r"goal tolerance of .* below one encoder count"):
-        jtc_constraints(teachbot6, gains6, accuracy_m=1e-6)
+        jtc_constraints(teachbot6, gains6, accuracy_m=1e-6, controller="reference_dda")
     with pytest.raises(InputError, match="accuracy budget must be > 0"):
-        jtc_constraints(teachbot6, gains6, accuracy_m=0.0)
+        jtc_constraints(teachbot6, gains6, accuracy_m=0.0, controller="reference_dda")
     with pytest.raises(InputError, match="no gains for joint"):
         ros2_controllers_yaml(gains6, joints=["joint1", "elbow"])
 
 
 # ---------------------------------------------------------------------- trajectory goal
 def test_follow_joint_trajectory_goal_matches_messages(teachbot6, constraints):
-    table = setpoint_table(teachbot6, cosine_motion(teachbot6, duration_s=2.0, n=201))
+    table = setpoint_table(
+        teachbot6, cosine_motion(teachbot6, duration_s=2.0, n=201), controller="reference_dda"
+    )
     text = render_follow_joint_trajectory(table, constraints)
     doc = json.loads(text)
     assert yaml.safe_load(text) == doc  # also YAML 1.1 (ros2 action send_goal)
@@ -300,7 +305,9 @@ def test_follow_joint_trajectory_goal_matches_messages(teachbot6, constraints):
 
 
 def test_goal_checks_like_the_controller(teachbot6):
-    table = setpoint_table(teachbot6, cosine_motion(teachbot6, duration_s=0.2, n=21))
+    table = setpoint_table(
+        teachbot6, cosine_motion(teachbot6, duration_s=0.2, n=21), controller="reference_dda"
+    )
     traj = json.loads(render_follow_joint_trajectory(table))["goal"]["trajectory"]
     check_joint_trajectory(traj)
     moving = json.loads(json.dumps(traj))

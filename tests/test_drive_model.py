@@ -19,10 +19,10 @@ import pytest
 
 from armlab.control.plant import inertia_range, joint_plant
 from armlab.control.tuning import tune_cascade
-from armlab.deploy import cia402_csp, load_profile, setpoint_table
+from armlab.deploy import cia402_csp, setpoint_table
 from armlab.dynamics import size
 from armlab.dynamics.checks import counts_per_joint_rev_of
-from armlab.robot import rigid_body
+from armlab.robot import load_profile, rigid_body
 from armlab.robot.drivetrain import drive_train, motor_torque
 from test_deploy import cosine_motion
 
@@ -39,7 +39,7 @@ def motion(teachbot6):
 
 @pytest.fixture(scope="module")
 def sizing(teachbot6, motion):
-    return size(teachbot6, motion)
+    return size(teachbot6, motion, controller="reference_dda")
 
 
 def test_servo_current_limit_is_sizings_peak_torque(teachbot6, sizing):
@@ -114,7 +114,7 @@ def test_cia402_max_torque_is_sizings_derated_peak(teachbot6, motion, sizing):
     """Item 3: 0x6072 x 0x6076 is the peak sizing allows (joint 2 derated to 0.8), to the
     per mille 0x6072 is rounded to."""
     prof = load_profile("ethercat_cia402_csp")
-    table = setpoint_table(teachbot6, motion, profile=prof)
+    table = setpoint_table(teachbot6, motion, controller=prof)
     csp = cia402_csp(teachbot6, table, prof)
     objs = {(o.axis, o.index): o.value for o in csp.objects}
     for a, name in enumerate(csp.joint_names, start=1):

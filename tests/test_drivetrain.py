@@ -195,7 +195,7 @@ def test_supply_below_back_emf_at_rated_speed_is_an_error():
 
 
 def test_drives_file_with_a_negative_friction_names_joint_and_key(tmp_path):
-    src = armlab.robot.robot_desc_dir() / "teachbot6"
+    src = armlab.robot.model.robot_desc_dir() / "teachbot6"
     for f in src.iterdir():
         if f.is_file():
             shutil.copy(f, tmp_path / f.name)

@@ -10,13 +10,9 @@ import numpy as np
 import pytest
 
 import armlab
-from armlab.dynamics import (
-    THESIS_TABLE_4_2,
-    hold_check,
-    inverse_dynamics,
-    joint_torques,
-    static_load,
-)
+from armlab.dynamics import hold_check, inverse_dynamics, static_load
+from armlab.dynamics.inverse import joint_torques
+from armlab.dynamics.reference import THESIS_TABLE_4_2
 from armlab.robot.drivetrain import DriveTrain, motor_side
 from armlab.trajectory import Trajectory
 

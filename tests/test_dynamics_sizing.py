@@ -11,9 +11,6 @@ from matplotlib.figure import Figure
 
 import armlab
 from armlab.dynamics import (
-    CHECK_NAMES,
-    THESIS_TABLE_4_2,
-    THESIS_TABLE_4_3,
     inverse_dynamics,
     load_catalogue,
     requirement_moves,
@@ -21,8 +18,10 @@ from armlab.dynamics import (
     size,
     static_load,
 )
-from armlab.dynamics.checks import SizingOptions, evaluate_checks
+from armlab.dynamics.checks import CHECK_NAMES, SizingOptions, evaluate_checks
+from armlab.dynamics.reference import THESIS_TABLE_4_2, THESIS_TABLE_4_3
 from armlab.plots import plot_joint_loads, plot_operating_points
+from armlab.robot import load_profile
 from armlab.robot.drives import Drive, Encoder, Motor, Reducer
 from armlab.robot.drivetrain import DriveTrain
 from armlab.trajectory import Trajectory
@@ -40,14 +39,14 @@ def moves(teachbot6, static):
 
 @pytest.fixture(scope="module")
 def report(teachbot6, moves):
-    return size(teachbot6, moves)
+    return size(teachbot6, moves, controller="reference_dda")
 
 
 # --------------------------------------------------------------------------- requirement moves
 def test_requirement_moves_reach_speed_and_acceleration(teachbot6, static, moves):
     lim = teachbot6.limits
     # the required speed is the URDF's (thesis table 2.1), not the drive-capped robot.limits
-    required = armlab.robot.description_limits(teachbot6.model).velocity_rad_s
+    required = armlab.robot.limits.description_limits(teachbot6.model).velocity_rad_s
     assert required[2] > lim.velocity_rad_s[2]  # joint 3: 0.65 rad/s > 2200 rpm / 385
     assert len(moves) == 6
     for j, tr in enumerate(moves):
@@ -132,7 +131,7 @@ def test_too_fast_reports_failing_checks_by_name(teachbot6, static):
         velocity_rad_s=2 * lim.velocity_rad_s,
         acceleration_rad_s2=2 * lim.acceleration_rad_s2,
     )
-    rep = size(teachbot6, fast)
+    rep = size(teachbot6, fast, controller="reference_dda")
     fails = rep.failures()
     assert not rep.ok
     assert ("joint1", "motor_speed") not in fails  # 2 x 0.56 x 125 = 1337 rpm < 1500 rpm
@@ -155,11 +154,11 @@ def test_nan_and_bad_inputs(teachbot6, ur5, moves):
     tr = Trajectory(t, z(), z(), z())
     tr.qdd[2, 4] = np.nan  # changed after construction: size guards its own inputs
     with pytest.raises(armlab.InputError, match="not finite"):
-        size(teachbot6, tr)
+        size(teachbot6, tr, controller="reference_dda")
     with pytest.raises(armlab.InputError):
-        size(teachbot6, "moves.csv")
+        size(teachbot6, "moves.csv", controller="reference_dda")
     with pytest.raises(armlab.RobotDescriptionError, match="drives"):
-        size(ur5, Trajectory(t, z(), z(), z()))
+        size(ur5, Trajectory(t, z(), z(), z()), controller="reference_dda")
 
 
 # --------------------------------------------------------------------------- hand computations
@@ -196,7 +195,7 @@ def test_checks_by_hand():
     qd = np.array([[1.0], [0.5]])
     qdd = np.zeros_like(tau)
     w = np.array([3.0, 1.0])
-    res = evaluate_checks(tau, qd, qdd, w, arr, np.array([0.5]), SizingOptions())
+    res = evaluate_checks(tau, qd, qdd, w, arr, np.array([0.5]), SizingOptions(load_profile()))
     t_av = ((1 * 3 * 2**3 + 0.5 * 1 * 4**3) / (1 * 3 + 0.5 * 1)) ** (1 / 3)
     assert res["reducer_average_torque"][0][0] == pytest.approx(t_av)
     assert res["reducer_average_torque"][1][0] == 4.0
@@ -223,12 +222,18 @@ def test_envelope_by_hand():
     tau = np.array([[2.0], [-2.0]])  # joint side; motor side 0.04 N m
     qd = np.array([[3.0], [3.0]])  # 300 rad/s at the motor: driving, then generating
     res = evaluate_checks(
-        tau, qd, np.zeros_like(tau), np.ones(2), arr, np.array([1.0]), SizingOptions()
+        tau, qd, np.zeros_like(tau), np.ones(2), arr, np.array([1.0]), SizingOptions(load_profile())
     )
     value, limit = res["motor_envelope"]
     assert limit[0] == pytest.approx(0.045) and value[0] == pytest.approx(0.04)
     res = evaluate_checks(
-        1.25 * tau, qd, np.zeros_like(tau), np.ones(2), arr, np.array([1.0]), SizingOptions()
+        1.25 * tau,
+        qd,
+        np.zeros_like(tau),
+        np.ones(2),
+        arr,
+        np.array([1.0]),
+        SizingOptions(load_profile()),
     )
     value, limit = res["motor_envelope"]  # 0.05 N m driving at 300 rad/s: outside
     assert value[0] == pytest.approx(0.05) and limit[0] == pytest.approx(0.045)
@@ -238,7 +243,7 @@ def test_rms_of_a_held_pose_is_the_holding_torque(teachbot6, static):
     pose = static.joints[1].pose_rad
     t = np.array([0.0, 0.5, 2.0])
     z = np.zeros((3, 6))
-    rep = size(teachbot6, Trajectory(t, np.tile(pose, (3, 1)), z, z))
+    rep = size(teachbot6, Trajectory(t, np.tile(pose, (3, 1)), z, z), controller="reference_dda")
     g = static.joints[1].gravity_Nm
     j2 = rep.joint("joint2")
     d = teachbot6.drive(2)
@@ -255,7 +260,7 @@ def test_rms_of_a_held_pose_is_the_holding_torque(teachbot6, static):
 # --------------------------------------------------------------------------- selection
 @pytest.fixture(scope="module")
 def selection(teachbot6, moves):
-    return select_drives(teachbot6, moves)
+    return select_drives(teachbot6, moves, controller="reference_dda")
 
 
 def test_selection_thesis_parts_or_lighter(selection):
@@ -280,7 +285,7 @@ def test_selection_thesis_parts_or_lighter(selection):
 
 def test_selection_grows_with_the_payload(teachbot6, selection):
     heavy = teachbot6.with_payload(1.5)
-    sel = select_drives(heavy, requirement_moves(heavy))
+    sel = select_drives(heavy, requirement_moves(heavy), controller="reference_dda")
     assert sel.ok
     bigger = 0
     for light, js in zip(selection.joints, sel.joints, strict=True):
@@ -296,14 +301,16 @@ def test_selection_grows_with_the_payload(teachbot6, selection):
 
 
 def test_selection_by_price_and_errors(teachbot6, moves, tmp_path):
-    by_price = select_drives(teachbot6, moves, objective="price")
-    by_mass = select_drives(teachbot6, moves)
+    by_price = select_drives(teachbot6, moves, objective="price", controller="reference_dda")
+    by_mass = select_drives(teachbot6, moves, controller="reference_dda")
     for a, b in zip(by_price.joints, by_mass.joints, strict=True):
         assert a.chosen.price <= b.chosen.price
     drives = by_mass.drives(teachbot6)
-    assert size(teachbot6, moves, drives=drives).ok  # the chosen set passes as a whole
+    assert size(
+        teachbot6, moves, drives=drives, controller="reference_dda"
+    ).ok  # the chosen set passes as a whole
     with pytest.raises(armlab.InputError):
-        select_drives(teachbot6, moves, objective="colour")
+        select_drives(teachbot6, moves, objective="colour", controller="reference_dda")
     with pytest.raises(armlab.RobotDescriptionError):
         load_catalogue(tmp_path / "none.toml")
     bad = tmp_path / "bad.toml"

@@ -13,7 +13,9 @@ import pytest
 
 import armlab
 from armlab.control import simulate_tracking, tune_arm
-from armlab.dynamics import build_static_load, inverse_dynamics, joint_torques, static_load
+from armlab.dynamics import inverse_dynamics, static_load
+from armlab.dynamics.inverse import joint_torques
+from armlab.dynamics.static_load import build_static_load
 from armlab.errors import InputError
 from armlab.planning.topp import path_dynamics
 from armlab.robot import rigid_body
@@ -176,7 +178,7 @@ def test_static_load_gravity_term_matches_rnea(tilted, reference):
 
 @pytest.fixture(scope="module")
 def gains(upright):
-    return tune_arm(upright, n_inertia_samples=5)
+    return tune_arm(upright, n_inertia_samples=5, controller="reference_dda")
 
 
 @pytest.mark.parametrize("feedforward", ["gravity", "computed_torque"])
@@ -186,7 +188,14 @@ def test_simulation_feedforward_holds_the_tilted_arm(tilted, reference, gains, f
     q = np.array([0.3, -0.6, 0.9, 0.2, 0.7, 0.0])
     rest = Trajectory(np.array([0.0, 0.05]), np.vstack([q, q]), np.zeros((2, 6)), np.zeros((2, 6)))
     res = simulate_tracking(
-        tilted, rest, gains, feedforward=feedforward, quantise=False, t_after_s=0.0, tcp=False
+        tilted,
+        rest,
+        gains,
+        feedforward=feedforward,
+        quantise=False,
+        t_after_s=0.0,
+        tcp=False,
+        controller="reference_dda",
     )
     drives = [tilted.drives[n] for n in tilted.joint_names]
     NKt = np.array([d.reducer.ratio * d.motor.torque_constant_Nm_A for d in drives])

@@ -10,7 +10,8 @@ import pytest
 
 from armlab.errors import InputError
 from armlab.io import atomic as atomic_mod
-from armlab.io import atomic_open, atomic_write, atomic_write_many, json_safe, write_json
+from armlab.io import atomic_open, atomic_write, atomic_write_many, write_json
+from armlab.io.atomic import json_safe
 
 
 @pytest.fixture
@@ -146,6 +147,6 @@ def test_write_json_strict_nan_and_inf(tmp_path):
 
 
 def test_study_write_json_is_the_same_function():
-    from armlab.study import write_json as study_write_json
+    from armlab.study.runner import write_json as study_write_json
 
     assert study_write_json is write_json

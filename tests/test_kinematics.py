@@ -15,22 +15,22 @@ from matplotlib.figure import Figure
 import armlab
 from armlab import ArmlabError, InputError, UnreachableError
 from armlab.kinematics import (
-    LINK_TOLERANCES_M,
     accuracy_study,
-    analytic_jacobian,
     fk,
     fk_batch,
     has_analytic_ik,
     ik,
     ik_all,
     ik_all_batch,
-    ik_all_batch_reasons,
     ik_nearest,
     ik_solve,
     jacobian,
     max_reach_m,
     workspace_cloud,
 )
+from armlab.kinematics.accuracy import LINK_TOLERANCES_M
+from armlab.kinematics.analytic_ik import ik_all_batch_reasons
+from armlab.kinematics.forward import analytic_jacobian
 from armlab.plots import plot_accuracy, plot_accuracy_scatter, plot_workspace
 from conftest import PANDA_FINGERS, PANDA_URDF
 

@@ -14,7 +14,8 @@ import pytest
 import armlab
 from armlab.dynamics import size
 from armlab.errors import InputError, SpecError
-from armlab.robot import Limits, description_limits, load_robot, resolve_limits
+from armlab.robot import Limits, load_robot, resolve_limits
+from armlab.robot.limits import description_limits
 from armlab.study import parse_study
 from armlab.study.stages import StudyContext, build_robot, planning_robot
 from armlab.trajectory import optimal, ptp_sync
@@ -75,7 +76,7 @@ def test_a_plan_at_the_velocity_limit_passes_the_motor_speed_check(teachbot6):
     q1 = np.array([0.0, 0.0, 2.5, 0.0, 0.0, 0.0])
     traj = ptp_sync(teachbot6, q0, q1, dt=0.002, tau_max=False)
     assert np.max(np.abs(traj.qd[:, 2])) == pytest.approx(teachbot6.limits.velocity_rad_s[2])
-    check = size(teachbot6, traj).joint("joint3").check("motor_speed")
+    check = size(teachbot6, traj, controller="reference_dda").joint("joint3").check("motor_speed")
     assert check.ok and check.value == pytest.approx(check.limit, rel=1e-9)
 
 
@@ -242,15 +243,15 @@ def test_setpoint_preflight_needs_a_velocity_limit(teachbot6):
     from armlab.deploy import setpoint_table
 
     traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.05), tau_max=False)
-    setpoint_table(teachbot6, traj)  # the robot's limits: fine
+    setpoint_table(teachbot6, traj, controller="reference_dda")  # the robot's limits: fine
     blind = teachbot6.with_limits(velocity_rad_s=None)
     with pytest.raises(InputError, match="set-point pre-flight: missing velocity limit"):
-        setpoint_table(blind, traj)
+        setpoint_table(blind, traj, controller="reference_dda")
 
 
 def test_limits_type_contract(teachbot6):
     lim = teachbot6.limits
-    assert isinstance(lim, Limits) and armlab.Limits is Limits
+    assert isinstance(lim, Limits) and armlab.robot.Limits is Limits
     d = lim.to_dict()
     json.dumps(d)
     assert d["velocity_rad_s"]["joint3"] == pytest.approx(2200 * RPM / 385)

@@ -242,11 +242,13 @@ def make_case(planner: str, seed: int) -> Case:
             info["velocities"] = vel
 
             def fn():
-                return cubic_via(robot, w, velocities=vel, dt=dt, torque=torque, **kw)
+                return cubic_via(
+                    robot, w, velocities=vel, dt=dt, tau_max=None if torque else False, **kw
+                )
         else:
 
             def fn():
-                return quintic_via(robot, w, dt=dt, torque=torque, **kw)
+                return quintic_via(robot, w, dt=dt, tau_max=None if torque else False, **kw)
 
         # repeated waypoints merge: the via points kept are the distinct ones
         keep = np.concatenate([[True], np.any(np.abs(np.diff(w, axis=0)) > 1e-12, axis=1)])
@@ -332,7 +334,7 @@ def _cartesian_case(planner: str, seed: int, rng) -> Case:
     def near() -> np.ndarray:
         return T0[:3, 3] + rng.normal(size=3) * reach
 
-    common = dict(q_start=q0, dt=dt, profile=profile, torque=torque, **kw)
+    common = dict(q_start=q0, dt=dt, profile=profile, tau_max=None if torque else False, **kw)
     info: dict[str, Any] = {"profile": profile, "reach": reach, "dt": dt}
     if planner == "line":
         T1 = T0.copy()

@@ -30,7 +30,7 @@ FF = ("velocity", "acceleration", "gravity")
 
 @pytest.fixture(scope="module")
 def gains(teachbot6):
-    return tune_arm(teachbot6, n_inertia_samples=200)
+    return tune_arm(teachbot6, n_inertia_samples=200, controller="reference_dda")
 
 
 @pytest.fixture(scope="module")
@@ -43,7 +43,9 @@ def move(teachbot6):
 
 @pytest.fixture(scope="module")
 def full(teachbot6, move, gains):
-    return simulate_tracking(teachbot6, move, gains, feedforward=FF, t_after_s=0.1)
+    return simulate_tracking(
+        teachbot6, move, gains, feedforward=FF, t_after_s=0.1, controller="reference_dda"
+    )
 
 
 def test_joint_torque_is_the_drive_train_inverse_of_the_motor_current(teachbot6, full):
@@ -100,7 +102,13 @@ def test_amplifier_voltage_stays_within_the_supply_and_obeys_the_armature_equati
     assert (Ke * N * np.abs(full.qd)).max() > 10.0
     # without the limit the amplifier applies what the loops ask for, above the supply
     free = simulate_tracking(
-        teachbot6, move, gains, feedforward=FF, t_after_s=0.1, voltage_limit=False
+        teachbot6,
+        move,
+        gains,
+        feedforward=FF,
+        t_after_s=0.1,
+        voltage_limit=False,
+        controller="reference_dda",
     )
     assert np.all(free.saturation_time_s == 0)
     assert (free.peak_voltage_demand_V > U).any()
@@ -120,7 +128,9 @@ def test_lifting_costs_current_lowering_saves_it(teachbot6, gains):
     q0 = np.array([0.0, 1.2, -0.2, 0.0, 0.0, 0.0])
     q1 = np.array([0.0, 0.5, 0.6, 0.0, 0.0, 0.0])
     mv = ptp_sync(teachbot6, q0, q1, "trapezoid", dt=1e-3)
-    res = simulate_tracking(teachbot6, mv, gains, feedforward=FF, t_after_s=0.0, tcp=False)
+    res = simulate_tracking(
+        teachbot6, mv, gains, feedforward=FF, t_after_s=0.0, tcp=False, controller="reference_dda"
+    )
     dt = dtm.drive_train(teachbot6)
     k = np.abs(res.t - mv.duration / 2) < 0.05
     assert np.abs(mv.at(res.t[k])[2]).max() == 0.0  # cruising
@@ -144,7 +154,14 @@ def test_reducer_static_friction_holds_the_arm(teachbot6, gains, feedforward):
     q = np.array([0.3, -0.6, 0.9, 0.2, 0.7, 0.0])
     rest = Trajectory(np.array([0.0, 0.1]), np.vstack([q, q]), np.zeros((2, 6)), np.zeros((2, 6)))
     res = simulate_tracking(
-        teachbot6, rest, gains, feedforward=feedforward, quantise=False, t_after_s=0.0, tcp=False
+        teachbot6,
+        rest,
+        gains,
+        feedforward=feedforward,
+        quantise=False,
+        t_after_s=0.0,
+        tcp=False,
+        controller="reference_dda",
     )
     drives = [teachbot6.drives[n] for n in teachbot6.joint_names]
     NKt = np.array([d.reducer.ratio * d.motor.torque_constant_Nm_A for d in drives])
@@ -176,7 +193,13 @@ def test_diagnosis_names_the_limiting_factor_and_measures_the_fix(teachbot6, gai
     tight = full.tcp_max_error_m * 0.5
     d = diagnose_tracking(teachbot6, move, gains, full, feedforward=FF, t_after_s=0.1)
     no_loss = simulate_tracking(
-        teachbot6, move, gains, feedforward=FF, t_after_s=0.1, losses=False
+        teachbot6,
+        move,
+        gains,
+        feedforward=FF,
+        t_after_s=0.1,
+        losses=False,
+        controller="reference_dda",
     ).tcp_max_error_m
     assert d["tcp_max_error_m"]["no_losses"] == pytest.approx(no_loss, rel=1e-12)
     assert d["tcp_max_error_m"]["full"] == full.tcp_max_error_m
@@ -257,6 +280,7 @@ def test_linear_periods_are_the_sub_step_loop(teachbot6, gains, move, monkeypatc
     import armlab.control.simulate as sim
 
     kw = {"feedforward": FF, "quantise": False, "t_after_s": 0.0, "tcp": False}
+    kw["controller"] = "reference_dda"
     fast = simulate_tracking(teachbot6, move, gains, **kw)
     monkeypatch.setattr(sim, "_LINEAR_PERIODS", False)
     slow = simulate_tracking(teachbot6, move, gains, **kw)
@@ -280,7 +304,7 @@ def test_variants_simulated_together_are_each_simulated_alone(
 
     monkeypatch.setattr(sim, "_LINEAR_PERIODS", linear)
     names = ("ideal", "no_voltage_limit", "no_losses", "with_loss_feedforward")
-    opts = {"feedforward": FF, "t_after_s": 0.1}
+    opts = {"feedforward": FF, "t_after_s": 0.1, "controller": "reference_dda"}
     together = diag.tracking_variants(teachbot6, move, gains, names, **opts)
     assert set(together) == set(names)
     for name in names:

@@ -16,17 +16,15 @@ import armlab.kinematics
 import armlab.trajectory
 from armlab.errors import InputError, SpecError
 from armlab.study import (
-    KEY_FIGURES,
-    STAGES,
     apply_overrides,
-    check_key,
     demo_study_path,
-    key_figures,
     load_study,
     parse_study,
     run_spec,
     run_study,
 )
+from armlab.study.runner import KEY_FIGURES, key_figures
+from armlab.study.spec import STAGES, check_key
 from armlab.study.stages import build_robot
 
 DESIGN_KEYS = ("robot", "static_load", "trajectory", "sizing", "control", "tracking", "export")
@@ -437,7 +435,11 @@ def test_full_chain_outputs_are_what_independent_computations_give(tmp_path, cap
     assert min(pm) >= 45.0  # the study's (default) spec
     # the tracking verdict comes back from the folder's files alone
     res = simulate_tracking(
-        robot, saved, gains, feedforward=("velocity", "acceleration", "gravity")
+        robot,
+        saved,
+        gains,
+        feedforward=("velocity", "acceleration", "gravity"),
+        controller="reference_dda",
     )
     assert res.tcp_max_error_m == pytest.approx(summary["tracking"]["tcp"]["max_error_m"], rel=1e-9)
     assert summary["tracking"]["tcp"]["within_accuracy"] == (res.tcp_max_error_m <= 0.5e-3)
@@ -464,7 +466,7 @@ def test_cartesian_line_study_starts_and_ends_at_the_waypoints():
     doc["study"]["stages"] = ["kinematics", "plan"]
     res = run_spec(parse_study(doc))
     assert res.summary["trajectory"]["method"] == "line"
-    tcp = armlab.kinematics.tool_positions(res.robot, res.trajectory.q[[0, -1]])
+    tcp = armlab.kinematics.forward.tool_positions(res.robot, res.trajectory.q[[0, -1]])
     np.testing.assert_allclose(tcp, np.array(rows)[:, :3], atol=1e-9)
     # the straight line at 0.05 m/s takes at least its length / speed
     assert res.trajectory.duration >= 0.15 / 0.05

@@ -21,6 +21,7 @@ from armlab.cli import main as cli_main
 from armlab.deploy import read_setpoints
 from armlab.dynamics.checks import SizingOptions, checks_for_column, evaluate_checks
 from armlab.errors import DesignFailure, InputError
+from armlab.robot import load_profile
 from armlab.robot.drivetrain import DriveTrain
 from armlab.study import load_study, run_spec
 from armlab.study.record import load_design, robot_from_design
@@ -272,7 +273,7 @@ def test_check_against_a_zero_limit_says_so_in_words():
     # no-load speed 24 / 0.05 = 480 rad/s at the motor: 5 rad/s at the joint is 500 rad/s
     tau, qd = np.array([[1.0]]), np.array([[5.0]])
     res = evaluate_checks(
-        tau, qd, np.zeros_like(tau), np.ones(1), arr, np.array([0.5]), SizingOptions()
+        tau, qd, np.zeros_like(tau), np.ones(1), arr, np.array([0.5]), SizingOptions(load_profile())
     )
     env = next(c for c in checks_for_column(res, 0) if c.name == "motor_envelope")
     assert not env.ok and env.limit == 0.0

@@ -14,15 +14,9 @@ import pandas as pd
 import pytest
 
 from armlab.errors import SpecError
-from armlab.sweep import (
-    ResultStore,
-    load_sweep,
-    parameter_key,
-    parameter_sets,
-    parse_sweep,
-    run_parameter_set,
-    run_sweep_spec,
-)
+from armlab.sweep import ResultStore, load_sweep, parse_sweep, run_sweep_spec
+from armlab.sweep.spec import parameter_key, parameter_sets
+from armlab.sweep.task import run_parameter_set
 from cases import quick_study
 from conftest import start_sweep, sweep_env
 

@@ -22,15 +22,11 @@ import armlab
 from armlab.cli import main
 from armlab.deploy.provenance import file_sha256
 from armlab.errors import InputError
-from armlab.sweep import (
-    PROVENANCE_FIELDS,
-    SweepLock,
-    load_sweep,
-    parameter_key,
-    parameter_sets,
-    run_parameter_set,
-    run_sweep_spec,
-)
+from armlab.sweep import load_sweep, run_sweep_spec
+from armlab.sweep.lock import SweepLock
+from armlab.sweep.provenance import PROVENANCE_FIELDS
+from armlab.sweep.spec import parameter_key, parameter_sets
+from armlab.sweep.task import run_parameter_set
 from cases import quick_study
 from conftest import REPO, start_sweep
 

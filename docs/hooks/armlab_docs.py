@@ -8,7 +8,7 @@ build --strict``), so a new study key or drives field cannot go undocumented.
 Markers: ``study-keys`` (every table and key of the study file, from
 ``armlab.study.spec``), ``drives-keys`` (every field of ``drives.toml``, from
 ``armlab.robot.drives``), ``robots`` and ``profiles`` (the built-in names), ``stages`` (the
-stages and their summary.json keys), ``key-figures`` (``armlab.study.KEY_FIGURES``).
+stages and their summary.json keys), ``key-figures`` (``armlab.study.runner.KEY_FIGURES``).
 """
 
 from __future__ import annotations
@@ -227,7 +227,7 @@ def stages() -> str:
 
 
 def key_figures() -> str:
-    from armlab.study import KEY_FIGURES
+    from armlab.study.runner import KEY_FIGURES
 
     return ", ".join(f"`{k}`" for k in KEY_FIGURES)
 

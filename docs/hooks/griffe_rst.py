@@ -95,3 +95,8 @@ if griffe is not None:
         def on_object(self, *, obj: Any, **kwargs: Any) -> None:
             if obj.docstring is not None:
                 obj.docstring.value = rst_to_markdown(obj.docstring.value)
+
+        def on_package(self, *, pkg: Any, **kwargs: Any) -> None:
+            """The root package (``armlab``, the front door page): griffe calls
+            :meth:`on_object` for its members only. The rewrite is idempotent."""
+            self.on_object(obj=pkg)

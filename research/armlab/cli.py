@@ -239,7 +239,8 @@ def _cmd_sweep(args) -> int:
     """Exit status of a sweep: 0 every row done and its design passes; 1 error rows, failing
     designs or designs not judged (their counts on stderr); 2 bad input, a folder holding
     another sweep (without ``--overwrite``) or written by another client."""
-    from armlab.sweep import run_sweep, sweep_outcome
+    from armlab.sweep import run_sweep
+    from armlab.sweep.runner import sweep_outcome
 
     frame = run_sweep(
         args.sweep,
@@ -264,7 +265,7 @@ def _cmd_export(args) -> int:
     from armlab.study import export_study
 
     result = export_study(
-        args.study_dir, fmt=args.format, profile=args.profile, out_dir=args.out, force=args.force
+        args.study_dir, fmt=args.format, controller=args.profile, out_dir=args.out, force=args.force
     )
     for note in result.notes:
         print(f"armlab: {note}", file=sys.stderr)

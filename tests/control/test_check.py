@@ -13,8 +13,9 @@ import math
 
 import pytest
 
-from armlab.control import INERTIA_CASES, ArmGains, check_cascade, joint_plant
+from armlab.control import ArmGains, check_cascade, joint_plant
 from armlab.control.margins import freq_grid, margins
+from armlab.control.plant import INERTIA_CASES
 from oracles.cascade_pc import Cascade, response, step_figures
 
 

@@ -11,8 +11,9 @@ import control as ct
 import numpy as np
 import pytest
 
-from armlab.control import INERTIA_CASES, joint_plant, tune_cascade
+from armlab.control import joint_plant, tune_cascade
 from armlab.control.margins import freq_grid, margins
+from armlab.control.plant import INERTIA_CASES
 from armlab.errors import InputError, SpecError
 from oracles.cascade_pc import Cascade, response
 

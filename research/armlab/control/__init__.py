@@ -23,75 +23,35 @@ The modules of the package:
 """
 
 from armlab.control.check import check_cascade
-from armlab.control.discrete import IncrementalPID, quantise_da, quantise_encoder
-from armlab.control.feedforward import FEEDFORWARDS
-from armlab.control.force import (
-    SEED_DESIGNS,
-    ForceLoopResult,
-    ForceRobustness,
-    force_loop,
-    force_loop_model,
-    force_robustness,
-)
-from armlab.control.gains import (
-    GAINS_FORMAT,
-    LOOP_UNITS,
-    LOOPS,
-    ArmGains,
-    CascadeGains,
-    LoopGains,
-    PlantSummary,
-    incremental_coefficients,
-)
+from armlab.control.force import ForceLoopResult, ForceRobustness, force_loop, force_robustness
+from armlab.control.gains import ArmGains, CascadeGains, LoopGains
 from armlab.control.loops import CascadeModel
 from armlab.control.margins import Margins, margins
-from armlab.control.plant import (
-    INERTIA_CASES,
-    InertiaRange,
-    JointPlant,
-    inertia_range,
-    joint_plant,
-    motor_speed_tf,
-)
-from armlab.control.result import POSITIONING_ACCURACY_M, SERVO_SHARE, TrackingResult
+from armlab.control.plant import InertiaRange, JointPlant, inertia_range, joint_plant
+from armlab.control.result import TrackingResult
 from armlab.control.simulate import simulate_tracking
 from armlab.control.spec import TuningSpec
 from armlab.control.tuning import tune_arm, tune_cascade
 
 __all__ = [
-    "GAINS_FORMAT",
-    "LOOP_UNITS",
-    "LOOPS",
     "ArmGains",
     "CascadeGains",
-    "LoopGains",
-    "PlantSummary",
-    "incremental_coefficients",
-    "INERTIA_CASES",
-    "InertiaRange",
-    "JointPlant",
-    "inertia_range",
-    "joint_plant",
-    "motor_speed_tf",
     "CascadeModel",
-    "Margins",
-    "margins",
-    "TuningSpec",
-    "tune_cascade",
-    "tune_arm",
-    "check_cascade",
-    "IncrementalPID",
-    "quantise_da",
-    "quantise_encoder",
-    "FEEDFORWARDS",
-    "POSITIONING_ACCURACY_M",
-    "SERVO_SHARE",
-    "TrackingResult",
-    "simulate_tracking",
-    "SEED_DESIGNS",
     "ForceLoopResult",
     "ForceRobustness",
+    "InertiaRange",
+    "JointPlant",
+    "LoopGains",
+    "Margins",
+    "TrackingResult",
+    "TuningSpec",
+    "check_cascade",
     "force_loop",
-    "force_loop_model",
     "force_robustness",
+    "inertia_range",
+    "joint_plant",
+    "margins",
+    "simulate_tracking",
+    "tune_arm",
+    "tune_cascade",
 ]

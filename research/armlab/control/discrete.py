@@ -25,7 +25,7 @@ class IncrementalPID:
     Parameters
     ----------
     q0, q1, q2 : array (n,)
-        Coefficients (:func:`armlab.control.incremental_coefficients`).
+        Coefficients (:func:`armlab.control.gains.incremental_coefficients`).
     lo, hi : array (n,)
         Output limits in the loop's output unit.
     u0 : array (n,), optional

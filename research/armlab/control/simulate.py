@@ -120,7 +120,7 @@ def simulate_tracking(
     t_after_s: float = 0.2,
     accuracy_m: float | None = None,
     tcp: bool = True,
-    controller: ControllerProfile | str | None = None,
+    controller: ControllerProfile | str,
     voltage_limit: bool = True,
     losses: bool = True,
 ) -> TrackingResult:
@@ -144,9 +144,9 @@ def simulate_tracking(
         TCP tolerance; default ``POSITIONING_ACCURACY_M * SERVO_SHARE`` (0.5 mm).
     tcp : bool
         Compute the TCP error (forward kinematics of every sample).
-    controller : ControllerProfile or str, optional
-        Servo period, D/A and encoder decoding; default the reference controller of the SHU
-        controller paper (``reference_dda``), recorded in :attr:`TrackingResult.model`.
+    controller : ControllerProfile or str
+        The joint controller the gains were tuned for (:func:`armlab.robot.load_profile`):
+        servo period, D/A and encoder decoding; recorded in :attr:`TrackingResult.model`.
     voltage_limit : bool
         Limit the amplifier's output to the supply voltage (with the back-EMF).
     losses : bool

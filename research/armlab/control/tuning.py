@@ -20,7 +20,7 @@ from armlab.control.plant import InertiaRange, JointPlant, inertia_range, joint_
 from armlab.control.robust import tune_loops
 from armlab.control.spec import TuningSpec, controller_spec
 from armlab.errors import ArmlabError, SpecError
-from armlab.robot.controller import ControllerProfile
+from armlab.robot.controller import ControllerProfile, load_profile
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
@@ -115,16 +115,16 @@ def _assert_meets(g: CascadeGains, sp: TuningSpec) -> None:
                 )
 
 
-def tune_arm(robot: Robot, *, controller: ControllerProfile | None = None, **spec) -> ArmGains:
+def tune_arm(robot: Robot, *, controller: ControllerProfile | str, **spec) -> ArmGains:
     """:func:`tune_cascade` for every joint (one inertia-range computation shared).
 
     Parameters
     ----------
     robot : Robot
-    controller : ControllerProfile, optional
-        The joint controller: its servo period is the speed and position loops' sample time and
-        its D/A range and bits are the speed loop's output (:func:`controller_spec`). None: the
-        sample times and D/A of ``spec`` (or :class:`TuningSpec`'s defaults).
+    controller : ControllerProfile or str
+        The joint controller (:func:`armlab.robot.load_profile`): its servo period is the speed
+        and position loops' sample time and its D/A range and bits are the speed loop's output
+        (:func:`controller_spec`).
     **spec
         Fields of :class:`TuningSpec`.
 
@@ -133,8 +133,7 @@ def tune_arm(robot: Robot, *, controller: ControllerProfile | None = None, **spe
     ArmGains
         ``.joints[name]`` in joint order; ``to_json()`` is a study's ``gains.json``.
     """
-    if controller is not None:
-        spec = controller_spec(controller, spec)
+    spec = controller_spec(load_profile(controller), spec)
     sp = TuningSpec.from_kwargs("", **spec)
     inertias = tuning_inertias(robot, sp)
     joints = {

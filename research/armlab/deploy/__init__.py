@@ -5,7 +5,8 @@ pulses per axis per period, x2/x4 encoder decoding, 12-bit +-10 V D/A); HR SJ-1 
 paper, §8 (fault handling: over-speed, over-limit -> made into pre-flight checks); DESIGN.md
 "Set-point table".
 
-* :func:`load_profile` — the controller (``data/profiles/*.toml``; default ``reference_dda``).
+* the controller is :func:`armlab.robot.load_profile` (``data/profiles/*.toml``, e.g.
+  ``reference_dda``), handed as ``controller=`` to each function that depends on it.
 * :func:`setpoint_table` — a trajectory sampled per controller cycle, in encoder counts, with
   positions, velocities and accelerations, checked on every cycle; :meth:`SetpointTable.write`
   to CSV/JSON/NPZ/C (header + data file), :func:`read_setpoints`.
@@ -18,66 +19,29 @@ paper, §8 (fault handling: over-speed, over-limit -> made into pre-flight check
 * :func:`save_trajectory`, :func:`load_trajectory` — a study's ``trajectory.npz``.
 """
 
-from armlab.deploy.checks import CHECKS, PreflightFailure, PreflightReport, preflight
 from armlab.deploy.cia402 import Cia402Csp, cia402_csp, read_cia402_csp, read_cia402_objects
-from armlab.deploy.gains_export import (
-    gains_to_c_files,
-    gains_to_c_header,
-    gains_to_json,
-    gains_to_ros2_yaml,
-    load_gains,
-    render_gains,
-    write_gains,
-)
-from armlab.deploy.provenance import file_sha256, gains_sha256, trajectory_sha256
+from armlab.deploy.gains_export import load_gains, write_gains
 from armlab.deploy.ros2 import (
-    JtcConstraints,
-    check_joint_trajectory,
     jtc_constraints,
     render_follow_joint_trajectory,
     ros2_controllers_yaml,
 )
-from armlab.deploy.table import SetpointTable, counts_per_rad, read_setpoints, setpoint_table
+from armlab.deploy.table import SetpointTable, read_setpoints, setpoint_table
 from armlab.deploy.trajfile import load_trajectory, save_trajectory
-from armlab.robot.controller import (
-    DEFAULT_PROFILE,
-    ControllerProfile,
-    list_profiles,
-    load_profile,
-)
 
 __all__ = [
-    "CHECKS",
-    "PreflightFailure",
-    "PreflightReport",
-    "preflight",
     "Cia402Csp",
+    "SetpointTable",
     "cia402_csp",
+    "jtc_constraints",
+    "load_gains",
+    "load_trajectory",
     "read_cia402_csp",
     "read_cia402_objects",
-    "gains_to_c_files",
-    "gains_to_c_header",
-    "gains_to_json",
-    "gains_to_ros2_yaml",
-    "load_gains",
-    "render_gains",
-    "write_gains",
-    "DEFAULT_PROFILE",
-    "ControllerProfile",
-    "list_profiles",
-    "load_profile",
-    "file_sha256",
-    "gains_sha256",
-    "trajectory_sha256",
-    "JtcConstraints",
-    "check_joint_trajectory",
-    "jtc_constraints",
+    "read_setpoints",
     "render_follow_joint_trajectory",
     "ros2_controllers_yaml",
-    "SetpointTable",
-    "counts_per_rad",
-    "read_setpoints",
-    "setpoint_table",
-    "load_trajectory",
     "save_trajectory",
+    "setpoint_table",
+    "write_gains",
 ]

@@ -56,6 +56,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from armlab._keywords import renamed_keywords
 from armlab.deploy.formats import _read_csv
 from armlab.deploy.numtext import format_rows
 from armlab.errors import InputError
@@ -327,8 +328,9 @@ def _motor_torque_Nm(
     return t_m
 
 
+@renamed_keywords(profile="controller=")
 def cia402_csp(
-    robot: Robot, table: SetpointTable, profile=None, *, source: dict | None = None
+    robot: Robot, table: SetpointTable, controller, *, source: dict | None = None
 ) -> Cia402Csp:
     """The CSP set-points and object dictionary values of a checked set-point table.
 
@@ -338,7 +340,7 @@ def cia402_csp(
         The robot the table was made for (drive train: ratio, encoder, motor torques).
     table : SetpointTable
         From :func:`armlab.deploy.setpoint_table` (pre-flight checked, with accelerations).
-    profile : ControllerProfile, str or None
+    controller : ControllerProfile or str
         The table's controller: axis order, home positions, modulo axes.
     source : dict, optional
         Provenance recorded in the metadata.
@@ -356,7 +358,7 @@ def cia402_csp(
     """
     from armlab.robot.controller import load_profile
 
-    prof = load_profile(profile)
+    prof = load_profile(controller)
     if robot.drives is None:
         raise InputError(
             f"robot {robot.name} has no drive train (drives.toml): the CiA 402 torque offset "

@@ -78,6 +78,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from armlab._keywords import renamed_keywords
 from armlab.deploy.gains_export import _as_arm_gains, _provenance
 from armlab.deploy.numtext import format_rows
 from armlab.errors import InputError
@@ -177,12 +178,13 @@ def _goal_time_s(arm) -> tuple[float, str]:
     return worst, how
 
 
+@renamed_keywords(profile="controller=")
 def jtc_constraints(
     robot: Robot,
     gains=None,
     *,
     accuracy_m: float,
-    profile=None,
+    controller,
     accuracy_source: str = "",
 ) -> JtcConstraints:
     """The JTC constraints of ``robot`` from the accuracy budget (module docstring rules).
@@ -190,12 +192,12 @@ def jtc_constraints(
     Parameters
     ----------
     robot : Robot
-        Lever arms from its model; encoder counts from its drives (or the profile).
+        Lever arms from its model; encoder counts from its drives (or the controller's).
     gains : ArmGains, optional
         The position loops give ``goal_time`` (0 without gains: the JTC then waits unbounded).
     accuracy_m : float
         The TCP error budget in [m] (> 0).
-    profile : ControllerProfile, str or None
+    controller : ControllerProfile or str
         Counts per radian and servo period (:func:`armlab.robot.load_profile`).
     accuracy_source : str
         Where the budget comes from (recorded).
@@ -211,7 +213,7 @@ def jtc_constraints(
     A = float(accuracy_m)
     if not (math.isfinite(A) and A > 0):
         raise InputError(f"accuracy budget must be > 0 m, got {accuracy_m!r}")
-    prof = load_profile(profile)
+    prof = load_profile(controller)
     names = list(robot.joint_names)
     n = len(names)
     lever = np.asarray(lever_arms_m(robot), dtype=float)

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from armlab._keywords import renamed_keywords
 from armlab.deploy import formats
 from armlab.deploy.checks import PreflightReport, preflight
 from armlab.deploy.formats import DECIMALS, READABLE_SETPOINT_FORMATS, SETPOINTS_FORMAT
@@ -230,8 +231,9 @@ def _check_names(robot, trajectory) -> None:
         )
 
 
+@renamed_keywords(profile="controller=")
 def setpoint_table(
-    robot: Robot, trajectory, profile=None, *, q_current=None, source: dict | None = None
+    robot: Robot, trajectory, controller, *, q_current=None, source: dict | None = None
 ) -> SetpointTable:
     """Sample a trajectory at the controller's cycle, convert to encoder counts, check it.
 
@@ -241,9 +243,9 @@ def setpoint_table(
         Limits (range, speed, acceleration) and drives (encoder, reducer) come from it.
     trajectory : Trajectory
         Evaluated at ``t_0 + k T`` by its own interpolation (``Trajectory.at``).
-    profile : ControllerProfile, str, path or None
-        The controller (:func:`load_profile`); None: the reference DDA controller (SHU
-        controller paper).
+    controller : ControllerProfile, str or path
+        The joint controller (:func:`load_profile`; e.g. ``"reference_dda"``, the DDA
+        controller of the SHU controller paper).
     q_current : array (n_joints,), optional
         The robot's current pose [rad] (robot joint order): the table must start there (within
         the profile's ``start_tolerance_counts``).
@@ -262,7 +264,7 @@ def setpoint_table(
     InputError
         Joint mismatch, bad ``q_current``, a robot without drives and a profile without counts.
     """
-    prof = load_profile(profile)
+    prof = load_profile(controller)
     _check_names(robot, trajectory)
     index, sign = prof.axes(robot)
     cpr = counts_per_rad(robot, prof, index)

@@ -4,8 +4,9 @@ The study runner saves the trajectory with :func:`save_trajectory`; ``armlab exp
 back with :func:`load_trajectory` (the robot it rebuilds comes from the study's ``design.json``,
 :mod:`armlab.study.record`, never from this file's summary of it). The file
 holds ``t, q, qd, qdd`` (and ``qddd``), the joint names, the planner (``method``), the content
-checksum (:func:`armlab.deploy.trajectory_sha256`, verified on loading), armlab's version and the
-robot: name, URDF path, tool frame, payload and the joint limits the study planned with.
+checksum (:func:`armlab.deploy.provenance.trajectory_sha256`, verified on loading), armlab's
+version and the robot: name, URDF path, tool frame, payload and the joint limits the study
+planned with.
 """
 
 from __future__ import annotations

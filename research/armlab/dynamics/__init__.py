@@ -6,42 +6,26 @@ Stable names (DESIGN.md): :func:`inverse_dynamics`, :func:`static_load`, :func:`
 :func:`select_drives`, :func:`load_catalogue`, :func:`hold_check`.
 """
 
-from armlab.dynamics.checks import CHECK_NAMES, Check, SizingOptions
 from armlab.dynamics.holding import HoldReport, hold_check
-from armlab.dynamics.inverse import JointLoads, inverse_dynamics, joint_torques
-from armlab.dynamics.reference import THESIS_TABLE_4_2, THESIS_TABLE_4_3
+from armlab.dynamics.inverse import JointLoads, inverse_dynamics
 from armlab.dynamics.requirements import requirement_moves
 from armlab.dynamics.selection import Selection, select_drives
-from armlab.dynamics.sizing import JointSizing, SizingReport, size
-from armlab.dynamics.static_load import (
-    JointStaticLoad,
-    StaticLoadReport,
-    build_static_load,
-    static_load,
-)
+from armlab.dynamics.sizing import SizingReport, size
+from armlab.dynamics.static_load import StaticLoadReport, static_load
 from armlab.robot.catalogue import Catalogue, load_catalogue
 
 __all__ = [
-    "inverse_dynamics",
-    "joint_torques",
+    "Catalogue",
+    "HoldReport",
     "JointLoads",
-    "static_load",
-    "build_static_load",
-    "StaticLoadReport",
-    "JointStaticLoad",
-    "size",
+    "Selection",
     "SizingReport",
-    "JointSizing",
-    "SizingOptions",
-    "Check",
-    "CHECK_NAMES",
+    "StaticLoadReport",
+    "hold_check",
+    "inverse_dynamics",
+    "load_catalogue",
     "requirement_moves",
     "select_drives",
-    "Selection",
-    "load_catalogue",
-    "Catalogue",
-    "hold_check",
-    "HoldReport",
-    "THESIS_TABLE_4_2",
-    "THESIS_TABLE_4_3",
+    "size",
+    "static_load",
 ]

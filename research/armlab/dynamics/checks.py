@@ -16,13 +16,13 @@ for regeneration), all from :mod:`armlab.robot.drivetrain`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from armlab.errors import InputError
 from armlab.robot import drivetrain
-from armlab.robot.controller import ControllerProfile, load_profile
+from armlab.robot.controller import ControllerProfile
 from armlab.robot.drivetrain import DriveTrain
 
 __all__ = [
@@ -108,12 +108,12 @@ class SizingOptions:
     controller : ControllerProfile
         The controller the set-point table is written for: its cycle, pulse limit per cycle,
         decoding and counts per revolution are what the encoder checks use (the same function,
-        :meth:`ControllerProfile.counts_per_rad`, as the table). Default: the reference
-        controller (:func:`armlab.robot.load_profile`), the only controller default in armlab.
+        :meth:`ControllerProfile.counts_per_rad`, as the table). :func:`size` and
+        :func:`select_drives` build it from their ``controller=``.
     """
 
+    controller: ControllerProfile
     tool_resolution_m: float = 1e-4
-    controller: ControllerProfile = field(default_factory=load_profile)
 
     @property
     def cycle_s(self) -> float:

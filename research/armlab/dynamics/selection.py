@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from armlab._keywords import renamed_keywords
 from armlab.dynamics.checks import (
     CHECK_NAMES,
     Check,
@@ -35,6 +36,7 @@ from armlab.dynamics.inverse import as_trajectories, inverse_dynamics
 from armlab.dynamics.sizing import lever_arms_m
 from armlab.errors import InfeasibleError, InputError
 from armlab.robot.catalogue import Catalogue, load_catalogue
+from armlab.robot.controller import ControllerProfile, load_profile
 from armlab.robot.drives import Drive, Encoder, Motor, Reducer
 from armlab.robot.drivetrain import DriveTrain
 from armlab.trajectory import Trajectory
@@ -293,13 +295,15 @@ def _drive(robot, j: int, motor: Motor, reducer: Reducer, derating: float) -> Dr
     )
 
 
+@renamed_keywords(options="controller= (and tool_resolution_m=)")
 def select_drives(
     robot: Robot,
     trajectories,
     catalogue: Catalogue | str | os.PathLike | None = None,
     *,
+    controller: ControllerProfile | str,
     objective: str = "mass",
-    options: SizingOptions | None = None,
+    tool_resolution_m: float = SizingOptions.tool_resolution_m,
     dt: float | None = None,
     threads: int = 1,
 ) -> Selection:
@@ -313,9 +317,13 @@ def select_drives(
         The duty cycle the drives must carry (e.g. :func:`requirement_moves`).
     catalogue : Catalogue or path, optional
         Default: :func:`load_catalogue` ().
+    controller : ControllerProfile or str
+        The joint controller (:func:`armlab.robot.load_profile`): the encoder checks of
+        :func:`size`.
     objective : {"mass", "price"}
         Sort key (the other one breaks ties).
-    options : SizingOptions, optional
+    tool_resolution_m : float
+        Largest tool-point displacement of one encoder count [m] (:class:`SizingOptions`).
     dt : float, optional
         Resample the trajectories on this grid [s] first.
 
@@ -329,7 +337,7 @@ def select_drives(
         raise InputError(f"objective must be one of {OBJECTIVES}, not {objective!r}")
     if not isinstance(catalogue, Catalogue):  # None or a path: read it
         catalogue = load_catalogue(catalogue)
-    options = SizingOptions() if options is None else options
+    options = SizingOptions(load_profile(controller), tool_resolution_m)
     trajs = as_trajectories(trajectories, robot)
     if dt is not None:
         trajs = [tr.sample(dt) for tr in trajs]

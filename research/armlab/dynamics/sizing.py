@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from armlab._keywords import renamed_keywords
 from armlab.dynamics.checks import (
     Check,
     Checked,
@@ -31,6 +32,7 @@ from armlab.dynamics.inverse import (
     require_drives,
 )
 from armlab.errors import InputError
+from armlab.robot.controller import ControllerProfile, load_profile
 from armlab.robot.drives import Drive
 from armlab.robot.drivetrain import DriveTrain
 
@@ -140,12 +142,14 @@ class SizingReport:
         return sizing_markdown(self)
 
 
+@renamed_keywords(options="controller= (and tool_resolution_m=)")
 def size(
     robot: Robot,
     trajectory,
     *,
+    controller: ControllerProfile | str,
     drives=None,
-    options: SizingOptions | None = None,
+    tool_resolution_m: float = SizingOptions.tool_resolution_m,
     dt: float | None = None,
     threads: int = 1,
 ) -> SizingReport:
@@ -157,10 +161,14 @@ def size(
         With drives (drives.toml) unless ``drives`` is given; payload included.
     trajectory : Trajectory or sequence of Trajectory
         The duty cycle (trajectories are stacked; peaks, RMS and averages run over all).
+    controller : ControllerProfile or str
+        The joint controller the set-point table is written for
+        (:func:`armlab.robot.load_profile`): the encoder checks use its cycle, pulse limit and
+        decoding (:class:`SizingOptions`).
     drives : dict of joint name to Drive, or list of Drive, optional
         Drive trains to check instead of ``robot.drives``.
-    options : SizingOptions, optional
-        Encoder-resolution and controller limits.
+    tool_resolution_m : float
+        Largest tool-point displacement of one encoder count [m] (:class:`SizingOptions`).
     dt : float, optional
         Resample every trajectory on this grid [s] first (catches peaks between knots).
     threads : int
@@ -177,7 +185,7 @@ def size(
     RobotDescriptionError
         The robot has no drives and none are given.
     """
-    options = SizingOptions() if options is None else options
+    options = SizingOptions(load_profile(controller), tool_resolution_m)
     drive_list = require_drives(robot, drives)
     trajs = as_trajectories(trajectory, robot)
     if dt is not None:

@@ -6,6 +6,11 @@ leaves the previous file untouched and no temporary file behind, and the result 
 ``0o666 & ~umask`` permissions (0644 under the common umask 022).
 """
 
-from armlab.io.atomic import atomic_open, atomic_write, atomic_write_many, json_safe, write_json
+from armlab.io.atomic import atomic_open, atomic_write, atomic_write_many, write_json
 
-__all__ = ["atomic_open", "atomic_write", "atomic_write_many", "json_safe", "write_json"]
+__all__ = [
+    "atomic_open",
+    "atomic_write",
+    "atomic_write_many",
+    "write_json",
+]

@@ -12,54 +12,28 @@
 Poses are tool poses in the world: ``T_base_in_world @ T_tool_in_base`` (thesis 3.5).
 """
 
-from armlab.kinematics.accuracy import (
-    LINK_TOLERANCES_M,
-    REDUCER_ANGLE_ERROR_RAD,
-    AccuracyResult,
-    accuracy_study,
-)
-from armlab.kinematics.analytic_ik import (
-    IK_REASONS,
-    check_poses,
-    has_analytic_ik,
-    ik_all,
-    ik_all_batch,
-    ik_all_batch_reasons,
-    ik_nearest,
-)
-from armlab.kinematics.forward import analytic_jacobian, fk, fk_batch, jacobian, tool_positions
+from armlab.kinematics.accuracy import AccuracyResult, accuracy_study
+from armlab.kinematics.analytic_ik import has_analytic_ik, ik_all, ik_all_batch, ik_nearest
+from armlab.kinematics.forward import fk, fk_batch, jacobian
 from armlab.kinematics.numerical_ik import IKResult, IKSettings, ik, ik_batch, ik_solve
-from armlab.kinematics.workspace import (
-    WorkspaceResult,
-    max_reach_m,
-    tool_points_in_base,
-    workspace_cloud,
-)
+from armlab.kinematics.workspace import WorkspaceResult, max_reach_m, workspace_cloud
 
 __all__ = [
-    "fk",
-    "fk_batch",
-    "jacobian",
-    "analytic_jacobian",
-    "tool_positions",
-    "ik_all",
-    "ik_all_batch",
-    "ik_all_batch_reasons",
-    "ik_nearest",
-    "has_analytic_ik",
-    "check_poses",
-    "IK_REASONS",
-    "ik",
-    "ik_solve",
-    "ik_batch",
+    "AccuracyResult",
     "IKResult",
     "IKSettings",
+    "WorkspaceResult",
+    "accuracy_study",
+    "fk",
+    "fk_batch",
+    "has_analytic_ik",
+    "ik",
+    "ik_all",
+    "ik_all_batch",
+    "ik_batch",
+    "ik_nearest",
+    "ik_solve",
+    "jacobian",
     "max_reach_m",
     "workspace_cloud",
-    "WorkspaceResult",
-    "tool_points_in_base",
-    "accuracy_study",
-    "AccuracyResult",
-    "REDUCER_ANGLE_ERROR_RAD",
-    "LINK_TOLERANCES_M",
 ]

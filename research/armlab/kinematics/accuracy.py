@@ -7,7 +7,7 @@ motor shaft, so its error, 0.0001-0.001 deg after the >100:1 reducers, is neglig
 3.7.1); each machined length is off by a value drawn uniformly within its tolerance (3.7.2);
 twist (``alpha``) errors are neglected (axis concentricity 0.02 mm gives < 0.0005 deg, 3.7.3).
 The position error of a point is ``dp = p(theta + dtheta, a + da, d + dd) - p(theta, a, d)``,
-evaluated with the closed-form modified-DH chain (:func:`armlab.robot.mdh_transforms`), per
+evaluated with the closed-form modified-DH chain (:func:`armlab.robot.dh.mdh_transforms`), per
 axis (x, y, z of the base) and in total ``|dp|``. Three error sets come from the same draws:
 angle errors alone, length errors alone, and both together (3.7.3).
 

@@ -33,38 +33,30 @@ timing (PTP, steps, Cartesian, the optimiser's warm start) is
 """
 
 from armlab.planning.cartesian import arc3, blend, follow_path, line, track_path
-from armlab.planning.online import OnlineInterpolator, OnlineRun, OnlineSample
-from armlab.planning.optimal_problem import OptimalProblem
-from armlab.planning.optimiser import build_optimal, optimal
+from armlab.planning.online import OnlineInterpolator
+from armlab.planning.optimiser import optimal
 from armlab.planning.paths import ArcPath, BlendPath, CartesianPath, JointPath, LinePath
 from armlab.planning.ptp import ptp_sync
-from armlab.planning.steps import StepPlan, trapezoid_steps
-from armlab.planning.topp import ToppProblem, build_topp, time_optimal_path
+from armlab.planning.steps import trapezoid_steps
+from armlab.planning.topp import time_optimal_path
 from armlab.planning.via_points import cubic_via, quintic_via
 
 __all__ = [
-    "ptp_sync",
-    "trapezoid_steps",
-    "StepPlan",
-    "cubic_via",
-    "quintic_via",
-    "line",
-    "arc3",
-    "blend",
-    "follow_path",
-    "track_path",
-    "JointPath",
-    "CartesianPath",
-    "LinePath",
     "ArcPath",
     "BlendPath",
+    "CartesianPath",
+    "JointPath",
+    "LinePath",
     "OnlineInterpolator",
-    "OnlineSample",
-    "OnlineRun",
+    "arc3",
+    "blend",
+    "cubic_via",
+    "follow_path",
+    "line",
     "optimal",
-    "build_optimal",
-    "OptimalProblem",
+    "ptp_sync",
+    "quintic_via",
     "time_optimal_path",
-    "build_topp",
-    "ToppProblem",
+    "track_path",
+    "trapezoid_steps",
 ]

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pinocchio as pin
 
+from armlab._keywords import renamed_keywords
 from armlab.errors import ArmlabError, InputError, LimitViolation, UnreachableError
 from armlab.kinematics import fk, has_analytic_ik, ik, ik_all_batch, ik_nearest
 from armlab.planning.paths import ArcPath, BlendPath, CartesianPath, LinePath
@@ -342,6 +343,7 @@ def _start_configuration(robot, pose, q_start) -> np.ndarray:
         raise UnreachableError(f"the path's start pose is unreachable ({exc})") from None
 
 
+@renamed_keywords(torque="tau_max= (False: no torque limit)")
 def follow_path(
     robot: Robot,
     path: CartesianPath,
@@ -356,7 +358,7 @@ def follow_path(
     v_max=None,
     a_max=None,
     j_max=None,
-    torque: bool = True,
+    tau_max=None,
     probe_step_m: float = 1e-3,
     method: str | None = None,
 ) -> Trajectory:
@@ -383,8 +385,10 @@ def follow_path(
     v_max, a_max, j_max : None, False, float or array (n_joints,)
         Joint limits (:func:`armlab.robot.resolve_limits`): None the robot's, False off, a value
         replaces it; velocity and acceleration are needed (jerk too for ``"scurve"``).
-    torque : bool
-        Also meet the torque limits.
+    tau_max : None, False, float or array (n_joints,)
+        Torque limit in [N m] (:func:`armlab.robot.resolve_limits`): None the robot's, False
+        no torque check, a value replaces it; the inverse-dynamics torques are kept within it
+        (slowing down if needed).
     probe_step_m : float
         Spacing of the IK probe points used to find the rates and to check branch continuity.
 
@@ -420,9 +424,11 @@ def follow_path(
         v_max=v_max,
         a_max=a_max,
         j_max=j_max,
+        tau_max=tau_max,
         need=("velocity", "acceleration") + (("jerk",) if scurve else ()),
         where=method,
     )
+    torque = tau_max is not False
     pose0 = path.point(0.0)
     q0 = _start_configuration(robot, pose0, q_start)
     L = path.length
@@ -614,7 +620,7 @@ def line(
         Start configuration (IK branch).
     **kwargs
         ``accel``, ``jerk``, ``profile``, ``dt``, ``on_limit``, ``v_max``, ``a_max``, ``j_max``,
-        ``torque`` of :func:`follow_path`.
+        ``tau_max`` of :func:`follow_path`.
 
     Returns
     -------
@@ -661,9 +667,13 @@ def line(
         length_m=first.meta["length_m"] + second.meta["length_m"],
     )
     lim = resolve_limits(
-        robot, v_max=kwargs.get("v_max"), a_max=kwargs.get("a_max"), j_max=kwargs.get("j_max")
+        robot,
+        v_max=kwargs.get("v_max"),
+        a_max=kwargs.get("a_max"),
+        j_max=kwargs.get("j_max"),
+        tau_max=kwargs.get("tau_max"),
     )
-    return finish(traj, robot, lim, torque=kwargs.get("torque", True), what="line")
+    return finish(traj, robot, lim, torque=kwargs.get("tau_max") is not False, what="line")
 
 
 def arc3(
@@ -814,9 +824,13 @@ def blend(
         traj.method = "blend"
         traj.meta.update(radius_m=0.0, stops=True, taught_points=taught.tolist(), s=None)
         lim = resolve_limits(
-            robot, v_max=kwargs.get("v_max"), a_max=kwargs.get("a_max"), j_max=kwargs.get("j_max")
+            robot,
+            v_max=kwargs.get("v_max"),
+            a_max=kwargs.get("a_max"),
+            j_max=kwargs.get("j_max"),
+            tau_max=kwargs.get("tau_max"),
         )
-        return finish(traj, robot, lim, torque=kwargs.get("torque", True), what="blend")
+        return finish(traj, robot, lim, torque=kwargs.get("tau_max") is not False, what="blend")
     path = BlendPath(
         points, radius, rotation=R0, orientation=orientation, rotation_end=rotation_end
     )

@@ -54,6 +54,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from armlab._keywords import renamed_keywords
 from armlab.errors import InputError, LimitViolation
 from armlab.planning.timescale import finish, stretch_needed
 from armlab.robot import rigid_body
@@ -148,6 +149,7 @@ def _from_state_profiles(delta, v0, a0, v1, v, a, j):
     return profs, T, bj, ("velocity" if cruise else "acceleration"), gap_moved
 
 
+@renamed_keywords(torque="tau_max= (False: no torque limit)")
 def ptp_sync(
     robot: Robot,
     q_start,
@@ -157,13 +159,12 @@ def ptp_sync(
     v_max=None,
     a_max=None,
     j_max=None,
-    tau_max=None,
     dt: float | None = None,
     sync: str = "time",
+    tau_max=None,
     qd_start=None,
     qdd_start=None,
     qd_goal=None,
-    torque: None = None,
 ) -> Trajectory:
     """Joint-space point-to-point motion in which every joint arrives at the same instant.
 
@@ -174,11 +175,9 @@ def ptp_sync(
         Start and goal in [rad], inside the joint ranges.
     profile : {"trapezoid", "scurve", "velocity"}
         See the module docstring (Jiang 1987, eq. 1-5 for ``"velocity"``).
-    v_max, a_max, j_max, tau_max : None, False, float or array (n_joints,)
-        Limits in [rad/s], [rad/s^2], [rad/s^3], [N m] (:func:`armlab.robot.resolve_limits`),
-        the keywords of every planner: None takes the robot's, False switches the kind off, a
-        value replaces it. The inverse-dynamics torques are kept within ``tau_max`` by slowing
-        down (module docstring). ``"trapezoid"``
+    v_max, a_max, j_max : None, False, float or array (n_joints,)
+        Limits in [rad/s], [rad/s^2], [rad/s^3] (:func:`armlab.robot.resolve_limits`): None
+        takes the robot's, False switches the kind off, a value replaces it. ``"trapezoid"``
         needs velocity and acceleration limits, ``"scurve"`` also jerk, ``"velocity"`` velocity
         only (its acceleration limit, if known, lengthens the motion); a needed one that is
         missing or off is an :class:`InputError` naming the study key and the keyword.
@@ -189,15 +188,16 @@ def ptp_sync(
         ``"time"``: each joint keeps its own acceleration and is slowed to end at ``T``;
         ``"phase"``: one normalised profile for all joints (a straight line in joint space).
         ``"velocity"`` is always phase-synchronous.
+    tau_max : None, False, float or array (n_joints,)
+        Torque limit in [N m] (:func:`armlab.robot.resolve_limits`): None the robot's, False
+        no torque check, a value replaces it; the inverse-dynamics torques are kept within it
+        (slowing down if needed).
     qd_start, qdd_start, qd_goal : array (n_joints,), optional
         Replanning from a moving state: the joint speeds [rad/s] and accelerations [rad/s^2]
         now, and the speeds [rad/s] wanted at the goal (default: rest; the goal
         acceleration is zero). ``"trapezoid"`` or ``"scurve"`` with ``sync="time"`` only
         (module docstring; Berscheid & Kröger 2021 for the S-curve); each within its limit.
         ``qdd_start`` shapes the S-curve's start; the trapezoid only checks it.
-    torque : None
-        Removed: ``tau_max=False`` replaces ``torque=False`` (one keyword for every planner);
-        passing it is an :class:`InputError`.
 
     Returns
     -------
@@ -217,11 +217,6 @@ def ptp_sync(
         Gravity alone above a torque limit; from a moving state, the start state's own
         torque above it, or a speed that cannot be braked within the joint range.
     """
-    if torque is not None:
-        raise InputError(
-            f"ptp_sync: the keyword torque={torque!r} is now tau_max= like every planner's "
-            f"(tau_max=False for torque=False, None for the robot's torque limits)"
-        )
     if profile not in PTP_PROFILES:
         raise InputError(f"unknown PTP profile {profile!r}; use one of {PTP_PROFILES}")
     if sync not in ("time", "phase"):
@@ -245,7 +240,7 @@ def ptp_sync(
         need=need,
         where=f"ptp_sync {profile}",
     )
-    torque_on = lim.torque_Nm is not None
+    torque = tau_max is not False
     v, a, j = lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3
     assert v is not None  # resolve_limits raises when a needed limit is missing
     v0 = validate_joint_state(robot, qd_start, "qd_start", v, "velocity", where="ptp_sync")
@@ -270,7 +265,7 @@ def ptp_sync(
     if from_state:
         assert a is not None
         return _ptp_from_state(
-            robot, q0, q1, v0, a0, v1, v, a, j if profile == "scurve" else None, lim, dt, torque_on
+            robot, q0, q1, v0, a0, v1, v, a, j if profile == "scurve" else None, lim, dt, torque
         )
     if not np.any(D > 0):
         traj = Trajectory(
@@ -290,7 +285,7 @@ def ptp_sync(
             q_start=q0.tolist(),
             q_goal=q1.tolist(),
         )
-        return finish(traj, robot, lim, torque=torque_on, what=method)
+        return finish(traj, robot, lim, torque=torque, what=method)
 
     if profile == "velocity":
         profs, T, (bkind, bj) = _velocity_profiles(D, v, a, dt)
@@ -347,8 +342,8 @@ def ptp_sync(
     T0 = T
     for _ in range(10):  # torque peaks move between samples when the grid changes: iterate
         # on the evaluation's peaks (knots, left limits, interior extremes, refined torques)
-        check = traj.limit_samples(robot=robot if torque_on else None)
-        k, kind, joint = stretch_needed(check, robot, lim, torque=torque_on)
+        check = traj.limit_samples(robot=robot if torque else None)
+        k, kind, joint = stretch_needed(check, robot, lim, torque=torque)
         if k <= 1 + 1e-12:
             break
         k *= 1 + 1e-9
@@ -370,7 +365,7 @@ def ptp_sync(
         normalised_profile=profs[0].to_dict() if normalised else None,
         slowdown=slowdown,
     )
-    return finish(traj, robot, lim, torque=torque_on, what=method)
+    return finish(traj, robot, lim, torque=torque, what=method)
 
 
 def _scurves_from_state(delta, v0, a0, v1, v, a, j):

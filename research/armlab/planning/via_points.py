@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from armlab._keywords import renamed_keywords
 from armlab.errors import InputError, LimitViolation
 from armlab.planning.timescale import check_in_range, finish, stretch_needed
 from armlab.robot.limits import resolve_limits
@@ -170,7 +171,7 @@ def _via_plan(
     v_max,
     a_max,
     j_max,
-    torque: bool,
+    tau_max,
 ) -> Trajectory:
     method = "cubic_via" if degree == 3 else "quintic_via"
     W = validate_waypoints(robot, waypoints, where=f"{method} waypoints")
@@ -193,9 +194,11 @@ def _via_plan(
         v_max=v_max,
         a_max=a_max,
         j_max=j_max,
+        tau_max=tau_max,
         need=("velocity",) if durations is not None else ("velocity", "acceleration"),
         where=method,
     )
+    torque = tau_max is not False
     merged = 0
     if durations is None:
         # merge repeated waypoints (a zero-length segment has no natural duration)
@@ -312,6 +315,7 @@ def _via_plan(
     return finish(traj, robot, lim, torque=torque, what=method)
 
 
+@renamed_keywords(torque="tau_max= (False: no torque limit)")
 def cubic_via(
     robot: Robot,
     waypoints,
@@ -322,7 +326,7 @@ def cubic_via(
     v_max=None,
     a_max=None,
     j_max=None,
-    torque: bool = True,
+    tau_max=None,
 ) -> Trajectory:
     """Cubic polynomials through via points in joint space (thesis 6.3.2).
 
@@ -341,8 +345,10 @@ def cubic_via(
     v_max, a_max, j_max : None, False, float or array (n_joints,)
         Limits (:func:`armlab.robot.resolve_limits`): None the robot's, False off, a value
         replaces it; velocity is needed, and acceleration when ``durations`` are not given.
-    torque : bool
-        Also meet the torque limits.
+    tau_max : None, False, float or array (n_joints,)
+        Torque limit in [N m] (:func:`armlab.robot.resolve_limits`): None the robot's, False
+        no torque check, a value replaces it; the inverse-dynamics torques are kept within it
+        (slowing down if needed).
 
     Returns
     -------
@@ -371,10 +377,11 @@ def cubic_via(
         v_max=v_max,
         a_max=a_max,
         j_max=j_max,
-        torque=torque,
+        tau_max=tau_max,
     )
 
 
+@renamed_keywords(torque="tau_max= (False: no torque limit)")
 def quintic_via(
     robot: Robot,
     waypoints,
@@ -386,7 +393,7 @@ def quintic_via(
     v_max=None,
     a_max=None,
     j_max=None,
-    torque: bool = True,
+    tau_max=None,
 ) -> Trajectory:
     """Quintic polynomials through via points: as :func:`cubic_via`, with continuous
     acceleration (``accelerations`` (m, n_joints) in [rad/s^2] optional; default zero at the
@@ -403,5 +410,5 @@ def quintic_via(
         v_max=v_max,
         a_max=a_max,
         j_max=j_max,
-        torque=torque,
+        tau_max=tau_max,
     )

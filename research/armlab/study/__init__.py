@@ -5,44 +5,19 @@ servo tuning -> closed-loop tracking -> export. ``armlab run [STUDY.toml] --out 
 :func:`run_study`; sweeps and notebooks use :func:`load_study` and :func:`run_spec`.
 """
 
-from armlab.study.export import EXPORT_FORMATS, ExportResult, export_study
-from armlab.study.runner import (
-    KEY_FIGURES,
-    StudyResult,
-    key_figures,
-    run_spec,
-    run_study,
-    write_json,
-)
-from armlab.study.spec import (
-    PLANNERS,
-    STAGES,
-    StudySpec,
-    apply_overrides,
-    check_key,
-    demo_study_path,
-    load_study,
-    parse_study,
-    read_study_document,
-)
+from armlab.study.export import ExportResult, export_study
+from armlab.study.runner import StudyResult, run_spec, run_study
+from armlab.study.spec import StudySpec, apply_overrides, demo_study_path, load_study, parse_study
 
 __all__ = [
-    "EXPORT_FORMATS",
     "ExportResult",
-    "export_study",
-    "KEY_FIGURES",
-    "PLANNERS",
-    "STAGES",
-    "StudySpec",
     "StudyResult",
+    "StudySpec",
     "apply_overrides",
-    "check_key",
     "demo_study_path",
-    "key_figures",
+    "export_study",
     "load_study",
     "parse_study",
-    "read_study_document",
     "run_spec",
     "run_study",
-    "write_json",
 ]

@@ -39,6 +39,7 @@ import os
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
+from armlab._keywords import renamed_keywords
 from armlab.deploy.gains_export import gains_files, load_gains
 from armlab.deploy.provenance import file_sha256
 from armlab.deploy.table import setpoint_table
@@ -137,10 +138,11 @@ def _ff_velocity_scale(summary: dict) -> float:
     return 1.0
 
 
+@renamed_keywords(profile="controller=")
 def export_study(
     study_dir: str | os.PathLike,
     fmt: str = "csv",
-    profile=None,
+    controller=None,
     out_dir: str | os.PathLike | None = None,
     *,
     q_current=None,
@@ -158,7 +160,7 @@ def export_study(
         Folder of a finished study (``armlab run``).
     fmt : {"csv", "json", "npz", "c", "ros2", "trajectory", "cia402"}
         See the module docstring for the files of each.
-    profile : str, path, ControllerProfile or None
+    controller : str, path, ControllerProfile or None
         Controller profile (:func:`armlab.robot.load_profile`); None: the study's own controller
         (its profile with the study's ``[controller]`` keys). Another profile re-checks the table
         against it; the differences are listed in the result's notes.
@@ -218,8 +220,8 @@ def export_study(
         result.notes.append(f"forced export: the design {what}")
     record = load_design(study)
     study_profile = controller_from_design(record)
-    prof = study_profile if profile is None else load_profile(profile)
-    if profile is not None:
+    prof = study_profile if controller is None else load_profile(controller)
+    if controller is not None:
         diff = profile_differences(study_profile, prof)
         if diff:
             result.notes.append(
@@ -272,7 +274,7 @@ def export_study(
 
         accuracy_m, how = _accuracy_budget(summary, record)
         constraints = jtc_constraints(
-            robot, gains, accuracy_m=accuracy_m, profile=prof, accuracy_source=how
+            robot, gains, accuracy_m=accuracy_m, controller=prof, accuracy_source=how
         )
 
     if fmt in ("json", "c") and gains is not None:

@@ -56,7 +56,7 @@ def _figures(
 ) -> list[tuple[str, str, Callable[[], Any]]]:
     """(file name, caption, figure factory) of every plot the study can draw; ``variants``:
     the drive-model variants being simulated beside the tracking stage, if they are."""
-    from armlab.kinematics import tool_positions
+    from armlab.kinematics.forward import tool_positions
     from armlab.plots import (
         bode_figure,
         plot_accuracy,

@@ -237,16 +237,15 @@ def selection_for_study(spec: StudySpec) -> StudyContext:
         Bad input (names the study key), an infeasible plan, or a joint without a passing
         catalogue entry (:class:`armlab.InfeasibleError` naming the joint and the check).
     """
-    from armlab.dynamics import SizingOptions, size
+    from armlab.dynamics import size
 
     ctx = StudyContext(spec=spec)
     ctx.controller = controller_profile(spec)
     ctx.robot = build_robot(spec)
     for stage in ("kinematics", "plan", "static_load"):
         STAGE_FUNCTIONS[stage](ctx)
-    options = SizingOptions(controller=ctx.controller)
-    duty = select_and_install(ctx, options)
-    ctx.sizing = size(ctx.robot, duty, dt=spec.plan.check_dt_s, options=options)
+    duty = select_and_install(ctx)
+    ctx.sizing = size(ctx.robot, duty, dt=spec.plan.check_dt_s, controller=ctx.controller)
     return ctx
 
 
@@ -504,11 +503,11 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
     plan, robot = ctx.spec.plan, planning_robot(ctx)
     Q = ctx.waypoints_q
     assert Q is not None  # set by stage_kinematics, which runs first
-    torque = plan.torque_limits
+    tau_max = None if plan.torque_limits else False
     if plan.planner in ("optimal", "path"):
         ctx.jerk_limited = True if plan.jerk_limits is None else plan.jerk_limits
         limits: dict[str, Any] = {
-            "tau_max": None if torque else False,
+            "tau_max": tau_max,
             "j_max": None if ctx.jerk_limited else False,
             "drive_limits": plan.drive_limits,  # the envelope replaces the torque box
         }
@@ -525,14 +524,7 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
         ctx.jerk_limited = plan.profile == "scurve"
         return _concat(
             [
-                T.ptp_sync(
-                    robot,
-                    Q[i],
-                    Q[i + 1],
-                    profile=plan.profile,
-                    dt=dt,
-                    tau_max=None if torque else False,
-                )
+                T.ptp_sync(robot, Q[i], Q[i + 1], profile=plan.profile, dt=dt, tau_max=tau_max)
                 for i in range(len(Q) - 1)
             ]
         )
@@ -542,7 +534,7 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
         if plan.duration_s is not None:
             d = np.linalg.norm(np.diff(Q, axis=0), axis=1)
             durations = plan.duration_s * d / d.sum()
-        return T.cubic_via(robot, Q, durations=durations, dt=dt, torque=torque)
+        return T.cubic_via(robot, Q, durations=durations, dt=dt, tau_max=tau_max)
     poses = ctx.waypoint_poses
     speed = plan.speed_m_s
     if speed is None:
@@ -554,15 +546,15 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
         parts, q0 = [], Q[0]
         for i in range(len(poses) - 1):
             parts.append(
-                T.line(robot, poses[i], poses[i + 1], speed, q_start=q0, dt=dt, torque=torque)
+                T.line(robot, poses[i], poses[i + 1], speed, q_start=q0, dt=dt, tau_max=tau_max)
             )
             q0 = parts[-1].q[-1]
         return _concat(parts)
     if plan.planner == "arc3":
         return T.arc3(
-            robot, poses[0], poses[1], poses[2], speed, q_start=Q[0], dt=dt, torque=torque
+            robot, poses[0], poses[1], poses[2], speed, q_start=Q[0], dt=dt, tau_max=tau_max
         )
-    return T.blend(robot, poses, plan.blend_radius_m, speed, q_start=Q[0], dt=dt, torque=torque)
+    return T.blend(robot, poses, plan.blend_radius_m, speed, q_start=Q[0], dt=dt, tau_max=tau_max)
 
 
 def stage_plan(ctx: StudyContext) -> dict:
@@ -701,7 +693,7 @@ def selection_duty(ctx: StudyContext) -> list:
     return [ctx.trajectory, *hold_trajectories(ctx.robot, static)]
 
 
-def select_and_install(ctx: StudyContext, options) -> list:
+def select_and_install(ctx: StudyContext) -> list:
     """Select every joint's motor + reducer from the catalogue against :func:`selection_duty`
     and make them the robot's drive train (limits resolved again: motor speed / ratio, available
     torque, derived acceleration and jerk where the study gives none). Returns the duty cycle.
@@ -713,13 +705,14 @@ def select_and_install(ctx: StudyContext, options) -> list:
     """
     from armlab.dynamics import select_drives
 
+    assert ctx.controller is not None  # run_study sets it before the stages
     duty = selection_duty(ctx)
     sel = select_drives(
         ctx.robot,
         duty,
         catalogue=_catalogue(ctx.spec),
         dt=ctx.spec.plan.check_dt_s,
-        options=options,
+        controller=ctx.controller,
     )
     ctx.selection = sel
     ctx.robot.drives = sel.require().drives(ctx.robot)
@@ -744,15 +737,14 @@ def stage_sizing(ctx: StudyContext) -> dict:
     each joint's worst static pose, become the robot's drive train for the later stages, and are
     sized on that same duty cycle.
     """
-    from armlab.dynamics import SizingOptions, requirement_moves, select_drives, size
+    from armlab.dynamics import requirement_moves, select_drives, size
 
     assert ctx.controller is not None  # run_study sets it before the stages
-    options = SizingOptions(controller=ctx.controller)
     duty = [ctx.trajectory]
     if ctx.robot.drives is None and ctx.spec.sizing.select:
-        duty = select_and_install(ctx, options)
+        duty = select_and_install(ctx)
     _needs_drives(ctx)
-    res = size(ctx.robot, duty, dt=ctx.spec.plan.check_dt_s, options=options)
+    res = size(ctx.robot, duty, dt=ctx.spec.plan.check_dt_s, controller=ctx.controller)
     ctx.sizing = res
     block = {"status": "ok", **verdict_block(_sizing_failures(res)), **_to_dict(res)}
     if ctx.drives_selected:
@@ -764,7 +756,7 @@ def stage_sizing(ctx: StudyContext) -> dict:
         # HEU thesis tables 4.2/4.3: the drives against each joint's worst case (full speed and
         # acceleration from its worst static pose), beside the planned cycle
         moves = requirement_moves(ctx.robot, ctx.static_load)
-        ctx.requirement_sizing = size(ctx.robot, moves, options=options)
+        ctx.requirement_sizing = size(ctx.robot, moves, controller=ctx.controller)
         adv = [
             f.replace("sizing:", "worst-case move:", 1)
             for f in _sizing_failures(ctx.requirement_sizing)
@@ -780,7 +772,7 @@ def stage_sizing(ctx: StudyContext) -> dict:
             [ctx.trajectory],
             catalogue=_catalogue(ctx.spec),
             dt=ctx.spec.plan.check_dt_s,
-            options=options,
+            controller=ctx.controller,
         )
         ctx.selection = sel
         block["selection"] = {"status": "ok", **_to_dict(sel)}
@@ -834,6 +826,7 @@ def stage_tuning(ctx: StudyContext) -> dict:
     from armlab.control import tune_arm
 
     _needs_drives(ctx)
+    assert ctx.controller is not None  # run_study sets it before the stages
     gains = None
     if ctx.tuning_ahead is not None and not ctx.drives_selected:  # the same robot as then
         gains = ctx.tuning_ahead.result()

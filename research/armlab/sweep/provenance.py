@@ -153,7 +153,7 @@ def row_provenance(
     params : dict
         The parameter set (dotted study keys).
     key : str
-        Its id (:func:`armlab.sweep.parameter_key`).
+        Its id (:func:`armlab.sweep.spec.parameter_key`).
     memo : dict, optional
         File-hash cache of one sweep run (:func:`file_hashes`).
     """

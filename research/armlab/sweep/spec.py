@@ -9,7 +9,7 @@ Format (TOML)::
     mode = "grid"            # "grid" (every combination), "random" or "lhs" (Latin hypercube)
     samples = 16             # random / lhs: number of parameter sets
     seed = 0                 # random / lhs: the draw is reproducible from the file
-    figures = ["duration_s"] # key figures (armlab.study.key_figures) plotted vs each parameter
+    figures = ["duration_s"] # key figures (study.runner.key_figures) plotted vs each parameter
     retries = 2              # resubmissions of a set whose worker died (beyond Dask's own)
     rerun_errors = false     # a re-run also repeats the sets that ended in an error
 
@@ -17,7 +17,7 @@ Format (TOML)::
     "study.stages" = ["kinematics", "plan"]
 
     [[parameter]]
-    key = "payload.mass_kg"  # any study key (armlab.study.check_key)
+    key = "payload.mass_kg"  # any study key (armlab.study.spec.check_key)
     values = [0.0, 0.5, 1.0] # explicit values (numbers or strings, e.g. motor names) ...
 
     [[parameter]]

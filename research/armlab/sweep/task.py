@@ -72,7 +72,7 @@ def run_parameter_set(
     params : dict
         The parameter set (dotted study keys).
     key : str
-        Its id (:func:`armlab.sweep.parameter_key`).
+        Its id (:func:`armlab.sweep.spec.parameter_key`).
     expected : dict, optional
         The provenance the client computed for this set; a worker that reads other inputs
         returns an error row naming them.
@@ -82,7 +82,7 @@ def run_parameter_set(
     dict
         ``key``, the parameters, ``status`` ("done" or "error"), ``error`` (one line, "" when
         done), ``elapsed_s``, ``worker`` (host:pid), ``finished_at`` (Unix time), the study's
-        key figures (:func:`armlab.study.key_figures`; NaN where a stage did not run) and the
+        key figures (:func:`armlab.study.runner.key_figures`; NaN where a stage did not run) and the
         provenance columns.
     """
     t0 = time.perf_counter()

@@ -16,11 +16,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from armlab.robot.limits import Limits, resolve_limits
-from armlab.trajectory.core import LIMIT_KINDS, LimitReport, Trajectory
+from armlab.trajectory.core import LimitReport, Trajectory
 from armlab.trajectory.profiles import (
     MotionProfile,
-    SCurveBatch,
     double_s_profile,
     synchronised_scurves,
     trapezoid_profile,
@@ -28,17 +26,13 @@ from armlab.trajectory.profiles import (
 from armlab.trajectory.waypoints import validate_waypoints
 
 __all__ = [
-    "Trajectory",
     "LimitReport",
-    "LIMIT_KINDS",
     "MotionProfile",
-    "trapezoid_profile",
+    "Trajectory",
     "double_s_profile",
     "synchronised_scurves",
-    "SCurveBatch",
+    "trapezoid_profile",
     "validate_waypoints",
-    "Limits",
-    "resolve_limits",
 ]
 
 
