@@ -411,67 +411,18 @@ def cia402_csp(
         period[a] = p
         target[:, a] = np.mod(target[:, a], p)
 
-    home_rad = prof.home_positions_rad(n_axes)
-    home_counts = np.rint(home_rad * cpr * sign).astype(np.int64)
-    lower = _axis_limits(robot, index, "lower_rad")
-    upper = _axis_limits(robot, index, "upper_rad")
+    home_counts = np.rint(prof.home_positions_rad(n_axes) * cpr * sign).astype(np.int64)
+    ranges = np.column_stack(
+        [_axis_limits(robot, index, "lower_rad"), _axis_limits(robot, index, "upper_rad")]
+    )
     objects: list[Cia402Object] = []
     for a, (j, d) in enumerate(zip(names, drives, strict=True)):
-        ax = a + 1
-        ratio = _rational(d.reducer.ratio, f"joint {j} reducer ratio")
-        feed = _rational(float(per_rev[a]), f"joint {j} counts per joint revolution")
-        resolution = feed / ratio
-        peak = d.peak_motor_torque_Nm  # derated: the peak sizing allows
-        rows: list[tuple[int, int, str, str, int, str]] = [
-            (0x6060, 0, "modes of operation", "INTEGER8", MODE_CSP, "8 = cyclic sync position"),
-            (0x60C2, 1, "interpolation time period value", "UNSIGNED8", value, "x 10^index s"),
-            (0x60C2, 2, "interpolation time index", "INTEGER8", exponent, "power of ten"),
-            (
-                0x608F,
-                1,
-                "position encoder resolution: increments",
-                "UNSIGNED32",
-                resolution.numerator,
-                "counts",
-            ),
-            (
-                0x608F,
-                2,
-                "position encoder resolution: motor revolutions",
-                "UNSIGNED32",
-                resolution.denominator,
-                "rev",
-            ),
-            (0x6091, 1, "gear ratio: motor revolutions", "UNSIGNED32", ratio.numerator, "rev"),
-            (0x6091, 2, "gear ratio: shaft revolutions", "UNSIGNED32", ratio.denominator, "rev"),
-            (0x6092, 1, "feed constant: feed", "UNSIGNED32", feed.numerator, "counts"),
-            (0x6092, 2, "feed constant: shaft revolutions", "UNSIGNED32", feed.denominator, "rev"),
-            (0x607C, 0, "home offset", "INTEGER32", int(-home_counts[a]), "counts"),
-            (0x607E, 0, "polarity", "UNSIGNED8", 0, "sign is in the counts"),
-        ]
-        if modulo[a]:
-            rows += [
-                (0x607B, 1, "position range limit: min", "INTEGER32", 0, "counts"),
-                (0x607B, 2, "position range limit: max", "INTEGER32", int(period[a] - 1), "counts"),
-            ]
-        else:
-            lim = np.sort(np.rint(np.array([lower[a], upper[a]]) * cpr[a] * sign[a]))
-            rows += [
-                (0x607D, 1, "software position limit: min", "INTEGER32", int(lim[0]), "counts"),
-                (0x607D, 2, "software position limit: max", "INTEGER32", int(lim[1]), "counts"),
-            ]
-        rows += [
-            (0x6076, 0, "motor rated torque", "UNSIGNED32", int(rated_mNm[a]), "mN m"),
-            (
-                0x6072,
-                0,
-                "max torque",
-                "UNSIGNED16",
-                int(round(1000.0 * peak * 1000.0 / rated_mNm[a])),
-                "per mille of 0x6076",
-            ),
-        ]
-        objects += [Cia402Object(ax, j, *r) for r in rows]
+        range_counts = None if modulo[a] else np.sort(np.rint(ranges[a] * cpr[a] * sign[a]))
+        rows = _axis_rows(
+            j, d, (value, exponent), float(per_rev[a]), int(home_counts[a]), int(period[a]),
+            range_counts, int(rated_mNm[a]),
+        )  # fmt: skip
+        objects += [Cia402Object(a + 1, j, *r) for r in rows]
 
     meta: dict[str, Any] = {
         "profile": prof.name,
@@ -497,6 +448,77 @@ def cia402_csp(
         objects=objects,
         meta=meta,
     )
+
+
+def _axis_rows(
+    j: str,
+    d: Drive,
+    period_value_index: tuple[int, int],
+    per_rev: float,
+    home_counts: int,
+    period: int,
+    range_counts: np.ndarray | None,
+    rated_mNm: int,
+) -> list[tuple[int, int, str, str, int, str]]:
+    """The object dictionary rows ``(index, subindex, name, type, value, unit)`` of one axis:
+    mode, interpolation period, factor group (0x608F, 0x6091, 0x6092: exact fractions of the
+    drive's ratio and counts), home offset, position range (modulo ``period`` counts, else the
+    joint range ``range_counts``), rated and maximum torque (the drive's derated peak)."""
+    value, exponent = period_value_index
+    ratio = _rational(d.reducer.ratio, f"joint {j} reducer ratio")
+    feed = _rational(per_rev, f"joint {j} counts per joint revolution")
+    resolution = feed / ratio
+    peak = d.peak_motor_torque_Nm  # derated: the peak sizing allows
+    rows: list[tuple[int, int, str, str, int, str]] = [
+        (0x6060, 0, "modes of operation", "INTEGER8", MODE_CSP, "8 = cyclic sync position"),
+        (0x60C2, 1, "interpolation time period value", "UNSIGNED8", value, "x 10^index s"),
+        (0x60C2, 2, "interpolation time index", "INTEGER8", exponent, "power of ten"),
+        (
+            0x608F,
+            1,
+            "position encoder resolution: increments",
+            "UNSIGNED32",
+            resolution.numerator,
+            "counts",
+        ),
+        (
+            0x608F,
+            2,
+            "position encoder resolution: motor revolutions",
+            "UNSIGNED32",
+            resolution.denominator,
+            "rev",
+        ),
+        (0x6091, 1, "gear ratio: motor revolutions", "UNSIGNED32", ratio.numerator, "rev"),
+        (0x6091, 2, "gear ratio: shaft revolutions", "UNSIGNED32", ratio.denominator, "rev"),
+        (0x6092, 1, "feed constant: feed", "UNSIGNED32", feed.numerator, "counts"),
+        (0x6092, 2, "feed constant: shaft revolutions", "UNSIGNED32", feed.denominator, "rev"),
+        (0x607C, 0, "home offset", "INTEGER32", -home_counts, "counts"),
+        (0x607E, 0, "polarity", "UNSIGNED8", 0, "sign is in the counts"),
+    ]
+    if range_counts is None:
+        rows += [
+            (0x607B, 1, "position range limit: min", "INTEGER32", 0, "counts"),
+            (0x607B, 2, "position range limit: max", "INTEGER32", period - 1, "counts"),
+        ]
+    else:
+        lim = range_counts
+        rows += [
+            (0x607D, 1, "software position limit: min", "INTEGER32", int(lim[0]), "counts"),
+            (0x607D, 2, "software position limit: max", "INTEGER32", int(lim[1]), "counts"),
+        ]
+    rows += [
+        (0x6076, 0, "motor rated torque", "UNSIGNED32", rated_mNm, "mN m"),
+        (
+            0x6072,
+            0,
+            "max torque",
+            "UNSIGNED16",
+            int(round(1000.0 * peak * 1000.0 / rated_mNm)),
+            "per mille of 0x6076",
+        ),
+    ]
+    return rows
 
 
 def _axis_limits(robot: Robot, index: np.ndarray, key: str) -> np.ndarray:
