@@ -277,12 +277,12 @@ def test_linear_periods_are_the_sub_step_loop(teachbot6, gains, move, monkeypatc
     """Servo periods without voltage saturation are jumped over with precomputed linear maps;
     the result is the amplifier's sub-step loop's (to round-off; without quantisation, whose
     floor() would let round-off flip an encoder count)."""
-    import armlab.control.simulate as sim
+    import armlab.control.amplifier as amplifier
 
     kw = {"feedforward": FF, "quantise": False, "t_after_s": 0.0, "tcp": False}
     kw["controller"] = "reference_dda"
     fast = simulate_tracking(teachbot6, move, gains, **kw)
-    monkeypatch.setattr(sim, "_LINEAR_PERIODS", False)
+    monkeypatch.setattr(amplifier, "LINEAR_PERIODS", False)
     slow = simulate_tracking(teachbot6, move, gains, **kw)
     np.testing.assert_allclose(fast.q, slow.q, rtol=0, atol=1e-12)
     np.testing.assert_allclose(fast.current_A, slow.current_A, rtol=0, atol=1e-9)
@@ -299,10 +299,10 @@ def test_variants_simulated_together_are_each_simulated_alone(
     """The drive-model variants run in one time loop (every operation element-wise over
     variant and joint; each variant jumps over its own linear sub-steps) and give, bit for
     bit, what each gives alone -- quantisation on, so one flipped encoder count would show."""
+    import armlab.control.amplifier as amplifier
     import armlab.control.diagnosis as diag
-    import armlab.control.simulate as sim
 
-    monkeypatch.setattr(sim, "_LINEAR_PERIODS", linear)
+    monkeypatch.setattr(amplifier, "LINEAR_PERIODS", linear)
     names = ("ideal", "no_voltage_limit", "no_losses", "with_loss_feedforward")
     opts = {"feedforward": FF, "t_after_s": 0.1, "controller": "reference_dda"}
     together = diag.tracking_variants(teachbot6, move, gains, names, **opts)

@@ -40,7 +40,8 @@ reducer's mesh. On the demo cycle, applying ``eta`` to the whole motor torque in
 give a TCP error of 0.54 mm instead of 0.37 mm (measured for issue 14).
 
 Speed: sub-steps in which no joint's amplifier reaches its supply are linear in the state at
-their start; the simulation jumps over them with precomputed maps (:func:`_linear_period`) and
+their start; the simulation jumps over them with precomputed maps
+(:func:`armlab.control.amplifier.linear_period`) and
 runs the 20 kHz sub-steps one by one only from a sub-step that saturates (the same result to
 round-off, ``tests/test_simulation_hw.py``). The drive-model variants of one motion
 (:func:`tracking_variants`) run in one time loop, every operation element-wise over the
@@ -75,6 +76,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pinocchio as pin
 
+from armlab.control import amplifier
 from armlab.control.discrete import IncrementalPID
 from armlab.control.feedforward import feedforward_current, feedforwards
 from armlab.control.gains import ArmGains, CascadeGains
@@ -306,25 +308,16 @@ def _run_variants(
         return np.tile(np.asarray(x, float), nv)
 
     dt = dtm.drive_train(robot)
-    N_j, Jm_j = dt.ratio, dt.inertia_motor_side_kg_m2
+    N_j = dt.ratio
     N, Kt, Ke = flat(N_j), flat(dt.torque_constant_Nm_A), flat(dt.back_emf_V_s_rad)
     R = flat(dt.resistance_ohm)
     L = flat([robot.drives[n].motor.inductance_H for n in robot.joint_names])
     U = dt.supply_voltage_V
-    Jm = flat(Jm_j)
     bm = flat(dt.viscous_Nm_s_rad)
     cpr = flat(prof.counts_per_rad(robot) / N_j)  # counts per motor radian
     per_volt = flat([g.speed.output_per_volt or (g.speed.output_max / 10.0) for g in cas])
     da_range, da_bits = float(prof.dac_range_V), int(prof.dac_bits)
 
-    arm0_j = robot.model.armature.copy()
-    refl_j = dt.reflected_inertia_kg_m2
-    arm0, refl = flat(arm0_j), flat(refl_j)
-    models = []
-    for _ in range(nv):  # one model per variant: its armature follows that variant's quadrant
-        model = robot.model.copy()  # gravity in the base frame, as robot.model's
-        model.armature = arm0_j + refl_j
-        models.append((model, model.createData()))
     part = [slice(k * nj, (k + 1) * nj) for k in range(nv)]
 
     # ---------------------------------------------------------------- set-points
@@ -353,22 +346,18 @@ def _run_variants(
     cq0_j = np.array([g.current.q0 for g in cas])
     cq1_j = np.array([g.current.q1 for g in cas])
     cq2_j = np.array([g.current.q2 for g in cas])
-    cq0, cq1, cq2 = flat(cq0_j), flat(cq1_j), flat(cq2_j)
     lo_j = np.maximum(np.array([g.current.output_min for g in cas]), -U)
     hi_j = np.minimum(np.array([g.current.output_max for g in cas]), U)
-    u_lo = np.where(vlim, flat(lo_j), -np.inf)
-    u_hi = np.where(vlim, flat(hi_j), np.inf)
     # exact armature circuit over a current-loop sub-step of length Ti, u and w_m held:
     # i+ = x + (i - x) a, mean = x + (i - x) c, x = (u - Ke w_m) / R
     tau_e = L / R
     a_sub = np.exp(-Ti / tau_e)
     c_sub = tau_e / Ti * (1.0 - a_sub)
-    d_max = max(d_cur)
     d_arr = np.array(d_cur)
     one_delay = bool(np.all(d_arr == 1))
     # a servo period with no sub-step at the voltage limit is linear in the state at its start:
-    # precomputed maps (_linear_period) replace the sub-step loop there
-    fast = _LINEAR_PERIODS and one_delay
+    # precomputed maps (amplifier.linear_period) replace the sub-step loop there
+    fast = amplifier.LINEAR_PERIODS and one_delay
     if not fast and nv > 1:  # the sub-step loop below keeps one history: one variant at a time
         return [
             _run_variants(
@@ -385,7 +374,7 @@ def _run_variants(
             for v in variants
         ]
     if fast:
-        W_j = _linear_period(cq0_j, cq1_j, cq2_j, a_sub[:nj], c_sub[:nj], R[:nj], n_sub)
+        W_j = amplifier.linear_period(cq0_j, cq1_j, cq2_j, a_sub[:nj], c_sub[:nj], R[:nj], n_sub)
         W = np.tile(W_j, (nv, 1, 1, 1))
     else:
         W = np.zeros(0)
@@ -406,10 +395,23 @@ def _run_variants(
     tm0 = np.where(loss, np.where(v != 0.0, tm_moving, np.where(held, t_ff, tm0)), tm0)
     i = tm0 / Kt
     i_cmd = i.copy()  # applied during the first period
-    u_prev = R * i + Ke * w0  # the current PI's output that holds i
-    u_hist = [u_prev.copy() for _ in range(d_max)]  # outputs waiting for their delay
-    ce1 = np.zeros(nvj)
-    ce2 = np.zeros(nvj)
+    amps = amplifier.Amplifiers(
+        cq=(flat(cq0_j), flat(cq1_j), flat(cq2_j)),
+        u_lo=np.where(vlim, flat(lo_j), -np.inf),
+        u_hi=np.where(vlim, flat(hi_j), np.inf),
+        R=R,
+        a_sub=a_sub,
+        c_sub=c_sub,
+        W=W,
+        d_arr=d_arr,
+        fast=fast,
+        n_sub=n_sub,
+        nv=nv,
+        nj=nj,
+        i=i,
+        u0=R * i + Ke * w0,  # the current PI's output that holds i
+    )
+    joints = _Joints(robot, dt, flat, nv, loss, T)
     spd.reset(u0=i - i_ff[0])
     th_prev = N * (q - v * T)  # the reading one period before: the start speed is measured
     if quantise:
@@ -422,11 +424,7 @@ def _run_variants(
     v_lo, v_hi = -da_range, da_range - da_lsb
     inv_pv = 1.0 / per_volt
     hT2 = 0.5 * T * T
-    eta, eta_b = flat(dt.efficiency), flat(dt.back_efficiency)
-    Fc, Fv = flat(dt.coulomb_friction_Nm), flat(dt.joint_viscous_Nm_s_rad)
     a_prev = np.zeros(nvj)
-    lossy = [bool(x) for x in loss[::nj]]
-    any_loss, all_loss = any(lossy), all(lossy)
 
     out_q = np.empty((n, nvj))
     out_v = np.empty((n, nvj))
@@ -434,17 +432,9 @@ def _run_variants(
     out_u = np.empty((n, nvj))
     out_sat = np.zeros((n, nvj))
     out_da = np.empty((n, nvj))
-    peak_u = np.abs(u_prev)
-    peak_i = np.abs(i)
-    aba, nle = pin.aba, pin.nonLinearEffects
     pos_step, spd_step = pos.step, spd.step
-    mn, mx, floor, rint, absf = np.minimum, np.maximum, np.floor, np.rint, np.abs
+    mn, mx, floor, rint = np.minimum, np.maximum, np.floor, np.rint
     inv_sub = 1.0 / n_sub
-    rows = np.arange(n_sub)
-    elems = np.arange(nvj)
-    every_todo = np.ones(nv, dtype=bool)
-    z0 = np.empty((nvj, 1, 6, 1))
-    bias = np.zeros(nvj)
     t0 = perf_counter()
     for k in range(n):
         out_q[k] = q
@@ -464,121 +454,93 @@ def _run_variants(
         # current loop at its own rate over the period, with the previous command
         # (computation delay of the speed loop); the back-EMF of the period's speed
         emf = Ke * (N * v)
-        i_sum = np.zeros(nvj)
-        u_sum = np.zeros(nvj)
-        sat_n = np.zeros(nvj)
-        # sub-steps done: k_c by every variant, or per variant (k_arr) once they part ways
-        k_c, k_arr = 0, None
-        todo = every_todo
-        while True:
-            if k_arr is None:
-                if k_c >= n_sub:
-                    break
-                every = True
-            else:
-                todo = k_arr < n_sub
-                if not todo.any():
-                    break
-                every = bool(todo.all())
-            # the next sub-step as the amplifier runs it (the PI's kick after a new set-point
-            # usually reaches the supply: then it is stepped, not mapped)
-            e = i_cmd - i
-            u = u_prev + cq0 * e + cq1 * ce1 + cq2 * ce2
-            over = (u > u_hi) | (u < u_lo)
-            stepped = k_arr is None and bool(
-                over.any() if nv == 1 else over.reshape(nv, nj).any(axis=1).all()
-            )
-            if fast and not stepped:
-                # the next sub-steps if linear (no voltage limit reached): jump to the first
-                # sub-step that reaches the limit, or to the end of the period
-                m = n_sub - (k_c if k_arr is None else int(k_arr[todo].min()))
-                z0[:, 0, 0, 0] = i
-                z0[:, 0, 1, 0] = u_prev
-                z0[:, 0, 2, 0] = ce1
-                z0[:, 0, 3, 0] = ce2
-                z0[:, 0, 4, 0] = i_cmd
-                z0[:, 0, 5, 0] = emf
-                lin = (W[:, :m] @ z0)[..., 0]  # (nvj, m, 6)
-                u_dem = lin[..., 1]
-                viol_e = (u_dem > u_hi[:, None]) | (u_dem < u_lo[:, None])  # (nvj, m)
-                if k_arr is None and not viol_e.any():
-                    # every variant runs linearly to the end of the period (the usual case)
-                    peak_u = mx(peak_u, absf(u_dem).max(axis=1))
-                    peak_i = mx(peak_i, absf(lin[..., 0]).max(axis=1))
-                    last = lin[:, m - 1]
-                    i, u_prev, ce1, ce2 = last[:, 0], last[:, 1], last[:, 2], last[:, 3]
-                    i_sum = i_sum + last[:, 4]
-                    u_sum = u_sum + last[:, 5]
-                    u_hist = [u_prev]
-                    break
-                if k_arr is None:
-                    k_arr, todo = np.full(nv, k_c), every_todo
-                viol = viol_e.reshape(nv, nj, m).any(axis=1)  # (nv, m)
-                left = (n_sub - k_arr)[:, None]  # (nv, 1): sub-steps each variant has left
-                viol &= rows[None, :m] < left
-                jump = np.where(viol.any(axis=1), np.argmax(viol, axis=1), left[:, 0])
-                jump = np.where(todo, jump, 0)
-                moved = jump > 0
-                if moved.any():
-                    jump_e = np.repeat(jump, nj)
-                    upto = rows[None, :m] < jump_e[:, None]  # (nvj, m)
-                    pu = np.where(upto, absf(u_dem), 0.0).max(axis=1)
-                    pi_ = np.where(upto, absf(lin[..., 0]), 0.0).max(axis=1)
-                    mv = np.repeat(moved, nj)
-                    peak_u = np.where(mv, mx(peak_u, pu), peak_u)
-                    peak_i = np.where(mv, mx(peak_i, pi_), peak_i)
-                    last = lin[elems, np.maximum(jump_e - 1, 0)]  # (nvj, 6)
-                    i = np.where(mv, last[:, 0], i)
-                    u_prev = np.where(mv, last[:, 1], u_prev)
-                    ce1 = np.where(mv, last[:, 2], ce1)
-                    ce2 = np.where(mv, last[:, 3], ce2)
-                    i_sum = np.where(mv, i_sum + last[:, 4], i_sum)
-                    u_sum = np.where(mv, u_sum + last[:, 5], u_sum)
-                    u_hist = [u_prev]
-                    k_arr = k_arr + jump
-                    todo = k_arr < n_sub
-                    if not todo.any():
-                        break
-                    every = bool(todo.all())
-                    e = i_cmd - i  # the sub-step from the state the jump reached
-                    u = u_prev + cq0 * e + cq1 * ce1 + cq2 * ce2
-                    over = (u > u_hi) | (u < u_lo)
-            # one sub-step as the amplifier runs it, with the voltage limit (variants done
-            # with the period keep their state)
-            if k_arr is None:
-                k_c += 1
-            else:
-                k_arr = k_arr + todo
-            u_new = mn(mx(u, u_lo), u_hi)
-            if every:
-                peak_u = mx(peak_u, absf(u))
-                sat_n = sat_n + over
-                ce2, ce1, u_prev = ce1, e, u_new
-            else:
-                act = np.repeat(todo, nj)
-                peak_u = np.where(act, mx(peak_u, absf(u)), peak_u)
-                sat_n = np.where(act, sat_n + over, sat_n)
-                ce2 = np.where(act, ce1, ce2)
-                ce1 = np.where(act, e, ce1)
-                u_prev = np.where(act, u_new, u_prev)
-            u_hist.append(u_prev)
-            ua = u_hist.pop(0) if one_delay else _delayed(u_hist, d_arr)
-            x = (ua - emf) / R
-            if every:
-                i_sum = i_sum + (x + (i - x) * c_sub)
-                u_sum = u_sum + ua
-                i = x + (i - x) * a_sub
-                peak_i = mx(peak_i, absf(i))
-            else:
-                i_sum = np.where(act, i_sum + (x + (i - x) * c_sub), i_sum)
-                u_sum = np.where(act, u_sum + ua, u_sum)
-                i = np.where(act, x + (i - x) * a_sub, i)
-                peak_i = np.where(act, mx(peak_i, absf(i)), peak_i)
+        i_sum, u_sum, sat_n = amps.period(i_cmd, emf)
         i_mean = i_sum * inv_sub
         out_i[k] = i_mean
         out_u[k] = u_sum * inv_sub
         out_sat[k] = sat_n * inv_sub
         i_cmd = volts * per_volt
+        a = joints.acceleration(i_mean, q, v, a_prev)
+        a_prev = a
+        q = q + v * T + hT2 * a
+        v = v + a * T
+    wall = perf_counter() - t0
+    return [
+        {
+            "t": t,
+            "q_ref": q_d,
+            "q": out_q[:, part[k]],
+            "qd": out_v[:, part[k]],
+            "current_A": out_i[:, part[k]],
+            "da_V": out_da[:, part[k]],
+            "voltage_V": out_u[:, part[k]],
+            "saturated_share": out_sat[:, part[k]],
+            "peak_u": amps.peak_u[part[k]],
+            "peak_i": amps.peak_i[part[k]],
+            "supply_V": U.copy(),
+            "feedforward": variants[k][0],
+            "voltage_limit": variants[k][1],
+            "losses": variants[k][2],
+            "wall_time_s": wall,
+            "current_sample_time_s": Ti,
+        }
+        for k in range(nv)
+    ]
+
+
+class _Joints:
+    """The drive trains and the arm of every variant: the motor current through the reducer
+    to the joints (module docstring, step 5) and Pinocchio's ABA (step 6), one model per
+    variant (its armature follows that variant's quadrant)."""
+
+    def __init__(self, robot, dt, flat, nv, loss, T):
+        nj = robot.n_joints
+        self.N, self.Kt, self.bm = (
+            flat(dt.ratio),
+            flat(dt.torque_constant_Nm_A),
+            flat(dt.viscous_Nm_s_rad),
+        )
+        self.Jm = flat(dt.inertia_motor_side_kg_m2)
+        self.eta, self.eta_b = flat(dt.efficiency), flat(dt.back_efficiency)
+        self.Fc, self.Fv = flat(dt.coulomb_friction_Nm), flat(dt.joint_viscous_Nm_s_rad)
+        self.arm0_j = robot.model.armature.copy()
+        self.refl_j = dt.reflected_inertia_kg_m2
+        self.arm0, self.refl = flat(self.arm0_j), flat(self.refl_j)
+        self.models = []
+        for _ in range(nv):
+            model = robot.model.copy()  # gravity in the base frame, as robot.model's
+            model.armature = self.arm0_j + self.refl_j
+            self.models.append((model, model.createData()))
+        self.part = [slice(k * nj, (k + 1) * nj) for k in range(nv)]
+        self.loss, self.T = loss, T
+        self.lossy = [bool(x) for x in loss[::nj]]
+        self.any_loss, self.all_loss = any(self.lossy), all(self.lossy)
+        self.bias = np.zeros(nv * nj)
+
+    def acceleration(self, i_mean, q, v, a_prev) -> np.ndarray:
+        """Joint accelerations [rad/s^2] of the period's mean motor current ``i_mean`` [A] at
+        ``q``, ``v`` (``a_prev``: the last period's, for the reducer's quadrant)."""
+        N, Kt, bm, Jm, eta, eta_b = self.N, self.Kt, self.bm, self.Jm, self.eta, self.eta_b
+        Fc, Fv, arm0, refl, arm0_j, refl_j = (
+            self.Fc,
+            self.Fv,
+            self.arm0,
+            self.refl,
+            self.arm0_j,
+            self.refl_j,
+        )
+        models, part, lossy, loss, bias, T = (
+            self.models,
+            self.part,
+            self.lossy,
+            self.loss,
+            self.bias,
+            self.T,
+        )
+        any_loss, all_loss = self.any_loss, self.all_loss
+        aba, nle = pin.aba, pin.nonLinearEffects
+        mn, mx, absf = np.minimum, np.maximum, np.abs
+        nvj = N.size
         # drive train -> joint torque, the rotor inertia implicit in the armature
         t_in = Kt * i_mean - bm * (N * v)
         if any_loss:
@@ -610,77 +572,4 @@ def _run_variants(
         for j, (model, data) in enumerate(models):
             sl = part[j]
             a[sl] = aba(model, data, q[sl], v[sl], tau[sl])
-        a_prev = a
-        q = q + v * T + hT2 * a
-        v = v + a * T
-    wall = perf_counter() - t0
-    return [
-        {
-            "t": t,
-            "q_ref": q_d,
-            "q": out_q[:, part[k]],
-            "qd": out_v[:, part[k]],
-            "current_A": out_i[:, part[k]],
-            "da_V": out_da[:, part[k]],
-            "voltage_V": out_u[:, part[k]],
-            "saturated_share": out_sat[:, part[k]],
-            "peak_u": peak_u[part[k]],
-            "peak_i": peak_i[part[k]],
-            "supply_V": U.copy(),
-            "feedforward": variants[k][0],
-            "voltage_limit": variants[k][1],
-            "losses": variants[k][2],
-            "wall_time_s": wall,
-            "current_sample_time_s": Ti,
-        }
-        for k in range(nv)
-    ]
-
-
-#: use the precomputed linear maps over servo periods without voltage saturation (tests turn
-#: it off to compare with the sub-step loop)
-_LINEAR_PERIODS = True
-
-
-def _linear_period(q0, q1, q2, a, c, R, n_sub: int) -> np.ndarray:
-    """The current loop over up to ``n`` sub-steps as linear maps, per joint ``(nj, n, 6, 6)``.
-
-    One sub-step (PI with a one-sample delay, exact armature circuit), state
-    ``z = (i, u_prev, e1, e2, i*, emf)`` (the last two constant over a servo period)::
-
-        e = i* - i;  u = u_prev + q0 e + q1 e1 + q2 e2;  x = (u_prev - emf) / R
-        i+ = a i + (1 - a) x;  mean current += c i + (1 - c) x;  mean voltage += u_prev
-
-    Row ``j`` maps a start state to the state after ``j + 1`` sub-steps with the last two
-    entries replaced by the sums of the sub-steps' mean currents and applied voltages (exact
-    while no sub-step reaches the voltage limit; ``u_prev`` is the voltage the PI asked for).
-    """
-    nj = len(q0)
-    out = np.zeros((nj, n_sub, 6, 6))
-    for j in range(nj):
-        M = np.eye(6)
-        M[0] = [a[j], (1 - a[j]) / R[j], 0, 0, 0, -(1 - a[j]) / R[j]]
-        M[1] = [-q0[j], 1.0, q1[j], q2[j], q0[j], 0.0]
-        M[2] = [-1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
-        M[3] = [0.0, 0.0, 1.0, 0.0, 0.0, 0.0]
-        r_i = np.array([c[j], (1 - c[j]) / R[j], 0, 0, 0, -(1 - c[j]) / R[j]])
-        r_u = np.array([0.0, 1.0, 0, 0, 0, 0])
-        P = np.eye(6)
-        s_i, s_u = np.zeros(6), np.zeros(6)
-        for k in range(n_sub):
-            s_i = s_i + r_i @ P
-            s_u = s_u + r_u @ P
-            P = M @ P
-            out[j, k, :4] = P[:4]
-            out[j, k, 4] = s_i
-            out[j, k, 5] = s_u
-    return out
-
-
-def _delayed(hist: list, d: np.ndarray) -> np.ndarray:
-    """The voltage each joint applies now: its output ``d`` current-loop samples ago
-    (``hist[-1]`` is the newest); drops outputs no joint needs any more."""
-    out = np.array([hist[-1 - dj][j] for j, dj in enumerate(d)])
-    while len(hist) > int(d.max()) + 1:
-        hist.pop(0)
-    return out
+        return a
