@@ -58,7 +58,7 @@ bench: $(STAMP)
 	$(PY) -m pip install --quiet -c $(LOCK) -e ".[test,bench]"
 	$(PY) benchmarks/run_all.py --update-readme
 
-# the planner property checks of tests/test_planner_properties.py on many more random cases:
+# the planner property checks of tests/planning/test_planner_properties.py on many more random cases:
 # up to 100 000 per planner (2 000 per optimiser) or 60 minutes each; counts in out/soak.json
 soak: $(STAMP)
 	MPLBACKEND=Agg OPENBLAS_NUM_THREADS=1 $(PY) tests/soak_planners.py --cases 100000 \

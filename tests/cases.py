@@ -7,6 +7,11 @@ classical PTP planner: cheap enough to run dozens of times in a sweep test.
 from __future__ import annotations
 
 import json
+import math
+
+import numpy as np
+
+from armlab.trajectory import Trajectory
 
 #: the two joint waypoints of the quick study, in degrees
 QUICK_WAYPOINTS_DEG = [[0, 0, 0, 0, 0, 0], [20, 10, 10, 0, 20, 0]]
@@ -40,3 +45,23 @@ def quick_study(
     if accuracy_samples is not None:
         lines += ["[kinematics]", f"accuracy_samples = {accuracy_samples}"]
     return "\n".join(lines) + "\n"
+
+
+def cosine_motion(robot, duration_s=60.0, n=6001, scale=0.9, terms=((3, 0.45), (7, 0.3))):
+    """Sum of ``A (1 - cos(w t)) - A`` per joint, at rest at both ends, within ``scale`` of the
+    speed and acceleration limits (each term takes a share ``frac`` of both)."""
+    t = np.linspace(0.0, duration_s, n)
+    lim = robot.limits
+    q = np.zeros((n, robot.n_joints))
+    qd, qdd = np.zeros_like(q), np.zeros_like(q)
+    for j in range(robot.n_joints):
+        for k, frac in terms:
+            w = 2 * math.pi * k / duration_s
+            A = min(
+                frac * scale * lim.velocity_rad_s[j] / w,
+                frac * scale * lim.acceleration_rad_s2[j] / w**2,
+            )
+            q[:, j] += A * (1 - np.cos(w * t)) - A
+            qd[:, j] += A * w * np.sin(w * t)
+            qdd[:, j] += A * w * w * np.cos(w * t)
+    return Trajectory(t, q, qd, qdd, joint_names=robot.joint_names, method="cosines")

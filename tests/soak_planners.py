@@ -26,7 +26,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
+sys.path[:0] = [str(HERE), str(HERE / "planning")]
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 OPTIMISERS = ("optimal", "topp")

@@ -46,7 +46,7 @@ environment                   K_E = 700, 5000, 30000                       linea
 ============================  ===========================================  =====================
 
 The source's findings, and ours under these assumptions (:func:`force_margins`,
-:func:`force_loop`; ``tests/test_control.py`` checks the directions):
+:func:`force_loop`; ``tests/control/test_control.py`` checks the directions):
 
 1. *Each design is stable on its environment* -- reproduced (all three settle, no overshoot).
 2. *"As the stiffness rises, the control performance tends to get worse"* -- reproduced in the

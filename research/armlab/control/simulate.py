@@ -43,7 +43,7 @@ Speed: sub-steps in which no joint's amplifier reaches its supply are linear in 
 their start; the simulation jumps over them with precomputed maps
 (:func:`armlab.control.amplifier.linear_period`) and
 runs the 20 kHz sub-steps one by one only from a sub-step that saturates (the same result to
-round-off, ``tests/test_simulation_hw.py``). The drive-model variants of one motion
+round-off, ``tests/control/test_simulation_hw.py``). The drive-model variants of one motion
 (:func:`tracking_variants`) run in one time loop, every operation element-wise over the
 variants' joints laid end to end, each variant jumping over its own linear sub-steps: each gets,
 bit for bit, what it gets alone; on the demo cycle three variants take 1.43 s of CPU together

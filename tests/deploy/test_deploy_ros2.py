@@ -30,10 +30,10 @@ from armlab.errors import InputError
 from armlab.io import write_json
 from armlab.kinematics.forward import tool_positions
 from armlab.study import export_study
+from cases import cosine_motion
 from conftest import make_study_folder
-from test_deploy import cosine_motion
 
-DATA = Path(__file__).parent / "data" / "ros2"
+DATA = Path(__file__).resolve().parents[1] / "data" / "ros2"
 BUDGET_M = 5e-4
 
 

@@ -10,6 +10,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_planner_properties import (
+    NAMED,
+    Case,
+    _decades,
+    _limits,
+    _move,
+    _robot_name,
+    check_trajectory,
+    get_robot,
+)
 
 from armlab.errors import InfeasibleError, InputError
 from armlab.planning import ptp_sync
@@ -21,16 +31,6 @@ from armlab.trajectory.profiles import (
     trapezoid_min_time_from_state,
 )
 from armlab.trajectory.profiles.from_state import _ramps_distance
-from test_planner_properties import (
-    NAMED,
-    Case,
-    _decades,
-    _limits,
-    _move,
-    _robot_name,
-    check_trajectory,
-    get_robot,
-)
 
 
 def _reachable(D, v0, v1, v, a, T) -> bool:

@@ -27,8 +27,8 @@ from armlab.errors import InputError
 from armlab.robot import load_profile
 from armlab.study import export_study
 from armlab.trajectory import Trajectory
+from cases import cosine_motion
 from conftest import make_study_folder
-from test_deploy import cosine_motion
 
 RATIOS = (125, 410, 385, 80, 298, 128)  # thesis table 4.3
 

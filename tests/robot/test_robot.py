@@ -45,7 +45,7 @@ def test_mdh_table_values_match_the_thesis(teachbot6):
     np.testing.assert_allclose(dh.d_m, [0, 0, 0, 0.202, 0, 0])
     np.testing.assert_allclose(np.degrees(dh.alpha_rad), [0, -90, 0, -90, 90, -90])
     # thesis table 2.1 speeds, as the URDF's <limit velocity> (robot.limits caps them by the
-    # drive train: tests/test_limits.py)
+    # drive train: tests/robot/test_limits.py)
     urdf = armlab.robot.limits.description_limits(teachbot6.model)
     np.testing.assert_allclose(urdf.velocity_rad_s, [0.56, 0.26, 0.65, 0.875, 0.875, 1.22])
     assert dh.labels == ("S", "L", "U", "R", "B", "T")

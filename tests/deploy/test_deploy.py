@@ -31,32 +31,13 @@ from armlab.errors import InputError, LimitViolation
 from armlab.robot import ControllerProfile, list_profiles, load_profile
 from armlab.study import export_study
 from armlab.trajectory import Trajectory
+from cases import cosine_motion
 from conftest import make_study_folder
 
 RATIOS = (125, 410, 385, 80, 298, 128)  # thesis table 4.3
 
 
 # ---------------------------------------------------------------------- trajectories
-def cosine_motion(robot, duration_s=60.0, n=6001, scale=0.9, terms=((3, 0.45), (7, 0.3))):
-    """Sum of ``A (1 - cos(w t)) - A`` per joint, at rest at both ends, within ``scale`` of the
-    speed and acceleration limits (each term takes a share ``frac`` of both)."""
-    t = np.linspace(0.0, duration_s, n)
-    lim = robot.limits
-    q = np.zeros((n, robot.n_joints))
-    qd, qdd = np.zeros_like(q), np.zeros_like(q)
-    for j in range(robot.n_joints):
-        for k, frac in terms:
-            w = 2 * math.pi * k / duration_s
-            A = min(
-                frac * scale * lim.velocity_rad_s[j] / w,
-                frac * scale * lim.acceleration_rad_s2[j] / w**2,
-            )
-            q[:, j] += A * (1 - np.cos(w * t)) - A
-            qd[:, j] += A * w * np.sin(w * t)
-            qdd[:, j] += A * w * w * np.cos(w * t)
-    return Trajectory(t, q, qd, qdd, joint_names=robot.joint_names, method="cosines")
-
-
 def one_joint_bump(robot, joint, peak_speed, omega=2.0, n=2001):
     """Joint ``joint`` moves ``A (1 - cos(w t))`` over one half period with peak speed
     ``peak_speed``; other joints rest at 0."""

@@ -10,6 +10,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 from scipy.optimize import linprog
+from test_optimal import ONE_JOINT_URDF  # the one-joint arm of the optimiser's tests
 
 import armlab
 from armlab.errors import InfeasibleError, InputError
@@ -28,7 +29,6 @@ from armlab.planning.reachability import (
 from armlab.planning.topp import LIMIT_MARGIN, build_topp
 from armlab.robot.limits import resolve_limits
 from armlab.trajectory import time_optimal_path
-from test_optimal import ONE_JOINT_URDF  # the one-joint arm of the optimiser's tests
 
 #: waypoints of teachbot6 paths (inside the ranges, spline inside them too)
 PATHS = [

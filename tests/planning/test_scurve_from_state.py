@@ -12,6 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_planner_properties import (
+    NAMED,
+    Case,
+    check_trajectory,
+)
+from test_replan import moving_failures, replan_case
 
 from armlab.errors import InfeasibleError, InputError
 from armlab.planning import ptp_sync
@@ -25,12 +31,6 @@ from armlab.trajectory.profiles import (
     synchronised_from_state,
     synchronised_profiles,
 )
-from test_planner_properties import (
-    NAMED,
-    Case,
-    check_trajectory,
-)
-from test_replan import moving_failures, replan_case
 
 
 def _state(rng, n: int, gap: bool):

@@ -24,7 +24,7 @@ from armlab.dynamics import size
 from armlab.dynamics.checks import counts_per_joint_rev_of
 from armlab.robot import load_profile, rigid_body
 from armlab.robot.drivetrain import drive_train, motor_torque
-from test_deploy import cosine_motion
+from cases import cosine_motion
 
 
 def _sizing_limit(report, joint: str, check: str) -> float:

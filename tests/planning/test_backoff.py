@@ -126,8 +126,9 @@ def test_held_over_limit_names_the_first_sample_and_its_worst_joint():
 @pytest.fixture(scope="module")
 def one_joint(tmp_path_factory):
     """The optimiser tests' 1 kg arm of 0.2 m on a horizontal axis (gravity matters)."""
-    import armlab
     from test_optimal import ONE_JOINT_URDF
+
+    import armlab
 
     path = tmp_path_factory.mktemp("one") / "one.urdf"
     path.write_text(ONE_JOINT_URDF)
