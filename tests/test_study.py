@@ -354,6 +354,13 @@ feedforward = ["velocity", "acceleration", "gravity"]
 """
 
 
+def _key_figure_rows(report: str) -> dict[str, str]:
+    """``figure -> value`` of the table under report.md's "## Key figures" heading."""
+    section = report.split("## Key figures", 1)[1].split("\n## ", 1)[0]
+    rows = [line.strip("|").split("|") for line in section.splitlines() if line.startswith("| ")]
+    return {name.strip(): value.strip() for name, value in rows[1:]}  # the header row left out
+
+
 def test_full_chain_outputs_are_what_independent_computations_give(tmp_path, capsys):
     """`armlab run` through every stage, then every output file checked against a computation
     that does not read the object that wrote it: sha256 of the bytes, the set-point table
@@ -388,6 +395,14 @@ def test_full_chain_outputs_are_what_independent_computations_give(tmp_path, cap
     assert {"plan_profiles.png", "tracking_error.png", "tracking_drive_model.png"} <= set(shown)
     for png in shown:
         assert (out / png).is_file(), png
+    # the report's key figures are the summary's (they were read before they were filled)
+    figures = _key_figure_rows(report)
+    kf = summary["key_figures"]
+    assert set(figures) == {k for k in kf if not k.startswith("stage_")}
+    for name in ("duration_s", "max_static_torque_Nm", "min_phase_margin_deg", "tcp_max_error_m"):
+        assert float(figures[name]) == pytest.approx(kf[name], rel=5e-4), name  # 4 digits shown
+    assert float(figures["n_cycles"]) == kf["n_cycles"] > 0
+    assert figures["verdict"] == summary["design"]["verdict"] == "pass"
     # each file's sha256 in the summary is the file's (computed here independently)
     files = summary["export"]["files"]
     assert set(files) == {"setpoints.csv", "gains.json", "trajectory.npz"}

@@ -206,13 +206,15 @@ def _drives_header(ctx, study) -> str:
 
 
 def _cmd_run(args) -> int:
-    from armlab._cpus import usable_cpus
+    from armlab.errors import InputError
     from armlab.study import run_study
 
-    workers = args.workers if args.workers is not None else usable_cpus()
-    summary = run_study(
-        args.study, args.out, workers=workers, force=args.force, overwrite=args.overwrite
-    )
+    if args.workers is not None:  # the option of armlab <= issue 23, refused on one line
+        raise InputError(
+            "run --workers: a study runs in one process; studies run in parallel with "
+            "armlab sweep --workers N"
+        )
+    summary = run_study(args.study, args.out, force=args.force, overwrite=args.overwrite)
     return _verdict_status(summary.get("design", {}))
 
 
@@ -388,16 +390,8 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="clear an output folder that holds another study's outputs",
     )
-    s.add_argument(
-        "--workers",
-        type=int,
-        default=None,
-        metavar="N",
-        help=(
-            "processes that draw the report's plots and tune the servos beside the plan "
-            "(default: one per CPU this process may use)"
-        ),
-    )
+    # refused with one line (a study runs in one process; sweeps run studies in parallel)
+    s.add_argument("--workers", type=int, default=None, help=argparse.SUPPRESS)
     s.set_defaults(func=_cmd_run)
     s = sub.add_parser(
         "sweep",
@@ -486,10 +480,10 @@ def one_blas_thread() -> bool:
     (:data:`BLAS_THREAD_VARIABLES`); True when it was set here.
 
     armlab's matrices are small (state-space loops, 6 x 6 dynamics): a second BLAS thread
-    does not speed them up, and beside another busy process (the report's plot processes,
-    a sweep's workers) it slows them down 2-3x (``tune_arm`` 0.36 s on one thread, 1.08 s on
-    two with the other core busy; measured). The numbers do not change (the demo's files are
-    the same bit for bit on one thread and on two).
+    does not speed them up, and beside another busy process (a sweep's workers, other jobs on
+    the machine) it slows them down (the demo's tuning stage, one study in one process on a
+    loaded 2-core machine: 1.05 s on one thread, 5.0 s on two; measured in issue 23). The
+    numbers do not change (the demo's files are the same bit for bit on one thread and on two).
 
     Two steps, because scipy brings its own OpenBLAS, loaded at the first use of
     ``scipy.linalg``: the limit covers the libraries loaded so far, and

@@ -9,17 +9,12 @@ from __future__ import annotations
 
 import functools
 import math
-import os
-import pickle
-import queue
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from armlab._fork import SILENCE_S, SideProcess, can_fork, die_with, start_forked
 from armlab.io import atomic_open, atomic_write
 
 __all__ = ["write_report", "summary_text"]
@@ -51,11 +46,8 @@ def _plant(ctx, joint):
     return make
 
 
-def _figures(
-    ctx, variants: _VariantPrefetch | None = None
-) -> list[tuple[str, str, Callable[[], Any]]]:
-    """(file name, caption, figure factory) of every plot the study can draw; ``variants``:
-    the drive-model variants being simulated beside the tracking stage, if they are."""
+def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
+    """(file name, caption, figure factory) of every plot the study can draw."""
     from armlab.kinematics import tool_positions
     from armlab.plots import (
         bode_figure,
@@ -150,7 +142,7 @@ def _figures(
                 "TCP error with and without the reducer's efficiency and friction and the "
                 "amplifier's supply limit (the verdict uses both), and with their feed-forward; "
                 "below, the full model's armature voltages against the supply",
-                lambda: _drive_model_figure(ctx, variants),
+                lambda: _drive_model_figure(ctx),
             )
         )
     loads = getattr(ctx.sizing, "loads", None)
@@ -171,23 +163,20 @@ def _figures(
     return out
 
 
-def _drive_model_figure(ctx, variants: _VariantPrefetch | None = None):
+def _drive_model_figure(ctx):
     """The study's motion under each drive model: the tracking stage's result and its
     variants (:func:`armlab.control.simulate.tracking_variants`; those the stage's diagnosis
-    ran or ``variants`` simulated beside the stage are reused, the others simulated when the
-    report is drawn -- by another process when several draw, so the study's context keeps
-    only the diagnosis's)."""
+    ran are reused, the others simulated here and kept on the context)."""
     from armlab.control.simulate import tracking_variants
     from armlab.plots.servo import drive_model_figure
 
     res = ctx.tracking
-    known = {**(variants.take() if variants is not None else {}), **ctx.tracking_variants}
     v = tracking_variants(
         ctx.robot,
         ctx.trajectory,
         ctx.gains,
         DRIVE_MODEL_VARIANTS,
-        known=known,
+        known=dict(ctx.tracking_variants),
         **ctx.tracking_options,
     )
     ctx.tracking_variants.update(v)
@@ -205,179 +194,25 @@ def _drive_model_figure(ctx, variants: _VariantPrefetch | None = None):
 #: the drive models of the report's drive-model plot beside the study's full model
 #: (:data:`armlab.control.simulate.DRIVE_VARIANTS`)
 DRIVE_MODEL_VARIANTS = ("ideal", "no_voltage_limit", "with_loss_feedforward")
-#: figures that take longest (simulations, many axes), started first so that the processes
-#: drawing the others finish together (a scheduling hint: the files do not depend on it)
-_SLOW_FIRST = ("tracking_drive_model.png", "kinematics_accuracy.png", "sizing_loads.png")
-#: with its variants simulated beside the tracking stage (:class:`_VariantPrefetch`) the
-#: drive-model plot is drawn last instead: its process may still have to wait for them
-_WAITS_LAST = "tracking_drive_model.png"
-
-
-def _figure_processes(n_jobs: int, workers: int | None) -> int:
-    """How many processes draw the plots: ``workers`` (None: one), at most one per plot, and
-    one where processes cannot be forked (the children inherit the study's state instead of
-    receiving it pickled)."""
-    n = 1 if workers is None else max(1, int(workers))
-    if not can_fork():
-        return 1
-    return max(1, min(n, n_jobs))
-
-
 #: resolution of the report's PNG plots
 PLOT_DPI = 110
 #: zlib level of the report's PNG files: 1 instead of PIL's 6 -- 13 % less time per plot for
 #: files ~10 % larger (issue 15, measured on the 18-panel loads plot: 0.43 -> 0.37 s, 390 -> 432 kB)
 PNG_COMPRESS_LEVEL = 1
-#: a plot process that sends nothing for this long [s] is stopped and its plots are named as
-#: not drawn (:data:`armlab._fork.SILENCE_S`)
-PLOT_PROCESS_SILENCE_S = SILENCE_S
 
 
-def _draw_one(name: str, make: Callable[[], Any], out_dir: Path, parent: int | None = None) -> Path:
-    """Draw one plot and write it atomically; ``parent``: in a plot process, the study's
-    process, without which nothing is written."""
+def _draw_one(name: str, make: Callable[[], Any], out_dir: Path) -> Path:
+    """Draw one plot and write it atomically (a plot that fails raises its error)."""
     from armlab.plots import offscreen
 
     with offscreen():  # object API + Agg canvas: the caller's backend and pyplot untouched
         fig = make()
-    if parent is not None and os.getppid() != parent:
-        os._exit(0)
     path = out_dir / name
     fmt = path.suffix[1:] or "png"
     extra = {"pil_kwargs": {"compress_level": PNG_COMPRESS_LEVEL}} if fmt == "png" else {}
     with atomic_open(path, "wb") as f:
         fig.savefig(f, format=fmt, dpi=PLOT_DPI, **extra)
     return path
-
-
-class _FigureDrawing:
-    """Draw the report's plots while the ``with`` block runs: forked processes take the next
-    plot from a shared counter (slowest first), this process draws its share when the block
-    ends, then waits for the others. A plot that fails raises its error here, after every
-    process has stopped (the files the others wrote stay)."""
-
-    def __init__(
-        self,
-        jobs,
-        out_dir: Path,
-        processes: int,
-        *,
-        parent_draws: bool = True,
-        prefetched: bool = False,
-    ) -> None:
-        rank = {name: k for k, name in enumerate(_SLOW_FIRST)}
-        if prefetched:  # the drive-model plot waits for its simulations: last
-            rank[_WAITS_LAST] = len(rank) + 1
-        self.jobs = sorted(jobs, key=lambda job: rank.get(job[0], len(_SLOW_FIRST)))
-        self.out_dir = out_dir
-        self.processes = processes
-        self.parent_draws = parent_draws  # False: the parent only waits (it has stages to run)
-        self.paths: list[Path] = []
-        self._children: list = []
-        self._sent: list[Path] = []
-
-    def _next(self) -> int:
-        with self._counter.get_lock():
-            k = self._counter.value
-            self._counter.value += 1
-        return k
-
-    def _work(self, send, parent: int | None = None) -> None:
-        while (k := self._next()) < len(self.jobs):
-            name, _, make = self.jobs[k]
-            try:
-                fig_path = _draw_one(name, make, self.out_dir, parent)
-                send((k, None, fig_path))
-            except Exception as exc:  # reported to the parent, which raises it
-                send((k, exc, None))
-                return
-
-    def __enter__(self) -> _FigureDrawing:
-        if self.processes <= 1:
-            return self
-        import multiprocessing
-
-        mp = multiprocessing.get_context("fork")
-        self._counter = mp.Value("i", 0)
-        self._queue = mp.Queue()
-        self._children = [
-            mp.Process(target=self._child, daemon=True) for _ in range(self.processes - 1)
-        ]
-        start_forked(self._children)
-        return self
-
-    def _child(self) -> None:
-        def send(item) -> None:
-            k, exc, path = item
-            if exc is not None:  # the exception crosses as itself if it pickles
-                try:
-                    pickle.dumps(exc)
-                except Exception:
-                    exc = RuntimeError(f"{self.jobs[k][0]}: {type(exc).__name__}: {exc}")
-            self._queue.put((k, exc, path))
-
-        parent = os.getppid()
-        die_with(parent)
-        try:
-            self._work(send, parent)
-        finally:
-            self._queue.put(None)  # this process is done
-
-    def finish(self) -> list[Path]:
-        """Draw what is left, wait for the other processes; the files drawn."""
-        self.parent_draws = True
-        self.__exit__(None, None, None)
-        return self.paths
-
-    def abort(self) -> None:
-        """Stop handing out plots, wait for the processes and remove the files they wrote."""
-        if self.processes <= 1:
-            return
-        self.__exit__(RuntimeError, None, None)
-        for path in self._sent:
-            Path(path).unlink(missing_ok=True)
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if self.processes <= 1:
-            if exc_type is None:
-                self.paths = [_draw_one(name, make, self.out_dir) for name, _, make in self.jobs]
-            return
-        results: list = []
-        if exc_type is None and self.parent_draws:
-            self._work(results.append)
-        else:  # the block failed: stop handing out plots
-            with self._counter.get_lock():
-                self._counter.value = len(self.jobs)
-        done, last = 0, time.monotonic()
-        while done < len(self._children):
-            try:
-                item = self._queue.get(timeout=0.5)
-            except queue.Empty:
-                alive = [child for child in self._children if child.is_alive()]
-                if alive and time.monotonic() - last < PLOT_PROCESS_SILENCE_S:
-                    continue
-                for child in alive:  # silent too long (a hang): its plot is missing below
-                    child.terminate()
-                break  # a process died without saying so: its plot is missing below
-            last = time.monotonic()
-            if item is None:
-                done += 1
-            else:
-                results.append(item)
-        for child in self._children:
-            child.join()
-        self._sent = [path for _, _, path in results if path is not None]
-        if exc_type is not None:
-            return
-        results.sort(key=lambda r: r[0])
-        for _, error, _ in results:
-            if error is not None:
-                raise error
-        missing = set(range(len(self.jobs))) - {k for k, _, _ in results}
-        if missing:
-            names = sorted(self.jobs[k][0] for k in missing)
-            raise RuntimeError(f"the report's plots {names} were not drawn (a process died)")
-        self.paths = [path for _, _, path in results]
 
 
 # ---------------------------------------------------------------------------- report.md
@@ -399,133 +234,9 @@ def _table(header: list[str], rows: list[list[Any]]) -> list[str]:
     return lines + [""]
 
 
-#: the plots each stage makes final (file-name prefixes): drawn from that stage's results and
-#: earlier ones, which no later stage changes. The plan's plots wait for the sizing stage,
-#: which may give the robot its drive train (and so its torque limits).
-_STAGE_PLOTS = {
-    "kinematics": ("kinematics_",),
-    "sizing": ("plan_", "sizing_"),
-    "tuning": ("control_",),
-    "tracking": ("tracking_",),
-}
-
-
-class _VariantPrefetch:
-    """The drive-model plot's variants (:data:`DRIVE_MODEL_VARIANTS`) simulated by forked
-    processes while the tracking stage runs: they need the plan, the gains and the study's
-    tracking options, not the stage's result, and were the report's longest job (issue 15:
-    ~2 s of CPU that could only start once the stage had ended). One process per time loop
-    of :func:`~armlab.control.simulate.tracking_variants` (the variants with the supply
-    limit, and those without), so that they end together with the other work.
-
-    :meth:`take` is called once, by the process that draws the plot; a process that failed
-    or fell silent gives nothing, and the plot then simulates those variants itself (the same
-    numbers, the error raised where it would have been)."""
-
-    def __init__(self, ctx) -> None:
-        from armlab.control.simulate import tracking_variants, variant_loops
-        from armlab.study.stages import tracking_options
-
-        options = tracking_options(ctx)
-        self.sides = [
-            SideProcess(tracking_variants, ctx.robot, ctx.trajectory, ctx.gains, g, **options)
-            for g in variant_loops(DRIVE_MODEL_VARIANTS)
-        ]
-
-    def take(self) -> dict:
-        """The simulated variants by name (those of a failed process missing)."""
-        out: dict = {}
-        for side in self.sides:
-            out.update(side.result() or {})
-        return out
-
-    def close(self) -> None:
-        for side in self.sides:
-            side.close()
-
-
-def _preload_plotting() -> None:
-    """Import matplotlib and the plot modules in the study's process before its stages, so
-    that every plot process forked later inherits them instead of importing them (~0.3 s of
-    CPU each; the study's own process would import them for its share of the plots anyway)."""
-    import matplotlib.backends.backend_agg  # noqa: F401
-    import matplotlib.figure  # noqa: F401
-
-    import armlab.plots.dynamics  # noqa: F401
-    import armlab.plots.kinematics  # noqa: F401
-    import armlab.plots.optimal  # noqa: F401
-    import armlab.plots.servo  # noqa: F401
-
-
-class StagePlots:
-    """With several ``workers``, the report's plots drawn while the later stages run: when a
-    stage ends, its final plots (:data:`_STAGE_PLOTS`, with any still waiting) go to a forked
-    process if none is busy (one at a time beside the stages); :func:`write_report` draws
-    the rest and collects them. :meth:`abort` when the study stops before its report."""
-
-    def __init__(self, out_dir: Path, workers: int | None) -> None:
-        self.out_dir = Path(out_dir)
-        self.on = _figure_processes(2, workers) >= 2
-        self.drawings: list[_FigureDrawing] = []
-        self.waiting: list[str] = []  # prefixes of final plots not started yet
-        self.variants: _VariantPrefetch | None = None
-        self.motion: SideProcess | None = None  # the 3D animation, once the plan is final
-        if self.on:  # before the first stage: the core beside it has nothing to draw yet
-            _preload_plotting()
-
-    def stage_done(self, ctx, stage: str) -> None:
-        if not self.on:
-            return
-        if stage == "tuning" and "tracking" in ctx.spec.study.stages:
-            self.variants = _VariantPrefetch(ctx)  # beside the tracking stage
-        if stage == "sizing" and ctx.trajectory is not None:  # after its drives, as plan_*
-            self.motion = SideProcess(_motion_file, ctx.robot, ctx.trajectory, self.out_dir)
-        self.waiting += _STAGE_PLOTS.get(stage, ())
-        busy = any(c.is_alive() for d in self.drawings for c in d._children)
-        if not busy and self.waiting:
-            jobs = _figures(ctx, self.variants)
-            jobs = [job for job in jobs if job[0].startswith(tuple(self.waiting))]
-            self.waiting = []
-            if jobs:
-                drawing = _FigureDrawing(
-                    jobs, self.out_dir, 2, parent_draws=False, prefetched=self.variants is not None
-                )
-                self.drawings.append(drawing.__enter__())
-
-    def names(self) -> set[str]:
-        return {job[0] for d in self.drawings for job in d.jobs}
-
-    def finish(self) -> list[Path]:
-        try:
-            return [path for d in self.drawings for path in d.finish()]
-        finally:
-            self._close_sides()
-
-    def abort(self) -> None:
-        for d in self.drawings:
-            d.abort()
-        self.drawings = []
-        if self.motion is not None:  # its file goes with the plots
-            self.motion.result()  # let it finish writing
-            (self.out_dir / MOTION_FILE).unlink(missing_ok=True)
-        self._close_sides()
-
-    def _close_sides(self) -> None:
-        for side in (self.variants, self.motion):
-            if side is not None:
-                side.close()
-        self.variants = self.motion = None
-
-
-def write_report(
-    ctx, summary: dict, out_dir: Path, *, workers: int | None = None, early=None
-) -> list[Path]:
-    """Write ``report.md`` and its PNG plots into ``out_dir``; returns the files written.
-
-    ``workers``: processes that draw the plots (:func:`_figure_processes`; None or 1: this
-    one); ``early``: the :class:`StagePlots` of the run, finished here. The files are the
-    same whichever number draws them.
-    """
+def write_report(ctx, summary: dict, out_dir: Path) -> list[Path]:
+    """Write ``report.md`` and its PNG plots into ``out_dir``, in this process, one plot after
+    the other; returns the files written. A plot that fails raises its error."""
     out_dir = Path(out_dir)
     files: list[Path] = []
     spec = ctx.spec
@@ -640,31 +351,16 @@ def write_report(
     lines += _table(
         ["figure", "value"], [[k, v] for k, v in kf.items() if not k.startswith("stage_")]
     )
-    variants = early.variants if early is not None else None
-    jobs = _figures(ctx, variants)
+    jobs = _figures(ctx)
     if jobs:
         lines += ["## Plots", ""]
     for name, caption, _ in jobs:
         lines += [f"![{caption}]({name})", "", f"*{caption}*", ""]
-    # the figures in `processes` processes; the parent draws its share and the 3D motion
-    started = early.names() if early is not None else set()
-    rest = [job for job in jobs if job[0] not in started]
-    processes = _figure_processes(len(jobs), workers)
-    summary["study"]["plot_processes"] = processes
-    motion = None  # (report lines, whether the file was written)
-    if early is not None and early.motion is not None:  # written beside the stages
-        motion = early.motion.result()
-    with _FigureDrawing(rest, out_dir, processes, prefetched=variants is not None) as drawing:
-        if motion is None and ctx.trajectory is not None:
-            motion = _motion_file(ctx.robot, ctx.trajectory, out_dir)
-    if motion is not None:
-        lines += motion[0]
-        files += [out_dir / MOTION_FILE] if motion[1] else []
-    files += drawing.paths
-    if early is not None:
-        files += early.finish()
-    if processes > 1:
-        lines += [f"The {len(jobs)} plots were drawn by {processes} processes.", ""]
+    files += [_draw_one(name, make, out_dir) for name, _, make in jobs]
+    if ctx.trajectory is not None:
+        motion_lines, written = _motion_file(ctx.robot, ctx.trajectory, out_dir)
+        lines += motion_lines
+        files += [out_dir / MOTION_FILE] if written else []
     report = out_dir / "report.md"
     atomic_write(report, "\n".join(lines))
     return [report, *files]
@@ -677,8 +373,7 @@ MOTION_FILE = "motion.html"
 def _motion_file(robot, trajectory, out_dir: Path) -> tuple[list[str], bool]:
     """Write the planned motion as a self-contained 3D animation (:data:`MOTION_FILE`, see
     :func:`armlab.viz.animate`): the report's lines linking it, and whether it was written;
-    when meshcat is missing or fails, one line saying so (never an error). With several
-    workers a process forked when the sizing stage ends writes it (:class:`StagePlots`)."""
+    when meshcat is missing or fails, one line saying so (never an error)."""
     lines = ["## 3D motion", ""]
     try:
         import warnings

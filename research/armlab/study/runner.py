@@ -151,7 +151,6 @@ def run_spec(
     spec: StudySpec,
     out_dir: str | Path | None = None,
     *,
-    workers: int | None = None,
     progress: bool | None = False,
     report: bool | None = None,
     force: bool = False,
@@ -168,10 +167,6 @@ def run_spec(
         an earlier run of the same study is cleared of its outputs first; one that holds
         another study's outputs is refused unless ``overwrite``
         (:func:`armlab.study.record.prepare_out_dir`).
-    workers : int, optional
-        Processes that draw the report's plots (forked, where the platform can; None: one;
-        the files are the same whichever number draws them; ``summary["study"]
-        ["plot_processes"]`` records it).
     progress : bool or None
         Progress bar over the stages: True, False, or None = only on a terminal.
     report : bool, optional
@@ -186,9 +181,14 @@ def run_spec(
     ArmlabError
         The first stage that fails, with the stage's name in front of its message; the
         summary.json written so far records it.
+
+    Notes
+    -----
+    A study runs in this process, its stages and then its report's plots one after the other;
+    parallelism is across studies (``armlab sweep --workers``).
     """
     out = None if out_dir is None else prepare_out_dir(out_dir, spec.hash, overwrite=overwrite)
-    ctx = StudyContext(spec=spec, out_dir=out, workers=workers, force=force)
+    ctx = StudyContext(spec=spec, out_dir=out, force=force)
     summary: dict[str, Any] = {
         "study": {
             "name": spec.study.name,
@@ -211,24 +211,17 @@ def run_spec(
         }
         ctx.failed_so_far += block.get("failed_checks", [])
 
-    def finish() -> None:
+    def judge() -> None:
         summary["design"] = design_verdict(summary, tuple(spec.study.stages))
         summary["key_figures"] = key_figures(summary)
+
+    def finish() -> None:
+        judge()
         if out is not None:
             summary["files"] = {name: sha for name, sha in _checksums(out, ctx.files).items()}
             files.insert(0, write_json(out / SUMMARY_FILE, summary))
 
-    # with several workers, plots that need one stage's results alone are drawn while the
-    # later stages run (armlab.study.report.start_stage_plots)
-    early = None
-    if out is not None and (spec.study.report if report is None else report):
-        from armlab.study.report import StagePlots
-
-        early = StagePlots(out, workers)
-
     def fail(stage: str, exc: ArmlabError):
-        if early is not None:
-            early.abort()
         finish()
         bar.close()
         return type(exc)(f"{stage}: {exc}")
@@ -246,7 +239,6 @@ def run_spec(
         if out is not None:
             path = write_json(out / DESIGN_FILE, design_record(ctx.robot, ctx.controller, spec))
             ctx.files[DESIGN_FILE] = str(path)
-        ctx.tuning_ahead = _tuning_ahead(ctx)
         bar.update()
         for stage in STAGES:
             t0 = time.perf_counter()
@@ -287,8 +279,6 @@ def run_spec(
                     )
                     raise fail(stage, exc) from None
             record(stage, key, block, t0)
-            if early is not None and block["status"] == "ok":
-                early.stage_done(ctx, stage)
             bar.update()
         if ctx.drives_selected:  # the sizing stage gave the robot its drive train
             summary["robot"].update(robot_block(ctx))
@@ -296,39 +286,17 @@ def run_spec(
             if out is not None:
                 record_ = design_record(ctx.robot, ctx.controller, spec)
                 ctx.files[DESIGN_FILE] = str(write_json(out / DESIGN_FILE, record_))
-        if early is not None and out is not None:
+        if out is not None and (spec.study.report if report is None else report):
             from armlab.study.report import write_report
 
             bar.set_postfix_str("report")
-            summary["design"] = design_verdict(summary, tuple(spec.study.stages))
-            files += write_report(ctx, summary, out, workers=ctx.workers, early=early)
-            early = None
+            judge()  # the report shows the verdict and the key figures
+            files += write_report(ctx, summary, out)
         finish()
         files += [Path(p) for p in ctx.files.values()]
     finally:
-        if early is not None:  # the study stopped before its report: no orphan plots
-            early.abort()
-        if ctx.tuning_ahead is not None:
-            ctx.tuning_ahead.close()
-            ctx.tuning_ahead = None
         bar.close()
     return StudyResult(spec=spec, summary=summary, context=ctx, out_dir=out, files=files)
-
-
-def _tuning_ahead(ctx: StudyContext):
-    """With several workers, the servo tuning started in a forked process beside the
-    kinematics and plan stages (:attr:`StudyContext.tuning_ahead`): it needs the robot's
-    drives and the controller only. Not when the sizing stage may select the drive train."""
-    from armlab._fork import SideProcess, can_fork
-    from armlab.control import tune_arm
-    from armlab.study.stages import tuning_options
-
-    spec = ctx.spec
-    if (ctx.workers or 1) < 2 or not can_fork() or "tuning" not in spec.study.stages:
-        return None
-    if ctx.robot.drives is None or spec.sizing.select:
-        return None
-    return SideProcess(tune_arm, ctx.robot, controller=ctx.controller, **tuning_options(ctx))
 
 
 def _checksums(out: Path, written: dict[str, str]) -> dict[str, str]:
@@ -347,7 +315,6 @@ def _version() -> str:
 def run_study(
     study: str | Path | None,
     out_dir: str | Path,
-    workers: int | None = None,
     *,
     overrides: dict[str, Any] | None = None,
     progress: bool | None = None,
@@ -364,8 +331,6 @@ def run_study(
     out_dir : str or Path
         Output folder: summary.json, design.json, report.md + PNGs, setpoints.csv, gains.json,
         trajectory.npz.
-    workers : int, optional
-        Processes that draw the report's plots (:func:`run_spec`; None: one).
     overrides : dict, optional
         Dotted study keys to change (``{"payload.mass_kg": 1.0}``).
     progress : bool or None
@@ -384,9 +349,7 @@ def run_study(
         verdict.
     """
     spec = load_study(study, overrides)
-    result = run_spec(
-        spec, out_dir, workers=workers, progress=progress, force=force, overwrite=overwrite
-    )
+    result = run_spec(spec, out_dir, progress=progress, force=force, overwrite=overwrite)
     if not quiet:
         from armlab.study.report import summary_text
 

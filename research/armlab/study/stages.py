@@ -81,7 +81,6 @@ class StudyContext:
 
     spec: StudySpec
     out_dir: Path | None = None
-    workers: int | None = None
     force: bool = False
     robot: Any = None
     controller: ControllerProfile | None = None
@@ -93,11 +92,6 @@ class StudyContext:
     requirement_sizing: Any = None
     selection: Any = None
     drives_selected: bool = False
-    #: the servo tuning run by a forked process beside the kinematics and plan stages (``armlab
-    #: run --workers N``, :class:`armlab._fork.SideProcess`): the tuning depends on the robot's
-    #: drives and the controller only, so the stage takes its result unless the sizing stage
-    #: gave the robot another drive train
-    tuning_ahead: Any = None
     gains: Any = None
     tracking: Any = None
     #: the simulate_tracking options of ``tracking`` and its drive-model variants run so far
@@ -827,19 +821,12 @@ def stage_tuning(ctx: StudyContext) -> dict:
     from armlab.control import tune_arm
 
     _needs_drives(ctx)
-    gains = None
-    if ctx.tuning_ahead is not None and not ctx.drives_selected:  # the same robot as then
-        gains = ctx.tuning_ahead.result()
-    ahead = gains is not None
-    if gains is None:
-        gains = tune_arm(ctx.robot, controller=ctx.controller, **tuning_options(ctx))
+    gains = tune_arm(ctx.robot, controller=ctx.controller, **tuning_options(ctx))
     ctx.gains = gains
     return {
         "status": "ok",
         **verdict_block(_tuning_failures(gains, gains.spec)),
         "servo_period_s": ctx.controller.servo_period_s if ctx.controller else None,
-        # tuned by a process beside the earlier stages (the stage's time is then its wait)
-        "tuned_ahead": ahead,
         **_jsonable(gains.summary()),
     }
 
