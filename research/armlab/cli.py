@@ -158,6 +158,7 @@ def _cmd_drives(args) -> int:
     spec = load_study(args.study, {"robot.name": robot})
     ctx = selection_for_study(spec)
     sel = ctx.selection
+    assert sel is not None and ctx.robot.drives is not None  # installed by the selection
     text = drives_toml(ctx.robot.drives, header=_drives_header(ctx, args.study))
     out = Path(args.out)
     if out.exists() and not args.overwrite:

@@ -11,17 +11,21 @@ import functools
 import math
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from armlab.io import atomic_open, atomic_write
 
+if TYPE_CHECKING:
+    from armlab.control.gains import ArmGains
+    from armlab.study.stages import StudyContext
+
 __all__ = ["write_report", "summary_text"]
 
 
 # ---------------------------------------------------------------------------- plots
-def _weakest_joint(gains) -> str | None:
+def _weakest_joint(gains: ArmGains) -> str | None:
     """The joint whose loops have the smallest phase margin (continuous or discrete)."""
     worst, joint = math.inf, None
     for name, loops in gains.summary().items():
@@ -33,20 +37,21 @@ def _weakest_joint(gains) -> str | None:
     return joint
 
 
-def _plant(ctx, joint):
+def _plant(ctx: StudyContext, joint: str):
     """A factory of the joint's plant with the inertia range the tuning used."""
 
     def make():
         from armlab.control import joint_plant
 
         n = ctx.spec.control.n_inertia_samples
-        kw = {} if n is None else {"n_samples": n}
-        return joint_plant(ctx.robot, joint, seed=ctx.spec.study.seed, **kw)
+        if n is None:
+            return joint_plant(ctx.robot, joint, seed=ctx.spec.study.seed)
+        return joint_plant(ctx.robot, joint, seed=ctx.spec.study.seed, n_samples=n)
 
     return make
 
 
-def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
+def _figures(ctx: StudyContext) -> list[tuple[str, str, Callable[[], Any]]]:
     """(file name, caption, figure factory) of every plot the study can draw."""
     from armlab.kinematics import tool_positions
     from armlab.plots import (
@@ -66,13 +71,22 @@ def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
 
     out: list[tuple[str, str, Callable[[], Any]]] = []  # (file name, caption, draw)
     traj, robot = ctx.trajectory, ctx.robot
-    for kind, plot, caption in (
-        ("workspace", plot_workspace, "Monte-Carlo workspace"),
-        ("accuracy", plot_accuracy, "Monte-Carlo positioning error"),
-    ):
-        res = ctx.figures.get(kind)
-        if res is not None:
-            out.append((f"kinematics_{kind}.png", caption, functools.partial(plot, res)))
+    if ctx.workspace is not None:
+        out.append(
+            (
+                "kinematics_workspace.png",
+                "Monte-Carlo workspace",
+                functools.partial(plot_workspace, ctx.workspace),
+            )
+        )
+    if ctx.accuracy is not None:
+        out.append(
+            (
+                "kinematics_accuracy.png",
+                "Monte-Carlo positioning error",
+                functools.partial(plot_accuracy, ctx.accuracy),
+            )
+        )
     if traj is not None:
         optimised = ctx.spec.plan.planner in ("optimal", "path")
         joints = plot_limit_profiles if optimised else plot_joints
@@ -128,7 +142,7 @@ def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
                     lambda: step_figure(plant(), g),
                 )
             )
-    if ctx.tracking is not None and hasattr(ctx.tracking, "tcp_error_m"):
+    if ctx.tracking is not None:
         out.append(
             (
                 "tracking_error.png",
@@ -145,7 +159,7 @@ def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
                 lambda: _drive_model_figure(ctx),
             )
         )
-    loads = getattr(ctx.sizing, "loads", None)
+    loads = ctx.sizing.loads if ctx.sizing is not None else None
     if loads is not None:
         for plot_loads, name, caption in (
             (
@@ -163,7 +177,7 @@ def _figures(ctx) -> list[tuple[str, str, Callable[[], Any]]]:
     return out
 
 
-def _drive_model_figure(ctx):
+def _drive_model_figure(ctx: StudyContext):
     """The study's motion under each drive model: the tracking stage's result and its
     variants (:func:`armlab.control.simulate.tracking_variants`; those the stage's diagnosis
     ran are reused, the others simulated here and kept on the context)."""
@@ -171,6 +185,7 @@ def _drive_model_figure(ctx):
     from armlab.plots.servo import drive_model_figure
 
     res = ctx.tracking
+    assert res is not None  # drawn only after the tracking stage
     v = tracking_variants(
         ctx.robot,
         ctx.trajectory,
@@ -234,7 +249,7 @@ def _table(header: list[str], rows: list[list[Any]]) -> list[str]:
     return lines + [""]
 
 
-def write_report(ctx, summary: dict, out_dir: Path) -> list[Path]:
+def write_report(ctx: StudyContext, summary: dict, out_dir: Path) -> list[Path]:
     """Write ``report.md`` and its PNG plots into ``out_dir``, in this process, one plot after
     the other; returns the files written. A plot that fails raises its error."""
     out_dir = Path(out_dir)
@@ -344,7 +359,7 @@ def write_report(ctx, summary: dict, out_dir: Path) -> list[Path]:
                 ctx.requirement_sizing.to_markdown(),
                 "",
             ]
-        if key == "sizing" and ctx.selection is not None and hasattr(ctx.selection, "to_markdown"):
+        if key == "sizing" and ctx.selection is not None:
             lines += [ctx.selection.to_markdown(), ""]
     kf = summary.get("key_figures", {})
     lines += ["## Key figures", ""]

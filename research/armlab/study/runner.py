@@ -188,7 +188,8 @@ def run_spec(
     parallelism is across studies (``armlab sweep --workers``).
     """
     out = None if out_dir is None else prepare_out_dir(out_dir, spec.hash, overwrite=overwrite)
-    ctx = StudyContext(spec=spec, out_dir=out, force=force)
+    written: dict[str, str] = {}  # file name -> path, of every data file the run wrote
+    failed: list[str] = []  # the failed checks of the stages so far
     summary: dict[str, Any] = {
         "study": {
             "name": spec.study.name,
@@ -209,7 +210,7 @@ def run_spec(
             "verdict": block.get("verdict"),
             "time_s": round(time.perf_counter() - t0, 6),
         }
-        ctx.failed_so_far += block.get("failed_checks", [])
+        failed.extend(block.get("failed_checks", []))
 
     def judge() -> None:
         summary["design"] = design_verdict(summary, tuple(spec.study.stages))
@@ -218,7 +219,7 @@ def run_spec(
     def finish() -> None:
         judge()
         if out is not None:
-            summary["files"] = {name: sha for name, sha in _checksums(out, ctx.files).items()}
+            summary["files"] = {name: sha for name, sha in _checksums(out, written).items()}
             files.insert(0, write_json(out / SUMMARY_FILE, summary))
 
     def fail(stage: str, exc: ArmlabError):
@@ -230,15 +231,24 @@ def run_spec(
         t0 = time.perf_counter()
         bar.set_postfix_str("robot")
         try:
-            ctx.controller = controller_profile(spec)
-            ctx.robot = build_robot(spec)
+            controller = controller_profile(spec)
+            robot = build_robot(spec)
         except ArmlabError as exc:
             record("robot", "robot", {"status": "error", "error": str(exc)}, t0)
             raise fail("robot", exc) from None
+        ctx = StudyContext(
+            spec,
+            robot=robot,
+            controller=controller,
+            out_dir=out,
+            force=force,
+            failed_so_far=failed,
+            files=written,
+        )
         record("robot", "robot", robot_block(ctx), t0)
         if out is not None:
-            path = write_json(out / DESIGN_FILE, design_record(ctx.robot, ctx.controller, spec))
-            ctx.files[DESIGN_FILE] = str(path)
+            path = write_json(out / DESIGN_FILE, design_record(robot, controller, spec))
+            written[DESIGN_FILE] = str(path)
         bar.update()
         for stage in STAGES:
             t0 = time.perf_counter()
@@ -285,7 +295,7 @@ def run_spec(
             summary["robot"]["drives_from"] = "catalogue selection (sizing stage)"
             if out is not None:
                 record_ = design_record(ctx.robot, ctx.controller, spec)
-                ctx.files[DESIGN_FILE] = str(write_json(out / DESIGN_FILE, record_))
+                written[DESIGN_FILE] = str(write_json(out / DESIGN_FILE, record_))
         if out is not None and (spec.study.report if report is None else report):
             from armlab.study.report import write_report
 
@@ -293,7 +303,7 @@ def run_spec(
             judge()  # the report shows the verdict and the key figures
             files += write_report(ctx, summary, out)
         finish()
-        files += [Path(p) for p in ctx.files.values()]
+        files += [Path(p) for p in written.values()]
     finally:
         bar.close()
     return StudyResult(spec=spec, summary=summary, context=ctx, out_dir=out, files=files)

@@ -31,6 +31,14 @@ from armlab.robot.controller import ControllerProfile, load_profile
 from armlab.study.spec import StudySpec
 
 if TYPE_CHECKING:
+    from armlab.control.gains import ArmGains
+    from armlab.control.simulate import TrackingResult
+    from armlab.deploy.table import SetpointTable
+    from armlab.dynamics.selection import Selection
+    from armlab.dynamics.sizing import SizingReport
+    from armlab.dynamics.static_load import StaticLoadReport
+    from armlab.kinematics.accuracy import AccuracyResult
+    from armlab.kinematics.workspace import WorkspaceResult
     from armlab.robot.model import Robot
     from armlab.trajectory import Trajectory
 
@@ -77,31 +85,43 @@ def verdict_block(failed: list[str], checked: bool = True) -> dict[str, Any]:
 
 @dataclass
 class StudyContext:
-    """Everything the stages share: the spec, the resolved design and each stage's result."""
+    """Everything the stages share: the spec, the resolved design and each stage's typed result
+    (None until the stage that makes it has run)."""
 
     spec: StudySpec
+    #: the robot (:func:`build_robot`; the sizing stage may give it its drive train) and the
+    #: controller (:func:`controller_profile`)
+    robot: Robot
+    controller: ControllerProfile
     out_dir: Path | None = None
     force: bool = False
-    robot: Any = None
-    controller: ControllerProfile | None = None
+    #: kinematics: the joint waypoints (n, n_joints) [rad or m], the Cartesian ones as poses
     waypoints_q: np.ndarray | None = None
     waypoint_poses: np.ndarray | None = None
-    trajectory: Any = None
-    static_load: Any = None
-    sizing: Any = None
-    requirement_sizing: Any = None
-    selection: Any = None
-    drives_selected: bool = False
-    gains: Any = None
-    tracking: Any = None
-    #: the simulate_tracking options of ``tracking`` and its drive-model variants run so far
-    tracking_options: dict = field(default_factory=dict)
-    tracking_variants: dict = field(default_factory=dict)
-    setpoints: Any = None
+    #: the kinematics stage's Monte-Carlo studies (``kinematics.workspace_samples``,
+    #: ``accuracy_samples``; None when the study asks for none)
+    workspace: WorkspaceResult | None = None
+    accuracy: AccuracyResult | None = None
+    #: plan
+    trajectory: Trajectory | None = None
     jerk_limited: bool = True
+    #: static load
+    static_load: StaticLoadReport | None = None
+    #: sizing: the planned duty cycle's, the worst-case requirement moves', the selection
+    sizing: SizingReport | None = None
+    requirement_sizing: SizingReport | None = None
+    selection: Selection | None = None
+    drives_selected: bool = False
+    #: tuning
+    gains: ArmGains | None = None
+    #: tracking: the result, its simulate_tracking options and the drive-model variants so far
+    tracking: TrackingResult | None = None
+    tracking_options: dict[str, Any] = field(default_factory=dict)
+    tracking_variants: dict[str, TrackingResult] = field(default_factory=dict)
+    #: export
+    setpoints: SetpointTable | None = None
     failed_so_far: list[str] = field(default_factory=list)
     files: dict[str, str] = field(default_factory=dict)
-    figures: dict[str, Any] = field(default_factory=dict)
 
     @property
     def rng(self) -> np.random.Generator:
@@ -233,9 +253,7 @@ def selection_for_study(spec: StudySpec) -> StudyContext:
     """
     from armlab.dynamics import SizingOptions, size
 
-    ctx = StudyContext(spec=spec)
-    ctx.controller = controller_profile(spec)
-    ctx.robot = build_robot(spec)
+    ctx = StudyContext(spec, robot=build_robot(spec), controller=controller_profile(spec))
     for stage in ("kinematics", "plan", "static_load"):
         STAGE_FUNCTIONS[stage](ctx)
     options = SizingOptions(controller=ctx.controller)
@@ -455,7 +473,7 @@ def stage_kinematics(ctx: StudyContext) -> dict:
         from armlab.kinematics import workspace_cloud
 
         res = workspace_cloud(robot, n_samples=ks.workspace_samples, seed=spec.study.seed)
-        ctx.figures["workspace"] = res
+        ctx.workspace = res
         block["workspace"] = {"status": "ok", **_to_dict(res)}
     if ks.accuracy_samples:
         if robot.dh is None:
@@ -464,7 +482,7 @@ def stage_kinematics(ctx: StudyContext) -> dict:
             from armlab.kinematics import accuracy_study
 
             acc = accuracy_study(robot, n_samples=ks.accuracy_samples, seed=spec.study.seed)
-            ctx.figures["accuracy"] = acc
+            ctx.accuracy = acc
             block["accuracy"] = {"status": "ok", **_to_dict(acc)}
     return block
 
