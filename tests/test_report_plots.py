@@ -165,3 +165,18 @@ def test_blas_loaded_after_the_command_line_starts_runs_on_one_thread():
     libraries = ast.literal_eval(out.strip())
     assert len(libraries) >= 2, libraries  # numpy's and scipy's OpenBLAS
     assert {n for _, n in libraries} == {1}, libraries
+
+
+def test_the_export_section_names_the_limit_a_refused_table_breaks(tmp_path):
+    """A set-point table that breaks a controller limit (here 1 pulse per cycle) is a failed
+    check: the report's export section names it and claims no cycles that passed."""
+    from armlab.study import load_study, run_spec
+
+    _study(tmp_path, ["kinematics", "plan", "export"], 0.5)
+    spec = load_study(tmp_path / "study.toml", {"controller.pulse_limit": 1})
+    res = run_spec(spec, tmp_path / "out")
+    assert res.verdict == "fail" and res.context.setpoints is None
+    report = (tmp_path / "out" / "report.md").read_text()
+    section = report.split("## Export", 1)[1].split("\n## ", 1)[0]
+    assert "No set-point table" in section and "export: " in section, section
+    assert "passed the pre-flight checks" not in section

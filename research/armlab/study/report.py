@@ -19,6 +19,7 @@ from armlab.io import atomic_open, atomic_write
 
 if TYPE_CHECKING:
     from armlab.control.gains import ArmGains
+    from armlab.control.simulate import TrackingResult
     from armlab.study.stages import StudyContext
 
 __all__ = ["write_report", "summary_text"]
@@ -27,13 +28,15 @@ __all__ = ["write_report", "summary_text"]
 # ---------------------------------------------------------------------------- plots
 def _weakest_joint(gains: ArmGains) -> str | None:
     """The joint whose loops have the smallest phase margin (continuous or discrete)."""
+    from armlab.control.gains import LOOPS
+
     worst, joint = math.inf, None
-    for name, loops in gains.summary().items():
-        for fig in loops.values():
-            for key in ("phase_margin_deg", "phase_margin_discrete_deg"):
-                v = fig.get(key)
-                if isinstance(v, (int, float)) and v < worst:
-                    worst, joint = v, name
+    for cascade in gains:
+        for loop in LOOPS:
+            g = getattr(cascade, loop)
+            for v in (g.phase_margin_deg, g.phase_margin_discrete_deg):
+                if v < worst:  # NaN (not computed) never is
+                    worst, joint = v, cascade.joint
     return joint
 
 
@@ -343,11 +346,16 @@ def write_report(ctx: StudyContext, summary: dict, out_dir: Path) -> list[Path]:
             why = block.get("reason", block.get("error", ""))
             lines += [f"Status: {block.get('status')} ({why}).", ""]
             continue
-        obj = {"static_load": ctx.static_load, "sizing": ctx.sizing}.get(key)
-        if obj is not None and hasattr(obj, "to_markdown"):
-            lines += [obj.to_markdown(), ""]  # with the thesis' table beside ours (teachbot6)
-        else:
-            lines += _section_lines(key, block)
+        if key == "static_load" and ctx.static_load is not None:
+            lines += [ctx.static_load.to_markdown(), ""]  # the thesis' table beside (teachbot6)
+        elif key == "sizing" and ctx.sizing is not None:
+            lines += [ctx.sizing.to_markdown(), ""]
+        elif key == "control" and ctx.gains is not None:
+            lines += _control_lines(ctx.gains)
+        elif key == "tracking" and ctx.tracking is not None:
+            lines += _tracking_lines(ctx.tracking, ctx.diagnosis)
+        elif key == "export":
+            lines += _export_lines(ctx)
         if key == "sizing" and ctx.requirement_sizing is not None:
             lines += [
                 "**Against each joint's worst case (the thesis' requirements).**",
@@ -423,156 +431,140 @@ def _note(block: dict) -> str:
     return ""
 
 
-def _section_lines(key: str, block: dict) -> list[str]:
-    """A table for the per-joint blocks; a key/value table otherwise."""
-    from armlab.study.figures import joint_items as _joint_items
-
-    items = _joint_items(block)
-    if key == "tracking":
-        tcp = block.get("tcp", {})
-        lines = [
-            f"Feed-forward {', '.join(block.get('feedforward', [])) or 'none'}; "
-            f"{_fmt(block.get('duration_s'))} s simulated at "
-            f"{_fmt(1e3 * block.get('sample_time_s', math.nan))} ms"
-            f"{' with D/A and encoder quantisation' if block.get('quantise') else ''}.",
-            "",
-        ]
-        if tcp:
-            ok = tcp.get("within_accuracy")
-            lines += [
-                f"TCP error: max {_fmt(1e3 * tcp.get('max_error_m', math.nan))} mm, final "
-                f"{_fmt(1e3 * tcp.get('final_error_m', math.nan))} mm; servo budget "
-                f"{_fmt(1e3 * tcp.get('accuracy_m', math.nan))} mm -> "
-                f"{'within' if ok else 'OUTSIDE'} the budget.",
-                "",
-            ]
-        model = block.get("model", {})
-        if model:
-            lines += [
-                "Drive model: "
-                + ", ".join(
-                    [
-                        "supply-voltage limit with back-EMF"
-                        if model.get("voltage_limit")
-                        else "NO supply-voltage limit",
-                        "reducer efficiency and friction"
-                        if model.get("losses")
-                        else "NO reducer losses",
-                        f"controller `{model.get('controller')}` "
-                        f"({model.get('dac_bits')}-bit +-{_fmt(model.get('dac_range_V'))} V D/A, "
-                        "current loop every "
-                        f"{_fmt(1e6 * model.get('current_sample_time_s', 0))} us)",
-                    ]
-                )
-                + ".",
-                "",
-            ]
-        diag = block.get("diagnosis")
-        if isinstance(diag, dict):
-            lines += [
-                f"Limiting factor: {diag.get('limiting_factor')}.",
-                f"What fixes it: {diag.get('offer')}.",
-                "",
-            ]
-        return lines + _table(
-            [
-                "joint",
-                "max error [rad]",
-                "final error [rad]",
-                "peak voltage [V]",
-                "asked [V]",
-                "supply [V]",
-                "saturated [s]",
-                "peak current [A]",
-            ],
-            [
+def _tracking_lines(res: TrackingResult, diagnosis: dict[str, Any] | None) -> list[str]:
+    """The tracking section: the simulation's setting, the TCP error against the budget, the
+    drive model, the diagnosis of a miss, and per joint error, voltage and current."""
+    quantised = bool(res.meta.get("quantise", True))
+    lines = [
+        f"Feed-forward {', '.join(res.feedforward) or 'none'}; "
+        f"{_fmt(float(res.t[-1] - res.t[0]))} s simulated at "
+        f"{_fmt(1e3 * res.sample_time_s)} ms"
+        f"{' with D/A and encoder quantisation' if quantised else ''}.",
+        "",
+        f"TCP error: max {_fmt(1e3 * res.tcp_max_error_m)} mm, final "
+        f"{_fmt(1e3 * float(res.tcp_error_m[-1]))} mm; servo budget "
+        f"{_fmt(1e3 * res.accuracy_m)} mm -> "
+        f"{'within' if res.within_accuracy else 'OUTSIDE'} the budget.",
+        "",
+    ]
+    model = res.model
+    if model:
+        lines += [
+            "Drive model: "
+            + ", ".join(
                 [
-                    j,
-                    b.get("max_error_rad"),
-                    b.get("final_error_rad"),
-                    b.get("peak_voltage_V"),
-                    b.get("peak_voltage_demand_V"),
-                    b.get("supply_voltage_V"),
-                    b.get("time_in_saturation_s"),
-                    b.get("peak_current_A"),
+                    "supply-voltage limit with back-EMF"
+                    if model.get("voltage_limit")
+                    else "NO supply-voltage limit",
+                    "reducer efficiency and friction"
+                    if model.get("losses")
+                    else "NO reducer losses",
+                    f"controller `{model.get('controller')}` "
+                    f"({model.get('dac_bits')}-bit +-{_fmt(model.get('dac_range_V'))} V D/A, "
+                    "current loop every "
+                    f"{_fmt(1e6 * model.get('current_sample_time_s', 0))} us)",
                 ]
-                for j, b in items
-            ],
-        )
-    if key == "export":
-        cycle_ms = 1e3 * block.get("cycle_s", math.nan)
-        lines = [
-            f"{_fmt(block.get('n_cycles'))} cycles of {_fmt(cycle_ms)} ms "
-            f"for controller profile `{block.get('profile')}`; every cycle passed the "
-            "pre-flight checks (range, speed, pulses per cycle, continuity).",
+            )
+            + ".",
             "",
         ]
-        files = block.get("files", {})
-        if files:
-            lines += _table(["file", "sha256"], [[n, f"`{f['sha256']}`"] for n, f in files.items()])
-        return lines
-    if key == "control":
-        rows = []
-        for joint, loops in block.items():
-            if not isinstance(loops, dict):
-                continue
-            for loop, f in loops.items():
-                if isinstance(f, dict) and "phase_margin_deg" in f:
-                    g = f.get("gains", {})
-                    rows.append(
-                        [
-                            joint,
-                            loop,
-                            g.get("kp"),
-                            g.get("ki"),
-                            f.get("crossover_rad_s"),
-                            f.get("phase_margin_deg"),
-                            f.get("gain_margin_dB"),
-                            f.get("phase_margin_discrete_deg"),
-                            f.get("overshoot_pct"),
-                            f.get("sample_time_s"),
-                        ]
-                    )
-        return _table(
-            [
-                "joint",
-                "loop",
-                "kp",
-                "ki",
-                "crossover [rad/s]",
-                "PM [deg]",
-                "GM [dB]",
-                "PM discrete [deg]",
-                "overshoot [%]",
-                "T [s]",
-            ],
-            rows,
-        )
-    if items:
-        scalars = sorted(
-            {
-                k
-                for _, b in items
-                for k, v in b.items()
-                if isinstance(v, (int, float, str, bool)) or v is None
-            }
-        )
-        scalars = [s for s in scalars if s != "joint"][:8]
-        rows = [[j, *(b.get(s) for s in scalars)] for j, b in items]
-        lines = _table(["joint", *scalars], rows)
-        failed = [
-            f"{j}: {c.get('name')}"
-            for j, b in items
-            for c in b.get("checks", [])
-            if isinstance(c, dict) and not c.get("ok", True)
+    if diagnosis is not None:
+        lines += [
+            f"Limiting factor: {diagnosis.get('limiting_factor')}.",
+            f"What fixes it: {diagnosis.get('offer')}.",
+            "",
         ]
-        if failed:
-            lines += ["Failing checks: " + "; ".join(failed), ""]
-        return lines
-    return _table(
-        ["item", "value"],
-        [[k, v] for k, v in block.items() if isinstance(v, (int, float, str, bool))],
+
+    def per_joint(x: np.ndarray | None, k: int) -> float | None:
+        return None if x is None else float(x[k])
+
+    return lines + _table(
+        [
+            "joint",
+            "max error [rad]",
+            "final error [rad]",
+            "peak voltage [V]",
+            "asked [V]",
+            "supply [V]",
+            "saturated [s]",
+            "peak current [A]",
+        ],
+        [
+            [
+                joint,
+                float(res.max_error_rad[k]),
+                float(res.final_error_rad[k]),
+                per_joint(res.peak_voltage_V, k),
+                per_joint(res.peak_voltage_demand_V, k),
+                per_joint(res.supply_voltage_V, k),
+                float(res.saturation_time_s[k]),
+                per_joint(res.peak_current_A, k),
+            ]
+            for k, joint in enumerate(res.joint_names)
+        ],
     )
+
+
+def _control_lines(gains: ArmGains) -> list[str]:
+    """The tuning section: per joint and loop the gains and the worst-case figures."""
+    from armlab.control.gains import LOOPS
+
+    rows = []
+    for cascade in gains:
+        for loop in LOOPS:
+            g = getattr(cascade, loop)
+            rows.append(
+                [
+                    cascade.joint,
+                    loop,
+                    g.kp,
+                    g.ki,
+                    g.crossover_rad_s,
+                    g.phase_margin_deg,
+                    g.gain_margin_dB,
+                    g.phase_margin_discrete_deg,
+                    g.overshoot_pct,
+                    g.sample_time_s,
+                ]
+            )
+    return _table(
+        [
+            "joint",
+            "loop",
+            "kp",
+            "ki",
+            "crossover [rad/s]",
+            "PM [deg]",
+            "GM [dB]",
+            "PM discrete [deg]",
+            "overshoot [%]",
+            "T [s]",
+        ],
+        rows,
+    )
+
+
+def _export_lines(ctx: StudyContext) -> list[str]:
+    """The export section: the set-point table's cycles and the files written with their
+    sha256, or the controller limit the table breaks."""
+    prof = ctx.controller
+    table = ctx.setpoints
+    if table is None:
+        broken = [f for f in ctx.failed_so_far if f.startswith("export:")]
+        return [
+            f"No set-point table for controller profile `{prof.name}` "
+            f"({_fmt(1e3 * prof.cycle_s)} ms cycle): {'; '.join(broken) or 'not built'}.",
+            "",
+        ]
+    lines = [
+        f"{_fmt(table.n_cycles)} cycles of {_fmt(1e3 * prof.cycle_s)} ms "
+        f"for controller profile `{prof.name}`; every cycle passed the "
+        "pre-flight checks (range, speed, pulses per cycle, continuity).",
+        "",
+    ]
+    if ctx.exported:
+        lines += _table(["file", "sha256"], [[n, f"`{h}`"] for n, h in ctx.exported.items()])
+    return lines
 
 
 # ---------------------------------------------------------------------------- text

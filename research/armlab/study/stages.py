@@ -114,12 +114,16 @@ class StudyContext:
     drives_selected: bool = False
     #: tuning
     gains: ArmGains | None = None
-    #: tracking: the result, its simulate_tracking options and the drive-model variants so far
+    #: tracking: the result, the diagnosis of a miss (:func:`~armlab.control.simulate.
+    #: diagnose_tracking`), its simulate_tracking options and the drive-model variants so far
     tracking: TrackingResult | None = None
+    diagnosis: dict[str, Any] | None = None
     tracking_options: dict[str, Any] = field(default_factory=dict)
     tracking_variants: dict[str, TrackingResult] = field(default_factory=dict)
-    #: export
+    #: export: the set-point table (None: it breaks a controller limit) and the sha256 of each
+    #: file the stage wrote, by name
     setpoints: SetpointTable | None = None
+    exported: dict[str, str] = field(default_factory=dict)
     failed_so_far: list[str] = field(default_factory=list)
     files: dict[str, str] = field(default_factory=dict)
 
@@ -884,6 +888,7 @@ def stage_tracking(ctx: StudyContext) -> dict:
             ctx.robot, ctx.trajectory, ctx.gains, res, cache=ctx.tracking_variants, **opts
         )
         block["diagnosis"] = diag
+        ctx.diagnosis = diag
         failed.append(
             f"tracking: TCP error {res.tcp_max_error_m * 1e3:.4g} mm > budget "
             f"{res.accuracy_m * 1e3:.4g} mm; limiting factor: {diag['limiting_factor']}; "
@@ -977,7 +982,8 @@ def stage_export(ctx: StudyContext) -> dict:
         block["written"] = True
         block["forced"] = bool(ctx.failed_so_far)
     for name, path in paths.items():
-        block["files"][name] = {"path": name, "sha256": file_sha256(path)}
+        ctx.exported[name] = file_sha256(path)
+        block["files"][name] = {"path": name, "sha256": ctx.exported[name]}
         ctx.files[name] = str(path)
     return block
 
