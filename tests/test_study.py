@@ -503,3 +503,28 @@ def test_a_plain_urdf_study_skips_the_drive_stages():
     # the study's acceleration limit is the one the plan honoured
     assert s["trajectory"]["peak_ratio"]["acceleration"] <= 1 + 1e-6
     assert np.all(res.robot.limits.acceleration_rad_s2 == 5.0)
+
+
+def test_design_verdict_from_the_stage_records():
+    """A failed check fails the design; otherwise a judging stage that did not run leaves it
+    incomplete (with the reason); advisories are listed but decide nothing."""
+    from armlab.study.verdict import StageRecord, design_verdict
+
+    asked = ("kinematics", "plan", "sizing")
+    ok = {
+        "kinematics": StageRecord("kinematics", "ok"),
+        "plan": StageRecord("plan", "ok", "pass", advisories=("plan: note",)),
+        "sizing": StageRecord("sizing", "ok", "pass"),
+    }
+    d = design_verdict(ok, asked)
+    assert d.verdict == "pass" and d.advisories == ["plan: note"] and d.not_judged == []
+    skipped = {**ok, "sizing": StageRecord("sizing", "skipped", reason="no drive train")}
+    d = design_verdict(skipped, asked)
+    assert d.verdict == "incomplete" and d.not_judged == ["sizing (no drive train)"]
+    assert "NOT JUDGED: sizing (no drive train)" in d.lines()[0]
+    failing = {**skipped, "plan": StageRecord("plan", "ok", "fail", failed_checks=("plan: x",))}
+    d = design_verdict(failing, asked)
+    assert d.verdict == "fail" and d.failed_checks == ["plan: x"]
+    assert d.lines()[:2] == ["design: the design FAILS 1 check(s)", "  FAILED  plan: x"]
+    d = design_verdict({"kinematics": ok["kinematics"]}, asked)  # stopped after kinematics
+    assert d.not_judged == ["plan (not run)", "sizing (not run)"]

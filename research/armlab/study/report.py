@@ -20,7 +20,9 @@ from armlab.io import atomic_open, atomic_write
 if TYPE_CHECKING:
     from armlab.control.gains import ArmGains
     from armlab.control.simulate import TrackingResult
+    from armlab.study.runner import StudyResult
     from armlab.study.stages import StudyContext
+    from armlab.study.verdict import DesignVerdict, StageRecord
 
 __all__ = ["write_report", "summary_text"]
 
@@ -252,9 +254,18 @@ def _table(header: list[str], rows: list[list[Any]]) -> list[str]:
     return lines + [""]
 
 
-def write_report(ctx: StudyContext, summary: dict, out_dir: Path) -> list[Path]:
+def write_report(
+    ctx: StudyContext,
+    records: dict[str, StageRecord],
+    design: DesignVerdict,
+    summary: dict,
+    out_dir: Path,
+) -> list[Path]:
     """Write ``report.md`` and its PNG plots into ``out_dir``, in this process, one plot after
-    the other; returns the files written. A plot that fails raises its error."""
+    the other; returns the files written. A plot that fails raises its error.
+
+    ``records`` and ``design``: the stages' records and the design's verdict; ``summary``: the
+    stages' summary blocks (the robot, kinematics and plan sections and the key figures)."""
     out_dir = Path(out_dir)
     files: list[Path] = []
     spec = ctx.spec
@@ -266,7 +277,7 @@ def write_report(ctx: StudyContext, summary: dict, out_dir: Path) -> list[Path]:
         "",
         "## Design verdict",
         "",
-        *design_lines(summary),
+        *design.lines(),
         "",
         "## Stages",
         "",
@@ -274,14 +285,8 @@ def write_report(ctx: StudyContext, summary: dict, out_dir: Path) -> list[Path]:
     lines += _table(
         ["stage", "status", "verdict", "time [s]", "note"],
         [
-            [
-                s,
-                info["status"],
-                info.get("verdict") or "-",
-                info["time_s"],
-                _note(summary.get(_key(s), {})),
-            ]
-            for s, info in summary["study"]["stages"].items()
+            [s, rec.status, rec.verdict or "-", round(rec.time_s, 6), rec.note]
+            for s, rec in records.items()
         ],
     )
     r = summary["robot"]
@@ -333,18 +338,18 @@ def write_report(ctx: StudyContext, summary: dict, out_dir: Path) -> list[Path]:
         lines += _table(
             ["joint", *kinds], [[j, *(tr["ratios"][k][j] for k in kinds)] for j in joints]
         )
-    for key, title in (
-        ("static_load", "Static load"),
-        ("sizing", "Drive sizing"),
-        ("control", "Servo tuning"),
-        ("tracking", "Closed-loop tracking"),
-        ("export", "Export"),
+    for stage, key, title in (
+        ("static_load", "static_load", "Static load"),
+        ("sizing", "sizing", "Drive sizing"),
+        ("tuning", "control", "Servo tuning"),
+        ("tracking", "tracking", "Closed-loop tracking"),
+        ("export", "export", "Export"),
     ):
-        block = summary.get(key, {})
         lines += [f"## {title}", ""]
-        if block.get("status") != "ok":
-            why = block.get("reason", block.get("error", ""))
-            lines += [f"Status: {block.get('status')} ({why}).", ""]
+        rec = records.get(stage)
+        if rec is None or rec.status != "ok":
+            status, why = ("not run", "") if rec is None else (rec.status, rec.note)
+            lines += [f"Status: {status} ({why}).", ""]
             continue
         if key == "static_load" and ctx.static_load is not None:
             lines += [ctx.static_load.to_markdown(), ""]  # the thesis' table beside (teachbot6)
@@ -415,20 +420,6 @@ def _motion_file(robot, trajectory, out_dir: Path) -> tuple[list[str], bool]:
         f"{scene.n_frames} frames at {scene.fps:g} fps)" + (f"; {notes}" if notes else ".")
     )
     return lines + [""], True
-
-
-def _key(stage: str) -> str:
-    from armlab.study.stages import SUMMARY_KEY
-
-    return SUMMARY_KEY.get(stage, stage)
-
-
-def _note(block: dict) -> str:
-    if block.get("status") in ("not available", "skipped"):
-        return block.get("reason", "")
-    if block.get("status") == "error":
-        return block.get("error", "")
-    return ""
 
 
 def _tracking_lines(res: TrackingResult, diagnosis: dict[str, Any] | None) -> list[str]:
@@ -568,100 +559,76 @@ def _export_lines(ctx: StudyContext) -> list[str]:
 
 
 # ---------------------------------------------------------------------------- text
-def _stage_line(stage: str, summary: dict) -> str:
-    key = _key(stage)
-    block = summary.get(key, {})
-    status = block.get("status", "?")
-    kf = summary.get("key_figures", {})
-    if status == "ok":
-        note = {
-            "kinematics": lambda: (
-                f"{block['n_waypoints']} waypoints in range; reach "
-                f"{block['max_reach_m'] * 1000:.0f} mm"
-            ),
-            "plan": lambda: (
-                f"{block['method'] or block['planner']} {block['duration_s']:.3f} s;"
-                f" worst {block['worst']['kind']} {block['worst']['ratio']:.3f}"
-                f" ({block['worst']['joint']})"
-            ),
-            "static_load": lambda: "max {1:.4g} N m ({0})".format(
-                *max(
-                    (
-                        (j, b["torque_Nm"])
-                        for j, b in block.items()
-                        if isinstance(b, dict) and "torque_Nm" in b
-                    ),
-                    key=lambda x: x[1],
-                )
-            ),
-            "sizing": lambda: (
-                ("all checks pass" if kf.get("sizing_ok") else "CHECKS FAIL")
-                + f"; min margin {_fmt(kf.get('sizing_min_margin'), 3)}"
-                + f" ({kf.get('sizing_binding')})"
-            ),
-            "tuning": lambda: (
-                f"min PM {_fmt(kf.get('min_phase_margin_deg'), 3)} deg, min GM "
-                f"{_fmt(kf.get('min_gain_margin_dB'), 3)} dB"
-            ),
-            "tracking": lambda: (
-                f"max joint error {_fmt(1e3 * kf['tracking_max_error_rad'], 3)} "
-                f"mrad; TCP {_fmt(1e3 * kf['tcp_max_error_m'], 3)} mm (budget "
-                f"{_fmt(1e3 * block['tcp']['accuracy_m'], 3)} mm)"
-            ),
-            "export": lambda: (
-                f"{_fmt(block.get('n_cycles'))} cycles of "
-                f"{block.get('cycle_s', 0) * 1000:g} ms ({block.get('profile')})"
-            ),
-        }[stage]
-        try:
-            text = note()
-        except (KeyError, TypeError, ValueError):
-            text = ""
-    else:
-        text = block.get("reason", block.get("error", ""))
+def _stage_line(result: StudyResult, stage: str) -> str:
+    """One stage's line of the one-screen summary: status, verdict and its key figures."""
+    rec = result.stages.get(stage)
+    if rec is None:  # the study stopped before it
+        return f"  {stage:<12}{'-':<9}{'-':<6}"
+    ctx, kf = result.context, result.key_figures()
+    text = rec.note
+    if rec.status == "ok":
+        text = _stage_figures(stage, ctx, kf)
     if len(text) > 56:
         text = text[:53] + "..."
-    verdict = block.get("verdict") or "-"
-    return f"  {stage:<12}{status:<9}{verdict.upper():<6}{text}"
+    verdict = rec.verdict or "-"
+    return f"  {stage:<12}{rec.status:<9}{verdict.upper():<6}{text}"
 
 
-def design_lines(summary: dict) -> list[str]:
-    """The design's verdict in words, its failed checks and advisories (one line each)."""
-    d = summary.get("design", {})
-    verdict = d.get("verdict", "?")
-    failed = d.get("failed_checks", [])
-    words = {
-        "pass": "the design PASSES every check the study ran",
-        "fail": f"the design FAILS {len(failed)} check(s)",
-        "incomplete": "the design is NOT JUDGED: " + "; ".join(d.get("not_judged", [])),
-    }.get(verdict, f"design verdict {verdict}")
-    lines = [f"design: {words}"]
-    lines += [f"  FAILED  {f}" for f in failed]
-    lines += [f"  advisory  {a}" for a in d.get("advisories", [])]
-    return lines
+def _stage_figures(stage: str, ctx: StudyContext, kf: dict[str, Any]) -> str:
+    """The key figures of a stage that ran, from its typed result."""
+    if stage == "kinematics" and ctx.waypoints_q is not None:
+        return f"{len(ctx.waypoints_q)} waypoints in range; reach {kf['max_reach_m'] * 1000:.0f} mm"
+    if stage == "plan" and ctx.trajectory is not None and ctx.limit_report is not None:
+        kind, joint, ratio = ctx.limit_report.worst()
+        return (
+            f"{ctx.trajectory.method or ctx.spec.plan.planner} {ctx.trajectory.duration:.3f} s;"
+            f" worst {kind} {ratio:.3f} ({joint})"
+        )
+    if stage == "static_load" and ctx.static_load is not None:
+        worst = max(ctx.static_load.joints, key=lambda x: x.torque_Nm)
+        return f"max {worst.torque_Nm:.4g} N m ({worst.joint})"
+    if stage == "sizing":
+        return (
+            ("all checks pass" if kf.get("sizing_ok") else "CHECKS FAIL")
+            + f"; min margin {_fmt(kf.get('sizing_min_margin'), 3)}"
+            + f" ({kf.get('sizing_binding')})"
+        )
+    if stage == "tuning":
+        return (
+            f"min PM {_fmt(kf.get('min_phase_margin_deg'), 3)} deg, min GM "
+            f"{_fmt(kf.get('min_gain_margin_dB'), 3)} dB"
+        )
+    if stage == "tracking" and ctx.tracking is not None:
+        res = ctx.tracking
+        return (
+            f"max joint error {_fmt(1e3 * float(res.max_error_rad.max()), 3)} "
+            f"mrad; TCP {_fmt(1e3 * res.tcp_max_error_m, 3)} mm (budget "
+            f"{_fmt(1e3 * res.accuracy_m, 3)} mm)"
+        )
+    if stage == "export":
+        n = "-" if ctx.setpoints is None else _fmt(ctx.setpoints.n_cycles)
+        return f"{n} cycles of {ctx.controller.cycle_s * 1000:g} ms ({ctx.controller.name})"
+    return ""
 
 
-def summary_text(
-    summary: dict, files: list[Path] | None = None, out_dir: Path | None = None
-) -> str:
+def summary_text(result: StudyResult) -> str:
     """The one-screen summary ``armlab run`` prints: each stage, its key figures, the files."""
-    r = summary.get("robot", {})
-    st = summary.get("study", {})
-    lines = [
-        f"armlab study {st.get('name')!r}: robot {r.get('name')} ({r.get('n_joints')} "
-        f"joints), payload {_fmt(r.get('payload_kg'))} kg",
-        f"  {'stage':<12}{'status':<9}{'check':<6}key figures",
-    ]
     from armlab.study.spec import STAGES
 
-    lines += [_stage_line(s, summary) for s in STAGES]
-    lines += design_lines(summary)
-    if files:
-        names = list(dict.fromkeys(Path(f).name for f in files))
+    robot, spec = result.robot, result.spec
+    lines = [
+        f"armlab study {spec.study.name!r}: robot {robot.name} ({robot.n_joints} "
+        f"joints), payload {_fmt(robot.payload.mass_kg)} kg",
+        f"  {'stage':<12}{'status':<9}{'check':<6}key figures",
+    ]
+    lines += [_stage_line(result, s) for s in STAGES]
+    lines += result.design.lines()
+    if result.files:
+        names = list(dict.fromkeys(Path(f).name for f in result.files))
         pngs = [n for n in names if n.endswith(".png")]
         names = [n for n in names if not n.endswith(".png")]
         if pngs:
             names.append(f"{len(pngs)} PNG plots")
-        where = f"{out_dir}/" if out_dir is not None else ""
+        where = f"{result.out_dir}/" if result.out_dir is not None else ""
         lines.append(f"files in {where}: " + ", ".join(names))
     return "\n".join(lines)

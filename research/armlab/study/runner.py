@@ -26,9 +26,7 @@ from armlab.study.figures import KEY_FIGURES, key_figures
 from armlab.study.record import DESIGN_FILE, SUMMARY_FILE, design_record, prepare_out_dir
 from armlab.study.spec import STAGES, StudySpec, load_study
 from armlab.study.stages import (
-    FAIL,
     NEEDS,
-    PASS,
     STAGE_FUNCTIONS,
     SUMMARY_KEY,
     NotApplicable,
@@ -37,6 +35,7 @@ from armlab.study.stages import (
     controller_profile,
     robot_block,
 )
+from armlab.study.verdict import JUDGING_STAGES, DesignVerdict, StageRecord, design_verdict
 
 if TYPE_CHECKING:
     from armlab.control import ArmGains
@@ -51,22 +50,26 @@ __all__ = [
     "KEY_FIGURES",
     "write_json",
     "design_verdict",
+    "JUDGING_STAGES",
+    "StageRecord",
+    "DesignVerdict",
 ]
-
-#: Stages whose verdict the design needs; a design is "incomplete" while one did not run.
-JUDGING_STAGES = ("plan", "sizing", "tuning", "tracking", "export")
 
 
 @dataclass
 class StudyResult:
-    """What a study produced: the summary (summary.json content) and the objects behind it.
+    """What a study produced: each stage's record, the design's verdict, the objects behind
+    them and the summary rendered from them (summary.json content).
 
     Attributes
     ----------
     spec : StudySpec
+    stages : dict of str to StageRecord
+        ``robot`` and every stage of :data:`~armlab.study.spec.STAGES`, in run order.
+    design : DesignVerdict
     summary : dict
-        The summary.json content (DESIGN.md keys; each block has a ``status`` and a
-        ``verdict``; ``summary["design"]`` the design's verdict and failed checks).
+        The summary.json content (DESIGN.md keys), rendered from the records and the stages'
+        blocks.
     context : StudyContext
         The robot, controller, trajectory, sizing report, gains, tracking result... (None where a
         stage did not run).
@@ -76,13 +79,15 @@ class StudyResult:
     """
 
     spec: StudySpec
+    stages: dict[str, StageRecord]
+    design: DesignVerdict
     summary: dict[str, Any]
     context: StudyContext
     out_dir: Path | None
     files: list[Path]
 
     @property
-    def robot(self) -> Robot | None:
+    def robot(self) -> Robot:
         return self.context.robot
 
     @property
@@ -96,41 +101,15 @@ class StudyResult:
     @property
     def verdict(self) -> str:
         """``"pass"``, ``"fail"`` or ``"incomplete"`` (see :func:`design_verdict`)."""
-        return str(self.summary["design"]["verdict"])
+        return self.design.verdict
 
     @property
     def failed_checks(self) -> list[str]:
         """One line per failed check of the design."""
-        return list(self.summary["design"]["failed_checks"])
+        return list(self.design.failed_checks)
 
     def key_figures(self) -> dict[str, Any]:
-        return key_figures(self.summary)
-
-
-def design_verdict(summary: dict[str, Any], stages: tuple[str, ...]) -> dict[str, Any]:
-    """The design's verdict from the stage blocks of a summary.
-
-    ``fail`` when any stage failed a check; otherwise ``incomplete`` when a stage of
-    :data:`JUDGING_STAGES` that the study asked for did not run (skipped or no drive data), so
-    nothing was checked there; otherwise ``pass``. Advisories (worst-case requirement checks
-    beside the study's duty cycle) are listed but do not decide the verdict.
-    """
-    failed: list[str] = []
-    advisories: list[str] = []
-    unjudged: list[str] = []
-    for stage in STAGES:
-        block = summary.get(SUMMARY_KEY[stage], {})
-        failed += block.get("failed_checks", [])
-        advisories += block.get("advisories", [])
-        if stage in JUDGING_STAGES and stage in stages and block.get("verdict") not in (PASS, FAIL):
-            unjudged.append(f"{stage} ({block.get('reason', block.get('status', 'not run'))})")
-    verdict = FAIL if failed else ("incomplete" if unjudged else PASS)
-    return {
-        "verdict": verdict,
-        "failed_checks": failed,
-        "not_judged": unjudged,
-        "advisories": advisories,
-    }
+        return dict(self.summary["key_figures"])
 
 
 def _progress(total: int, enabled: bool | None, desc: str):
@@ -190,6 +169,7 @@ def run_spec(
     out = None if out_dir is None else prepare_out_dir(out_dir, spec.hash, overwrite=overwrite)
     written: dict[str, str] = {}  # file name -> path, of every data file the run wrote
     failed: list[str] = []  # the failed checks of the stages so far
+    records: dict[str, StageRecord] = {}
     summary: dict[str, Any] = {
         "study": {
             "name": spec.study.name,
@@ -204,23 +184,24 @@ def run_spec(
     bar = _progress(len(STAGES) + 1, progress, spec.study.name)
 
     def record(stage: str, key: str, block: dict, t0: float) -> None:
+        rec = StageRecord.of_block(stage, block, time.perf_counter() - t0)
+        records[stage] = rec
         summary[key] = block
-        summary["study"]["stages"][stage] = {
-            "status": block["status"],
-            "verdict": block.get("verdict"),
-            "time_s": round(time.perf_counter() - t0, 6),
-        }
-        failed.extend(block.get("failed_checks", []))
+        summary["study"]["stages"][stage] = rec.to_dict()
+        failed.extend(rec.failed_checks)
 
-    def judge() -> None:
-        summary["design"] = design_verdict(summary, tuple(spec.study.stages))
+    def judge() -> DesignVerdict:
+        design = design_verdict(records, tuple(spec.study.stages))
+        summary["design"] = design.to_dict()
         summary["key_figures"] = key_figures(summary)
+        return design
 
-    def finish() -> None:
-        judge()
+    def finish() -> DesignVerdict:
+        design = judge()
         if out is not None:
             summary["files"] = {name: sha for name, sha in _checksums(out, written).items()}
             files.insert(0, write_json(out / SUMMARY_FILE, summary))
+        return design
 
     def fail(stage: str, exc: ArmlabError):
         finish()
@@ -254,17 +235,11 @@ def run_spec(
             t0 = time.perf_counter()
             bar.set_postfix_str(stage)
             key = SUMMARY_KEY[stage]
-            missing = [
-                n
-                for n in NEEDS.get(stage, ())
-                if summary["study"]["stages"].get(n, {}).get("status") != "ok"
-            ]
+            missing = [n for n in NEEDS.get(stage, ()) if records[n].status != "ok"]
             if stage not in spec.study.stages:
                 block = {"status": "skipped", "verdict": None, "reason": "not in study.stages"}
             elif missing:
-                why = ", ".join(
-                    f"{n}: {summary['study']['stages'].get(n, {}).get('status')}" for n in missing
-                )
+                why = ", ".join(f"{n}: {records[n].status}" for n in missing)
                 block = {
                     "status": "skipped",
                     "verdict": None,
@@ -300,13 +275,21 @@ def run_spec(
             from armlab.study.report import write_report
 
             bar.set_postfix_str("report")
-            judge()  # the report shows the verdict and the key figures
-            files += write_report(ctx, summary, out)
-        finish()
+            design = judge()  # the report shows the verdict and the key figures
+            files += write_report(ctx, records, design, summary, out)
+        design = finish()
         files += [Path(p) for p in written.values()]
     finally:
         bar.close()
-    return StudyResult(spec=spec, summary=summary, context=ctx, out_dir=out, files=files)
+    return StudyResult(
+        spec=spec,
+        stages=records,
+        design=design,
+        summary=summary,
+        context=ctx,
+        out_dir=out,
+        files=files,
+    )
 
 
 def _checksums(out: Path, written: dict[str, str]) -> dict[str, str]:
@@ -363,5 +346,5 @@ def run_study(
     if not quiet:
         from armlab.study.report import summary_text
 
-        print(summary_text(result.summary, result.files, result.out_dir))
+        print(summary_text(result))
     return result.summary

@@ -29,6 +29,7 @@ import numpy as np
 from armlab.errors import LimitViolation, SpecError, UnreachableError
 from armlab.robot.controller import ControllerProfile, load_profile
 from armlab.study.spec import StudySpec
+from armlab.study.verdict import FAIL, PASS
 
 if TYPE_CHECKING:
     from armlab.control.gains import ArmGains
@@ -41,6 +42,7 @@ if TYPE_CHECKING:
     from armlab.kinematics.workspace import WorkspaceResult
     from armlab.robot.model import Robot
     from armlab.trajectory import Trajectory
+    from armlab.trajectory.core import LimitReport
 
 __all__ = [
     "StudyContext",
@@ -65,8 +67,6 @@ SUMMARY_KEY = {
     "export": "export",
 }
 
-#: Verdicts of a stage block.
-PASS, FAIL = "pass", "fail"
 
 #: Limit kinds a planner must honour exactly (the plan stage refuses a plan that breaks them).
 _KINEMATIC = ("position", "velocity", "acceleration", "jerk")
@@ -102,8 +102,9 @@ class StudyContext:
     #: ``accuracy_samples``; None when the study asks for none)
     workspace: WorkspaceResult | None = None
     accuracy: AccuracyResult | None = None
-    #: plan
+    #: plan: the trajectory and its check against the robot's full limits
     trajectory: Trajectory | None = None
+    limit_report: LimitReport | None = None
     jerk_limited: bool = True
     #: static load
     static_load: StaticLoadReport | None = None
@@ -595,6 +596,7 @@ def stage_plan(ctx: StudyContext) -> dict:
     # acceleration steps of a trapezoid)
     fine = traj.n_samples > 1 and np.max(np.diff(traj.t)) <= spec.plan.check_dt_s * (1 + 1e-9)
     report = traj.check_limits(robot, dt=None if fine else spec.plan.check_dt_s, torque=torque)
+    ctx.limit_report = report
     enforced = [k for k in _KINEMATIC if k != "jerk" or ctx.jerk_limited]
     failed = []
     for kind, joint, ratio, at in report.violations(tol=1e-6):
