@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from armlab.deploy.provenance import armlab_version
 from armlab.io import atomic_open, atomic_write
 
 if TYPE_CHECKING:
@@ -258,14 +259,14 @@ def write_report(
     ctx: StudyContext,
     records: dict[str, StageRecord],
     design: DesignVerdict,
-    summary: dict,
+    figures: dict[str, Any],
     out_dir: Path,
 ) -> list[Path]:
     """Write ``report.md`` and its PNG plots into ``out_dir``, in this process, one plot after
     the other; returns the files written. A plot that fails raises its error.
 
-    ``records`` and ``design``: the stages' records and the design's verdict; ``summary``: the
-    stages' summary blocks (the robot, kinematics and plan sections and the key figures)."""
+    ``records`` and ``design``: the stages' records and the design's verdict; ``figures``: the
+    study's key figures (:func:`armlab.study.figures.key_figures`)."""
     out_dir = Path(out_dir)
     files: list[Path] = []
     spec = ctx.spec
@@ -273,7 +274,7 @@ def write_report(
         f"# Study: {spec.study.name}",
         "",
         f"Source `{spec.source}` (sha256 `{spec.hash[:12]}`), seed {spec.study.seed}, "
-        f"armlab {summary['study']['armlab_version']}.",
+        f"armlab {armlab_version()}.",
         "",
         "## Design verdict",
         "",
@@ -289,55 +290,11 @@ def write_report(
             for s, rec in records.items()
         ],
     )
-    r = summary["robot"]
-    lines += [
-        "## Robot",
-        "",
-        f"{r.get('name')}: {r.get('n_joints')} joints, payload "
-        f"{_fmt(r.get('payload_kg'))} kg, moving mass {_fmt(r.get('total_mass_kg'))} kg.",
-        "",
-    ]
-    if "drives" in r:
-        lines += _table(
-            ["joint", "motor", "reducer", "ratio", "available torque [N m]"],
-            [
-                [j, d["motor"], d["reducer"], d["ratio"], d["available_torque_Nm"]]
-                for j, d in r["drives"].items()
-            ],
-        )
-    kin = summary.get("kinematics", {})
-    if kin.get("status") == "ok":
-        lines += [
-            "## Kinematics",
-            "",
-            f"{kin['n_waypoints']} waypoints ({kin['waypoints_from']}),"
-            f" all inside the joint ranges; max reach {kin['max_reach_m'] * 1000:.1f} mm.",
-            "",
-        ]
-        lines += _table(
-            ["waypoint", "x [mm]", "y [mm]", "z [mm]"],
-            [
-                [k, *(f"{x:.1f}" for x in 1000 * np.asarray(p) + 0.0)]
-                for k, p in enumerate(kin["tcp_positions_m"])
-            ],
-        )
-    tr = summary.get("trajectory", {})
-    if tr.get("status") == "ok":
-        lines += [
-            "## Trajectory",
-            "",
-            f"Planner `{tr['planner']}` ({tr['method']}): "
-            f"{tr['duration_s']:.4f} s through {tr['n_waypoints']} waypoints, speed scale "
-            f"{tr['speed_scale']:g}; checked every {tr['check_dt_s'] * 1000:g} ms.",
-            "",
-            "Peak ratio to each limit (<= 1 is feasible):",
-            "",
-        ]
-        kinds = list(tr["ratios"])
-        joints = list(next(iter(tr["ratios"].values()), {}))
-        lines += _table(
-            ["joint", *kinds], [[j, *(tr["ratios"][k][j] for k in kinds)] for j in joints]
-        )
+    lines += _robot_lines(ctx)
+    if records["kinematics"].status == "ok":
+        lines += _kinematics_lines(ctx)
+    if records["plan"].status == "ok":
+        lines += _plan_lines(ctx)
     for stage, key, title in (
         ("static_load", "static_load", "Static load"),
         ("sizing", "sizing", "Drive sizing"),
@@ -374,10 +331,9 @@ def write_report(
             ]
         if key == "sizing" and ctx.selection is not None:
             lines += [ctx.selection.to_markdown(), ""]
-    kf = summary.get("key_figures", {})
     lines += ["## Key figures", ""]
     lines += _table(
-        ["figure", "value"], [[k, v] for k, v in kf.items() if not k.startswith("stage_")]
+        ["figure", "value"], [[k, v] for k, v in figures.items() if not k.startswith("stage_")]
     )
     jobs = _figures(ctx)
     if jobs:
@@ -420,6 +376,67 @@ def _motion_file(robot, trajectory, out_dir: Path) -> tuple[list[str], bool]:
         f"{scene.n_frames} frames at {scene.fps:g} fps)" + (f"; {notes}" if notes else ".")
     )
     return lines + [""], True
+
+
+def _robot_lines(ctx: StudyContext) -> list[str]:
+    """The robot section: name, joints, payload, mass and the drive train."""
+    r = ctx.robot
+    lines = [
+        "## Robot",
+        "",
+        f"{r.name}: {r.n_joints} joints, payload "
+        f"{_fmt(r.payload.mass_kg)} kg, moving mass {_fmt(r.total_mass_kg)} kg.",
+        "",
+    ]
+    if r.drives is not None:
+        lines += _table(
+            ["joint", "motor", "reducer", "ratio", "available torque [N m]"],
+            [
+                [j, d.motor.model, d.reducer.model, d.reducer.ratio, d.available_torque_Nm]
+                for j, d in r.drives.items()
+            ],
+        )
+    return lines
+
+
+def _kinematics_lines(ctx: StudyContext) -> list[str]:
+    """The kinematics section: the waypoints, the reach and each waypoint's tool position."""
+    assert ctx.tcp_positions_m is not None  # the kinematics stage ran
+    lines = [
+        "## Kinematics",
+        "",
+        f"{len(ctx.tcp_positions_m)} waypoints ({ctx.waypoints_from}),"
+        f" all inside the joint ranges; max reach {ctx.max_reach_m * 1000:.1f} mm.",
+        "",
+    ]
+    return lines + _table(
+        ["waypoint", "x [mm]", "y [mm]", "z [mm]"],
+        [[k, *(f"{x:.1f}" for x in 1000 * p + 0.0)] for k, p in enumerate(ctx.tcp_positions_m)],
+    )
+
+
+def _plan_lines(ctx: StudyContext) -> list[str]:
+    """The trajectory section: planner, duration and the peak ratio to each limit."""
+    traj, report, plan = ctx.trajectory, ctx.limit_report, ctx.spec.plan
+    assert traj is not None and report is not None and ctx.waypoints_q is not None
+    lines = [
+        "## Trajectory",
+        "",
+        f"Planner `{plan.planner}` ({traj.method}): "
+        f"{traj.duration:.4f} s through {len(ctx.waypoints_q)} waypoints, speed scale "
+        f"{plan.speed_scale:g}; checked every {plan.check_dt_s * 1000:g} ms.",
+        "",
+        "Peak ratio to each limit (<= 1 is feasible):",
+        "",
+    ]
+    kinds = list(report.ratios)
+    return lines + _table(
+        ["joint", *kinds],
+        [
+            [j, *(float(report.ratios[k][i]) for k in kinds)]
+            for i, j in enumerate(report.joint_names)
+        ],
+    )
 
 
 def _tracking_lines(res: TrackingResult, diagnosis: dict[str, Any] | None) -> list[str]:

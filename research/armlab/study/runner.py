@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from armlab.deploy.provenance import armlab_version
 from armlab.errors import ArmlabError
 from armlab.io import write_json
 from armlab.study.figures import KEY_FIGURES, key_figures
@@ -176,7 +177,7 @@ def run_spec(
             "source": spec.source,
             "hash": spec.hash,
             "seed": spec.study.seed,
-            "armlab_version": _version(),
+            "armlab_version": armlab_version(),
             "stages": {},
         },
     }
@@ -276,7 +277,7 @@ def run_spec(
 
             bar.set_postfix_str("report")
             design = judge()  # the report shows the verdict and the key figures
-            files += write_report(ctx, records, design, summary, out)
+            files += write_report(ctx, records, design, summary["key_figures"], out)
         design = finish()
         files += [Path(p) for p in written.values()]
     finally:
@@ -297,12 +298,6 @@ def _checksums(out: Path, written: dict[str, str]) -> dict[str, str]:
     from armlab.deploy.provenance import file_sha256
 
     return {Path(p).name: file_sha256(p) for p in written.values() if Path(p).is_file()}
-
-
-def _version() -> str:
-    import armlab
-
-    return armlab.__version__
 
 
 def run_study(

@@ -95,9 +95,13 @@ class StudyContext:
     controller: ControllerProfile
     out_dir: Path | None = None
     force: bool = False
-    #: kinematics: the joint waypoints (n, n_joints) [rad or m], the Cartesian ones as poses
+    #: kinematics: the joint waypoints (n, n_joints) [rad or m], the Cartesian ones as poses,
+    #: where the joint ones come from, the tool positions (n, 3) [m] and the reach [m]
     waypoints_q: np.ndarray | None = None
     waypoint_poses: np.ndarray | None = None
+    waypoints_from: str = ""
+    tcp_positions_m: np.ndarray | None = None
+    max_reach_m: float = math.nan
     #: the kinematics stage's Monte-Carlo studies (``kinematics.workspace_samples``,
     #: ``accuracy_samples``; None when the study asks for none)
     workspace: WorkspaceResult | None = None
@@ -462,16 +466,17 @@ def stage_kinematics(ctx: StudyContext) -> dict:
         q = _solve_ik(ctx, ctx.waypoint_poses)
         where, source = "waypoints.cartesian", "cartesian (IK)"
     q = validate_waypoints(robot, q, where=where, min_rows=1, unit=wp.unit)
-    ctx.waypoints_q = q
-    tcp = np.array([fk(robot, row)[:3, 3] for row in q])
+    ctx.waypoints_q, ctx.waypoints_from = q, source
+    ctx.tcp_positions_m = np.array([fk(robot, row)[:3, 3] for row in q])
+    ctx.max_reach_m = max_reach_m(robot, seed=spec.study.seed)
     block = {
         "status": "ok",
         **verdict_block([], checked=False),
         "waypoints_from": source,
         "n_waypoints": int(len(q)),
         "waypoints_rad": q.tolist(),
-        "tcp_positions_m": tcp.tolist(),
-        "max_reach_m": max_reach_m(robot, seed=spec.study.seed),
+        "tcp_positions_m": ctx.tcp_positions_m.tolist(),
+        "max_reach_m": ctx.max_reach_m,
     }
     ks = spec.kinematics
     if ks.workspace_samples:
