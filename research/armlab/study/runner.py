@@ -171,6 +171,7 @@ def run_spec(
     written: dict[str, str] = {}  # file name -> path, of every data file the run wrote
     failed: list[str] = []  # the failed checks of the stages so far
     records: dict[str, StageRecord] = {}
+    ctx: StudyContext | None = None  # made once the robot is built
     summary: dict[str, Any] = {
         "study": {
             "name": spec.study.name,
@@ -194,7 +195,7 @@ def run_spec(
     def judge() -> DesignVerdict:
         design = design_verdict(records, tuple(spec.study.stages))
         summary["design"] = design.to_dict()
-        summary["key_figures"] = key_figures(summary)
+        summary["key_figures"] = key_figures(ctx, records, design)
         return design
 
     def finish() -> DesignVerdict:

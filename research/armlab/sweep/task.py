@@ -90,7 +90,7 @@ def run_parameter_set(
     prov: dict[str, str] = {}
     try:
         from armlab.errors import ArmlabError
-        from armlab.study.runner import key_figures, run_spec
+        from armlab.study.runner import run_spec
         from armlab.study.spec import apply_overrides, parse_study
         from armlab.sweep.provenance import describe_changes, row_provenance
 
@@ -111,7 +111,7 @@ def run_parameter_set(
                 spec = parse_study(doc, base_dir=Path(study_dir), source=source)
                 result = run_spec(spec, None, progress=False, report=False)
                 row.update(status="done", error="")
-                row.update(key_figures(result.summary))
+                row.update(result.key_figures())
             except ArmlabError as exc:
                 row.update(status="error", error=_one_line(f"{type(exc).__name__}: {exc}"))
     except Exception as exc:  # a bug in a stage: still a row, with where it happened
