@@ -68,6 +68,8 @@ class StudyResult:
     stages : dict of str to StageRecord
         ``robot`` and every stage of :data:`~armlab.study.spec.STAGES`, in run order.
     design : DesignVerdict
+    figures : dict
+        The key figures (:func:`~armlab.study.figures.key_figures`): the sweep's row.
     summary : dict
         The summary.json content (DESIGN.md keys), rendered from the records and the stages'
         blocks.
@@ -82,6 +84,7 @@ class StudyResult:
     spec: StudySpec
     stages: dict[str, StageRecord]
     design: DesignVerdict
+    figures: dict[str, Any]
     summary: dict[str, Any]
     context: StudyContext
     out_dir: Path | None
@@ -110,7 +113,7 @@ class StudyResult:
         return list(self.design.failed_checks)
 
     def key_figures(self) -> dict[str, Any]:
-        return dict(self.summary["key_figures"])
+        return dict(self.figures)
 
 
 def _progress(total: int, enabled: bool | None, desc: str):
@@ -192,18 +195,18 @@ def run_spec(
         summary["study"]["stages"][stage] = rec.to_dict()
         failed.extend(rec.failed_checks)
 
-    def judge() -> DesignVerdict:
+    def judge() -> tuple[DesignVerdict, dict[str, Any]]:
         design = design_verdict(records, tuple(spec.study.stages))
-        summary["design"] = design.to_dict()
-        summary["key_figures"] = key_figures(ctx, records, design)
-        return design
+        figures = key_figures(ctx, records, design)
+        summary["design"], summary["key_figures"] = design.to_dict(), dict(figures)
+        return design, figures
 
-    def finish() -> DesignVerdict:
-        design = judge()
+    def finish() -> tuple[DesignVerdict, dict[str, Any]]:
+        judged = judge()
         if out is not None:
             summary["files"] = {name: sha for name, sha in _checksums(out, written).items()}
             files.insert(0, write_json(out / SUMMARY_FILE, summary))
-        return design
+        return judged
 
     def fail(stage: str, exc: ArmlabError):
         finish()
@@ -277,9 +280,9 @@ def run_spec(
             from armlab.study.report import write_report
 
             bar.set_postfix_str("report")
-            design = judge()  # the report shows the verdict and the key figures
-            files += write_report(ctx, records, design, summary["key_figures"], out)
-        design = finish()
+            design, figures = judge()  # the report shows the verdict and the key figures
+            files += write_report(ctx, records, design, figures, out)
+        design, figures = finish()
         files += [Path(p) for p in written.values()]
     finally:
         bar.close()
@@ -287,6 +290,7 @@ def run_spec(
         spec=spec,
         stages=records,
         design=design,
+        figures=figures,
         summary=summary,
         context=ctx,
         out_dir=out,
