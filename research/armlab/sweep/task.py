@@ -9,7 +9,7 @@ Every row carries its provenance (:mod:`armlab.sweep.provenance`): armlab's vers
 sha256 of the base study and of every file the study reads, as the worker sees them. When the
 client passes the provenance it expects and the worker's differs (another armlab, another
 ``drives.toml`` on a remote worker), the row is an error naming the difference. A worker process
-loads each robot once (:func:`armlab.study.stages.build_robot` caches it); the cache is emptied
+loads each robot once (:func:`armlab.study.build.build_robot` caches it); the cache is emptied
 when a robot file changes under a long-lived worker, so a row never uses a stale description.
 """
 
@@ -45,9 +45,9 @@ def _forget_changed_robot(document: dict[str, Any], study_dir: str, prov: dict[s
     files = (prov["urdf_sha256"], prov["drives_sha256"], prov["mdh_sha256"])
     if _robot_files_seen.get(str(urdf)) == files:
         return
-    from armlab.study import stages
+    from armlab.study import build
 
-    stages._load_cached.cache_clear()
+    build._load_cached.cache_clear()
     _robot_files_seen[str(urdf)] = files
 
 
