@@ -36,7 +36,13 @@ from armlab.study.stages import (
     controller_profile,
     robot_block,
 )
-from armlab.study.verdict import JUDGING_STAGES, DesignVerdict, StageRecord, design_verdict
+from armlab.study.verdict import (
+    JUDGING_STAGES,
+    DesignVerdict,
+    StageOutput,
+    StageRecord,
+    design_verdict,
+)
 
 if TYPE_CHECKING:
     from armlab.control import ArmGains
@@ -188,12 +194,32 @@ def run_spec(
     files: list[Path] = []
     bar = _progress(len(STAGES) + 1, progress, spec.study.name)
 
-    def record(stage: str, key: str, block: dict, t0: float) -> None:
-        rec = StageRecord.of_block(stage, block, time.perf_counter() - t0)
+    def record(
+        stage: str,
+        t0: float,
+        output: StageOutput | None = None,
+        *,
+        status: str = "ok",
+        reason: str = "",
+        error: str = "",
+        error_type: str = "",
+    ) -> None:
+        """Record a stage: its ``output`` when it ran, else its status and reason or error."""
+        time_s = time.perf_counter() - t0
+        if output is not None:
+            rec = StageRecord.ran(stage, output, time_s)
+        else:
+            rec = StageRecord(
+                stage, status, time_s=time_s, reason=reason, error=error, error_type=error_type
+            )
         records[stage] = rec
-        summary[key] = block
+        summary[SUMMARY_KEY.get(stage, stage)] = rec.block(output)
         summary["study"]["stages"][stage] = rec.to_dict()
         failed.extend(rec.failed_checks)
+
+    def stopped(stage: str, t0: float, exc: ArmlabError) -> ArmlabError:
+        record(stage, t0, status="error", error=str(exc), error_type=type(exc).__name__)
+        return fail(stage, exc)
 
     def judge() -> tuple[DesignVerdict, dict[str, Any]]:
         design = design_verdict(records, tuple(spec.study.stages))
@@ -220,8 +246,7 @@ def run_spec(
             controller = controller_profile(spec)
             robot = build_robot(spec)
         except ArmlabError as exc:
-            record("robot", "robot", {"status": "error", "error": str(exc)}, t0)
-            raise fail("robot", exc) from None
+            raise stopped("robot", t0, exc) from None
         ctx = StudyContext(
             spec,
             robot=robot,
@@ -231,7 +256,7 @@ def run_spec(
             failed_so_far=failed,
             files=written,
         )
-        record("robot", "robot", robot_block(ctx), t0)
+        record("robot", t0, StageOutput(robot_block(ctx)))
         if out is not None:
             path = write_json(out / DESIGN_FILE, design_record(robot, controller, spec))
             written[DESIGN_FILE] = str(path)
@@ -239,36 +264,21 @@ def run_spec(
         for stage in STAGES:
             t0 = time.perf_counter()
             bar.set_postfix_str(stage)
-            key = SUMMARY_KEY[stage]
             missing = [n for n in NEEDS.get(stage, ()) if records[n].status != "ok"]
             if stage not in spec.study.stages:
-                block = {"status": "skipped", "verdict": None, "reason": "not in study.stages"}
+                record(stage, t0, status="skipped", reason="not in study.stages")
             elif missing:
                 why = ", ".join(f"{n}: {records[n].status}" for n in missing)
-                block = {
-                    "status": "skipped",
-                    "verdict": None,
-                    "reason": f"needs {', '.join(missing)} ({why})",
-                }
+                record(stage, t0, status="skipped", reason=f"needs {', '.join(missing)} ({why})")
             else:
                 try:
-                    block = STAGE_FUNCTIONS[stage](ctx)
+                    output = STAGE_FUNCTIONS[stage](ctx)
                 except NotApplicable as exc:
-                    block = {"status": "skipped", "verdict": None, "reason": str(exc)}
+                    record(stage, t0, status="skipped", reason=str(exc))
                 except ArmlabError as exc:
-                    record(
-                        stage,
-                        key,
-                        {
-                            "status": "error",
-                            "verdict": None,
-                            "error": str(exc),
-                            "error_type": type(exc).__name__,
-                        },
-                        t0,
-                    )
-                    raise fail(stage, exc) from None
-            record(stage, key, block, t0)
+                    raise stopped(stage, t0, exc) from None
+                else:
+                    record(stage, t0, output)
             bar.update()
         if ctx.drives_selected:  # the sizing stage gave the robot its drive train
             summary["robot"].update(robot_block(ctx))

@@ -37,7 +37,7 @@ from armlab.study.build import (  # the robot and controller the stages share
     rpy_to_matrix,
 )
 from armlab.study.spec import StudySpec
-from armlab.study.verdict import FAIL, PASS
+from armlab.study.verdict import StageOutput
 
 if TYPE_CHECKING:
     from armlab.control.gains import ArmGains
@@ -60,8 +60,6 @@ __all__ = [
     "build_robot",
     "controller_profile",
     "base_transform",
-    "PASS",
-    "FAIL",
 ]
 
 #: summary.json block written by each stage.
@@ -82,13 +80,6 @@ _KINEMATIC = ("position", "velocity", "acceleration", "jerk")
 
 class NotApplicable(Exception):
     """A stage that does not apply to this robot (no drive data): the stage is skipped."""
-
-
-def verdict_block(failed: list[str], checked: bool = True) -> dict[str, Any]:
-    """``{"verdict": "pass"|"fail"|None, "failed_checks": [...]}`` of a stage block."""
-    if not checked:
-        return {"verdict": None, "failed_checks": []}
-    return {"verdict": FAIL if failed else PASS, "failed_checks": list(failed)}
 
 
 @dataclass
@@ -170,17 +161,15 @@ def selection_for_study(spec: StudySpec) -> StudyContext:
 
 
 def robot_block(ctx: StudyContext) -> dict:
-    """summary.json "robot": name, joints, payload, mass, drives."""
+    """summary.json "robot" (besides its status): name, joints, payload, mass, drives."""
     r = ctx.robot
     block = {
-        "status": "ok",
         "name": r.name,
         "n_joints": r.n_joints,
         "joint_names": list(r.joint_names),
         "urdf": str(r.urdf_path),
         "tool_frame": r.tool_frame,
         "payload_kg": r.payload.mass_kg,
-        **verdict_block([], checked=False),
         "total_mass_kg": r.total_mass_kg,
         "transform_base_to_world": np.asarray(r.transform_base_to_world).tolist(),
         "limits": _jsonable(r.limits.to_dict()),
@@ -249,7 +238,7 @@ def _solve_ik(ctx: StudyContext, poses: np.ndarray) -> np.ndarray:
     return np.array(out)
 
 
-def stage_kinematics(ctx: StudyContext) -> dict:
+def stage_kinematics(ctx: StudyContext) -> StageOutput:
     """Waypoints to joint space (IK for Cartesian ones), range check, TCP positions, reach, and
     the optional Monte-Carlo workspace and accuracy studies."""
     from armlab.kinematics import fk, max_reach_m
@@ -270,8 +259,6 @@ def stage_kinematics(ctx: StudyContext) -> dict:
     ctx.tcp_positions_m = np.array([fk(robot, row)[:3, 3] for row in q])
     ctx.max_reach_m = max_reach_m(robot, seed=spec.study.seed)
     block = {
-        "status": "ok",
-        **verdict_block([], checked=False),
         "waypoints_from": source,
         "n_waypoints": int(len(q)),
         "waypoints_rad": q.tolist(),
@@ -294,7 +281,7 @@ def stage_kinematics(ctx: StudyContext) -> dict:
             acc = accuracy_study(robot, n_samples=ks.accuracy_samples, seed=spec.study.seed)
             ctx.accuracy = acc
             block["accuracy"] = {"status": "ok", **_to_dict(acc)}
-    return block
+    return StageOutput(block)
 
 
 # ---------------------------------------------------------------------------- plan
@@ -380,7 +367,7 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
     return T.blend(robot, poses, plan.blend_radius_m, speed, q_start=Q[0], dt=dt, torque=torque)
 
 
-def stage_plan(ctx: StudyContext) -> dict:
+def stage_plan(ctx: StudyContext) -> StageOutput:
     """Plan, then check the plan on a fine grid against the robot's full limits.
 
     A plan that breaks a kinematic limit it was planned for (range, velocity, acceleration, and
@@ -423,9 +410,7 @@ def stage_plan(ctx: StudyContext) -> dict:
             for j in np.flatnonzero(r > 1 + 1e-6):
                 failed.append(f"plan: {k} of {robot.joint_names[j]} is {r[j]:.4g} x its limit")
     kind, joint, ratio = report.worst()
-    return {
-        "status": "ok",
-        **verdict_block(failed),
+    block = {
         "planner": spec.plan.planner,
         "method": traj.method,
         "duration_s": traj.duration,
@@ -442,6 +427,7 @@ def stage_plan(ctx: StudyContext) -> dict:
         "worst": {"kind": kind, "joint": joint, "ratio": ratio},
         "stats": _jsonable(getattr(traj, "stats", {})),
     }
+    return StageOutput(block, failed_checks=failed)
 
 
 # ---------------------------------------------------------------------------- dynamics
@@ -468,7 +454,7 @@ def _jsonable(x):
     return x
 
 
-def stage_static_load(ctx: StudyContext) -> dict:
+def stage_static_load(ctx: StudyContext) -> StageOutput:
     """Worst-case static holding torque per joint (HEU thesis 4.2.1) with the payload.
 
     The worst case is a requirement of the drive train, not of the study's motion: a joint whose
@@ -488,12 +474,7 @@ def stage_static_load(ctx: StudyContext) -> dict:
                 f"static_load: {x.joint} worst-case {x.torque_Nm:.4g} N m > {lim:.4g} N m "
                 "available (torque limit)"
             )
-    return {
-        "status": "ok",
-        **verdict_block([], checked=False),
-        "advisories": advisories,
-        **_to_dict(res),
-    }
+    return StageOutput(_to_dict(res), advisories=advisories)
 
 
 def _needs_drives(ctx: StudyContext) -> None:
@@ -550,7 +531,7 @@ def _sizing_failures(report) -> list[str]:
     ]
 
 
-def stage_sizing(ctx: StudyContext) -> dict:
+def stage_sizing(ctx: StudyContext) -> StageOutput:
     """Drive sizing checks along the planned trajectory, against the study's controller (encoder
     checks at its cycle and pulse limit); the worst-case requirement moves of HEU thesis tables
     4.2/4.3 beside them (advisories); optional selection from a catalogue.
@@ -570,7 +551,8 @@ def stage_sizing(ctx: StudyContext) -> dict:
     _needs_drives(ctx)
     res = size(ctx.robot, duty, dt=ctx.spec.plan.check_dt_s, options=options)
     ctx.sizing = res
-    block = {"status": "ok", **verdict_block(_sizing_failures(res)), **_to_dict(res)}
+    block = _to_dict(res)
+    advisories = None
     if ctx.drives_selected:
         block["duty_cycle"] = (
             "planned motion + 1 s hold at each joint's worst static pose (the selection's)"
@@ -589,7 +571,7 @@ def stage_sizing(ctx: StudyContext) -> dict:
             "ok": bool(ctx.requirement_sizing.ok),
             "failures": [f"{joint}:{check}" for joint, check in ctx.requirement_sizing.failures()],
         }
-        block["advisories"] = adv
+        advisories = adv
     if ctx.spec.sizing.select and not ctx.drives_selected:
         sel = select_drives(
             ctx.robot,
@@ -600,7 +582,7 @@ def stage_sizing(ctx: StudyContext) -> dict:
         )
         ctx.selection = sel
         block["selection"] = {"status": "ok", **_to_dict(sel)}
-    return block
+    return StageOutput(block, failed_checks=_sizing_failures(res), advisories=advisories)
 
 
 # ---------------------------------------------------------------------------- control
@@ -643,7 +625,7 @@ def tuning_options(ctx: StudyContext) -> dict[str, Any]:
     return {k: v for k, v in options.items() if v is not None}
 
 
-def stage_tuning(ctx: StudyContext) -> dict:
+def stage_tuning(ctx: StudyContext) -> StageOutput:
     """Robust cascade tuning of every joint (current PI, speed PI, position P) to the study's
     control specs, discretised at the controller's servo period and checked continuous and
     discrete over each joint's inertia range."""
@@ -652,12 +634,8 @@ def stage_tuning(ctx: StudyContext) -> dict:
     _needs_drives(ctx)
     gains = tune_arm(ctx.robot, controller=ctx.controller, **tuning_options(ctx))
     ctx.gains = gains
-    return {
-        "status": "ok",
-        **verdict_block(_tuning_failures(gains, gains.spec)),
-        "servo_period_s": ctx.controller.servo_period_s if ctx.controller else None,
-        **_jsonable(gains.summary()),
-    }
+    block = {"servo_period_s": ctx.controller.servo_period_s, **_jsonable(gains.summary())}
+    return StageOutput(block, failed_checks=_tuning_failures(gains, gains.spec))
 
 
 def tracking_options(ctx: StudyContext) -> dict[str, Any]:
@@ -677,7 +655,7 @@ def tracking_options(ctx: StudyContext) -> dict[str, Any]:
     return opts
 
 
-def stage_tracking(ctx: StudyContext) -> dict:
+def stage_tracking(ctx: StudyContext) -> StageOutput:
     """Closed-loop simulation of the arm tracking the plan with the tuned cascades; the verdict
     is the TCP error against the accuracy budget."""
     from armlab.control import simulate_tracking
@@ -701,11 +679,11 @@ def stage_tracking(ctx: StudyContext) -> dict:
             f"{res.accuracy_m * 1e3:.4g} mm; limiting factor: {diag['limiting_factor']}; "
             f"{diag['offer']}"
         )
-    return {"status": "ok", **verdict_block(failed), **_to_dict(res), **block}
+    return StageOutput({**_to_dict(res), **block}, failed_checks=failed)
 
 
 # ---------------------------------------------------------------------------- export
-def stage_export(ctx: StudyContext) -> dict:
+def stage_export(ctx: StudyContext) -> StageOutput:
     """Set-point table for the study's controller (with the deploy pre-flight checks), gains JSON
     and the trajectory file.
 
@@ -718,7 +696,6 @@ def stage_export(ctx: StudyContext) -> dict:
     from armlab.deploy.provenance import file_sha256
 
     prof = ctx.controller
-    assert prof is not None
     if ctx.robot.drives is None and prof.counts_per_joint_rev is None:
         raise NotApplicable(
             f"{ctx.robot.name} has no drives.toml and controller profile "
@@ -730,18 +707,10 @@ def stage_export(ctx: StudyContext) -> dict:
     try:
         table = setpoint_table(ctx.robot, ctx.trajectory, prof, source=source)
     except LimitViolation as exc:
-        return {
-            "status": "ok",
-            **verdict_block([f"export: {exc}"]),
-            "profile": prof.name,
-            "cycle_s": prof.cycle_s,
-            "written": False,
-            "files": {},
-        }
+        refused = {"profile": prof.name, "cycle_s": prof.cycle_s, "written": False, "files": {}}
+        return StageOutput(refused, failed_checks=[f"export: {exc}"])
     ctx.setpoints = table
     block: dict[str, Any] = {
-        "status": "ok",
-        **verdict_block([]),
         "profile": prof.name,
         "cycle_s": prof.cycle_s,
         "n_cycles": table.n_cycles,
@@ -753,7 +722,7 @@ def stage_export(ctx: StudyContext) -> dict:
         block["preflight"] = _jsonable(preflight)
     out = ctx.out_dir
     if out is None:
-        return block
+        return StageOutput(block, failed_checks=[])
     paths: dict[str, Path] = {}
     save_trajectory(out / "trajectory.npz", ctx.trajectory, ctx.robot)
     paths["trajectory.npz"] = out / "trajectory.npz"
@@ -774,7 +743,7 @@ def stage_export(ctx: StudyContext) -> dict:
         ctx.exported[name] = file_sha256(path)
         block["files"][name] = {"path": name, "sha256": ctx.exported[name]}
         ctx.files[name] = str(path)
-    return block
+    return StageOutput(block, failed_checks=[])
 
 
 STAGE_FUNCTIONS = {

@@ -16,13 +16,41 @@ from typing import Any
 
 from armlab.study.spec import STAGES
 
-__all__ = ["PASS", "FAIL", "JUDGING_STAGES", "StageRecord", "DesignVerdict", "design_verdict"]
+__all__ = [
+    "PASS",
+    "FAIL",
+    "JUDGING_STAGES",
+    "StageOutput",
+    "StageRecord",
+    "DesignVerdict",
+    "design_verdict",
+]
 
 #: Stages whose verdict the design needs; a design is "incomplete" while one did not run.
 JUDGING_STAGES = ("plan", "sizing", "tuning", "tracking", "export")
 
 #: Verdicts of a stage (and of a design that every judging stage passed or failed).
 PASS, FAIL = "pass", "fail"
+
+
+@dataclass
+class StageOutput:
+    """What a stage that ran returns: its own summary keys and what it judged.
+
+    Attributes
+    ----------
+    block : dict
+        The stage's summary.json keys besides ``status``, ``verdict``, ``failed_checks`` and
+        ``advisories`` (DESIGN.md).
+    failed_checks : list of str or None
+        One line per failed check; None when the stage checks nothing (verdict None).
+    advisories : list of str or None
+        Findings that do not fail the design; None when the stage gives none (no key).
+    """
+
+    block: dict[str, Any]
+    failed_checks: list[str] | None = None
+    advisories: list[str] | None = None
 
 
 @dataclass(frozen=True)
@@ -43,8 +71,8 @@ class StageRecord:
         One line per failed check (decides the verdict) and per advisory (does not).
     reason : str
         Why the stage was skipped ("" otherwise).
-    error : str
-        The error that stopped the stage ("" otherwise).
+    error, error_type : str
+        The error that stopped the stage and its class ("" otherwise).
     """
 
     stage: str
@@ -55,20 +83,19 @@ class StageRecord:
     advisories: tuple[str, ...] = ()
     reason: str = ""
     error: str = ""
+    error_type: str = ""
 
     @classmethod
-    def of_block(cls, stage: str, block: Mapping[str, Any], time_s: float) -> StageRecord:
-        """The record of the summary block a stage returned (its ``status``, ``verdict``,
-        ``failed_checks``, ``advisories``, ``reason`` and ``error`` keys)."""
+    def ran(cls, stage: str, out: StageOutput, time_s: float) -> StageRecord:
+        """The record of a stage that ran and returned ``out``."""
+        failed = out.failed_checks
         return cls(
             stage=stage,
-            status=str(block["status"]),
-            verdict=block.get("verdict"),
+            status="ok",
+            verdict=None if failed is None else (FAIL if failed else PASS),
             time_s=time_s,
-            failed_checks=tuple(block.get("failed_checks", ())),
-            advisories=tuple(block.get("advisories", ())),
-            reason=str(block.get("reason", "")),
-            error=str(block.get("error", "")),
+            failed_checks=tuple(failed or ()),
+            advisories=tuple(out.advisories or ()),
         )
 
     @property
@@ -79,6 +106,19 @@ class StageRecord:
     def to_dict(self) -> dict[str, Any]:
         """``summary["study"]["stages"][stage]``."""
         return {"status": self.status, "verdict": self.verdict, "time_s": round(self.time_s, 6)}
+
+    def block(self, out: StageOutput | None = None) -> dict[str, Any]:
+        """The stage's summary.json block: its status and verdict, then ``out``'s keys (a stage
+        that ran) or why it did not run."""
+        head: dict[str, Any] = {"status": self.status, "verdict": self.verdict}
+        if out is not None:
+            head["failed_checks"] = list(self.failed_checks)
+            if out.advisories is not None:
+                head["advisories"] = list(self.advisories)
+            return {**head, **out.block}
+        if self.status == "skipped":
+            return {**head, "reason": self.reason}
+        return {**head, "error": self.error, "error_type": self.error_type}
 
 
 @dataclass(frozen=True)
