@@ -11,10 +11,14 @@ import argparse
 import math
 import os
 import sys
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from armlab.errors import ArmlabError, DesignFailure
+
+if TYPE_CHECKING:
+    from armlab.study.verdict import DesignVerdict
 
 __all__ = ["main", "console", "info_text", "build_parser"]
 
@@ -207,32 +211,36 @@ def _drives_header(ctx, study) -> str:
 
 
 def _cmd_run(args) -> int:
+    """``armlab run``: the study (:func:`armlab.study.run_spec`), its one-screen summary, and
+    the exit status from the design's verdict."""
     from armlab.errors import InputError
-    from armlab.study import run_study
+    from armlab.study import load_study, run_spec
+    from armlab.study.report import summary_text
 
     if args.workers is not None:  # the option of armlab <= issue 23, refused on one line
         raise InputError(
             "run --workers: a study runs in one process; studies run in parallel with "
             "armlab sweep --workers N"
         )
-    summary = run_study(args.study, args.out, force=args.force, overwrite=args.overwrite)
-    return _verdict_status(summary.get("design", {}))
+    spec = load_study(args.study)
+    result = run_spec(spec, args.out, progress=None, force=args.force, overwrite=args.overwrite)
+    print(summary_text(result))
+    return _verdict_status(result.design)
 
 
-def _verdict_status(design: dict) -> int:
+def _verdict_status(design: DesignVerdict) -> int:
     """Exit status of a finished study: 0 the design passes, 1 it fails or was not judged
     (the failed checks, or what was not judged, on stderr)."""
-    verdict = design.get("verdict")
-    if verdict == "pass":
+    if design.verdict == "pass":
         return 0
-    if verdict == "fail":
-        failed = design.get("failed_checks", [])
+    if design.verdict == "fail":
+        failed = design.failed_checks
         print(f"armlab: the design fails {len(failed)} check(s):", file=sys.stderr)
         for line in failed:
             print(f"  {line}", file=sys.stderr)
     else:
         print(
-            "armlab: the design was not judged: " + "; ".join(design.get("not_judged", [])),
+            "armlab: the design was not judged: " + "; ".join(design.not_judged),
             file=sys.stderr,
         )
     return 1
