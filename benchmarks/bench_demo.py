@@ -2,14 +2,14 @@
 
 Each run is a new process of the ``armlab`` console script beside this interpreter (what
 ``make demo`` calls, ``MPLBACKEND=Agg``) writing into a new temporary folder, so imports, the
-robot's loading and the optimiser's CasADi build are all inside the time. Two variants: the
-default number of plot workers (one per CPU) and ``--workers 1``. Reported per variant, the median
-over ``--repeats`` runs of: the wall time of the process, each stage's own time (from the
-output's ``summary.json``, ``summary["study"]["stages"][stage]["time_s"]``) and the remainder
-(wall minus the stages: interpreter start-up, imports, the report and its plots, writing the
-files), split into the start-up alone (``armlab --help`` in a fresh process: interpreter and
-the CLI's imports) and the rest (the report, its plots, the files). Goal (issue 15): the demo
-study <= 5 s after set-up (``make setup``, the installed venv).
+robot's loading and the optimiser's CasADi build are all inside the time (a study runs in one
+process: its stages, then its report's plots). Reported, the median over ``--repeats`` runs
+of: the wall time of the process, each stage's own time (from the output's ``summary.json``,
+``summary["study"]["stages"][stage]["time_s"]``) and the remainder (wall minus the stages:
+interpreter start-up, imports, the report and its plots, writing the files), split into the
+start-up alone (``armlab --help`` in a fresh process: interpreter and the CLI's imports) and
+the rest (the report, its plots, the files). Goal (issue 15): the demo study <= 5 s after
+set-up (``make setup``, the installed venv).
 
 Run:  ``MPLBACKEND=Agg .venv/bin/python benchmarks/bench_demo.py [--repeats 3] [--quick]``
 """
@@ -30,9 +30,9 @@ from _readme import readme_row
 
 # ---------------------------------------------------------------------------- parameters
 PARAMS = {
-    "repeats": 3,  # runs per variant (median)
+    "repeats": 3,  # runs (median)
     "quick_repeats": 1,
-    "variants": {"default workers": [], "--workers 1": ["--workers", "1"]},
+    "variants": {"armlab run": []},
     "goal_s": 5.0,
 }
 
@@ -70,7 +70,7 @@ def startup_s() -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeats", type=int, default=PARAMS["repeats"], help="runs per variant")
+    ap.add_argument("--repeats", type=int, default=PARAMS["repeats"], help="runs (median)")
     ap.add_argument("--quick", action="store_true", help=f"{PARAMS['quick_repeats']} run each")
     args = ap.parse_args()
     repeats = PARAMS["quick_repeats"] if args.quick else args.repeats
@@ -111,7 +111,7 @@ def main() -> None:
             f"{startup:.2f} | {r['rest'] - startup:.2f} |"
         )
     goal = PARAMS["goal_s"]
-    default, one = results["default workers"], results["--workers 1"]
+    default = results["armlab run"]
     print(
         f"\ngoal: demo study <= {goal:g} s after set-up -> {default['wall']:.2f} s "
         f"({'met' if default['wall'] <= goal else 'NOT met'})"
@@ -119,9 +119,9 @@ def main() -> None:
     slowest = sorted(names, key=lambda n: -default["stages"][n])[:3]
     readme_row(
         __file__,
-        f"`make demo` (`armlab run`, fresh process, median of {repeats}): default workers / "
-        f"`--workers 1` (goal demo study <= {goal:g} s after set-up)",
-        f"{default['wall']:.1f} s / {one['wall']:.1f} s; of which "
+        f"`make demo` (`armlab run`, fresh process, one process per study, median of "
+        f"{repeats}) (goal demo study <= {goal:g} s after set-up)",
+        f"{default['wall']:.1f} s; of which "
         + ", ".join(f"{n} {default['stages'][n]:.2f} s" for n in slowest)
         + f"; start-up {startup:.1f} s, report and the rest {default['rest'] - startup:.1f} s",
     )

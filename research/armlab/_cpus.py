@@ -1,5 +1,4 @@
-"""How many CPUs this process may use: the default of ``armlab run --workers`` and of a
-sweep's local cluster."""
+"""How many CPUs this process may use: the default worker count of a sweep's local cluster."""
 
 from __future__ import annotations
 

@@ -11,10 +11,14 @@ import argparse
 import math
 import os
 import sys
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from armlab.errors import ArmlabError, DesignFailure
+
+if TYPE_CHECKING:
+    from armlab.study.verdict import DesignVerdict
 
 __all__ = ["main", "console", "info_text", "build_parser"]
 
@@ -158,6 +162,7 @@ def _cmd_drives(args) -> int:
     spec = load_study(args.study, {"robot.name": robot})
     ctx = selection_for_study(spec)
     sel = ctx.selection
+    assert sel is not None and ctx.robot.drives is not None  # installed by the selection
     text = drives_toml(ctx.robot.drives, header=_drives_header(ctx, args.study))
     out = Path(args.out)
     if out.exists() and not args.overwrite:
@@ -206,30 +211,36 @@ def _drives_header(ctx, study) -> str:
 
 
 def _cmd_run(args) -> int:
-    from armlab._cpus import usable_cpus
-    from armlab.study import run_study
+    """``armlab run``: the study (:func:`armlab.study.run_spec`), its one-screen summary, and
+    the exit status from the design's verdict."""
+    from armlab.errors import InputError
+    from armlab.study import load_study, run_spec
+    from armlab.study.report import summary_text
 
-    workers = args.workers if args.workers is not None else usable_cpus()
-    summary = run_study(
-        args.study, args.out, workers=workers, force=args.force, overwrite=args.overwrite
-    )
-    return _verdict_status(summary.get("design", {}))
+    if args.workers is not None:  # the option of armlab <= issue 23, refused on one line
+        raise InputError(
+            "run --workers: a study runs in one process; studies run in parallel with "
+            "armlab sweep --workers N"
+        )
+    spec = load_study(args.study)
+    result = run_spec(spec, args.out, progress=None, force=args.force, overwrite=args.overwrite)
+    print(summary_text(result))
+    return _verdict_status(result.design)
 
 
-def _verdict_status(design: dict) -> int:
+def _verdict_status(design: DesignVerdict) -> int:
     """Exit status of a finished study: 0 the design passes, 1 it fails or was not judged
     (the failed checks, or what was not judged, on stderr)."""
-    verdict = design.get("verdict")
-    if verdict == "pass":
+    if design.verdict == "pass":
         return 0
-    if verdict == "fail":
-        failed = design.get("failed_checks", [])
+    if design.verdict == "fail":
+        failed = design.failed_checks
         print(f"armlab: the design fails {len(failed)} check(s):", file=sys.stderr)
         for line in failed:
             print(f"  {line}", file=sys.stderr)
     else:
         print(
-            "armlab: the design was not judged: " + "; ".join(design.get("not_judged", [])),
+            "armlab: the design was not judged: " + "; ".join(design.not_judged),
             file=sys.stderr,
         )
     return 1
@@ -389,16 +400,8 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="clear an output folder that holds another study's outputs",
     )
-    s.add_argument(
-        "--workers",
-        type=int,
-        default=None,
-        metavar="N",
-        help=(
-            "processes that draw the report's plots and tune the servos beside the plan "
-            "(default: one per CPU this process may use)"
-        ),
-    )
+    # refused with one line (a study runs in one process; sweeps run studies in parallel)
+    s.add_argument("--workers", type=int, default=None, help=argparse.SUPPRESS)
     s.set_defaults(func=_cmd_run)
     s = sub.add_parser(
         "sweep",
@@ -487,10 +490,10 @@ def one_blas_thread() -> bool:
     (:data:`BLAS_THREAD_VARIABLES`); True when it was set here.
 
     armlab's matrices are small (state-space loops, 6 x 6 dynamics): a second BLAS thread
-    does not speed them up, and beside another busy process (the report's plot processes,
-    a sweep's workers) it slows them down 2-3x (``tune_arm`` 0.36 s on one thread, 1.08 s on
-    two with the other core busy; measured). The numbers do not change (the demo's files are
-    the same bit for bit on one thread and on two).
+    does not speed them up, and beside another busy process (a sweep's workers, other jobs on
+    the machine) it slows them down (the demo's tuning stage, one study in one process on a
+    loaded 2-core machine: 1.05 s on one thread, 5.0 s on two; measured in issue 23). The
+    numbers do not change (the demo's files are the same bit for bit on one thread and on two).
 
     Two steps, because scipy brings its own OpenBLAS, loaded at the first use of
     ``scipy.linalg``: the limit covers the libraries loaded so far, and

@@ -17,7 +17,7 @@ from armlab.errors import InputError, SpecError
 from armlab.robot import Limits, load_robot, resolve_limits
 from armlab.robot.limits import description_limits
 from armlab.study import parse_study
-from armlab.study.stages import StudyContext, build_robot, planning_robot
+from armlab.study.stages import StudyContext, build_robot, controller_profile, planning_robot
 from armlab.trajectory import optimal, ptp_sync
 from conftest import REPO, UR5_URDF
 
@@ -189,7 +189,7 @@ def test_speed_scale_scales_v_a_j_by_s_s2_s3(teachbot6):
     doc = tomllib.loads(STUDY)
     doc["plan"] = {"speed_scale": 0.8}
     spec = parse_study(doc)
-    ctx = StudyContext(spec=spec, robot=build_robot(spec))
+    ctx = StudyContext(spec, robot=build_robot(spec), controller=controller_profile(spec))
     planned = planning_robot(ctx).limits
     np.testing.assert_allclose(planned.velocity_rad_s, lim.velocity_rad_s * 0.8)
     np.testing.assert_allclose(planned.jerk_rad_s3, lim.jerk_rad_s3 * 0.8**3)

@@ -1,159 +1,16 @@
-"""The report's plots drawn by several processes (``armlab run --workers``): the same files as
-one process draws, a plot's error raised in the parent with its own type, a dead process named."""
+"""The report of a study (``report.md`` and its plots): drawn by the study's own process after
+its stages, so that a plot's error is the study's error, and a study that stops leaves no plot."""
 
 from __future__ import annotations
 
 import ast
-import math
-import multiprocessing
 import os
 import subprocess
 import sys
-import time
 
-import numpy as np
 import pytest
 
-from armlab.errors import InputError
-from armlab.plots._figure import new_figure
-from armlab.study.report import _figure_processes, _FigureDrawing
-
-pytestmark = pytest.mark.skipif(
-    "fork" not in multiprocessing.get_all_start_methods(), reason="no fork on this platform"
-)
-
-
-def _plot(k: int):
-    def make():
-        fig = new_figure(figsize=(3, 2))
-        ax = fig.subplots()
-        x = np.linspace(0.0, 1.0, 50)
-        ax.plot(x, np.sin((k + 1) * 3 * x))
-        ax.set_title(f"plot {k}")
-        return fig
-
-    return make
-
-
-def _jobs(n: int):
-    return [(f"p{k}.png", f"plot {k}", _plot(k)) for k in range(n)]
-
-
-def test_plots_from_several_processes_are_the_files_one_draws(tmp_path):
-    one, many = tmp_path / "one", tmp_path / "many"
-    one.mkdir()
-    many.mkdir()
-    with _FigureDrawing(_jobs(7), one, 1) as serial:
-        pass
-    with _FigureDrawing(_jobs(7), many, 3) as parallel:
-        assert len(parallel._children) == 2  # the parent draws too
-    assert sorted(p.name for p in serial.paths) == sorted(p.name for p in parallel.paths)
-    assert len(serial.paths) == 7
-    for path in serial.paths:
-        assert (many / path.name).read_bytes() == path.read_bytes(), path.name
-
-
-def test_a_plot_that_fails_in_a_child_raises_its_error_in_the_parent(tmp_path):
-    def broken():
-        raise InputError("plot 3: no data for joint7")
-
-    jobs = _jobs(6)
-    jobs[3] = ("bad.png", "bad", broken)
-    with pytest.raises(InputError, match="no data for joint7"):
-        with _FigureDrawing(jobs, tmp_path, 2):
-            pass
-    assert not (tmp_path / "bad.png").exists()
-
-
-def _wait_for_the_first_plot(drawing) -> None:
-    """The parent waits until a child has taken the first plot (at most 5 s)."""
-    for _ in range(500):
-        if drawing._counter.value > 0:
-            return
-        time.sleep(0.01)
-
-
-def test_a_process_that_dies_is_named_not_waited_for(tmp_path):
-    def dies():
-        if multiprocessing.parent_process() is not None:  # only the child dies
-            os._exit(3)
-        return _plot(0)()
-
-    jobs = [("dies.png", "dies", dies), *_jobs(1)]
-    with pytest.raises(RuntimeError, match=r"\['dies.png'\] were not drawn"):
-        with _FigureDrawing(jobs, tmp_path, 2) as drawing:
-            _wait_for_the_first_plot(drawing)
-
-
-def test_a_process_that_hangs_is_stopped_and_named(tmp_path, monkeypatch):
-    """A plot process silent for longer than PLOT_PROCESS_SILENCE_S (a fork that inherited a
-    held lock) is stopped; the study gets an error naming the plot, not a wait forever."""
-    import armlab.study.report as report
-
-    monkeypatch.setattr(report, "PLOT_PROCESS_SILENCE_S", 1.0)
-
-    def hangs():
-        if multiprocessing.parent_process() is not None:  # only the child hangs
-            time.sleep(3600)
-        return _plot(0)()
-
-    jobs = [("hangs.png", "hangs", hangs), *_jobs(1)]
-    t0 = time.monotonic()
-    with pytest.raises(RuntimeError, match=r"\['hangs.png'\] were not drawn"):
-        with _FigureDrawing(jobs, tmp_path, 2) as drawing:
-            _wait_for_the_first_plot(drawing)
-    assert time.monotonic() - t0 < 30
-    assert not any(child.is_alive() for child in drawing._children)
-
-
-_KILLED_PARENT = """
-import os, signal, sys, time
-sys.path.insert(0, {tests!r})
-from armlab.study.report import _FigureDrawing
-from test_report_plots import _plot
-
-def slow():
-    time.sleep(1.5)  # the study is killed meanwhile
-    return _plot(0)()
-
-drawing = _FigureDrawing([("late.png", "late", slow)], __import__("pathlib").Path({out!r}), 2)
-drawing.__enter__()
-while drawing._counter.value == 0:  # the child has taken the plot
-    time.sleep(0.01)
-print(drawing._children[0].pid, flush=True)
-os.kill(os.getpid(), signal.SIGKILL)
-"""
-
-
-def test_plot_processes_end_with_a_killed_study(tmp_path):
-    """A study killed with -9 while a plot process draws leaves no process that writes into the
-    folder afterwards (a re-run may own it by then)."""
-    import subprocess
-    import sys
-    from pathlib import Path
-
-    script = _KILLED_PARENT.format(tests=str(Path(__file__).parent), out=str(tmp_path))
-    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
-    assert proc.returncode == -9, proc.stderr
-    child = int(proc.stdout.split()[0])
-    time.sleep(2.5)  # past the child's drawing
-    assert not (tmp_path / "late.png").exists()
-    assert not list(tmp_path.glob(".*.tmp"))
-    try:
-        os.kill(child, 0)
-    except ProcessLookupError:
-        pass
-    else:  # still there (a zombie is gone from /proc/<pid>/status as "Z")
-        status = Path(f"/proc/{child}/status")
-        assert not status.exists() or "State:\tZ" in status.read_text(), "plot process alive"
-
-
-def test_process_count():
-    assert _figure_processes(11, None) == 1
-    assert _figure_processes(11, 1) == 1
-    assert _figure_processes(11, 4) == 4
-    assert _figure_processes(2, 8) == 2
-    assert _figure_processes(0, 8) == 1
+from armlab.errors import ArmlabError, InputError
 
 
 def _study(tmp_path, stages, payload_kg):
@@ -182,37 +39,90 @@ planner = "ptp"
     return load_study(path)
 
 
-def test_plots_drawn_during_the_later_stages_are_the_report_s(tmp_path):
-    """With two workers a stage's final plots are drawn while the later stages run (here the
-    kinematics plots during the plan): the report shows them, and they are the files one
-    process draws."""
-    from armlab.study import run_spec
-
-    spec = _study(tmp_path, ["kinematics", "plan"], 0.5)
-    one = run_spec(spec, tmp_path / "one", workers=1)
-    two = run_spec(spec, tmp_path / "two", workers=2)
-    assert two.summary["study"]["plot_processes"] == 2
-    names = sorted(p.name for p in one.files if p.suffix == ".png")
-    assert "kinematics_accuracy.png" in names and "plan_profiles.png" in names
-    assert sorted(p.name for p in two.files if p.suffix == ".png") == names
-    for name in names:
-        assert (tmp_path / "two" / name).read_bytes() == (tmp_path / "one" / name).read_bytes()
-
-
 def test_a_study_that_stops_leaves_no_plots_of_its_earlier_stages(tmp_path):
-    from armlab.errors import ArmlabError
     from armlab.study import run_spec
 
     spec = _study(tmp_path, ["kinematics", "plan"], 500.0)  # gravity alone over the limits
     with pytest.raises(ArmlabError, match="^plan: "):
-        run_spec(spec, tmp_path / "out", workers=2)
+        run_spec(spec, tmp_path / "out")
     assert not list((tmp_path / "out").glob("*.png"))
     assert (tmp_path / "out" / "summary.json").is_file()
 
 
+def test_a_plot_that_fails_is_the_study_s_error(tmp_path, monkeypatch):
+    """A plot that raises stops the study with its own error (nothing swallows it and nothing
+    draws it again elsewhere); the plots drawn before it stay, none after it is drawn."""
+    import armlab.plots
+    from armlab.study import run_spec
+
+    def broken(*args, **kwargs):
+        raise InputError("plot_joints: no data for joint7")
+
+    monkeypatch.setattr(armlab.plots, "plot_joints", broken)
+    spec = _study(tmp_path, ["kinematics", "plan"], 0.5)
+    with pytest.raises(InputError, match="no data for joint7"):
+        run_spec(spec, tmp_path / "out")
+    drawn = {p.name for p in (tmp_path / "out").glob("*.png")}
+    assert "kinematics_workspace.png" in drawn  # drawn before the broken one
+    assert "plan_profiles.png" not in drawn and "plan_tool_path.png" not in drawn
+    assert not (tmp_path / "out" / "report.md").exists()
+
+
+def test_the_drive_model_plot_s_ideal_drive_tracks_better_than_the_full_model(tmp_path):
+    """The drive-model plot simulates the study's motion without the supply limit and losses
+    in the study's process and keeps the runs on the context: the ideal drive's TCP error is
+    below the full model's (which the verdict uses), and the plot is in the report."""
+    from armlab.study import run_spec
+
+    spec = _study(tmp_path, ["kinematics", "plan", "tuning", "tracking"], 0.5)
+    res = run_spec(spec, tmp_path / "out")
+    ctx = res.context
+    assert {"ideal", "no_voltage_limit"} <= set(ctx.tracking_variants)
+    assert ctx.tracking_variants["ideal"].tcp_max_error_m < ctx.tracking.tcp_max_error_m
+    assert "tracking_drive_model.png" in (tmp_path / "out" / "report.md").read_text()
+    assert (tmp_path / "out" / "tracking_drive_model.png").is_file()
+
+
+def test_the_motion_file_is_linked_and_a_stopped_study_leaves_none(tmp_path, monkeypatch):
+    """The 3D animation is written with the report and linked from it; a study that stops
+    before its report leaves no animation, as it leaves no plots."""
+    from armlab.study import run_spec
+    from armlab.study import runner as study_runner
+
+    stages = ["kinematics", "plan", "static_load", "sizing", "tuning"]
+    spec = _study(tmp_path, stages, 0.5)
+    done = run_spec(spec, tmp_path / "done")
+    text = (tmp_path / "done" / "report.md").read_text()
+    assert (tmp_path / "done" / "motion.html").is_file()
+    assert any("](motion.html)" in line for line in text.splitlines())
+    assert "motion.html" in {p.name for p in done.files}
+
+    def broken(ctx):
+        raise ArmlabError("tuning broke on purpose")
+
+    monkeypatch.setitem(study_runner.STAGE_FUNCTIONS, "tuning", broken)
+    with pytest.raises(ArmlabError, match="tuning broke"):
+        run_spec(spec, tmp_path / "stopped")
+    assert not (tmp_path / "stopped" / "motion.html").exists()
+    assert not list((tmp_path / "stopped").glob("*.png"))
+    assert not list((tmp_path / "stopped").glob("*.tmp"))
+
+
+def test_run_refuses_workers_on_one_line(tmp_path, capsys):
+    """``armlab run --workers`` is refused (a study runs in one process; sweeps run studies in
+    parallel) with one line and exit status 2, before any study runs."""
+    from armlab.cli import main
+
+    assert main(["run", "--out", str(tmp_path / "out"), "--workers", "2"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "armlab sweep --workers" in err[0], err
+    assert not (tmp_path / "out").exists()
+
+
 def test_the_command_line_runs_blas_on_one_thread_unless_told(monkeypatch):
-    """``armlab`` commands set numpy's BLAS to one thread (the report's plot processes run
-    beside the stages), and leave it alone when the environment chooses."""
+    """``armlab`` commands set numpy's BLAS to one thread (its matrices are small; a second
+    thread only competes with other processes), and leave it alone when the environment
+    chooses."""
     import threadpoolctl
 
     from armlab.cli import BLAS_THREAD_VARIABLES, one_blas_thread
@@ -257,132 +167,16 @@ def test_blas_loaded_after_the_command_line_starts_runs_on_one_thread():
     assert {n for _, n in libraries} == {1}, libraries
 
 
-def test_drive_model_variants_simulated_beside_the_tracking_stage_are_the_plot_s(
-    tmp_path, monkeypatch
-):
-    """With two workers the drive-model plot's variants are simulated by a process forked at
-    the end of the tuning stage, beside the tracking stage: the plot is the file one process
-    draws, and the variants are those simulated in the study's own process."""
-    from armlab.control.diagnosis import tracking_variants
-    from armlab.study import run_spec
-    from armlab.study.report import DRIVE_MODEL_VARIANTS, _VariantPrefetch
+def test_the_export_section_names_the_limit_a_refused_table_breaks(tmp_path):
+    """A set-point table that breaks a controller limit (here 1 pulse per cycle) is a failed
+    check: the report's export section names it and claims no cycles that passed."""
+    from armlab.study import load_study, run_spec
 
-    spec = _study(tmp_path, ["kinematics", "plan", "tuning", "tracking"], 0.5)
-    one = run_spec(spec, tmp_path / "one", workers=1)
-    started: list[str] = []
-    original = _VariantPrefetch.__init__
-
-    def counted(self, ctx) -> None:
-        started.append(ctx.spec.study.name)
-        original(self, ctx)
-
-    monkeypatch.setattr(_VariantPrefetch, "__init__", counted)
-    run_spec(spec, tmp_path / "two", workers=2)
-    monkeypatch.undo()
-    assert len(started) == 1  # one process simulated the variants, beside the stage
-    name = "tracking_drive_model.png"
-    assert (tmp_path / "two" / name).read_bytes() == (tmp_path / "one" / name).read_bytes()
-
-    ctx = one.context
-    prefetch = _VariantPrefetch(ctx)
-    try:
-        got = prefetch.take()
-    finally:
-        prefetch.close()
-    here = tracking_variants(
-        ctx.robot, ctx.trajectory, ctx.gains, DRIVE_MODEL_VARIANTS, **ctx.tracking_options
-    )
-    assert set(got) == set(here) and "ideal" in got
-    for key, res in here.items():
-        assert np.array_equal(got[key].q, res.q) and np.array_equal(
-            got[key].current_A, res.current_A
-        )
-    assert got["ideal"].tcp_max_error_m < ctx.tracking.tcp_max_error_m  # not the full model
-
-
-def test_drive_model_variants_whose_process_dies_are_simulated_by_the_plot(tmp_path):
-    """A variant process that dies gives no variants, and the plot simulates them itself."""
-    from armlab.study import run_spec
-    from armlab.study.report import _drive_model_figure, _VariantPrefetch
-
-    spec = _study(tmp_path, ["kinematics", "plan", "tuning", "tracking"], 0.5)
-    ctx = run_spec(spec, tmp_path / "one", workers=1).context
-    prefetch = _VariantPrefetch(ctx)
-    assert len(prefetch.sides) == 2  # with and without the supply limit
-    for side in prefetch.sides:
-        side._process.kill()
-        side._process.join()
-    try:
-        assert prefetch.take() == {}
-        fig = _drive_model_figure(ctx, prefetch)  # simulated here instead
-    finally:
-        prefetch.close()
-    assert len(fig.axes) >= 2
-
-
-def test_the_tuning_run_beside_the_earlier_stages_gives_the_study_s_gains(tmp_path):
-    """With two workers the servo tuning runs in a forked process beside the kinematics and
-    plan stages (it needs the drives and the controller only): the stage takes its gains, the
-    same numbers one process tunes, and says so in its block."""
-    from armlab.study import run_spec
-
-    spec = _study(tmp_path, ["kinematics", "plan", "tuning"], 0.5)
-    one = run_spec(spec, tmp_path / "one", workers=1)
-    two = run_spec(spec, tmp_path / "two", workers=2)
-    assert one.summary["control"]["tuned_ahead"] is False
-    assert two.summary["control"]["tuned_ahead"] is True
-    g1, g2 = one.context.gains, two.context.gains
-    assert g1.summary() == g2.summary()
-    for joint in g1.joints:
-        assert g1[joint] == g2[joint]
-
-
-def test_a_side_process_that_fails_or_dies_gives_no_result():
-    """A side process whose function raises, or which dies, gives None: the stage that needs
-    the result then does the work itself."""
-    from armlab._fork import SideProcess
-
-    failing = SideProcess(math.sqrt, -1.0)  # ValueError in the child
-    dying = SideProcess(time.sleep, 60.0)
-    working = SideProcess(math.sqrt, 4.0)
-    dying._process.kill()
-    try:
-        assert failing.result(30.0) is None
-        assert dying.result(30.0) is None
-        assert working.result(30.0) == 2.0
-    finally:
-        for side in (failing, dying, working):
-            side.close()
-
-
-def test_the_motion_file_written_beside_the_stages_is_the_report_s(tmp_path, monkeypatch):
-    """With two workers the 3D animation is written by a process forked when the sizing stage
-    ends: the report links it as one process does. A study that stops after that leaves no
-    animation behind, as it leaves no plots."""
-    from armlab.errors import ArmlabError
-    from armlab.study import run_spec
-    from armlab.study import runner as study_runner
-
-    stages = ["kinematics", "plan", "static_load", "sizing", "tuning"]
-    spec = _study(tmp_path, stages, 0.5)
-    one = run_spec(spec, tmp_path / "one", workers=1)
-    two = run_spec(spec, tmp_path / "two", workers=2)
-
-    def motion_lines(folder):
-        text = (folder / "report.md").read_text()
-        return [line for line in text.splitlines() if "motion.html" in line]
-
-    assert (tmp_path / "two" / "motion.html").is_file()
-    assert motion_lines(tmp_path / "two") == motion_lines(tmp_path / "one") != []
-    assert "motion.html" in {p.name for p in two.files}
-    assert {p.name for p in two.files} == {p.name for p in one.files}
-
-    def broken(ctx):
-        raise ArmlabError("tuning broke on purpose")
-
-    monkeypatch.setitem(study_runner.STAGE_FUNCTIONS, "tuning", broken)
-    with pytest.raises(ArmlabError, match="tuning broke"):
-        run_spec(spec, tmp_path / "stopped", workers=2)
-    assert not (tmp_path / "stopped" / "motion.html").exists()
-    assert not list((tmp_path / "stopped").glob("*.png"))
-    assert not list((tmp_path / "stopped").glob("*.tmp"))
+    _study(tmp_path, ["kinematics", "plan", "export"], 0.5)
+    spec = load_study(tmp_path / "study.toml", {"controller.pulse_limit": 1})
+    res = run_spec(spec, tmp_path / "out")
+    assert res.verdict == "fail" and res.context.setpoints is None
+    report = (tmp_path / "out" / "report.md").read_text()
+    section = report.split("## Export", 1)[1].split("\n## ", 1)[0]
+    assert "No set-point table" in section and "export: " in section, section
+    assert "passed the pre-flight checks" not in section

@@ -23,7 +23,7 @@ from armlab.study import (
     run_spec,
     run_study,
 )
-from armlab.study.runner import KEY_FIGURES, key_figures
+from armlab.study.runner import KEY_FIGURES
 from armlab.study.spec import STAGES, check_key
 from armlab.study.stages import build_robot
 
@@ -277,58 +277,29 @@ def test_cli_reports_a_bad_study_on_one_line(tmp_path):
 
 
 # ---------------------------------------------------------------------------- key figures
-def test_key_figures_from_a_summary():
-    summary = {
-        "kinematics": {"max_reach_m": 0.75},
-        "trajectory": {"duration_s": 2.5, "peak_ratio": {"velocity": 1.0, "torque": 0.4}},
-        "static_load": {"joints": {"joint1": {"torque_Nm": 3.0}, "joint2": {"torque_Nm": 9.0}}},
-        "sizing": {
-            "joints": {
-                "joint1": {"checks": [{"name": "rms", "margin": 0.5, "ok": True}]},
-                "joint2": {
-                    "checks": [
-                        {"name": "peak", "margin": 0.2, "ok": True},
-                        {"name": "speed", "margin": -0.1, "ok": False},
-                    ]
-                },
-            }
-        },
-        "control": {
-            "joint1": {
-                "position": {
-                    "phase_margin_deg": 60.0,
-                    "phase_margin_discrete_deg": 55.0,
-                    "gain_margin_dB": "inf",
-                    "gain_margin_discrete_dB": 12.0,
-                    "crossover_rad_s": 30.0,
-                },
-                "speed": {
-                    "phase_margin_deg": 50.0,
-                    "gain_margin_dB": 8.0,
-                    "crossover_rad_s": 300.0,
-                },
-            }
-        },
-        "tracking": {
-            "joints": {"joint1": {"max_error_rad": 1e-3}, "joint2": {"max_error_rad": 2e-3}},
-            "tcp": {"max_error_m": 4e-4},
-        },
-        "export": {"n_cycles": 2501},
-        "study": {"stages": {"plan": {"status": "ok"}}},
-    }
-    kf = key_figures(summary)
-    assert kf["duration_s"] == 2.5 and kf["peak_torque_ratio"] == 0.4
-    assert math.isnan(kf["peak_jerk_ratio"])
-    assert kf["max_static_torque_Nm"] == 9.0
-    assert kf["sizing_ok"] is False and kf["sizing_min_margin"] == -0.1
-    assert kf["sizing_binding"] == "joint2:speed"
-    assert kf["min_phase_margin_deg"] == 50.0 and kf["min_gain_margin_dB"] == 8.0
-    assert kf["position_crossover_min_rad_s"] == 30.0
-    assert kf["tracking_max_error_rad"] == 2e-3 and kf["tcp_max_error_m"] == 4e-4
-    assert kf["n_cycles"] == 2501 and kf["stage_plan"] == "ok"
-    empty = key_figures({})
-    assert math.isnan(empty["duration_s"]) and empty["sizing_ok"] is None
-    assert set(KEY_FIGURES) | {"sizing_binding", "verdict"} == set(empty)  # what a sweep may plot
+def test_key_figures_of_a_study_that_plans_only():
+    """The key figures come from the stages' typed results: the plan's duration and its peak
+    ratio to each limit (the LimitReport's, recomputed here from the trajectory), NaN or None
+    for every stage that did not run, and each stage's status."""
+    spec = parse_study(quick_doc(study={"name": "kf", "stages": ["kinematics", "plan"]}))
+    res = run_spec(spec)
+    kf = res.key_figures()
+    assert set(KEY_FIGURES) | {"sizing_binding", "verdict"} <= set(kf)  # what a sweep may plot
+    traj, robot = res.trajectory, res.robot
+    assert traj is not None
+    assert kf["duration_s"] == pytest.approx(traj.duration, rel=1e-12)
+    report = traj.check_limits(robot, dt=spec.plan.check_dt_s)
+    assert kf["peak_velocity_ratio"] == pytest.approx(report.ratios["velocity"].max(), rel=1e-6)
+    assert 0.0 < kf["peak_velocity_ratio"] <= 1.0 + 1e-6
+    reach = max(np.linalg.norm(armlab.kinematics.fk(robot, q)[:2, 3]) for q in traj.q[::10])
+    assert kf["max_reach_m"] >= reach - 1e-9  # no planned tool point is beyond the reach
+    for name in ("max_static_torque_Nm", "sizing_min_margin", "min_phase_margin_deg"):
+        assert math.isnan(kf[name]), name
+    assert math.isnan(kf["tcp_max_error_m"]) and math.isnan(kf["n_cycles"])
+    assert kf["sizing_ok"] is None and kf["sizing_binding"] == ""
+    assert kf["stage_plan"] == "ok" and kf["stage_sizing"] == "skipped"
+    assert kf["verdict"] == res.verdict == "pass" and kf["n_failed_checks"] == 0  # plan asked
+    assert res.summary["key_figures"] == kf  # summary.json shows the same row
 
 
 # ---------------------------------------------------------------------------- the whole chain
@@ -350,6 +321,20 @@ n_inertia_samples = 30
 [tracking]
 feedforward = ["velocity", "acceleration", "gravity"]
 """
+
+
+LOOPS = ("current", "speed", "position")
+
+
+def gains_joints(summary: dict) -> list[str]:
+    return [j for j in summary["robot"]["joint_names"] if j in summary["control"]]
+
+
+def _key_figure_rows(report: str) -> dict[str, str]:
+    """``figure -> value`` of the table under report.md's "## Key figures" heading."""
+    section = report.split("## Key figures", 1)[1].split("\n## ", 1)[0]
+    rows = [line.strip("|").split("|") for line in section.splitlines() if line.startswith("| ")]
+    return {name.strip(): value.strip() for name, value in rows[1:]}  # the header row left out
 
 
 def test_full_chain_outputs_are_what_independent_computations_give(tmp_path, capsys):
@@ -387,6 +372,31 @@ def test_full_chain_outputs_are_what_independent_computations_give(tmp_path, cap
     assert {"plan_profiles.png", "tracking_error.png", "tracking_drive_model.png"} <= set(shown)
     for png in shown:
         assert (out / png).is_file(), png
+    # the report's key figures are the summary's (they were read before they were filled)
+    figures = _key_figure_rows(report)
+    kf = summary["key_figures"]
+    assert set(figures) == {k for k in kf if not k.startswith("stage_")}
+    for name in ("duration_s", "max_static_torque_Nm", "min_phase_margin_deg", "tcp_max_error_m"):
+        assert float(figures[name]) == pytest.approx(kf[name], rel=5e-4), name  # 4 digits shown
+    assert float(figures["n_cycles"]) == kf["n_cycles"] > 0
+    assert figures["verdict"] == summary["design"]["verdict"] == "pass"
+    # the key figures against the stage blocks (a separate rendering of the same results)
+    margins = [
+        (c["margin"], f"{j}:{c['name']}")
+        for j in summary["robot"]["joint_names"]
+        for c in summary["sizing"][j]["checks"]
+        if c["margin"] is not None
+    ]
+    low = min(m for m, _ in margins)
+    assert kf["sizing_min_margin"] == low
+    assert (low, kf["sizing_binding"]) in margins  # a check with that margin (ties: the first)
+    assert kf["sizing_ok"] is True
+    loops = [summary["control"][j][loop] for j in gains_joints(summary) for loop in LOOPS]
+    pm = [x for f in loops for x in (f["phase_margin_deg"], f["phase_margin_discrete_deg"])]
+    assert kf["min_phase_margin_deg"] == pytest.approx(min(x for x in pm if x is not None))
+    assert kf["max_static_torque_Nm"] == pytest.approx(
+        max(summary["static_load"][j]["torque_Nm"] for j in summary["robot"]["joint_names"])
+    )
     # each file's sha256 in the summary is the file's (computed here independently)
     files = summary["export"]["files"]
     assert set(files) == {"setpoints.csv", "gains.json", "trajectory.npz"}
@@ -491,3 +501,28 @@ def test_a_plain_urdf_study_skips_the_drive_stages():
     # the study's acceleration limit is the one the plan honoured
     assert s["trajectory"]["peak_ratio"]["acceleration"] <= 1 + 1e-6
     assert np.all(res.robot.limits.acceleration_rad_s2 == 5.0)
+
+
+def test_design_verdict_from_the_stage_records():
+    """A failed check fails the design; otherwise a judging stage that did not run leaves it
+    incomplete (with the reason); advisories are listed but decide nothing."""
+    from armlab.study.verdict import StageRecord, design_verdict
+
+    asked = ("kinematics", "plan", "sizing")
+    ok = {
+        "kinematics": StageRecord("kinematics", "ok"),
+        "plan": StageRecord("plan", "ok", "pass", advisories=("plan: note",)),
+        "sizing": StageRecord("sizing", "ok", "pass"),
+    }
+    d = design_verdict(ok, asked)
+    assert d.verdict == "pass" and d.advisories == ["plan: note"] and d.not_judged == []
+    skipped = {**ok, "sizing": StageRecord("sizing", "skipped", reason="no drive train")}
+    d = design_verdict(skipped, asked)
+    assert d.verdict == "incomplete" and d.not_judged == ["sizing (no drive train)"]
+    assert "NOT JUDGED: sizing (no drive train)" in d.lines()[0]
+    failing = {**skipped, "plan": StageRecord("plan", "ok", "fail", failed_checks=("plan: x",))}
+    d = design_verdict(failing, asked)
+    assert d.verdict == "fail" and d.failed_checks == ["plan: x"]
+    assert d.lines()[:2] == ["design: the design FAILS 1 check(s)", "  FAILED  plan: x"]
+    d = design_verdict({"kinematics": ok["kinematics"]}, asked)  # stopped after kinematics
+    assert d.not_judged == ["plan (not run)", "sizing (not run)"]

@@ -321,6 +321,21 @@ def test_a_rerun_removes_the_earlier_runs_exports(tmp_path):
     assert sorted(p.name for p in (out / "export").iterdir()) == ["mine.txt"]
 
 
+def test_a_folder_left_with_partial_files_only_is_cleared(tmp_path):
+    """A run killed after it cleared its folder and before it wrote its design record leaves
+    at most partial files (``.*.tmp``) and no record: the next run clears them instead of
+    taking them for another study's outputs; a real file of another study is still refused."""
+    study = write_study(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / ".setpoints.csv.dead.tmp").write_text("partial")
+    assert run(study, out) == 0
+    assert not list(out.glob(".*.tmp")) and (out / "summary.json").is_file()
+    other = write_study(tmp_path, "[controller]\ncycle_s = 0.002\n", name="other.toml")
+    assert run(other, out) == 2  # refused on one line ("holds the outputs of another study")
+    assert (out / "summary.json").is_file()
+
+
 def test_kill_9_at_random_moments_never_leaves_a_mixed_folder(tmp_path):
     """A study run killed at any moment leaves either no summary.json (export refuses the folder)
     or a folder whose files all match it; a re-run of the same study then completes."""

@@ -1,42 +1,23 @@
 """The key figures of a study: one flat row of numbers per study (what a sweep keeps and plots).
 
-:func:`key_figures` reads them from a summary (summary.json content), so a sweep row, the
-one-screen summary and a notebook all read the same numbers.
+:func:`key_figures` computes them once per study from the stages' typed results; summary.json's
+``key_figures``, report.md's table, the one-screen summary and a sweep's row all show that one
+row.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["KEY_FIGURES", "key_figures", "joint_items"]
+import numpy as np
 
+if TYPE_CHECKING:
+    from armlab.study.stages import StudyContext
+    from armlab.study.verdict import DesignVerdict, StageRecord
 
-def _get(d: Any, *path, default=math.nan):
-    for p in path:
-        if not isinstance(d, dict) or p not in d:
-            return default
-        d = d[p]
-    return d
-
-
-def _num(x) -> float:
-    if isinstance(x, bool):
-        return float(x)
-    if isinstance(x, (int, float)):
-        return float(x)
-    if x == "inf":
-        return math.inf
-    return math.nan
-
-
-def _walk_loops(control: dict):
-    """(joint, loop, figures) of every loop in a summary's "control" block."""
-    for joint, loops in control.items():
-        if isinstance(loops, dict):
-            for loop, fig in loops.items():
-                if isinstance(fig, dict) and "phase_margin_deg" in fig:
-                    yield joint, loop, fig
+__all__ = ["KEY_FIGURES", "key_figures"]
 
 
 #: Names of the numeric key figures (the sweep's figures of merit).
@@ -60,80 +41,67 @@ KEY_FIGURES = (
 )
 
 
-def key_figures(summary: dict[str, Any]) -> dict[str, Any]:
-    """The figures a sweep keeps per study (one flat row; NaN where a stage did not run).
+def key_figures(
+    ctx: StudyContext | None, records: Mapping[str, StageRecord], design: DesignVerdict
+) -> dict[str, Any]:
+    """The figures a sweep keeps per study (one flat row; NaN where a stage did not run), from
+    the stages' typed results (``ctx``; None when the robot could not be built), their records
+    and the design's verdict.
 
-    ``duration_s``; ``peak_<kind>_ratio`` (max over joints of the plan's ratio to each limit);
-    ``max_static_torque_Nm``; ``sizing_ok`` and ``sizing_min_margin`` (smallest margin of every
-    drive check) with ``sizing_binding`` (``joint:check``); ``min_phase_margin_deg``,
-    ``min_gain_margin_dB`` (every loop, continuous and discrete), ``position_crossover_min_rad_s``;
-    ``tracking_max_error_rad``, ``tcp_max_error_m``; ``n_cycles`` of the set-point table; and the
-    status of each stage (``stage_<name>``).
+    ``max_reach_m``; ``duration_s``; ``peak_<kind>_ratio`` (max over joints of the plan's ratio
+    to each limit, :class:`~armlab.trajectory.core.LimitReport`); ``max_static_torque_Nm``;
+    ``sizing_ok`` and ``sizing_min_margin`` (smallest finite margin of every drive check) with
+    ``sizing_binding`` (``joint:check``); ``min_phase_margin_deg``, ``min_gain_margin_dB``
+    (every loop, continuous and discrete), ``position_crossover_min_rad_s``;
+    ``tracking_max_error_rad``, ``tcp_max_error_m``; ``n_cycles`` of the set-point table; the
+    status of each stage (``stage_<name>``), the design's ``verdict`` and ``n_failed_checks``.
     """
-    out: dict[str, Any] = {}
-    out["max_reach_m"] = _num(_get(summary, "kinematics", "max_reach_m"))
-    traj = summary.get("trajectory", {})
-    out["duration_s"] = _num(traj.get("duration_s"))
+
+    def ran(stage: str) -> bool:
+        rec = records.get(stage)
+        return ctx is not None and rec is not None and rec.status == "ok"
+
+    nan = math.nan
+    out: dict[str, Any] = {"max_reach_m": ctx.max_reach_m if ran("kinematics") and ctx else nan}
+    traj = ctx.trajectory if ran("plan") and ctx else None
+    report = ctx.limit_report if ran("plan") and ctx else None
+    out["duration_s"] = nan if traj is None else float(traj.duration)
     for kind in ("velocity", "acceleration", "jerk", "torque"):
-        out[f"peak_{kind}_ratio"] = _num(_get(traj, "peak_ratio", kind))
-    # static load: per joint {torque_Nm, ...}
-    static = summary.get("static_load", {})
-    torques = [_num(_get(v, "torque_Nm")) for v in _joint_blocks(static)]
-    out["max_static_torque_Nm"] = max(torques) if torques else math.nan
-    # sizing: per joint {checks: [{name, value, limit, margin, ok}]}
-    sizing = summary.get("sizing", {})
-    margins: list[float] = []
-    ok_all, binding = True, ""
-    for joint, block in joint_items(sizing):
-        for check in block.get("checks", []) if isinstance(block, dict) else []:
-            m = _num(check.get("margin"))
-            if not check.get("ok", True):
-                ok_all = False
-            if not math.isnan(m) and (not margins or m < min(margins)):
-                binding = f"{joint}:{check.get('name', '?')}"
-            margins.append(m)
-    out["sizing_ok"] = ok_all if margins else None
-    finite = [m for m in margins if not math.isnan(m)]
-    out["sizing_min_margin"] = min(finite) if finite else math.nan
-    out["sizing_binding"] = binding
-    control = summary.get("control", {})
-    pm, gm, wc = [], [], []
-    for _joint, loop, fig in _walk_loops(control):
-        pm += [_num(fig.get("phase_margin_deg")), _num(fig.get("phase_margin_discrete_deg"))]
-        gm += [_num(fig.get("gain_margin_dB")), _num(fig.get("gain_margin_discrete_dB"))]
-        if loop == "position":
-            wc.append(_num(fig.get("crossover_rad_s")))
+        r = None if report is None else report.ratios.get(kind)
+        out[f"peak_{kind}_ratio"] = nan if r is None else float(np.max(r))
+    static = ctx.static_load if ran("static_load") and ctx else None
+    torques = [] if static is None else [float(x.torque_Nm) for x in static.joints]
+    out["max_static_torque_Nm"] = max(torques) if torques else nan
+    sizing = ctx.sizing if ran("sizing") and ctx else None
+    checks = [] if sizing is None else [(j.joint, c) for j in sizing.joints for c in j.checks]
+    out["sizing_ok"] = all(c.ok for _, c in checks) if checks else None
+    finite = [(float(c.margin), f"{j}:{c.name}") for j, c in checks if math.isfinite(c.margin)]
+    low = min(finite, key=lambda m: m[0]) if finite else (nan, "")
+    out["sizing_min_margin"], out["sizing_binding"] = low
+    gains = ctx.gains if ran("tuning") and ctx else None
+    pm: list[float] = []
+    gm: list[float] = []
+    wc: list[float] = []
+    for cascade in gains or ():
+        for loop in ("current", "speed", "position"):
+            g = getattr(cascade, loop)
+            pm += [g.phase_margin_deg, g.phase_margin_discrete_deg]
+            gm += [g.gain_margin_dB, g.gain_margin_discrete_dB]
+            if loop == "position":
+                wc.append(g.crossover_rad_s)
     out["min_phase_margin_deg"] = _nanmin(pm)
     out["min_gain_margin_dB"] = _nanmin(gm)
     out["position_crossover_min_rad_s"] = _nanmin(wc)
-    tracking = summary.get("tracking", {})
-    errs = [_num(_get(v, "max_error_rad")) for v in _joint_blocks(tracking)]
-    out["tracking_max_error_rad"] = _nanmax(errs)
-    out["tcp_max_error_m"] = _num(_get(tracking, "tcp", "max_error_m"))
-    if math.isnan(out["tcp_max_error_m"]):
-        out["tcp_max_error_m"] = _num(tracking.get("tcp_max_error_m"))
-    n = _get(summary, "export", "n_cycles", default=None)
-    out["n_cycles"] = math.nan if n is None else float(n)
-    for stage, info in summary.get("study", {}).get("stages", {}).items():
-        out[f"stage_{stage}"] = info.get("status", "")
-    design = summary.get("design", {})
-    out["verdict"] = design.get("verdict", "")
-    out["n_failed_checks"] = float(len(design.get("failed_checks", [])))
+    res = ctx.tracking if ran("tracking") and ctx else None
+    out["tracking_max_error_rad"] = nan if res is None else _nanmax(list(res.max_error_rad))
+    out["tcp_max_error_m"] = nan if res is None else res.tcp_max_error_m
+    table = ctx.setpoints if ran("export") and ctx else None
+    out["n_cycles"] = nan if table is None else float(table.n_cycles)
+    for stage, rec in records.items():
+        out[f"stage_{stage}"] = rec.status
+    out["verdict"] = design.verdict
+    out["n_failed_checks"] = float(len(design.failed_checks))
     return out
-
-
-def joint_items(block: dict):
-    """(joint, dict) entries of a per-joint block (``{"joints": {...}}`` or joints at top)."""
-    if not isinstance(block, dict):
-        return []
-    inner = block.get("joints", block)
-    if isinstance(inner, list):
-        return [(b.get("joint", str(i)), b) for i, b in enumerate(inner) if isinstance(b, dict)]
-    return [(k, v) for k, v in inner.items() if isinstance(v, dict)]
-
-
-def _joint_blocks(block: dict):
-    return [v for _, v in joint_items(block)]
 
 
 def _nanmin(xs) -> float:

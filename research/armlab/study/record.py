@@ -316,8 +316,11 @@ def prepare_out_dir(folder: str | os.PathLike, study_hash: str, *, overwrite: bo
             f"--out {folder}: holds files armlab did not write ({shown}): choose an empty or "
             "new folder"
         )
-    same = _recorded_study_hash(folder) == study_hash
-    if not same and not overwrite:
+    recorded = _recorded_study_hash(folder)
+    # a run killed after clearing the folder and before its design record leaves at most
+    # partial files (.*.tmp) and no record: nobody's outputs, cleared like an empty folder
+    leftovers = recorded is None and all(p.name.startswith(".") for p in ours)
+    if recorded != study_hash and not leftovers and not overwrite:
         raise InputError(
             f"--out {folder}: holds the outputs of another study (or an unfinished run): "
             "choose another folder or pass --overwrite"

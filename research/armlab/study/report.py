@@ -9,53 +9,56 @@ from __future__ import annotations
 
 import functools
 import math
-import os
-import pickle
-import queue
-import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from armlab._fork import SILENCE_S, SideProcess, can_fork, die_with, start_forked
+from armlab.deploy.provenance import armlab_version
 from armlab.io import atomic_open, atomic_write
+
+if TYPE_CHECKING:
+    from armlab.control.gains import ArmGains
+    from armlab.control.result import TrackingResult
+    from armlab.study.runner import StudyResult
+    from armlab.study.stages import StudyContext
+    from armlab.study.verdict import DesignVerdict, StageRecord
 
 __all__ = ["write_report", "summary_text"]
 
 
 # ---------------------------------------------------------------------------- plots
-def _weakest_joint(gains) -> str | None:
+def _weakest_joint(gains: ArmGains) -> str | None:
     """The joint whose loops have the smallest phase margin (continuous or discrete)."""
+    from armlab.control.gains import LOOPS
+
     worst, joint = math.inf, None
-    for name, loops in gains.summary().items():
-        for fig in loops.values():
-            for key in ("phase_margin_deg", "phase_margin_discrete_deg"):
-                v = fig.get(key)
-                if isinstance(v, (int, float)) and v < worst:
-                    worst, joint = v, name
+    for cascade in gains:
+        for loop in LOOPS:
+            g = getattr(cascade, loop)
+            for v in (g.phase_margin_deg, g.phase_margin_discrete_deg):
+                if v < worst:  # NaN (not computed) never is
+                    worst, joint = v, cascade.joint
     return joint
 
 
-def _plant(ctx, joint):
+def _plant(ctx: StudyContext, joint: str):
     """A factory of the joint's plant with the inertia range the tuning used."""
 
     def make():
         from armlab.control import joint_plant
 
         n = ctx.spec.control.n_inertia_samples
-        kw = {} if n is None else {"n_samples": n}
-        return joint_plant(ctx.robot, joint, seed=ctx.spec.study.seed, **kw)
+        if n is None:
+            return joint_plant(ctx.robot, joint, seed=ctx.spec.study.seed)
+        return joint_plant(ctx.robot, joint, seed=ctx.spec.study.seed, n_samples=n)
 
     return make
 
 
-def _figures(
-    ctx, variants: _VariantPrefetch | None = None
-) -> list[tuple[str, str, Callable[[], Any]]]:
-    """(file name, caption, figure factory) of every plot the study can draw; ``variants``:
-    the drive-model variants being simulated beside the tracking stage, if they are."""
+def _figures(ctx: StudyContext) -> list[tuple[str, str, Callable[[], Any]]]:
+    """(file name, caption, figure factory) of every plot the study can draw."""
     from armlab.kinematics.forward import tool_positions
     from armlab.plots import (
         bode_figure,
@@ -74,13 +77,22 @@ def _figures(
 
     out: list[tuple[str, str, Callable[[], Any]]] = []  # (file name, caption, draw)
     traj, robot = ctx.trajectory, ctx.robot
-    for kind, plot, caption in (
-        ("workspace", plot_workspace, "Monte-Carlo workspace"),
-        ("accuracy", plot_accuracy, "Monte-Carlo positioning error"),
-    ):
-        res = ctx.figures.get(kind)
-        if res is not None:
-            out.append((f"kinematics_{kind}.png", caption, functools.partial(plot, res)))
+    if ctx.workspace is not None:
+        out.append(
+            (
+                "kinematics_workspace.png",
+                "Monte-Carlo workspace",
+                functools.partial(plot_workspace, ctx.workspace),
+            )
+        )
+    if ctx.accuracy is not None:
+        out.append(
+            (
+                "kinematics_accuracy.png",
+                "Monte-Carlo positioning error",
+                functools.partial(plot_accuracy, ctx.accuracy),
+            )
+        )
     if traj is not None:
         optimised = ctx.spec.plan.planner in ("optimal", "path")
         joints = plot_limit_profiles if optimised else plot_joints
@@ -136,7 +148,7 @@ def _figures(
                     lambda: step_figure(plant(), g),
                 )
             )
-    if ctx.tracking is not None and hasattr(ctx.tracking, "tcp_error_m"):
+    if ctx.tracking is not None:
         out.append(
             (
                 "tracking_error.png",
@@ -150,10 +162,10 @@ def _figures(
                 "TCP error with and without the reducer's efficiency and friction and the "
                 "amplifier's supply limit (the verdict uses both), and with their feed-forward; "
                 "below, the full model's armature voltages against the supply",
-                lambda: _drive_model_figure(ctx, variants),
+                lambda: _drive_model_figure(ctx),
             )
         )
-    loads = getattr(ctx.sizing, "loads", None)
+    loads = ctx.sizing.loads if ctx.sizing is not None else None
     if loads is not None:
         for plot_loads, name, caption in (
             (
@@ -171,23 +183,21 @@ def _figures(
     return out
 
 
-def _drive_model_figure(ctx, variants: _VariantPrefetch | None = None):
+def _drive_model_figure(ctx: StudyContext):
     """The study's motion under each drive model: the tracking stage's result and its
     variants (:func:`armlab.control.diagnosis.tracking_variants`; those the stage's diagnosis
-    ran or ``variants`` simulated beside the stage are reused, the others simulated when the
-    report is drawn -- by another process when several draw, so the study's context keeps
-    only the diagnosis's)."""
+    ran are reused, the others simulated here and kept on the context)."""
     from armlab.control.diagnosis import tracking_variants
     from armlab.plots.servo import drive_model_figure
 
     res = ctx.tracking
-    known = {**(variants.take() if variants is not None else {}), **ctx.tracking_variants}
+    assert res is not None  # drawn only after the tracking stage
     v = tracking_variants(
         ctx.robot,
         ctx.trajectory,
         ctx.gains,
         DRIVE_MODEL_VARIANTS,
-        known=known,
+        known=dict(ctx.tracking_variants),
         **ctx.tracking_options,
     )
     ctx.tracking_variants.update(v)
@@ -205,179 +215,25 @@ def _drive_model_figure(ctx, variants: _VariantPrefetch | None = None):
 #: the drive models of the report's drive-model plot beside the study's full model
 #: (:data:`armlab.control.diagnosis.DRIVE_VARIANTS`)
 DRIVE_MODEL_VARIANTS = ("ideal", "no_voltage_limit", "with_loss_feedforward")
-#: figures that take longest (simulations, many axes), started first so that the processes
-#: drawing the others finish together (a scheduling hint: the files do not depend on it)
-_SLOW_FIRST = ("tracking_drive_model.png", "kinematics_accuracy.png", "sizing_loads.png")
-#: with its variants simulated beside the tracking stage (:class:`_VariantPrefetch`) the
-#: drive-model plot is drawn last instead: its process may still have to wait for them
-_WAITS_LAST = "tracking_drive_model.png"
-
-
-def _figure_processes(n_jobs: int, workers: int | None) -> int:
-    """How many processes draw the plots: ``workers`` (None: one), at most one per plot, and
-    one where processes cannot be forked (the children inherit the study's state instead of
-    receiving it pickled)."""
-    n = 1 if workers is None else max(1, int(workers))
-    if not can_fork():
-        return 1
-    return max(1, min(n, n_jobs))
-
-
 #: resolution of the report's PNG plots
 PLOT_DPI = 110
 #: zlib level of the report's PNG files: 1 instead of PIL's 6 -- 13 % less time per plot for
 #: files ~10 % larger (issue 15, measured on the 18-panel loads plot: 0.43 -> 0.37 s, 390 -> 432 kB)
 PNG_COMPRESS_LEVEL = 1
-#: a plot process that sends nothing for this long [s] is stopped and its plots are named as
-#: not drawn (:data:`armlab._fork.SILENCE_S`)
-PLOT_PROCESS_SILENCE_S = SILENCE_S
 
 
-def _draw_one(name: str, make: Callable[[], Any], out_dir: Path, parent: int | None = None) -> Path:
-    """Draw one plot and write it atomically; ``parent``: in a plot process, the study's
-    process, without which nothing is written."""
+def _draw_one(name: str, make: Callable[[], Any], out_dir: Path) -> Path:
+    """Draw one plot and write it atomically (a plot that fails raises its error)."""
     from armlab.plots import offscreen
 
     with offscreen():  # object API + Agg canvas: the caller's backend and pyplot untouched
         fig = make()
-    if parent is not None and os.getppid() != parent:
-        os._exit(0)
     path = out_dir / name
     fmt = path.suffix[1:] or "png"
     extra = {"pil_kwargs": {"compress_level": PNG_COMPRESS_LEVEL}} if fmt == "png" else {}
     with atomic_open(path, "wb") as f:
         fig.savefig(f, format=fmt, dpi=PLOT_DPI, **extra)
     return path
-
-
-class _FigureDrawing:
-    """Draw the report's plots while the ``with`` block runs: forked processes take the next
-    plot from a shared counter (slowest first), this process draws its share when the block
-    ends, then waits for the others. A plot that fails raises its error here, after every
-    process has stopped (the files the others wrote stay)."""
-
-    def __init__(
-        self,
-        jobs,
-        out_dir: Path,
-        processes: int,
-        *,
-        parent_draws: bool = True,
-        prefetched: bool = False,
-    ) -> None:
-        rank = {name: k for k, name in enumerate(_SLOW_FIRST)}
-        if prefetched:  # the drive-model plot waits for its simulations: last
-            rank[_WAITS_LAST] = len(rank) + 1
-        self.jobs = sorted(jobs, key=lambda job: rank.get(job[0], len(_SLOW_FIRST)))
-        self.out_dir = out_dir
-        self.processes = processes
-        self.parent_draws = parent_draws  # False: the parent only waits (it has stages to run)
-        self.paths: list[Path] = []
-        self._children: list = []
-        self._sent: list[Path] = []
-
-    def _next(self) -> int:
-        with self._counter.get_lock():
-            k = self._counter.value
-            self._counter.value += 1
-        return k
-
-    def _work(self, send, parent: int | None = None) -> None:
-        while (k := self._next()) < len(self.jobs):
-            name, _, make = self.jobs[k]
-            try:
-                fig_path = _draw_one(name, make, self.out_dir, parent)
-                send((k, None, fig_path))
-            except Exception as exc:  # reported to the parent, which raises it
-                send((k, exc, None))
-                return
-
-    def __enter__(self) -> _FigureDrawing:
-        if self.processes <= 1:
-            return self
-        import multiprocessing
-
-        mp = multiprocessing.get_context("fork")
-        self._counter = mp.Value("i", 0)
-        self._queue = mp.Queue()
-        self._children = [
-            mp.Process(target=self._child, daemon=True) for _ in range(self.processes - 1)
-        ]
-        start_forked(self._children)
-        return self
-
-    def _child(self) -> None:
-        def send(item) -> None:
-            k, exc, path = item
-            if exc is not None:  # the exception crosses as itself if it pickles
-                try:
-                    pickle.dumps(exc)
-                except Exception:
-                    exc = RuntimeError(f"{self.jobs[k][0]}: {type(exc).__name__}: {exc}")
-            self._queue.put((k, exc, path))
-
-        parent = os.getppid()
-        die_with(parent)
-        try:
-            self._work(send, parent)
-        finally:
-            self._queue.put(None)  # this process is done
-
-    def finish(self) -> list[Path]:
-        """Draw what is left, wait for the other processes; the files drawn."""
-        self.parent_draws = True
-        self.__exit__(None, None, None)
-        return self.paths
-
-    def abort(self) -> None:
-        """Stop handing out plots, wait for the processes and remove the files they wrote."""
-        if self.processes <= 1:
-            return
-        self.__exit__(RuntimeError, None, None)
-        for path in self._sent:
-            Path(path).unlink(missing_ok=True)
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if self.processes <= 1:
-            if exc_type is None:
-                self.paths = [_draw_one(name, make, self.out_dir) for name, _, make in self.jobs]
-            return
-        results: list = []
-        if exc_type is None and self.parent_draws:
-            self._work(results.append)
-        else:  # the block failed: stop handing out plots
-            with self._counter.get_lock():
-                self._counter.value = len(self.jobs)
-        done, last = 0, time.monotonic()
-        while done < len(self._children):
-            try:
-                item = self._queue.get(timeout=0.5)
-            except queue.Empty:
-                alive = [child for child in self._children if child.is_alive()]
-                if alive and time.monotonic() - last < PLOT_PROCESS_SILENCE_S:
-                    continue
-                for child in alive:  # silent too long (a hang): its plot is missing below
-                    child.terminate()
-                break  # a process died without saying so: its plot is missing below
-            last = time.monotonic()
-            if item is None:
-                done += 1
-            else:
-                results.append(item)
-        for child in self._children:
-            child.join()
-        self._sent = [path for _, _, path in results if path is not None]
-        if exc_type is not None:
-            return
-        results.sort(key=lambda r: r[0])
-        for _, error, _ in results:
-            if error is not None:
-                raise error
-        missing = set(range(len(self.jobs))) - {k for k, _, _ in results}
-        if missing:
-            names = sorted(self.jobs[k][0] for k in missing)
-            raise RuntimeError(f"the report's plots {names} were not drawn (a process died)")
-        self.paths = [path for _, _, path in results]
 
 
 # ---------------------------------------------------------------------------- report.md
@@ -399,133 +255,18 @@ def _table(header: list[str], rows: list[list[Any]]) -> list[str]:
     return lines + [""]
 
 
-#: the plots each stage makes final (file-name prefixes): drawn from that stage's results and
-#: earlier ones, which no later stage changes. The plan's plots wait for the sizing stage,
-#: which may give the robot its drive train (and so its torque limits).
-_STAGE_PLOTS = {
-    "kinematics": ("kinematics_",),
-    "sizing": ("plan_", "sizing_"),
-    "tuning": ("control_",),
-    "tracking": ("tracking_",),
-}
-
-
-class _VariantPrefetch:
-    """The drive-model plot's variants (:data:`DRIVE_MODEL_VARIANTS`) simulated by forked
-    processes while the tracking stage runs: they need the plan, the gains and the study's
-    tracking options, not the stage's result, and were the report's longest job (issue 15:
-    ~2 s of CPU that could only start once the stage had ended). One process per time loop
-    of :func:`~armlab.control.diagnosis.tracking_variants` (the variants with the supply
-    limit, and those without), so that they end together with the other work.
-
-    :meth:`take` is called once, by the process that draws the plot; a process that failed
-    or fell silent gives nothing, and the plot then simulates those variants itself (the same
-    numbers, the error raised where it would have been)."""
-
-    def __init__(self, ctx) -> None:
-        from armlab.control.diagnosis import tracking_variants, variant_loops
-        from armlab.study.stages import tracking_options
-
-        options = tracking_options(ctx)
-        self.sides = [
-            SideProcess(tracking_variants, ctx.robot, ctx.trajectory, ctx.gains, g, **options)
-            for g in variant_loops(DRIVE_MODEL_VARIANTS)
-        ]
-
-    def take(self) -> dict:
-        """The simulated variants by name (those of a failed process missing)."""
-        out: dict = {}
-        for side in self.sides:
-            out.update(side.result() or {})
-        return out
-
-    def close(self) -> None:
-        for side in self.sides:
-            side.close()
-
-
-def _preload_plotting() -> None:
-    """Import matplotlib and the plot modules in the study's process before its stages, so
-    that every plot process forked later inherits them instead of importing them (~0.3 s of
-    CPU each; the study's own process would import them for its share of the plots anyway)."""
-    import matplotlib.backends.backend_agg  # noqa: F401
-    import matplotlib.figure  # noqa: F401
-
-    import armlab.plots.dynamics  # noqa: F401
-    import armlab.plots.kinematics  # noqa: F401
-    import armlab.plots.optimal  # noqa: F401
-    import armlab.plots.servo  # noqa: F401
-
-
-class StagePlots:
-    """With several ``workers``, the report's plots drawn while the later stages run: when a
-    stage ends, its final plots (:data:`_STAGE_PLOTS`, with any still waiting) go to a forked
-    process if none is busy (one at a time beside the stages); :func:`write_report` draws
-    the rest and collects them. :meth:`abort` when the study stops before its report."""
-
-    def __init__(self, out_dir: Path, workers: int | None) -> None:
-        self.out_dir = Path(out_dir)
-        self.on = _figure_processes(2, workers) >= 2
-        self.drawings: list[_FigureDrawing] = []
-        self.waiting: list[str] = []  # prefixes of final plots not started yet
-        self.variants: _VariantPrefetch | None = None
-        self.motion: SideProcess | None = None  # the 3D animation, once the plan is final
-        if self.on:  # before the first stage: the core beside it has nothing to draw yet
-            _preload_plotting()
-
-    def stage_done(self, ctx, stage: str) -> None:
-        if not self.on:
-            return
-        if stage == "tuning" and "tracking" in ctx.spec.study.stages:
-            self.variants = _VariantPrefetch(ctx)  # beside the tracking stage
-        if stage == "sizing" and ctx.trajectory is not None:  # after its drives, as plan_*
-            self.motion = SideProcess(_motion_file, ctx.robot, ctx.trajectory, self.out_dir)
-        self.waiting += _STAGE_PLOTS.get(stage, ())
-        busy = any(c.is_alive() for d in self.drawings for c in d._children)
-        if not busy and self.waiting:
-            jobs = _figures(ctx, self.variants)
-            jobs = [job for job in jobs if job[0].startswith(tuple(self.waiting))]
-            self.waiting = []
-            if jobs:
-                drawing = _FigureDrawing(
-                    jobs, self.out_dir, 2, parent_draws=False, prefetched=self.variants is not None
-                )
-                self.drawings.append(drawing.__enter__())
-
-    def names(self) -> set[str]:
-        return {job[0] for d in self.drawings for job in d.jobs}
-
-    def finish(self) -> list[Path]:
-        try:
-            return [path for d in self.drawings for path in d.finish()]
-        finally:
-            self._close_sides()
-
-    def abort(self) -> None:
-        for d in self.drawings:
-            d.abort()
-        self.drawings = []
-        if self.motion is not None:  # its file goes with the plots
-            self.motion.result()  # let it finish writing
-            (self.out_dir / MOTION_FILE).unlink(missing_ok=True)
-        self._close_sides()
-
-    def _close_sides(self) -> None:
-        for side in (self.variants, self.motion):
-            if side is not None:
-                side.close()
-        self.variants = self.motion = None
-
-
 def write_report(
-    ctx, summary: dict, out_dir: Path, *, workers: int | None = None, early=None
+    ctx: StudyContext,
+    records: dict[str, StageRecord],
+    design: DesignVerdict,
+    figures: dict[str, Any],
+    out_dir: Path,
 ) -> list[Path]:
-    """Write ``report.md`` and its PNG plots into ``out_dir``; returns the files written.
+    """Write ``report.md`` and its PNG plots into ``out_dir``, in this process, one plot after
+    the other; returns the files written. A plot that fails raises its error.
 
-    ``workers``: processes that draw the plots (:func:`_figure_processes`; None or 1: this
-    one); ``early``: the :class:`StagePlots` of the run, finished here. The files are the
-    same whichever number draws them.
-    """
+    ``records`` and ``design``: the stages' records and the design's verdict; ``figures``: the
+    study's key figures (:func:`armlab.study.figures.key_figures`)."""
     out_dir = Path(out_dir)
     files: list[Path] = []
     spec = ctx.spec
@@ -533,11 +274,11 @@ def write_report(
         f"# Study: {spec.study.name}",
         "",
         f"Source `{spec.source}` (sha256 `{spec.hash[:12]}`), seed {spec.study.seed}, "
-        f"armlab {summary['study']['armlab_version']}.",
+        f"armlab {armlab_version()}.",
         "",
         "## Design verdict",
         "",
-        *design_lines(summary),
+        *design.lines(),
         "",
         "## Stages",
         "",
@@ -545,83 +286,38 @@ def write_report(
     lines += _table(
         ["stage", "status", "verdict", "time [s]", "note"],
         [
-            [
-                s,
-                info["status"],
-                info.get("verdict") or "-",
-                info["time_s"],
-                _note(summary.get(_key(s), {})),
-            ]
-            for s, info in summary["study"]["stages"].items()
+            [s, rec.status, rec.verdict or "-", round(rec.time_s, 6), rec.note]
+            for s, rec in records.items()
         ],
     )
-    r = summary["robot"]
-    lines += [
-        "## Robot",
-        "",
-        f"{r.get('name')}: {r.get('n_joints')} joints, payload "
-        f"{_fmt(r.get('payload_kg'))} kg, moving mass {_fmt(r.get('total_mass_kg'))} kg.",
-        "",
-    ]
-    if "drives" in r:
-        lines += _table(
-            ["joint", "motor", "reducer", "ratio", "available torque [N m]"],
-            [
-                [j, d["motor"], d["reducer"], d["ratio"], d["available_torque_Nm"]]
-                for j, d in r["drives"].items()
-            ],
-        )
-    kin = summary.get("kinematics", {})
-    if kin.get("status") == "ok":
-        lines += [
-            "## Kinematics",
-            "",
-            f"{kin['n_waypoints']} waypoints ({kin['waypoints_from']}),"
-            f" all inside the joint ranges; max reach {kin['max_reach_m'] * 1000:.1f} mm.",
-            "",
-        ]
-        lines += _table(
-            ["waypoint", "x [mm]", "y [mm]", "z [mm]"],
-            [
-                [k, *(f"{x:.1f}" for x in 1000 * np.asarray(p) + 0.0)]
-                for k, p in enumerate(kin["tcp_positions_m"])
-            ],
-        )
-    tr = summary.get("trajectory", {})
-    if tr.get("status") == "ok":
-        lines += [
-            "## Trajectory",
-            "",
-            f"Planner `{tr['planner']}` ({tr['method']}): "
-            f"{tr['duration_s']:.4f} s through {tr['n_waypoints']} waypoints, speed scale "
-            f"{tr['speed_scale']:g}; checked every {tr['check_dt_s'] * 1000:g} ms.",
-            "",
-            "Peak ratio to each limit (<= 1 is feasible):",
-            "",
-        ]
-        kinds = list(tr["ratios"])
-        joints = list(next(iter(tr["ratios"].values()), {}))
-        lines += _table(
-            ["joint", *kinds], [[j, *(tr["ratios"][k][j] for k in kinds)] for j in joints]
-        )
-    for key, title in (
-        ("static_load", "Static load"),
-        ("sizing", "Drive sizing"),
-        ("control", "Servo tuning"),
-        ("tracking", "Closed-loop tracking"),
-        ("export", "Export"),
+    lines += _robot_lines(ctx)
+    if records["kinematics"].status == "ok":
+        lines += _kinematics_lines(ctx)
+    if records["plan"].status == "ok":
+        lines += _plan_lines(ctx)
+    for stage, key, title in (
+        ("static_load", "static_load", "Static load"),
+        ("sizing", "sizing", "Drive sizing"),
+        ("tuning", "control", "Servo tuning"),
+        ("tracking", "tracking", "Closed-loop tracking"),
+        ("export", "export", "Export"),
     ):
-        block = summary.get(key, {})
         lines += [f"## {title}", ""]
-        if block.get("status") != "ok":
-            why = block.get("reason", block.get("error", ""))
-            lines += [f"Status: {block.get('status')} ({why}).", ""]
+        rec = records.get(stage)
+        if rec is None or rec.status != "ok":
+            status, why = ("not run", "") if rec is None else (rec.status, rec.note)
+            lines += [f"Status: {status} ({why}).", ""]
             continue
-        obj = {"static_load": ctx.static_load, "sizing": ctx.sizing}.get(key)
-        if obj is not None and hasattr(obj, "to_markdown"):
-            lines += [obj.to_markdown(), ""]  # with the thesis' table beside ours (teachbot6)
-        else:
-            lines += _section_lines(key, block)
+        if key == "static_load" and ctx.static_load is not None:
+            lines += [ctx.static_load.to_markdown(), ""]  # the thesis' table beside (teachbot6)
+        elif key == "sizing" and ctx.sizing is not None:
+            lines += [ctx.sizing.to_markdown(), ""]
+        elif key == "control" and ctx.gains is not None:
+            lines += _control_lines(ctx.gains)
+        elif key == "tracking" and ctx.tracking is not None:
+            lines += _tracking_lines(ctx.tracking, ctx.diagnosis)
+        elif key == "export":
+            lines += _export_lines(ctx)
         if key == "sizing" and ctx.requirement_sizing is not None:
             lines += [
                 "**Against each joint's worst case (the thesis' requirements).**",
@@ -633,38 +329,22 @@ def write_report(
                 ctx.requirement_sizing.to_markdown(),
                 "",
             ]
-        if key == "sizing" and ctx.selection is not None and hasattr(ctx.selection, "to_markdown"):
+        if key == "sizing" and ctx.selection is not None:
             lines += [ctx.selection.to_markdown(), ""]
-    kf = summary.get("key_figures", {})
     lines += ["## Key figures", ""]
     lines += _table(
-        ["figure", "value"], [[k, v] for k, v in kf.items() if not k.startswith("stage_")]
+        ["figure", "value"], [[k, v] for k, v in figures.items() if not k.startswith("stage_")]
     )
-    variants = early.variants if early is not None else None
-    jobs = _figures(ctx, variants)
+    jobs = _figures(ctx)
     if jobs:
         lines += ["## Plots", ""]
     for name, caption, _ in jobs:
         lines += [f"![{caption}]({name})", "", f"*{caption}*", ""]
-    # the figures in `processes` processes; the parent draws its share and the 3D motion
-    started = early.names() if early is not None else set()
-    rest = [job for job in jobs if job[0] not in started]
-    processes = _figure_processes(len(jobs), workers)
-    summary["study"]["plot_processes"] = processes
-    motion = None  # (report lines, whether the file was written)
-    if early is not None and early.motion is not None:  # written beside the stages
-        motion = early.motion.result()
-    with _FigureDrawing(rest, out_dir, processes, prefetched=variants is not None) as drawing:
-        if motion is None and ctx.trajectory is not None:
-            motion = _motion_file(ctx.robot, ctx.trajectory, out_dir)
-    if motion is not None:
-        lines += motion[0]
-        files += [out_dir / MOTION_FILE] if motion[1] else []
-    files += drawing.paths
-    if early is not None:
-        files += early.finish()
-    if processes > 1:
-        lines += [f"The {len(jobs)} plots were drawn by {processes} processes.", ""]
+    files += [_draw_one(name, make, out_dir) for name, _, make in jobs]
+    if ctx.trajectory is not None:
+        motion_lines, written = _motion_file(ctx.robot, ctx.trajectory, out_dir)
+        lines += motion_lines
+        files += [out_dir / MOTION_FILE] if written else []
     report = out_dir / "report.md"
     atomic_write(report, "\n".join(lines))
     return [report, *files]
@@ -677,8 +357,7 @@ MOTION_FILE = "motion.html"
 def _motion_file(robot, trajectory, out_dir: Path) -> tuple[list[str], bool]:
     """Write the planned motion as a self-contained 3D animation (:data:`MOTION_FILE`, see
     :func:`armlab.viz.animate`): the report's lines linking it, and whether it was written;
-    when meshcat is missing or fails, one line saying so (never an error). With several
-    workers a process forked when the sizing stage ends writes it (:class:`StagePlots`)."""
+    when meshcat is missing or fails, one line saying so (never an error)."""
     lines = ["## 3D motion", ""]
     try:
         import warnings
@@ -699,267 +378,274 @@ def _motion_file(robot, trajectory, out_dir: Path) -> tuple[list[str], bool]:
     return lines + [""], True
 
 
-def _key(stage: str) -> str:
-    from armlab.study.stages import SUMMARY_KEY
-
-    return SUMMARY_KEY.get(stage, stage)
-
-
-def _note(block: dict) -> str:
-    if block.get("status") in ("not available", "skipped"):
-        return block.get("reason", "")
-    if block.get("status") == "error":
-        return block.get("error", "")
-    return ""
-
-
-def _section_lines(key: str, block: dict) -> list[str]:
-    """A table for the per-joint blocks; a key/value table otherwise."""
-    from armlab.study.figures import joint_items as _joint_items
-
-    items = _joint_items(block)
-    if key == "tracking":
-        tcp = block.get("tcp", {})
-        lines = [
-            f"Feed-forward {', '.join(block.get('feedforward', [])) or 'none'}; "
-            f"{_fmt(block.get('duration_s'))} s simulated at "
-            f"{_fmt(1e3 * block.get('sample_time_s', math.nan))} ms"
-            f"{' with D/A and encoder quantisation' if block.get('quantise') else ''}.",
-            "",
-        ]
-        if tcp:
-            ok = tcp.get("within_accuracy")
-            lines += [
-                f"TCP error: max {_fmt(1e3 * tcp.get('max_error_m', math.nan))} mm, final "
-                f"{_fmt(1e3 * tcp.get('final_error_m', math.nan))} mm; servo budget "
-                f"{_fmt(1e3 * tcp.get('accuracy_m', math.nan))} mm -> "
-                f"{'within' if ok else 'OUTSIDE'} the budget.",
-                "",
-            ]
-        model = block.get("model", {})
-        if model:
-            lines += [
-                "Drive model: "
-                + ", ".join(
-                    [
-                        "supply-voltage limit with back-EMF"
-                        if model.get("voltage_limit")
-                        else "NO supply-voltage limit",
-                        "reducer efficiency and friction"
-                        if model.get("losses")
-                        else "NO reducer losses",
-                        f"controller `{model.get('controller')}` "
-                        f"({model.get('dac_bits')}-bit +-{_fmt(model.get('dac_range_V'))} V D/A, "
-                        "current loop every "
-                        f"{_fmt(1e6 * model.get('current_sample_time_s', 0))} us)",
-                    ]
-                )
-                + ".",
-                "",
-            ]
-        diag = block.get("diagnosis")
-        if isinstance(diag, dict):
-            lines += [
-                f"Limiting factor: {diag.get('limiting_factor')}.",
-                f"What fixes it: {diag.get('offer')}.",
-                "",
-            ]
-        return lines + _table(
+def _robot_lines(ctx: StudyContext) -> list[str]:
+    """The robot section: name, joints, payload, mass and the drive train."""
+    r = ctx.robot
+    lines = [
+        "## Robot",
+        "",
+        f"{r.name}: {r.n_joints} joints, payload "
+        f"{_fmt(r.payload.mass_kg)} kg, moving mass {_fmt(r.total_mass_kg)} kg.",
+        "",
+    ]
+    if r.drives is not None:
+        lines += _table(
+            ["joint", "motor", "reducer", "ratio", "available torque [N m]"],
             [
-                "joint",
-                "max error [rad]",
-                "final error [rad]",
-                "peak voltage [V]",
-                "asked [V]",
-                "supply [V]",
-                "saturated [s]",
-                "peak current [A]",
-            ],
-            [
-                [
-                    j,
-                    b.get("max_error_rad"),
-                    b.get("final_error_rad"),
-                    b.get("peak_voltage_V"),
-                    b.get("peak_voltage_demand_V"),
-                    b.get("supply_voltage_V"),
-                    b.get("time_in_saturation_s"),
-                    b.get("peak_current_A"),
-                ]
-                for j, b in items
+                [j, d.motor.model, d.reducer.model, d.reducer.ratio, d.available_torque_Nm]
+                for j, d in r.drives.items()
             ],
         )
-    if key == "export":
-        cycle_ms = 1e3 * block.get("cycle_s", math.nan)
-        lines = [
-            f"{_fmt(block.get('n_cycles'))} cycles of {_fmt(cycle_ms)} ms "
-            f"for controller profile `{block.get('profile')}`; every cycle passed the "
-            "pre-flight checks (range, speed, pulses per cycle, continuity).",
-            "",
-        ]
-        files = block.get("files", {})
-        if files:
-            lines += _table(["file", "sha256"], [[n, f"`{f['sha256']}`"] for n, f in files.items()])
-        return lines
-    if key == "control":
-        rows = []
-        for joint, loops in block.items():
-            if not isinstance(loops, dict):
-                continue
-            for loop, f in loops.items():
-                if isinstance(f, dict) and "phase_margin_deg" in f:
-                    g = f.get("gains", {})
-                    rows.append(
-                        [
-                            joint,
-                            loop,
-                            g.get("kp"),
-                            g.get("ki"),
-                            f.get("crossover_rad_s"),
-                            f.get("phase_margin_deg"),
-                            f.get("gain_margin_dB"),
-                            f.get("phase_margin_discrete_deg"),
-                            f.get("overshoot_pct"),
-                            f.get("sample_time_s"),
-                        ]
-                    )
-        return _table(
-            [
-                "joint",
-                "loop",
-                "kp",
-                "ki",
-                "crossover [rad/s]",
-                "PM [deg]",
-                "GM [dB]",
-                "PM discrete [deg]",
-                "overshoot [%]",
-                "T [s]",
-            ],
-            rows,
-        )
-    if items:
-        scalars = sorted(
-            {
-                k
-                for _, b in items
-                for k, v in b.items()
-                if isinstance(v, (int, float, str, bool)) or v is None
-            }
-        )
-        scalars = [s for s in scalars if s != "joint"][:8]
-        rows = [[j, *(b.get(s) for s in scalars)] for j, b in items]
-        lines = _table(["joint", *scalars], rows)
-        failed = [
-            f"{j}: {c.get('name')}"
-            for j, b in items
-            for c in b.get("checks", [])
-            if isinstance(c, dict) and not c.get("ok", True)
-        ]
-        if failed:
-            lines += ["Failing checks: " + "; ".join(failed), ""]
-        return lines
-    return _table(
-        ["item", "value"],
-        [[k, v] for k, v in block.items() if isinstance(v, (int, float, str, bool))],
-    )
-
-
-# ---------------------------------------------------------------------------- text
-def _stage_line(stage: str, summary: dict) -> str:
-    key = _key(stage)
-    block = summary.get(key, {})
-    status = block.get("status", "?")
-    kf = summary.get("key_figures", {})
-    if status == "ok":
-        note = {
-            "kinematics": lambda: (
-                f"{block['n_waypoints']} waypoints in range; reach "
-                f"{block['max_reach_m'] * 1000:.0f} mm"
-            ),
-            "plan": lambda: (
-                f"{block['method'] or block['planner']} {block['duration_s']:.3f} s;"
-                f" worst {block['worst']['kind']} {block['worst']['ratio']:.3f}"
-                f" ({block['worst']['joint']})"
-            ),
-            "static_load": lambda: "max {1:.4g} N m ({0})".format(
-                *max(
-                    (
-                        (j, b["torque_Nm"])
-                        for j, b in block.items()
-                        if isinstance(b, dict) and "torque_Nm" in b
-                    ),
-                    key=lambda x: x[1],
-                )
-            ),
-            "sizing": lambda: (
-                ("all checks pass" if kf.get("sizing_ok") else "CHECKS FAIL")
-                + f"; min margin {_fmt(kf.get('sizing_min_margin'), 3)}"
-                + f" ({kf.get('sizing_binding')})"
-            ),
-            "tuning": lambda: (
-                f"min PM {_fmt(kf.get('min_phase_margin_deg'), 3)} deg, min GM "
-                f"{_fmt(kf.get('min_gain_margin_dB'), 3)} dB"
-            ),
-            "tracking": lambda: (
-                f"max joint error {_fmt(1e3 * kf['tracking_max_error_rad'], 3)} "
-                f"mrad; TCP {_fmt(1e3 * kf['tcp_max_error_m'], 3)} mm (budget "
-                f"{_fmt(1e3 * block['tcp']['accuracy_m'], 3)} mm)"
-            ),
-            "export": lambda: (
-                f"{_fmt(block.get('n_cycles'))} cycles of "
-                f"{block.get('cycle_s', 0) * 1000:g} ms ({block.get('profile')})"
-            ),
-        }[stage]
-        try:
-            text = note()
-        except (KeyError, TypeError, ValueError):
-            text = ""
-    else:
-        text = block.get("reason", block.get("error", ""))
-    if len(text) > 56:
-        text = text[:53] + "..."
-    verdict = block.get("verdict") or "-"
-    return f"  {stage:<12}{status:<9}{verdict.upper():<6}{text}"
-
-
-def design_lines(summary: dict) -> list[str]:
-    """The design's verdict in words, its failed checks and advisories (one line each)."""
-    d = summary.get("design", {})
-    verdict = d.get("verdict", "?")
-    failed = d.get("failed_checks", [])
-    words = {
-        "pass": "the design PASSES every check the study ran",
-        "fail": f"the design FAILS {len(failed)} check(s)",
-        "incomplete": "the design is NOT JUDGED: " + "; ".join(d.get("not_judged", [])),
-    }.get(verdict, f"design verdict {verdict}")
-    lines = [f"design: {words}"]
-    lines += [f"  FAILED  {f}" for f in failed]
-    lines += [f"  advisory  {a}" for a in d.get("advisories", [])]
     return lines
 
 
-def summary_text(
-    summary: dict, files: list[Path] | None = None, out_dir: Path | None = None
-) -> str:
-    """The one-screen summary ``armlab run`` prints: each stage, its key figures, the files."""
-    r = summary.get("robot", {})
-    st = summary.get("study", {})
+def _kinematics_lines(ctx: StudyContext) -> list[str]:
+    """The kinematics section: the waypoints, the reach and each waypoint's tool position."""
+    assert ctx.tcp_positions_m is not None  # the kinematics stage ran
     lines = [
-        f"armlab study {st.get('name')!r}: robot {r.get('name')} ({r.get('n_joints')} "
-        f"joints), payload {_fmt(r.get('payload_kg'))} kg",
-        f"  {'stage':<12}{'status':<9}{'check':<6}key figures",
+        "## Kinematics",
+        "",
+        f"{len(ctx.tcp_positions_m)} waypoints ({ctx.waypoints_from}),"
+        f" all inside the joint ranges; max reach {ctx.max_reach_m * 1000:.1f} mm.",
+        "",
     ]
+    return lines + _table(
+        ["waypoint", "x [mm]", "y [mm]", "z [mm]"],
+        [[k, *(f"{x:.1f}" for x in 1000 * p + 0.0)] for k, p in enumerate(ctx.tcp_positions_m)],
+    )
+
+
+def _plan_lines(ctx: StudyContext) -> list[str]:
+    """The trajectory section: planner, duration and the peak ratio to each limit."""
+    traj, report, plan = ctx.trajectory, ctx.limit_report, ctx.spec.plan
+    assert traj is not None and report is not None and ctx.waypoints_q is not None
+    lines = [
+        "## Trajectory",
+        "",
+        f"Planner `{plan.planner}` ({traj.method}): "
+        f"{traj.duration:.4f} s through {len(ctx.waypoints_q)} waypoints, speed scale "
+        f"{plan.speed_scale:g}; checked every {plan.check_dt_s * 1000:g} ms.",
+        "",
+        "Peak ratio to each limit (<= 1 is feasible):",
+        "",
+    ]
+    kinds = list(report.ratios)
+    return lines + _table(
+        ["joint", *kinds],
+        [
+            [j, *(float(report.ratios[k][i]) for k in kinds)]
+            for i, j in enumerate(report.joint_names)
+        ],
+    )
+
+
+def _tracking_lines(res: TrackingResult, diagnosis: dict[str, Any] | None) -> list[str]:
+    """The tracking section: the simulation's setting, the TCP error against the budget, the
+    drive model, the diagnosis of a miss, and per joint error, voltage and current."""
+    quantised = bool(res.meta.get("quantise", True))
+    lines = [
+        f"Feed-forward {', '.join(res.feedforward) or 'none'}; "
+        f"{_fmt(float(res.t[-1] - res.t[0]))} s simulated at "
+        f"{_fmt(1e3 * res.sample_time_s)} ms"
+        f"{' with D/A and encoder quantisation' if quantised else ''}.",
+        "",
+        f"TCP error: max {_fmt(1e3 * res.tcp_max_error_m)} mm, final "
+        f"{_fmt(1e3 * float(res.tcp_error_m[-1]))} mm; servo budget "
+        f"{_fmt(1e3 * res.accuracy_m)} mm -> "
+        f"{'within' if res.within_accuracy else 'OUTSIDE'} the budget.",
+        "",
+    ]
+    model = res.model
+    if model:
+        lines += [
+            "Drive model: "
+            + ", ".join(
+                [
+                    "supply-voltage limit with back-EMF"
+                    if model.get("voltage_limit")
+                    else "NO supply-voltage limit",
+                    "reducer efficiency and friction"
+                    if model.get("losses")
+                    else "NO reducer losses",
+                    f"controller `{model.get('controller')}` "
+                    f"({model.get('dac_bits')}-bit +-{_fmt(model.get('dac_range_V'))} V D/A, "
+                    "current loop every "
+                    f"{_fmt(1e6 * model.get('current_sample_time_s', 0))} us)",
+                ]
+            )
+            + ".",
+            "",
+        ]
+    if diagnosis is not None:
+        lines += [
+            f"Limiting factor: {diagnosis.get('limiting_factor')}.",
+            f"What fixes it: {diagnosis.get('offer')}.",
+            "",
+        ]
+
+    def per_joint(x: np.ndarray | None, k: int) -> float | None:
+        return None if x is None else float(x[k])
+
+    return lines + _table(
+        [
+            "joint",
+            "max error [rad]",
+            "final error [rad]",
+            "peak voltage [V]",
+            "asked [V]",
+            "supply [V]",
+            "saturated [s]",
+            "peak current [A]",
+        ],
+        [
+            [
+                joint,
+                float(res.max_error_rad[k]),
+                float(res.final_error_rad[k]),
+                per_joint(res.peak_voltage_V, k),
+                per_joint(res.peak_voltage_demand_V, k),
+                per_joint(res.supply_voltage_V, k),
+                float(res.saturation_time_s[k]),
+                per_joint(res.peak_current_A, k),
+            ]
+            for k, joint in enumerate(res.joint_names)
+        ],
+    )
+
+
+def _control_lines(gains: ArmGains) -> list[str]:
+    """The tuning section: per joint and loop the gains and the worst-case figures."""
+    from armlab.control.gains import LOOPS
+
+    rows = []
+    for cascade in gains:
+        for loop in LOOPS:
+            g = getattr(cascade, loop)
+            rows.append(
+                [
+                    cascade.joint,
+                    loop,
+                    g.kp,
+                    g.ki,
+                    g.crossover_rad_s,
+                    g.phase_margin_deg,
+                    g.gain_margin_dB,
+                    g.phase_margin_discrete_deg,
+                    g.overshoot_pct,
+                    g.sample_time_s,
+                ]
+            )
+    return _table(
+        [
+            "joint",
+            "loop",
+            "kp",
+            "ki",
+            "crossover [rad/s]",
+            "PM [deg]",
+            "GM [dB]",
+            "PM discrete [deg]",
+            "overshoot [%]",
+            "T [s]",
+        ],
+        rows,
+    )
+
+
+def _export_lines(ctx: StudyContext) -> list[str]:
+    """The export section: the set-point table's cycles and the files written with their
+    sha256, or the controller limit the table breaks."""
+    prof = ctx.controller
+    table = ctx.setpoints
+    if table is None:
+        broken = [f for f in ctx.failed_so_far if f.startswith("export:")]
+        return [
+            f"No set-point table for controller profile `{prof.name}` "
+            f"({_fmt(1e3 * prof.cycle_s)} ms cycle): {'; '.join(broken) or 'not built'}.",
+            "",
+        ]
+    lines = [
+        f"{_fmt(table.n_cycles)} cycles of {_fmt(1e3 * prof.cycle_s)} ms "
+        f"for controller profile `{prof.name}`; every cycle passed the "
+        "pre-flight checks (range, speed, pulses per cycle, continuity).",
+        "",
+    ]
+    if ctx.exported:
+        lines += _table(["file", "sha256"], [[n, f"`{h}`"] for n, h in ctx.exported.items()])
+    return lines
+
+
+# ---------------------------------------------------------------------------- text
+def _stage_line(result: StudyResult, stage: str) -> str:
+    """One stage's line of the one-screen summary: status, verdict and its key figures."""
+    rec = result.stages.get(stage)
+    if rec is None:  # the study stopped before it
+        return f"  {stage:<12}{'-':<9}{'-':<6}"
+    ctx, kf = result.context, result.key_figures()
+    text = rec.note
+    if rec.status == "ok":
+        text = _stage_figures(stage, ctx, kf)
+    if len(text) > 56:
+        text = text[:53] + "..."
+    verdict = rec.verdict or "-"
+    return f"  {stage:<12}{rec.status:<9}{verdict.upper():<6}{text}"
+
+
+def _stage_figures(stage: str, ctx: StudyContext, kf: dict[str, Any]) -> str:
+    """The key figures of a stage that ran, from its typed result."""
+    if stage == "kinematics" and ctx.waypoints_q is not None:
+        return f"{len(ctx.waypoints_q)} waypoints in range; reach {kf['max_reach_m'] * 1000:.0f} mm"
+    if stage == "plan" and ctx.trajectory is not None and ctx.limit_report is not None:
+        kind, joint, ratio = ctx.limit_report.worst()
+        return (
+            f"{ctx.trajectory.method or ctx.spec.plan.planner} {ctx.trajectory.duration:.3f} s;"
+            f" worst {kind} {ratio:.3f} ({joint})"
+        )
+    if stage == "static_load" and ctx.static_load is not None:
+        worst = max(ctx.static_load.joints, key=lambda x: x.torque_Nm)
+        return f"max {worst.torque_Nm:.4g} N m ({worst.joint})"
+    if stage == "sizing":
+        return (
+            ("all checks pass" if kf.get("sizing_ok") else "CHECKS FAIL")
+            + f"; min margin {_fmt(kf.get('sizing_min_margin'), 3)}"
+            + f" ({kf.get('sizing_binding')})"
+        )
+    if stage == "tuning":
+        return (
+            f"min PM {_fmt(kf.get('min_phase_margin_deg'), 3)} deg, min GM "
+            f"{_fmt(kf.get('min_gain_margin_dB'), 3)} dB"
+        )
+    if stage == "tracking" and ctx.tracking is not None:
+        res = ctx.tracking
+        return (
+            f"max joint error {_fmt(1e3 * float(res.max_error_rad.max()), 3)} "
+            f"mrad; TCP {_fmt(1e3 * res.tcp_max_error_m, 3)} mm (budget "
+            f"{_fmt(1e3 * res.accuracy_m, 3)} mm)"
+        )
+    if stage == "export":
+        n = "-" if ctx.setpoints is None else _fmt(ctx.setpoints.n_cycles)
+        return f"{n} cycles of {ctx.controller.cycle_s * 1000:g} ms ({ctx.controller.name})"
+    return ""
+
+
+def summary_text(result: StudyResult) -> str:
+    """The one-screen summary ``armlab run`` prints: each stage, its key figures, the files."""
     from armlab.study.spec import STAGES
 
-    lines += [_stage_line(s, summary) for s in STAGES]
-    lines += design_lines(summary)
-    if files:
-        names = list(dict.fromkeys(Path(f).name for f in files))
+    robot, spec = result.robot, result.spec
+    lines = [
+        f"armlab study {spec.study.name!r}: robot {robot.name} ({robot.n_joints} "
+        f"joints), payload {_fmt(robot.payload.mass_kg)} kg",
+        f"  {'stage':<12}{'status':<9}{'check':<6}key figures",
+    ]
+    lines += [_stage_line(result, s) for s in STAGES]
+    lines += result.design.lines()
+    if result.files:
+        names = list(dict.fromkeys(Path(f).name for f in result.files))
         pngs = [n for n in names if n.endswith(".png")]
         names = [n for n in names if not n.endswith(".png")]
         if pngs:
             names.append(f"{len(pngs)} PNG plots")
-        where = f"{out_dir}/" if out_dir is not None else ""
+        where = f"{result.out_dir}/" if result.out_dir is not None else ""
         lines.append(f"files in {where}: " + ", ".join(names))
     return "\n".join(lines)

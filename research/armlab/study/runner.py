@@ -20,15 +20,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from armlab.deploy.provenance import armlab_version
 from armlab.errors import ArmlabError
 from armlab.io import write_json
 from armlab.study.figures import KEY_FIGURES, key_figures
 from armlab.study.record import DESIGN_FILE, SUMMARY_FILE, design_record, prepare_out_dir
 from armlab.study.spec import STAGES, StudySpec, load_study
 from armlab.study.stages import (
-    FAIL,
     NEEDS,
-    PASS,
     STAGE_FUNCTIONS,
     SUMMARY_KEY,
     NotApplicable,
@@ -36,6 +35,13 @@ from armlab.study.stages import (
     build_robot,
     controller_profile,
     robot_block,
+)
+from armlab.study.verdict import (
+    JUDGING_STAGES,
+    DesignVerdict,
+    StageOutput,
+    StageRecord,
+    design_verdict,
 )
 
 if TYPE_CHECKING:
@@ -51,22 +57,28 @@ __all__ = [
     "KEY_FIGURES",
     "write_json",
     "design_verdict",
+    "JUDGING_STAGES",
+    "StageRecord",
+    "DesignVerdict",
 ]
-
-#: Stages whose verdict the design needs; a design is "incomplete" while one did not run.
-JUDGING_STAGES = ("plan", "sizing", "tuning", "tracking", "export")
 
 
 @dataclass
 class StudyResult:
-    """What a study produced: the summary (summary.json content) and the objects behind it.
+    """What a study produced: each stage's record, the design's verdict, the objects behind
+    them and the summary rendered from them (summary.json content).
 
     Attributes
     ----------
     spec : StudySpec
+    stages : dict of str to StageRecord
+        ``robot`` and every stage of :data:`~armlab.study.spec.STAGES`, in run order.
+    design : DesignVerdict
+    figures : dict
+        The key figures (:func:`~armlab.study.figures.key_figures`): the sweep's row.
     summary : dict
-        The summary.json content (DESIGN.md keys; each block has a ``status`` and a
-        ``verdict``; ``summary["design"]`` the design's verdict and failed checks).
+        The summary.json content (DESIGN.md keys), rendered from the records and the stages'
+        blocks.
     context : StudyContext
         The robot, controller, trajectory, sizing report, gains, tracking result... (None where a
         stage did not run).
@@ -76,13 +88,16 @@ class StudyResult:
     """
 
     spec: StudySpec
+    stages: dict[str, StageRecord]
+    design: DesignVerdict
+    figures: dict[str, Any]
     summary: dict[str, Any]
     context: StudyContext
     out_dir: Path | None
     files: list[Path]
 
     @property
-    def robot(self) -> Robot | None:
+    def robot(self) -> Robot:
         return self.context.robot
 
     @property
@@ -96,41 +111,15 @@ class StudyResult:
     @property
     def verdict(self) -> str:
         """``"pass"``, ``"fail"`` or ``"incomplete"`` (see :func:`design_verdict`)."""
-        return str(self.summary["design"]["verdict"])
+        return self.design.verdict
 
     @property
     def failed_checks(self) -> list[str]:
         """One line per failed check of the design."""
-        return list(self.summary["design"]["failed_checks"])
+        return list(self.design.failed_checks)
 
     def key_figures(self) -> dict[str, Any]:
-        return key_figures(self.summary)
-
-
-def design_verdict(summary: dict[str, Any], stages: tuple[str, ...]) -> dict[str, Any]:
-    """The design's verdict from the stage blocks of a summary.
-
-    ``fail`` when any stage failed a check; otherwise ``incomplete`` when a stage of
-    :data:`JUDGING_STAGES` that the study asked for did not run (skipped or no drive data), so
-    nothing was checked there; otherwise ``pass``. Advisories (worst-case requirement checks
-    beside the study's duty cycle) are listed but do not decide the verdict.
-    """
-    failed: list[str] = []
-    advisories: list[str] = []
-    unjudged: list[str] = []
-    for stage in STAGES:
-        block = summary.get(SUMMARY_KEY[stage], {})
-        failed += block.get("failed_checks", [])
-        advisories += block.get("advisories", [])
-        if stage in JUDGING_STAGES and stage in stages and block.get("verdict") not in (PASS, FAIL):
-            unjudged.append(f"{stage} ({block.get('reason', block.get('status', 'not run'))})")
-    verdict = FAIL if failed else ("incomplete" if unjudged else PASS)
-    return {
-        "verdict": verdict,
-        "failed_checks": failed,
-        "not_judged": unjudged,
-        "advisories": advisories,
-    }
+        return dict(self.figures)
 
 
 def _progress(total: int, enabled: bool | None, desc: str):
@@ -151,7 +140,6 @@ def run_spec(
     spec: StudySpec,
     out_dir: str | Path | None = None,
     *,
-    workers: int | None = None,
     progress: bool | None = False,
     report: bool | None = None,
     force: bool = False,
@@ -168,10 +156,6 @@ def run_spec(
         an earlier run of the same study is cleared of its outputs first; one that holds
         another study's outputs is refused unless ``overwrite``
         (:func:`armlab.study.record.prepare_out_dir`).
-    workers : int, optional
-        Processes that draw the report's plots (forked, where the platform can; None: one;
-        the files are the same whichever number draws them; ``summary["study"]
-        ["plot_processes"]`` records it).
     progress : bool or None
         Progress bar over the stages: True, False, or None = only on a terminal.
     report : bool, optional
@@ -186,49 +170,71 @@ def run_spec(
     ArmlabError
         The first stage that fails, with the stage's name in front of its message; the
         summary.json written so far records it.
+
+    Notes
+    -----
+    A study runs in this process, its stages and then its report's plots one after the other;
+    parallelism is across studies (``armlab sweep --workers``).
     """
     out = None if out_dir is None else prepare_out_dir(out_dir, spec.hash, overwrite=overwrite)
-    ctx = StudyContext(spec=spec, out_dir=out, workers=workers, force=force)
+    written: dict[str, str] = {}  # file name -> path, of every data file the run wrote
+    failed: list[str] = []  # the failed checks of the stages so far
+    records: dict[str, StageRecord] = {}
+    ctx: StudyContext | None = None  # made once the robot is built
     summary: dict[str, Any] = {
         "study": {
             "name": spec.study.name,
             "source": spec.source,
             "hash": spec.hash,
             "seed": spec.study.seed,
-            "armlab_version": _version(),
+            "armlab_version": armlab_version(),
             "stages": {},
         },
     }
     files: list[Path] = []
     bar = _progress(len(STAGES) + 1, progress, spec.study.name)
 
-    def record(stage: str, key: str, block: dict, t0: float) -> None:
-        summary[key] = block
-        summary["study"]["stages"][stage] = {
-            "status": block["status"],
-            "verdict": block.get("verdict"),
-            "time_s": round(time.perf_counter() - t0, 6),
-        }
-        ctx.failed_so_far += block.get("failed_checks", [])
+    def record(
+        stage: str,
+        t0: float,
+        output: StageOutput | None = None,
+        *,
+        status: str = "ok",
+        reason: str = "",
+        error: str = "",
+        error_type: str = "",
+    ) -> None:
+        """Record a stage: its ``output`` when it ran, else its status and reason or error."""
+        time_s = time.perf_counter() - t0
+        if output is not None:
+            rec = StageRecord.ran(stage, output, time_s)
+        else:
+            rec = StageRecord(
+                stage, status, time_s=time_s, reason=reason, error=error, error_type=error_type
+            )
+        records[stage] = rec
+        summary[SUMMARY_KEY.get(stage, stage)] = rec.block(output)
+        summary["study"]["stages"][stage] = rec.to_dict()
+        failed.extend(rec.failed_checks)
 
-    def finish() -> None:
-        summary["design"] = design_verdict(summary, tuple(spec.study.stages))
-        summary["key_figures"] = key_figures(summary)
+    def stopped(stage: str, t0: float, exc: ArmlabError) -> ArmlabError:
+        record(stage, t0, status="error", error=str(exc), error_type=type(exc).__name__)
+        return fail(stage, exc)
+
+    def judge() -> tuple[DesignVerdict, dict[str, Any]]:
+        design = design_verdict(records, tuple(spec.study.stages))
+        figures = key_figures(ctx, records, design)
+        summary["design"], summary["key_figures"] = design.to_dict(), dict(figures)
+        return design, figures
+
+    def finish() -> tuple[DesignVerdict, dict[str, Any]]:
+        judged = judge()
         if out is not None:
-            summary["files"] = {name: sha for name, sha in _checksums(out, ctx.files).items()}
+            summary["files"] = {name: sha for name, sha in _checksums(out, written).items()}
             files.insert(0, write_json(out / SUMMARY_FILE, summary))
-
-    # with several workers, plots that need one stage's results alone are drawn while the
-    # later stages run (armlab.study.report.start_stage_plots)
-    early = None
-    if out is not None and (spec.study.report if report is None else report):
-        from armlab.study.report import StagePlots
-
-        early = StagePlots(out, workers)
+        return judged
 
     def fail(stage: str, exc: ArmlabError):
-        if early is not None:
-            early.abort()
         finish()
         bar.close()
         return type(exc)(f"{stage}: {exc}")
@@ -237,98 +243,69 @@ def run_spec(
         t0 = time.perf_counter()
         bar.set_postfix_str("robot")
         try:
-            ctx.controller = controller_profile(spec)
-            ctx.robot = build_robot(spec)
+            controller = controller_profile(spec)
+            robot = build_robot(spec)
         except ArmlabError as exc:
-            record("robot", "robot", {"status": "error", "error": str(exc)}, t0)
-            raise fail("robot", exc) from None
-        record("robot", "robot", robot_block(ctx), t0)
+            raise stopped("robot", t0, exc) from None
+        ctx = StudyContext(
+            spec,
+            robot=robot,
+            controller=controller,
+            out_dir=out,
+            force=force,
+            failed_so_far=failed,
+            files=written,
+        )
+        record("robot", t0, StageOutput(robot_block(ctx)))
         if out is not None:
-            path = write_json(out / DESIGN_FILE, design_record(ctx.robot, ctx.controller, spec))
-            ctx.files[DESIGN_FILE] = str(path)
-        ctx.tuning_ahead = _tuning_ahead(ctx)
+            path = write_json(out / DESIGN_FILE, design_record(robot, controller, spec))
+            written[DESIGN_FILE] = str(path)
         bar.update()
         for stage in STAGES:
             t0 = time.perf_counter()
             bar.set_postfix_str(stage)
-            key = SUMMARY_KEY[stage]
-            missing = [
-                n
-                for n in NEEDS.get(stage, ())
-                if summary["study"]["stages"].get(n, {}).get("status") != "ok"
-            ]
+            missing = [n for n in NEEDS.get(stage, ()) if records[n].status != "ok"]
             if stage not in spec.study.stages:
-                block = {"status": "skipped", "verdict": None, "reason": "not in study.stages"}
+                record(stage, t0, status="skipped", reason="not in study.stages")
             elif missing:
-                why = ", ".join(
-                    f"{n}: {summary['study']['stages'].get(n, {}).get('status')}" for n in missing
-                )
-                block = {
-                    "status": "skipped",
-                    "verdict": None,
-                    "reason": f"needs {', '.join(missing)} ({why})",
-                }
+                why = ", ".join(f"{n}: {records[n].status}" for n in missing)
+                record(stage, t0, status="skipped", reason=f"needs {', '.join(missing)} ({why})")
             else:
                 try:
-                    block = STAGE_FUNCTIONS[stage](ctx)
+                    output = STAGE_FUNCTIONS[stage](ctx)
                 except NotApplicable as exc:
-                    block = {"status": "skipped", "verdict": None, "reason": str(exc)}
+                    record(stage, t0, status="skipped", reason=str(exc))
                 except ArmlabError as exc:
-                    record(
-                        stage,
-                        key,
-                        {
-                            "status": "error",
-                            "verdict": None,
-                            "error": str(exc),
-                            "error_type": type(exc).__name__,
-                        },
-                        t0,
-                    )
-                    raise fail(stage, exc) from None
-            record(stage, key, block, t0)
-            if early is not None and block["status"] == "ok":
-                early.stage_done(ctx, stage)
+                    raise stopped(stage, t0, exc) from None
+                else:
+                    record(stage, t0, output)
             bar.update()
         if ctx.drives_selected:  # the sizing stage gave the robot its drive train
             summary["robot"].update(robot_block(ctx))
             summary["robot"]["drives_from"] = "catalogue selection (sizing stage)"
             if out is not None:
                 record_ = design_record(ctx.robot, ctx.controller, spec)
-                ctx.files[DESIGN_FILE] = str(write_json(out / DESIGN_FILE, record_))
-        if early is not None and out is not None:
+                written[DESIGN_FILE] = str(write_json(out / DESIGN_FILE, record_))
+        if out is not None and (spec.study.report if report is None else report):
             from armlab.study.report import write_report
 
             bar.set_postfix_str("report")
-            summary["design"] = design_verdict(summary, tuple(spec.study.stages))
-            files += write_report(ctx, summary, out, workers=ctx.workers, early=early)
-            early = None
-        finish()
-        files += [Path(p) for p in ctx.files.values()]
+            design, figures = judge()  # the report shows the verdict and the key figures
+            files += write_report(ctx, records, design, figures, out)
+        design, figures = finish()
+        files += [Path(p) for p in written.values()]
     finally:
-        if early is not None:  # the study stopped before its report: no orphan plots
-            early.abort()
-        if ctx.tuning_ahead is not None:
-            ctx.tuning_ahead.close()
-            ctx.tuning_ahead = None
         bar.close()
-    return StudyResult(spec=spec, summary=summary, context=ctx, out_dir=out, files=files)
-
-
-def _tuning_ahead(ctx: StudyContext):
-    """With several workers, the servo tuning started in a forked process beside the
-    kinematics and plan stages (:attr:`StudyContext.tuning_ahead`): it needs the robot's
-    drives and the controller only. Not when the sizing stage may select the drive train."""
-    from armlab._fork import SideProcess, can_fork
-    from armlab.control import tune_arm
-    from armlab.study.stages import tuning_options
-
-    spec = ctx.spec
-    if (ctx.workers or 1) < 2 or not can_fork() or "tuning" not in spec.study.stages:
-        return None
-    if ctx.robot.drives is None or spec.sizing.select:
-        return None
-    return SideProcess(tune_arm, ctx.robot, controller=ctx.controller, **tuning_options(ctx))
+    return StudyResult(
+        spec=spec,
+        stages=records,
+        design=design,
+        figures=figures,
+        summary=summary,
+        context=ctx,
+        out_dir=out,
+        files=files,
+    )
 
 
 def _checksums(out: Path, written: dict[str, str]) -> dict[str, str]:
@@ -338,16 +315,9 @@ def _checksums(out: Path, written: dict[str, str]) -> dict[str, str]:
     return {Path(p).name: file_sha256(p) for p in written.values() if Path(p).is_file()}
 
 
-def _version() -> str:
-    import armlab
-
-    return armlab.__version__
-
-
 def run_study(
     study: str | Path | None,
     out_dir: str | Path,
-    workers: int | None = None,
     *,
     overrides: dict[str, Any] | None = None,
     progress: bool | None = None,
@@ -364,8 +334,6 @@ def run_study(
     out_dir : str or Path
         Output folder: summary.json, design.json, report.md + PNGs, setpoints.csv, gains.json,
         trajectory.npz.
-    workers : int, optional
-        Processes that draw the report's plots (:func:`run_spec`; None: one).
     overrides : dict, optional
         Dotted study keys to change (``{"payload.mass_kg": 1.0}``).
     progress : bool or None
@@ -384,11 +352,9 @@ def run_study(
         verdict.
     """
     spec = load_study(study, overrides)
-    result = run_spec(
-        spec, out_dir, workers=workers, progress=progress, force=force, overwrite=overwrite
-    )
+    result = run_spec(spec, out_dir, progress=progress, force=force, overwrite=overwrite)
     if not quiet:
         from armlab.study.report import summary_text
 
-        print(summary_text(result.summary, result.files, result.out_dir))
+        print(summary_text(result))
     return result.summary

@@ -18,21 +18,39 @@ range, an infeasible plan, an impossible control spec); the runner records it an
 
 from __future__ import annotations
 
-import functools
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from armlab.errors import LimitViolation, SpecError, UnreachableError
-from armlab.robot.controller import ControllerProfile, load_profile
+from armlab.robot.controller import ControllerProfile
+from armlab.study.build import (  # the robot and controller the stages share
+    _catalogue,
+    _per_joint,
+    _resolve_robot_limits,
+    base_transform,
+    build_robot,
+    controller_profile,
+    rpy_to_matrix,
+)
 from armlab.study.spec import StudySpec
+from armlab.study.verdict import StageOutput
 
 if TYPE_CHECKING:
+    from armlab.control.gains import ArmGains
+    from armlab.control.result import TrackingResult
+    from armlab.deploy.table import SetpointTable
+    from armlab.dynamics.selection import Selection
+    from armlab.dynamics.sizing import SizingReport
+    from armlab.dynamics.static_load import StaticLoadReport
+    from armlab.kinematics.accuracy import AccuracyResult
+    from armlab.kinematics.workspace import WorkspaceResult
     from armlab.robot.model import Robot
     from armlab.trajectory import Trajectory
+    from armlab.trajectory.core import LimitReport
 
 __all__ = [
     "StudyContext",
@@ -42,8 +60,6 @@ __all__ = [
     "build_robot",
     "controller_profile",
     "base_transform",
-    "PASS",
-    "FAIL",
 ]
 
 #: summary.json block written by each stage.
@@ -57,8 +73,6 @@ SUMMARY_KEY = {
     "export": "export",
 }
 
-#: Verdicts of a stage block.
-PASS, FAIL = "pass", "fail"
 
 #: Limit kinds a planner must honour exactly (the plan stage refuses a plan that breaks them).
 _KINEMATIC = ("position", "velocity", "acceleration", "jerk")
@@ -68,46 +82,54 @@ class NotApplicable(Exception):
     """A stage that does not apply to this robot (no drive data): the stage is skipped."""
 
 
-def verdict_block(failed: list[str], checked: bool = True) -> dict[str, Any]:
-    """``{"verdict": "pass"|"fail"|None, "failed_checks": [...]}`` of a stage block."""
-    if not checked:
-        return {"verdict": None, "failed_checks": []}
-    return {"verdict": FAIL if failed else PASS, "failed_checks": list(failed)}
-
-
 @dataclass
 class StudyContext:
-    """Everything the stages share: the spec, the resolved design and each stage's result."""
+    """Everything the stages share: the spec, the resolved design and each stage's typed result
+    (None until the stage that makes it has run)."""
 
     spec: StudySpec
+    #: the robot (:func:`build_robot`; the sizing stage may give it its drive train) and the
+    #: controller (:func:`controller_profile`)
+    robot: Robot
+    controller: ControllerProfile
     out_dir: Path | None = None
-    workers: int | None = None
     force: bool = False
-    robot: Any = None
-    controller: ControllerProfile | None = None
+    #: kinematics: the joint waypoints (n, n_joints) [rad or m], the Cartesian ones as poses,
+    #: where the joint ones come from, the tool positions (n, 3) [m] and the reach [m]
     waypoints_q: np.ndarray | None = None
     waypoint_poses: np.ndarray | None = None
-    trajectory: Any = None
-    static_load: Any = None
-    sizing: Any = None
-    requirement_sizing: Any = None
-    selection: Any = None
-    drives_selected: bool = False
-    #: the servo tuning run by a forked process beside the kinematics and plan stages (``armlab
-    #: run --workers N``, :class:`armlab._fork.SideProcess`): the tuning depends on the robot's
-    #: drives and the controller only, so the stage takes its result unless the sizing stage
-    #: gave the robot another drive train
-    tuning_ahead: Any = None
-    gains: Any = None
-    tracking: Any = None
-    #: the simulate_tracking options of ``tracking`` and its drive-model variants run so far
-    tracking_options: dict = field(default_factory=dict)
-    tracking_variants: dict = field(default_factory=dict)
-    setpoints: Any = None
+    waypoints_from: str = ""
+    tcp_positions_m: np.ndarray | None = None
+    max_reach_m: float = math.nan
+    #: the kinematics stage's Monte-Carlo studies (``kinematics.workspace_samples``,
+    #: ``accuracy_samples``; None when the study asks for none)
+    workspace: WorkspaceResult | None = None
+    accuracy: AccuracyResult | None = None
+    #: plan: the trajectory and its check against the robot's full limits
+    trajectory: Trajectory | None = None
+    limit_report: LimitReport | None = None
     jerk_limited: bool = True
+    #: static load
+    static_load: StaticLoadReport | None = None
+    #: sizing: the planned duty cycle's, the worst-case requirement moves', the selection
+    sizing: SizingReport | None = None
+    requirement_sizing: SizingReport | None = None
+    selection: Selection | None = None
+    drives_selected: bool = False
+    #: tuning
+    gains: ArmGains | None = None
+    #: tracking: the result, the diagnosis of a miss (:func:`~armlab.control.simulate.
+    #: diagnose_tracking`), its simulate_tracking options and the drive-model variants so far
+    tracking: TrackingResult | None = None
+    diagnosis: dict[str, Any] | None = None
+    tracking_options: dict[str, Any] = field(default_factory=dict)
+    tracking_variants: dict[str, TrackingResult] = field(default_factory=dict)
+    #: export: the set-point table (None: it breaks a controller limit) and the sha256 of each
+    #: file the stage wrote, by name
+    setpoints: SetpointTable | None = None
+    exported: dict[str, str] = field(default_factory=dict)
     failed_so_far: list[str] = field(default_factory=list)
     files: dict[str, str] = field(default_factory=dict)
-    figures: dict[str, Any] = field(default_factory=dict)
 
     @property
     def rng(self) -> np.random.Generator:
@@ -115,116 +137,6 @@ class StudyContext:
 
 
 # ---------------------------------------------------------------------------- robot
-@functools.lru_cache(maxsize=8)
-def _load_cached(name: str, tool_frame: str | None, lock: tuple[str, ...]):
-    from armlab.robot import load_robot
-
-    return load_robot(name, tool_frame=tool_frame, lock_joints=lock)
-
-
-def _per_joint(value, n: int, where: str) -> np.ndarray:
-    scalar = np.isscalar(value)  # a plain bool: the TypeGuard narrows to types float() rejects
-    a = np.full(n, float(value)) if scalar else np.asarray(value, float)
-    if a.shape != (n,):
-        raise SpecError(f"{where}: {a.size} values, the robot has {n} joints")
-    return a
-
-
-def _catalogue(spec: StudySpec):
-    """The drive catalogue (``sizing.catalogue`` or the package's)."""
-    from armlab.dynamics import load_catalogue as load
-
-    name = spec.sizing.catalogue
-    return load(None if name is None else spec.resolve(name))
-
-
-def _find_part(kind: str, model: str, robot, spec: StudySpec, where: str):
-    """(part, derating) of a motor or reducer by model name: the catalogue first, then the
-    robot's own drives. A motor brings its derating (the maker's factor on its torque, e.g.
-    0.8 on the thesis' joint-2 motor) along."""
-    found: dict[str, tuple[Any, float]] = {}
-    cat = _catalogue(spec)
-    if cat is not None:
-        for part in getattr(cat, f"{kind}s"):
-            found[part.model] = (
-                part,
-                cat.derating.get(part.model, 1.0) if kind == "motor" else 1.0,
-            )
-    for d in robot.drives.values():
-        found.setdefault(getattr(d, kind).model, (getattr(d, kind), d.derating))
-    if model not in found:
-        raise SpecError(f"{where}: unknown {kind} {model!r} (known: {', '.join(sorted(found))})")
-    return found[model]
-
-
-def build_robot(spec: StudySpec) -> Robot:
-    """The study's robot: description + payload + drive changes + limit overrides.
-
-    The limits are resolved again (:func:`armlab.robot.resolve_limits`) from the URDF and the
-    drive train after the ``[drives]`` changes -- velocity = min(URDF, motor speed / ratio,
-    reducer max input speed / ratio), torque = available torque (thesis table 4.3 rule) -- so
-    the planners and checks see the new drive; then ``[limits]`` overrides, which may only
-    tighten a hardware limit (:class:`SpecError` naming the key, joint and hardware limit).
-    """
-    from armlab.robot.drives import Drive
-
-    base = _load_cached(
-        spec.resolve(spec.robot.name), spec.robot.tool_frame, tuple(spec.robot.lock_joints)
-    )
-    robot = base.copy()
-    base_to_world = base_transform(spec)
-    if base_to_world is not None:  # gravity follows the mounting (robot.model.gravity)
-        robot.transform_base_to_world = base_to_world
-    p = spec.payload
-    if p.mass_kg is not None or p.com_m is not None:
-        mass = robot.payload.mass_kg if p.mass_kg is None else p.mass_kg
-        com = robot.payload.com_m if p.com_m is None else np.asarray(p.com_m)
-        robot.attach_payload(mass, com)
-    if spec.robot.drives is not None:  # the study's drives file replaces the description's
-        from armlab.robot.drives import read_drives
-
-        robot.drives = read_drives(spec.resolve(spec.robot.drives), robot.joint_names)
-    if spec.drives:
-        if robot.drives is None:
-            robot.drives = _drives_from_study(robot, spec)
-        drives = dict(robot.drives)
-        for joint, change in spec.drives.items():
-            where = f"drives.{joint}"
-            if joint not in drives:
-                raise SpecError(
-                    f"{where}: no joint {joint!r} in {robot.name} "
-                    f"(joints: {', '.join(robot.joint_names)})"
-                )
-            old: Drive = drives[joint]
-            new = old
-            if change.motor is not None:
-                motor, derating = _find_part("motor", change.motor, robot, spec, f"{where}.motor")
-                new = replace(new, motor=motor, derating=derating)
-            if change.reducer is not None:
-                reducer, _ = _find_part("reducer", change.reducer, robot, spec, f"{where}.reducer")
-                new = replace(new, reducer=reducer)
-            red = {
-                k: getattr(change, k)
-                for k in ("ratio", "efficiency")
-                if getattr(change, k) is not None
-            }
-            if red:
-                new = replace(new, reducer=replace(new.reducer, **red))
-            enc = {
-                k: getattr(change, k)
-                for k in ("pulses_per_rev", "decoding")
-                if getattr(change, k) is not None
-            }
-            if enc:
-                new = replace(new, encoder=replace(new.encoder, **enc))
-            if change.derating is not None:
-                new = replace(new, derating=change.derating)
-            drives[joint] = new
-        robot.drives = drives
-    _resolve_robot_limits(robot, spec)
-    return robot
-
-
 def selection_for_study(spec: StudySpec) -> StudyContext:
     """Plan a study's motion and select its drive train from the catalogue (``armlab drives``):
     the robot, kinematics, plan and static-load stages, then :func:`select_and_install` -- also
@@ -239,9 +151,7 @@ def selection_for_study(spec: StudySpec) -> StudyContext:
     """
     from armlab.dynamics import size
 
-    ctx = StudyContext(spec=spec)
-    ctx.controller = controller_profile(spec)
-    ctx.robot = build_robot(spec)
+    ctx = StudyContext(spec, robot=build_robot(spec), controller=controller_profile(spec))
     for stage in ("kinematics", "plan", "static_load"):
         STAGE_FUNCTIONS[stage](ctx)
     duty = select_and_install(ctx)
@@ -249,84 +159,16 @@ def selection_for_study(spec: StudySpec) -> StudyContext:
     return ctx
 
 
-def _resolve_robot_limits(robot, spec: StudySpec) -> None:
-    """``robot.limits`` from its description, drive train and the study's ``[limits]``; a drive
-    value the drives file left out becomes the resolved (derived or study) one."""
-    from armlab.robot.limits import description_limits, resolve_limits
-
-    robot.limits = resolve_limits(
-        description_limits(robot.model, robot.joint_names),
-        robot.drives,
-        overrides=vars(spec.limits),
-        model=robot.model,
-    )
-    if robot.drives is not None:
-        robot.drives = _complete_drives(robot.drives, robot.limits)
-
-
-def _complete_drives(drives: dict, limits) -> dict:
-    """The drives with an acceleration or jerk left out of the drives file (NaN) replaced by
-    the robot's resolved limit (derived from the drive train, or the study's)."""
-    out = {}
-    for j, name in enumerate(limits.joint_names):
-        d = drives[name]
-        for key in ("acceleration_rad_s2", "jerk_rad_s3"):
-            value = getattr(limits, key)
-            if math.isnan(getattr(d, key)) and value is not None:
-                d = replace(d, **{key: float(value[j])})
-        out[name] = d
-    return out
-
-
-def _drives_from_study(robot, spec: StudySpec) -> dict:
-    """A drive train built from ``[drives.<joint>]`` catalogue names alone, for a robot without
-    one: every joint needs ``motor``, ``reducer`` and ``pulses_per_rev`` (decoding default 4, as
-    in a drives file); acceleration and jerk are left to the limits (study or derived)."""
-    from armlab.robot.drives import Drive, Encoder
-
-    missing = [j for j in robot.joint_names if j not in spec.drives]
-    if missing:
-        raise SpecError(
-            f"drives.{missing[0]}: missing; robot {robot.name} has no drive train, so every "
-            f"joint needs [drives.<joint>] motor, reducer and pulses_per_rev (or give "
-            "[robot] drives = <drives file> or [sizing] select = true)"
-        )
-    cat = _catalogue(spec)
-    out = {}
-    for joint in robot.joint_names:
-        change = spec.drives[joint]
-        where = f"drives.{joint}"
-        for key in ("motor", "reducer", "pulses_per_rev"):
-            if getattr(change, key) is None:
-                raise SpecError(
-                    f"{where}.{key}: missing (robot {robot.name} has no drive train to change)"
-                )
-        motor = cat.motor(str(change.motor), f"{where}.motor")
-        reducer = cat.reducer(str(change.reducer), f"{where}.reducer")
-        out[joint] = Drive(
-            joint=joint,
-            motor=motor,
-            reducer=reducer,
-            encoder=Encoder(int(change.pulses_per_rev or 0), int(change.decoding or 4)),
-            acceleration_rad_s2=math.nan,
-            jerk_rad_s3=math.nan,
-            derating=cat.derating.get(motor.model, 1.0),
-        )
-    return out
-
-
 def robot_block(ctx: StudyContext) -> dict:
-    """summary.json "robot": name, joints, payload, mass, drives."""
+    """summary.json "robot" (besides its status): name, joints, payload, mass, drives."""
     r = ctx.robot
     block = {
-        "status": "ok",
         "name": r.name,
         "n_joints": r.n_joints,
         "joint_names": list(r.joint_names),
         "urdf": str(r.urdf_path),
         "tool_frame": r.tool_frame,
         "payload_kg": r.payload.mass_kg,
-        **verdict_block([], checked=False),
         "total_mass_kg": r.total_mass_kg,
         "transform_base_to_world": np.asarray(r.transform_base_to_world).tolist(),
         "limits": _jsonable(r.limits.to_dict()),
@@ -346,38 +188,6 @@ def robot_block(ctx: StudyContext) -> dict:
 
 
 # ---------------------------------------------------------------------------- kinematics
-def _rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """R = Rz(yaw) Ry(pitch) Rx(roll) (URDF / ROS fixed-axis convention)."""
-    cr, sr, cp, sp, cy, sy = (
-        math.cos(roll),
-        math.sin(roll),
-        math.cos(pitch),
-        math.sin(pitch),
-        math.cos(yaw),
-        math.sin(yaw),
-    )
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
-
-
-def base_transform(spec: StudySpec) -> np.ndarray | None:
-    """``transform_base_to_world`` from ``[robot] base_xyz_m, base_rpy_deg`` (None: identity)."""
-    r = spec.robot
-    if r.base_xyz_m is None and r.base_rpy_deg is None:
-        return None
-    T = np.eye(4)
-    if r.base_rpy_deg is not None:
-        T[:3, :3] = _rpy_to_matrix(*np.radians(np.asarray(r.base_rpy_deg, float)))
-    if r.base_xyz_m is not None:
-        T[:3, 3] = np.asarray(r.base_xyz_m, float)
-    return T
-
-
 def _angles(values, unit: str) -> np.ndarray:
     a = np.asarray(values, float)
     return np.radians(a) if unit == "deg" else a
@@ -391,7 +201,7 @@ def waypoint_poses(spec: StudySpec) -> np.ndarray | None:
     out = []
     for row in wp.cartesian:
         T = np.eye(4)
-        T[:3, :3] = _rpy_to_matrix(*_angles(row[3:], wp.unit))
+        T[:3, :3] = rpy_to_matrix(*_angles(row[3:], wp.unit))
         T[:3, 3] = row[:3]
         out.append(T)
     return np.array(out)
@@ -427,7 +237,7 @@ def _solve_ik(ctx: StudyContext, poses: np.ndarray) -> np.ndarray:
     return np.array(out)
 
 
-def stage_kinematics(ctx: StudyContext) -> dict:
+def stage_kinematics(ctx: StudyContext) -> StageOutput:
     """Waypoints to joint space (IK for Cartesian ones), range check, TCP positions, reach, and
     the optional Monte-Carlo workspace and accuracy studies."""
     from armlab.kinematics import fk, max_reach_m
@@ -444,23 +254,22 @@ def stage_kinematics(ctx: StudyContext) -> dict:
         q = _solve_ik(ctx, ctx.waypoint_poses)
         where, source = "waypoints.cartesian", "cartesian (IK)"
     q = validate_waypoints(robot, q, where=where, min_rows=1, unit=wp.unit)
-    ctx.waypoints_q = q
-    tcp = np.array([fk(robot, row)[:3, 3] for row in q])
+    ctx.waypoints_q, ctx.waypoints_from = q, source
+    ctx.tcp_positions_m = np.array([fk(robot, row)[:3, 3] for row in q])
+    ctx.max_reach_m = max_reach_m(robot, seed=spec.study.seed)
     block = {
-        "status": "ok",
-        **verdict_block([], checked=False),
         "waypoints_from": source,
         "n_waypoints": int(len(q)),
         "waypoints_rad": q.tolist(),
-        "tcp_positions_m": tcp.tolist(),
-        "max_reach_m": max_reach_m(robot, seed=spec.study.seed),
+        "tcp_positions_m": ctx.tcp_positions_m.tolist(),
+        "max_reach_m": ctx.max_reach_m,
     }
     ks = spec.kinematics
     if ks.workspace_samples:
         from armlab.kinematics import workspace_cloud
 
         res = workspace_cloud(robot, n_samples=ks.workspace_samples, seed=spec.study.seed)
-        ctx.figures["workspace"] = res
+        ctx.workspace = res
         block["workspace"] = {"status": "ok", **_to_dict(res)}
     if ks.accuracy_samples:
         if robot.dh is None:
@@ -469,9 +278,9 @@ def stage_kinematics(ctx: StudyContext) -> dict:
             from armlab.kinematics import accuracy_study
 
             acc = accuracy_study(robot, n_samples=ks.accuracy_samples, seed=spec.study.seed)
-            ctx.figures["accuracy"] = acc
+            ctx.accuracy = acc
             block["accuracy"] = {"status": "ok", **_to_dict(acc)}
-    return block
+    return StageOutput(block)
 
 
 # ---------------------------------------------------------------------------- plan
@@ -557,7 +366,7 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
     return T.blend(robot, poses, plan.blend_radius_m, speed, q_start=Q[0], dt=dt, tau_max=tau_max)
 
 
-def stage_plan(ctx: StudyContext) -> dict:
+def stage_plan(ctx: StudyContext) -> StageOutput:
     """Plan, then check the plan on a fine grid against the robot's full limits.
 
     A plan that breaks a kinematic limit it was planned for (range, velocity, acceleration, and
@@ -578,6 +387,7 @@ def stage_plan(ctx: StudyContext) -> dict:
     # acceleration steps of a trapezoid)
     fine = traj.n_samples > 1 and np.max(np.diff(traj.t)) <= spec.plan.check_dt_s * (1 + 1e-9)
     report = traj.check_limits(robot, dt=None if fine else spec.plan.check_dt_s, torque=torque)
+    ctx.limit_report = report
     enforced = [k for k in _KINEMATIC if k != "jerk" or ctx.jerk_limited]
     failed = []
     for kind, joint, ratio, at in report.violations(tol=1e-6):
@@ -599,9 +409,7 @@ def stage_plan(ctx: StudyContext) -> dict:
             for j in np.flatnonzero(r > 1 + 1e-6):
                 failed.append(f"plan: {k} of {robot.joint_names[j]} is {r[j]:.4g} x its limit")
     kind, joint, ratio = report.worst()
-    return {
-        "status": "ok",
-        **verdict_block(failed),
+    block = {
         "planner": spec.plan.planner,
         "method": traj.method,
         "duration_s": traj.duration,
@@ -618,6 +426,7 @@ def stage_plan(ctx: StudyContext) -> dict:
         "worst": {"kind": kind, "joint": joint, "ratio": ratio},
         "stats": _jsonable(getattr(traj, "stats", {})),
     }
+    return StageOutput(block, failed_checks=failed)
 
 
 # ---------------------------------------------------------------------------- dynamics
@@ -644,7 +453,7 @@ def _jsonable(x):
     return x
 
 
-def stage_static_load(ctx: StudyContext) -> dict:
+def stage_static_load(ctx: StudyContext) -> StageOutput:
     """Worst-case static holding torque per joint (HEU thesis 4.2.1) with the payload.
 
     The worst case is a requirement of the drive train, not of the study's motion: a joint whose
@@ -664,12 +473,7 @@ def stage_static_load(ctx: StudyContext) -> dict:
                 f"static_load: {x.joint} worst-case {x.torque_Nm:.4g} N m > {lim:.4g} N m "
                 "available (torque limit)"
             )
-    return {
-        "status": "ok",
-        **verdict_block([], checked=False),
-        "advisories": advisories,
-        **_to_dict(res),
-    }
+    return StageOutput(_to_dict(res), advisories=advisories)
 
 
 def _needs_drives(ctx: StudyContext) -> None:
@@ -727,7 +531,7 @@ def _sizing_failures(report) -> list[str]:
     ]
 
 
-def stage_sizing(ctx: StudyContext) -> dict:
+def stage_sizing(ctx: StudyContext) -> StageOutput:
     """Drive sizing checks along the planned trajectory, against the study's controller (encoder
     checks at its cycle and pulse limit); the worst-case requirement moves of HEU thesis tables
     4.2/4.3 beside them (advisories); optional selection from a catalogue.
@@ -746,7 +550,8 @@ def stage_sizing(ctx: StudyContext) -> dict:
     _needs_drives(ctx)
     res = size(ctx.robot, duty, dt=ctx.spec.plan.check_dt_s, controller=ctx.controller)
     ctx.sizing = res
-    block = {"status": "ok", **verdict_block(_sizing_failures(res)), **_to_dict(res)}
+    block = _to_dict(res)
+    advisories = None
     if ctx.drives_selected:
         block["duty_cycle"] = (
             "planned motion + 1 s hold at each joint's worst static pose (the selection's)"
@@ -765,7 +570,7 @@ def stage_sizing(ctx: StudyContext) -> dict:
             "ok": bool(ctx.requirement_sizing.ok),
             "failures": [f"{joint}:{check}" for joint, check in ctx.requirement_sizing.failures()],
         }
-        block["advisories"] = adv
+        advisories = adv
     if ctx.spec.sizing.select and not ctx.drives_selected:
         sel = select_drives(
             ctx.robot,
@@ -776,7 +581,7 @@ def stage_sizing(ctx: StudyContext) -> dict:
         )
         ctx.selection = sel
         block["selection"] = {"status": "ok", **_to_dict(sel)}
-    return block
+    return StageOutput(block, failed_checks=_sizing_failures(res), advisories=advisories)
 
 
 # ---------------------------------------------------------------------------- control
@@ -819,29 +624,17 @@ def tuning_options(ctx: StudyContext) -> dict[str, Any]:
     return {k: v for k, v in options.items() if v is not None}
 
 
-def stage_tuning(ctx: StudyContext) -> dict:
+def stage_tuning(ctx: StudyContext) -> StageOutput:
     """Robust cascade tuning of every joint (current PI, speed PI, position P) to the study's
     control specs, discretised at the controller's servo period and checked continuous and
     discrete over each joint's inertia range."""
     from armlab.control import tune_arm
 
     _needs_drives(ctx)
-    assert ctx.controller is not None  # run_study sets it before the stages
-    gains = None
-    if ctx.tuning_ahead is not None and not ctx.drives_selected:  # the same robot as then
-        gains = ctx.tuning_ahead.result()
-    ahead = gains is not None
-    if gains is None:
-        gains = tune_arm(ctx.robot, controller=ctx.controller, **tuning_options(ctx))
+    gains = tune_arm(ctx.robot, controller=ctx.controller, **tuning_options(ctx))
     ctx.gains = gains
-    return {
-        "status": "ok",
-        **verdict_block(_tuning_failures(gains, gains.spec)),
-        "servo_period_s": ctx.controller.servo_period_s if ctx.controller else None,
-        # tuned by a process beside the earlier stages (the stage's time is then its wait)
-        "tuned_ahead": ahead,
-        **_jsonable(gains.summary()),
-    }
+    block = {"servo_period_s": ctx.controller.servo_period_s, **_jsonable(gains.summary())}
+    return StageOutput(block, failed_checks=_tuning_failures(gains, gains.spec))
 
 
 def tracking_options(ctx: StudyContext) -> dict[str, Any]:
@@ -861,7 +654,7 @@ def tracking_options(ctx: StudyContext) -> dict[str, Any]:
     return opts
 
 
-def stage_tracking(ctx: StudyContext) -> dict:
+def stage_tracking(ctx: StudyContext) -> StageOutput:
     """Closed-loop simulation of the arm tracking the plan with the tuned cascades; the verdict
     is the TCP error against the accuracy budget."""
     from armlab.control import simulate_tracking
@@ -879,34 +672,17 @@ def stage_tracking(ctx: StudyContext) -> dict:
             ctx.robot, ctx.trajectory, ctx.gains, res, cache=ctx.tracking_variants, **opts
         )
         block["diagnosis"] = diag
+        ctx.diagnosis = diag
         failed.append(
             f"tracking: TCP error {res.tcp_max_error_m * 1e3:.4g} mm > budget "
             f"{res.accuracy_m * 1e3:.4g} mm; limiting factor: {diag['limiting_factor']}; "
             f"{diag['offer']}"
         )
-    return {"status": "ok", **verdict_block(failed), **_to_dict(res), **block}
+    return StageOutput({**_to_dict(res), **block}, failed_checks=failed)
 
 
 # ---------------------------------------------------------------------------- export
-def controller_profile(spec: StudySpec) -> ControllerProfile:
-    """The study's controller: the profile ``[controller] profile`` (default: the reference
-    controller) with the study's ``cycle_s``, ``pulse_limit`` and ``servo_period_s``.
-
-    This is the one controller of a study: sizing's encoder checks, the tuning's discretisation,
-    the simulation's servo period and the set-point table all read it.
-    """
-    c = spec.controller
-    prof = load_profile(None if c.profile is None else spec.resolve(c.profile))
-    if c.cycle_s is not None:
-        prof = prof.with_cycle(c.cycle_s)
-    if c.pulse_limit is not None:
-        prof = prof.replace(max_pulses_per_cycle=c.pulse_limit)
-    if c.servo_period_s is not None:
-        prof = prof.replace(servo_period_s=c.servo_period_s)
-    return prof
-
-
-def stage_export(ctx: StudyContext) -> dict:
+def stage_export(ctx: StudyContext) -> StageOutput:
     """Set-point table for the study's controller (with the deploy pre-flight checks), gains JSON
     and the trajectory file.
 
@@ -919,7 +695,6 @@ def stage_export(ctx: StudyContext) -> dict:
     from armlab.deploy.provenance import file_sha256
 
     prof = ctx.controller
-    assert prof is not None
     if ctx.robot.drives is None and prof.counts_per_joint_rev is None:
         raise NotApplicable(
             f"{ctx.robot.name} has no drives.toml and controller profile "
@@ -931,18 +706,10 @@ def stage_export(ctx: StudyContext) -> dict:
     try:
         table = setpoint_table(ctx.robot, ctx.trajectory, prof, source=source)
     except LimitViolation as exc:
-        return {
-            "status": "ok",
-            **verdict_block([f"export: {exc}"]),
-            "profile": prof.name,
-            "cycle_s": prof.cycle_s,
-            "written": False,
-            "files": {},
-        }
+        refused = {"profile": prof.name, "cycle_s": prof.cycle_s, "written": False, "files": {}}
+        return StageOutput(refused, failed_checks=[f"export: {exc}"])
     ctx.setpoints = table
     block: dict[str, Any] = {
-        "status": "ok",
-        **verdict_block([]),
         "profile": prof.name,
         "cycle_s": prof.cycle_s,
         "n_cycles": table.n_cycles,
@@ -954,7 +721,7 @@ def stage_export(ctx: StudyContext) -> dict:
         block["preflight"] = _jsonable(preflight)
     out = ctx.out_dir
     if out is None:
-        return block
+        return StageOutput(block, failed_checks=[])
     paths: dict[str, Path] = {}
     save_trajectory(out / "trajectory.npz", ctx.trajectory, ctx.robot)
     paths["trajectory.npz"] = out / "trajectory.npz"
@@ -972,9 +739,10 @@ def stage_export(ctx: StudyContext) -> dict:
         block["written"] = True
         block["forced"] = bool(ctx.failed_so_far)
     for name, path in paths.items():
-        block["files"][name] = {"path": name, "sha256": file_sha256(path)}
+        ctx.exported[name] = file_sha256(path)
+        block["files"][name] = {"path": name, "sha256": ctx.exported[name]}
         ctx.files[name] = str(path)
-    return block
+    return StageOutput(block, failed_checks=[])
 
 
 STAGE_FUNCTIONS = {

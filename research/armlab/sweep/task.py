@@ -9,7 +9,7 @@ Every row carries its provenance (:mod:`armlab.sweep.provenance`): armlab's vers
 sha256 of the base study and of every file the study reads, as the worker sees them. When the
 client passes the provenance it expects and the worker's differs (another armlab, another
 ``drives.toml`` on a remote worker), the row is an error naming the difference. A worker process
-loads each robot once (:func:`armlab.study.stages.build_robot` caches it); the cache is emptied
+loads each robot once (:func:`armlab.study.build.build_robot` caches it); the cache is emptied
 when a robot file changes under a long-lived worker, so a row never uses a stale description.
 """
 
@@ -45,9 +45,9 @@ def _forget_changed_robot(document: dict[str, Any], study_dir: str, prov: dict[s
     files = (prov["urdf_sha256"], prov["drives_sha256"], prov["mdh_sha256"])
     if _robot_files_seen.get(str(urdf)) == files:
         return
-    from armlab.study import stages
+    from armlab.study import build
 
-    stages._load_cached.cache_clear()
+    build._load_cached.cache_clear()
     _robot_files_seen[str(urdf)] = files
 
 
@@ -90,7 +90,7 @@ def run_parameter_set(
     prov: dict[str, str] = {}
     try:
         from armlab.errors import ArmlabError
-        from armlab.study.runner import key_figures, run_spec
+        from armlab.study.runner import run_spec
         from armlab.study.spec import apply_overrides, parse_study
         from armlab.sweep.provenance import describe_changes, row_provenance
 
@@ -111,7 +111,7 @@ def run_parameter_set(
                 spec = parse_study(doc, base_dir=Path(study_dir), source=source)
                 result = run_spec(spec, None, progress=False, report=False)
                 row.update(status="done", error="")
-                row.update(key_figures(result.summary))
+                row.update(result.key_figures())
             except ArmlabError as exc:
                 row.update(status="error", error=_one_line(f"{type(exc).__name__}: {exc}"))
     except Exception as exc:  # a bug in a stage: still a row, with where it happened
