@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from armlab.errors import InputError
+from armlab.names import check_name
 from armlab.tomlfile import read_toml
 
 if TYPE_CHECKING:
@@ -114,6 +115,7 @@ class ControllerProfile:
     modulo_axes: tuple[str | int, ...] | None = None
 
     def __post_init__(self) -> None:
+        check_name(self.name, "name", "controller profile", InputError)
         where = f"controller profile {self.name!r}"
         lo, hi = (float(x) for x in self.cycle_range_s)
         object.__setattr__(self, "cycle_range_s", (lo, hi))

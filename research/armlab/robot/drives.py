@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from armlab.errors import RobotDescriptionError
+from armlab.names import check_name
 from armlab.tomlfile import read_toml
 
 __all__ = [
@@ -456,7 +457,7 @@ def read_drives(path: str | Path, joint_names: list[str] | tuple[str, ...]) -> d
     if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
         raise RobotDescriptionError(f"{path}: 'joint' must be an array of tables ([[joint]])")
     for row in rows:
-        name = row.get("name")
+        name = check_name(row.get("name"), "joint name", f"{path} [[joint]]", RobotDescriptionError)
         where = f"{path} joint {name!r}"
         if name not in joint_names:
             raise RobotDescriptionError(

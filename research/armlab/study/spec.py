@@ -46,6 +46,7 @@ from pathlib import Path
 from typing import Any
 
 from armlab.errors import SpecError
+from armlab.names import check_name, check_title
 from armlab.tomlfile import read_toml
 
 __all__ = [
@@ -96,6 +97,14 @@ def _str(choices: tuple[str, ...] | None = None):
         return v
 
     return check
+
+
+def _title(v, where):
+    return check_title(v, "title", where, SpecError)
+
+
+def _joint_name(v, where):
+    return check_name(v, "joint name", where, SpecError)
 
 
 def _bool(v, where):
@@ -189,7 +198,7 @@ def _key(check, default=MISSING, doc: str = ""):
 class StudyOptions:
     """``[study]``: name, random seed, the stages to run, and whether to write the report."""
 
-    name: str = _key(_str(), "study", "study name (report title)")
+    name: str = _key(_title, "study", "study name (report title; printable, one line, <= 200)")
     seed: int = _key(_int(0), 0, "seed of every random draw in the study")
     stages: tuple[str, ...] = _key(_str_list(STAGES), STAGES, "stages to run, subset of STAGES")
     report: bool = _key(_bool, True, "write report.md and its PNG plots")
@@ -485,7 +494,10 @@ def parse_study(
     drives_doc = document.get("drives", {})
     if not isinstance(drives_doc, dict):
         raise SpecError(f"drives: expected tables [drives.<joint>], not {drives_doc!r}")
-    drives = {j: _build(DriveOverride, t, f"drives.{j}") for j, t in drives_doc.items()}
+    drives = {
+        _joint_name(j, "drives"): _build(DriveOverride, t, f"drives.{j}")
+        for j, t in drives_doc.items()
+    }
     wp: WaypointSpec = parts["waypoints"]
     if (wp.joint is None) == (wp.cartesian is None):
         raise SpecError(
