@@ -20,7 +20,8 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from armlab.control import ArmGains, CascadeGains, LoopGains, PlantSummary
+from armlab.control import ArmGains, CascadeGains, LoopGains
+from armlab.control.gains import PlantSummary
 from armlab.deploy.formats import c_comment, c_string
 from armlab.deploy.gains_export import gains_to_c_files
 from armlab.deploy.ros2 import ros2_controllers_yaml
@@ -181,6 +182,7 @@ SETPOINT_MACROS = {
     "ARMLAB_SP_CYCLE_S",
     "ARMLAB_SP_CYCLE_US",
     "ARMLAB_SP_MAX_PULSES_PER_CYCLE",
+    "ARMLAB_SP_FORCED",
 }
 SETPOINT_SYMBOLS = {
     "ARMLAB_SP_AXIS_JOINT",
