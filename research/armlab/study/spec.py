@@ -47,6 +47,7 @@ from typing import Any
 
 from armlab.errors import SpecError
 from armlab.names import check_name, check_title
+from armlab.robot.drives import drive_value_rule, value_problem
 from armlab.tomlfile import read_toml
 
 __all__ = [
@@ -105,6 +106,20 @@ def _title(v, where):
 
 def _joint_name(v, where):
     return check_name(v, "joint name", where, SpecError)
+
+
+def _drive_value(part: str, key: str):
+    """The drives file's rule for ``part.key`` (:func:`armlab.robot.drives.value_problem`):
+    one validator for a drive value given in a study, a drives file or a catalogue entry."""
+    rule = drive_value_rule(part, key)
+
+    def check(v, where):
+        problem = value_problem(v, rule)
+        if problem is not None:
+            raise SpecError(f"{where}: {v!r} {problem} (as in a drives file)")
+        return v if rule in ("count", "decoding") else float(v)
+
+    return check
 
 
 def _bool(v, where):
@@ -292,13 +307,19 @@ class DriveOverride:
     jerk from ``[limits]`` or derived from the drive train, docs/drives.md).
     """
 
-    ratio: float | None = _key(_float(0.0, lo_open=True), None, "reducer ratio")
+    ratio: float | None = _key(_drive_value("Reducer", "ratio"), None, "reducer ratio")
     motor: str | None = _key(_str(), None, "motor model (catalogue or the robot's)")
     reducer: str | None = _key(_str(), None, "reducer model (catalogue or the robot's)")
-    efficiency: float | None = _key(_float(0.0, 1.0, lo_open=True), None, "reducer efficiency")
-    derating: float | None = _key(_float(0.0, 1.0, lo_open=True), None, "torque derating")
-    pulses_per_rev: int | None = _key(_int(1), None, "encoder pulses per motor revolution")
-    decoding: int | None = _key(_int(1, 4), None, "encoder decoding factor")
+    efficiency: float | None = _key(
+        _drive_value("Reducer", "efficiency"), None, "reducer efficiency"
+    )
+    derating: float | None = _key(_drive_value("Drive", "derating"), None, "torque derating")
+    pulses_per_rev: int | None = _key(
+        _drive_value("Encoder", "pulses_per_rev"), None, "encoder pulses per motor revolution"
+    )
+    decoding: int | None = _key(
+        _drive_value("Encoder", "decoding"), None, "encoder decoding factor: 1, 2 or 4"
+    )
 
 
 @dataclass(frozen=True)
