@@ -242,7 +242,11 @@ def test_check_limits_takes_a_limits(teachbot6):
 def test_setpoint_preflight_needs_a_velocity_limit(teachbot6):
     from armlab.deploy import setpoint_table
 
-    traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.05), tau_max=False)
+    # planned within the speeds whose rounded counts keep the robot's limits (issue 24 item 6)
+    v = armlab.robot.load_profile("reference_dda").sendable_velocity_rad_s(
+        teachbot6, teachbot6.limits.velocity_rad_s
+    )
+    traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.05), tau_max=False, v_max=v)
     setpoint_table(teachbot6, traj, controller="reference_dda")  # the robot's limits: fine
     blind = teachbot6.with_limits(velocity_rad_s=None)
     with pytest.raises(InputError, match="set-point pre-flight: missing velocity limit"):

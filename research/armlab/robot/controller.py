@@ -294,6 +294,40 @@ class ControllerProfile:
             dtype=float,
         )
 
+    def sendable_velocity_rad_s(self, robot: Robot, velocity_rad_s) -> np.ndarray:
+        """The joint speed limits a plan may use so that the table's rounded counts keep
+        ``velocity_rad_s``, ``(n_joints,)`` in the robot's joint order.
+
+        The controller receives whole counts per cycle: a plan moving ``d`` counts in a cycle
+        is sent ``floor(d)`` or ``ceil(d)`` counts, so a plan at the limit ``v`` can be sent
+        ``ceil(v x counts_per_rad x T)`` counts, over it (issue 24: 45 counts per 1 ms are
+        0.5655 rad/s against 0.56). A plan at most ``C - 0.01`` counts per cycle, ``C =
+        floor(v x counts_per_rad x T)`` the whole counts within the limit, is always sent at
+        most ``C``: the speed returned is ``(C - 0.01) / (counts_per_rad x T)`` (0.01 count of
+        margin for the planners' round-off). A joint with ``C < 1`` (a limit below one count
+        per cycle) keeps ``v``: no plan can move it within the limit in whole counts, and the
+        pre-flight says so.
+
+        Parameters
+        ----------
+        robot : Robot
+        velocity_rad_s : array (n_joints,)
+            The speed limits in [rad/s] (robot joint order), e.g. ``robot.limits.velocity_rad_s``.
+
+        Raises
+        ------
+        InputError
+            As :meth:`counts_per_rad` (no drives and no ``counts_per_joint_rev``) or
+            :meth:`axes`.
+        """
+        v = np.array(velocity_rad_s, dtype=float)
+        index, _ = self.axes(robot)
+        per_cycle = self.counts_per_rad(robot, index) * self.cycle_s  # counts per (rad/s)
+        whole = np.floor(v[index] * per_cycle)
+        ok = np.isfinite(whole) & (whole >= 1)
+        v[index] = np.where(ok, (whole - 0.01) / per_cycle, v[index])
+        return v
+
     def home_positions_rad(self, n_axes: int) -> np.ndarray:
         """Joint angle of each axis' homing reference in [rad], ``(n_axes,)`` (zeros if unset).
 

@@ -288,9 +288,19 @@ def planning_robot(ctx: StudyContext) -> Robot:
     """The robot with its velocity/acceleration/jerk limits scaled by s, s^2, s^3
     (:meth:`armlab.robot.Limits.scaled`, ``plan.speed_scale``)."""
     s = ctx.spec.plan.speed_scale
-    if s == 1.0:
-        return ctx.robot
-    return ctx.robot.with_limits(ctx.robot.limits.scaled(s))
+    robot = ctx.robot if s == 1.0 else ctx.robot.with_limits(ctx.robot.limits.scaled(s))
+    return _in_whole_counts(ctx, robot)
+
+
+def _in_whole_counts(ctx: StudyContext, robot: Robot) -> Robot:
+    """``robot`` with speed limits whose set-point counts keep them after rounding
+    (:meth:`armlab.robot.ControllerProfile.sendable_velocity_rad_s`; issue 24 item 6)."""
+    prof = ctx.controller
+    v = robot.limits.velocity_rad_s
+    if prof is None or v is None or (robot.drives is None and prof.counts_per_joint_rev is None):
+        return robot
+    sendable = prof.sendable_velocity_rad_s(robot, v)
+    return robot if np.array_equal(sendable, v) else robot.with_limits(velocity_rad_s=sendable)
 
 
 def _concat(parts):
