@@ -276,7 +276,12 @@ def _cmd_export(args) -> int:
     from armlab.study import export_study
 
     result = export_study(
-        args.study_dir, fmt=args.format, controller=args.profile, out_dir=args.out, force=args.force
+        args.study_dir,
+        fmt=args.format,
+        controller=args.profile,
+        out_dir=args.out,
+        force=args.force,
+        overwrite=args.overwrite,
     )
     for note in result.notes:
         print(f"armlab: {note}", file=sys.stderr)
@@ -476,6 +481,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--force",
         action="store_true",
         help="export a design that fails a check (the file records the failed checks)",
+    )
+    s.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="write into a folder holding files armlab export did not write (same-named ones "
+        "are replaced, the others kept); without it such a folder is refused",
     )
     s.set_defaults(func=_cmd_export)
     return p

@@ -328,6 +328,20 @@ class ControllerProfile:
         v[index] = np.where(ok, (whole - 0.01) / per_cycle, v[index])
         return v
 
+    def robot_for_planning(self, robot: Robot) -> Robot:
+        """``robot`` with the speed limits :meth:`sendable_velocity_rad_s` (a copy; ``robot``
+        itself if nothing changes, or if it has no speed limit or no counts): plan with it, and
+        the set-point table of the plan for this controller keeps the robot's own limits after
+        rounding (``setpoint_table(robot, optimal(profile.robot_for_planning(robot), q),
+        profile)``)."""
+        v = robot.limits.velocity_rad_s
+        if v is None or (robot.drives is None and self.counts_per_joint_rev is None):
+            return robot
+        sendable = self.sendable_velocity_rad_s(robot, v)
+        if np.array_equal(sendable, v):
+            return robot
+        return robot.with_limits(velocity_rad_s=sendable)
+
     def home_positions_rad(self, n_axes: int) -> np.ndarray:
         """Joint angle of each axis' homing reference in [rad], ``(n_axes,)`` (zeros if unset).
 

@@ -91,6 +91,62 @@ EXPORT_FILES = tuple(
 )
 
 
+#: the first line of ``cia402_objects.csv`` (the one export file without an armlab header)
+_OBJECTS_HEADER = b"axis,joint,index,subindex,name,data_type,value,unit"
+
+
+def _written_by_export(path: Path) -> bool:
+    """Whether ``path`` is a file ``armlab export`` writes, by its name and its own header:
+    the first line names armlab (CSV, C, YAML), the JSON has an ``armlab.*`` format tag, the
+    ``.npz`` an ``armlab.*`` ``meta_json``; ``cia402_objects.csv`` starts with its columns."""
+    if path.name not in EXPORT_FILES or not path.is_file() or path.is_symlink():
+        return False
+    try:
+        with open(path, "rb") as f:
+            head = f.read(512)
+    except OSError:
+        return False
+    if path.suffix == ".npz":
+        import json
+        import zipfile
+
+        import numpy as np
+
+        try:
+            with zipfile.ZipFile(path) as z:
+                if "meta_json.npy" not in z.namelist():
+                    return False
+            with np.load(path, allow_pickle=False) as z:
+                meta = json.loads(str(z["meta_json"]))
+        except Exception:  # not a zip, not numpy, not JSON: not armlab's
+            return False
+        return isinstance(meta, dict) and str(meta.get("format", "")).startswith("armlab.")
+    first = head.split(b"\n", 1)[0]
+    if path.name == _CIA402_FILES[1]:
+        return first.rstrip(b"\r") == _OBJECTS_HEADER
+    return b"armlab" in first or b'"format": "armlab.' in head
+
+
+def _check_out_dir(out: Path, overwrite: bool) -> None:
+    """Refuse an ``--out`` that is a file, or a folder holding files ``armlab export`` did not
+    write (another program's ``setpoints.csv``, anything else) unless ``overwrite``: export
+    would silently replace them (issue 24 item 8). With ``overwrite`` only the files of this
+    export are replaced; the others are left as they are."""
+    if out.exists() and not out.is_dir():
+        raise InputError(f"export --out {out} is a file, not a folder")
+    if not out.is_dir() or overwrite:
+        return
+    foreign = sorted(p.name for p in out.iterdir() if not _written_by_export(p))
+    if foreign:
+        more = f" and {len(foreign) - 5} more" if len(foreign) > 5 else ""
+        shown = ", ".join(foreign[:5]) + more
+        raise InputError(
+            f"export refused: {out} holds files armlab export did not write ({shown}); choose "
+            "an empty or new folder, or --overwrite to write the export's files there anyway "
+            "(the others are kept)"
+        )
+
+
 @dataclass
 class ExportResult:
     """What :func:`export_study` wrote (``files``) and what the user should know (``notes``:
@@ -148,6 +204,7 @@ def export_study(
     q_current=None,
     force: bool = False,
     c_real: str = "double",
+    overwrite: bool = False,
 ) -> ExportResult:
     """Export a finished study's set-points (and gains) for the real controller.
 
@@ -172,6 +229,10 @@ def export_study(
         Export a design that fails checks; the exported table records the failed checks.
     c_real : {"double", "float"}
         C type of the gains (format ``c``).
+    overwrite : bool
+        Write into a folder that holds files export did not write (they are kept; same-named
+        ones replaced). Without it such a folder is refused: only a new or empty folder, or
+        one holding earlier exports (recognised by their armlab headers), is written to.
 
     Returns
     -------
@@ -186,7 +247,8 @@ def export_study(
         A pre-flight check fails (first failing cycle, joint and limit in the message);
         nothing is written.
     InputError
-        Unknown format, not a study folder, files changed since the run (checksums), the URDF
+        Unknown format, not a study folder, an ``out_dir`` that is a file or holds files export
+        did not write (without ``overwrite``), files changed since the run (checksums), the URDF
         changed, gains tuned for another servo period, a target inside the study folder, no
         gains for ``ros2``, a goal tolerance below one encoder count, a table the drive cannot
         take (CiA 402 data types).
@@ -203,6 +265,7 @@ def export_study(
             f"refusing to write into the study folder {study}: its files are the study's "
             "record; choose another --out folder"
         )
+    _check_out_dir(out, overwrite)
     summary = verify_folder(study)
     design = summary.get("design", {})
     failed = list(design.get("failed_checks", []))

@@ -295,12 +295,7 @@ def planning_robot(ctx: StudyContext) -> Robot:
 def _in_whole_counts(ctx: StudyContext, robot: Robot) -> Robot:
     """``robot`` with speed limits whose set-point counts keep them after rounding
     (:meth:`armlab.robot.ControllerProfile.sendable_velocity_rad_s`; issue 24 item 6)."""
-    prof = ctx.controller
-    v = robot.limits.velocity_rad_s
-    if prof is None or v is None or (robot.drives is None and prof.counts_per_joint_rev is None):
-        return robot
-    sendable = prof.sendable_velocity_rad_s(robot, v)
-    return robot if np.array_equal(sendable, v) else robot.with_limits(velocity_rad_s=sendable)
+    return robot if ctx.controller is None else ctx.controller.robot_for_planning(robot)
 
 
 def _concat(parts):
