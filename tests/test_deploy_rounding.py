@@ -84,3 +84,33 @@ def test_a_study_plans_within_speeds_its_counts_keep(tmp_path):
     v = robot.limits.velocity_rad_s[: table.n_axes]
     assert np.all(sent.max(axis=0) <= v)
     assert sent[:, 0].max() / v[0] > 0.98  # joint 1 does run near its limit
+
+
+def test_a_position_rounded_past_the_joint_range_is_refused(teachbot6):
+    """A move ending exactly at joint 5's upper limit whose end count rounds up: the plan keeps
+    the range, the count sent does not (by less than half a count, more than the 1e-9 rad
+    slack)."""
+    j = 4
+    cpr = teachbot6.drives["joint5"].counts_per_rad(4)
+    v = 0.5 * float(teachbot6.limits.velocity_rad_s[j])
+    a = float(teachbot6.limits.acceleration_rad_s2[j])
+    for cruise in np.linspace(0.2, 0.3, 101):
+        tr = trapezoid_move(teachbot6, "joint5", v, a, float(cruise))
+        x = float(tr.at(_cycles(tr))[0][-1, j]) * cpr
+        if 0.1 < np.rint(x) - x < 0.5:  # rounds up by 0.1 .. 0.5 count
+            break
+    else:
+        pytest.fail("no end position rounding up")
+    q_end = x / cpr
+    upper = teachbot6.limits.upper_rad.copy()
+    upper[j] = q_end
+    robot = teachbot6.with_limits(upper_rad=upper)
+    with pytest.raises(LimitViolation) as ei:
+        setpoint_table(robot, tr, "reference_dda")
+    f = ei.value.failure
+    assert (f.check, f.joint) == ("joint range", "joint5")
+    assert f.value == pytest.approx(np.rint(x) / cpr, rel=1e-15) and f.value > q_end + 1e-9
+    assert "sent as counts" in str(ei.value)
+    # the same move with the limit one count further is sent
+    upper[j] = q_end + 1.0 / cpr
+    setpoint_table(teachbot6.with_limits(upper_rad=upper), tr, "reference_dda")

@@ -17,9 +17,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
+from armlab.cli import main as cli_main
 from armlab.control import ArmGains, CascadeGains, LoopGains
 from armlab.control.gains import PlantSummary
 from armlab.deploy.formats import c_comment, c_string
@@ -272,6 +273,18 @@ def test_hostile_robot_and_tool_names_are_refused(tmp_path, name):
         _refused_in_one_line(exc, "robot name")
 
 
+def test_the_issue_urdf_is_refused_by_the_command_line(tmp_path, capsys):
+    """Issue 24 item 1: the injection joint in a URDF and its drives.toml; ``armlab info`` (and
+    so ``run`` and ``export``, which load the robot the same way) stops with one line, exit 2."""
+    folder = tmp_path / "arm"
+    folder.mkdir()
+    _write_urdf(folder, ["joint1", INJECTIONS[0]])
+    (folder / "drives.toml").write_text(f"[[joint]]\nname = {json.dumps(INJECTIONS[0])}\n")
+    assert cli_main(["info", str(folder / "arm.urdf")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "joint name 'c*/\\n#define" in err
+
+
 def test_study_title_is_printable_text_on_one_line():
     doc = {"robot": {"name": "teachbot6"}, "waypoints": {"joint": [[0.0] * 6, [0.1] * 6]}}
     ok = "UR5 pick and place, drives selected from the catalogue (ü, 5 kg)"
@@ -337,26 +350,21 @@ def test_yaml_and_csv_writers_escape_names_that_bypass_the_readers():
 # ---------------------------------------------------------------------- property test
 _HOSTILE = ",;\"'`\\/*?#:{}[]&!|>%@ \t\n\r\x00\x0b\x85\u2028\u202e\U0001f600é-."
 names = st.one_of(
-    st.text(
-        alphabet=st.characters(
-            whitelist_categories=("Lu", "Ll", "Nd"), max_codepoint=127, whitelist_characters="_.-"
-        ),
-        min_size=1,
-        max_size=70,
-    ),
-    st.text(min_size=1, max_size=20),
+    st.from_regex(r"[A-Za-z_][A-Za-z0-9_.-]{0,70}", fullmatch=True),  # the policy's alphabet
+    st.text(min_size=1, max_size=20),  # any unicode: control characters, emoji, separators
     st.text(alphabet=st.sampled_from(_HOSTILE + "abcXYZ019_"), min_size=1, max_size=20),
 )
 
 
 @pytest.mark.skipif(GCC is None or NM is None, reason="gcc/nm not installed")
 @settings(
-    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
 @given(name=names)
 def test_every_name_is_refused_at_load_or_round_trips_every_format(tmp_path_factory, name):
     folder = tmp_path_factory.mktemp("name")
     ok = name_problem(name) is None
+    event("accepted" if ok else "refused")
     urdf_name = name if ok else "joint1"
     stem = name if ok else "arm"
     if not ok:
@@ -373,6 +381,16 @@ def test_every_name_is_refused_at_load_or_round_trips_every_format(tmp_path_fact
     # C: gcc -Werror, no extra macro or symbol, the strings read back byte for byte
     printed = _c_round_trip(table, folder / "c")
     assert printed[:-1] == [s.encode() for s in [name, name, "base_joint", name]]
+    # C gains: compiles, no extra symbol, the joint names read back
+    header, data = gains_to_c_files(_gains(robot.name, robot.joint_names))
+    (folder / "c" / "gains.h").write_text(header)
+    (folder / "c" / "gains.c").write_text(data)
+    done = _gcc(["-c", "gains.c", "-o", "gains.o"], folder / "c")
+    assert done.returncode == 0, done.stderr
+    assert all(s.startswith("ARMLAB_GAINS") for s in _symbols(folder / "c" / "gains.o"))
+    # JSON: the names read back exactly
+    meta = json.loads(table.render("json"))["meta"]
+    assert meta["joints"] == robot.joint_names and meta["robot"] == name
     # YAML: the joint is a key and a list item, read back exactly
     params = yaml.safe_load(ros2_controllers_yaml(_gains(robot.name, robot.joint_names)))
     jtc = params["joint_trajectory_controller"]["ros__parameters"]
