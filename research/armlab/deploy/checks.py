@@ -301,18 +301,19 @@ def preflight(
     report.checks.append("joint range")
     lo, hi = np.minimum(qs, sent), np.maximum(qs, sent)  # planned and sent
     below, above = lo < lower_rad - RANGE_TOL_RAD, hi > upper_rad + RANGE_TOL_RAD
-    add(
-        "joint range",
-        below | above,
-        lambda k, j: (
-            lo[k, j] if below[k, j] else hi[k, j],
+    planned_out = (qs < lower_rad - RANGE_TOL_RAD) | (qs > upper_rad + RANGE_TOL_RAD)
+
+    def range_failure(k: int, j: int):
+        value = qs[k, j] if planned_out[k, j] else (lo[k, j] if below[k, j] else hi[k, j])
+        return (
+            value,
             lower_rad[j] if below[k, j] else upper_rad[j],
             "rad",
-            f"position {lo[k, j] if below[k, j] else hi[k, j]:.9g} rad "
-            f"({'sent as counts' if sent[k, j] != qs[k, j] else 'planned'}) is outside the range "
-            f"[{lower_rad[j]:.9g}, {upper_rad[j]:.9g}] rad",
-        ),
-    )
+            f"position {value:.9g} rad ({'planned' if planned_out[k, j] else 'sent as counts'}) "
+            f"is outside the range [{lower_rad[j]:.9g}, {upper_rad[j]:.9g}] rad",
+        )
+
+    add("joint range", below | above, range_failure)
 
     report.checks.append("counter range")
     add(
