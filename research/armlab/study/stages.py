@@ -286,7 +286,9 @@ def stage_kinematics(ctx: StudyContext) -> StageOutput:
 # ---------------------------------------------------------------------------- plan
 def planning_robot(ctx: StudyContext) -> Robot:
     """The robot with its velocity/acceleration/jerk limits scaled by s, s^2, s^3
-    (:meth:`armlab.robot.Limits.scaled`, ``plan.speed_scale``)."""
+    (:meth:`armlab.robot.Limits.scaled`, ``plan.speed_scale``), then its speeds held to whole
+    encoder counts per controller cycle (:meth:`armlab.robot.ControllerProfile.robot_for_planning`),
+    so that the set-point table's rounded counts keep the limits."""
     s = ctx.spec.plan.speed_scale
     robot = ctx.robot if s == 1.0 else ctx.robot.with_limits(ctx.robot.limits.scaled(s))
     return _in_whole_counts(ctx, robot)

@@ -10,6 +10,7 @@ import tomllib
 
 import numpy as np
 import pytest
+from test_deploy import trapezoid_move
 
 from armlab.deploy import setpoint_table
 from armlab.errors import LimitViolation
@@ -17,7 +18,6 @@ from armlab.robot import load_profile
 from armlab.study import run_spec
 from armlab.study.spec import parse_study
 from cases import quick_study
-from test_deploy import trapezoid_move
 
 T = 1e-3  # reference_dda cycle [s]
 TOL = 1e-6  # reference_dda speed_tolerance

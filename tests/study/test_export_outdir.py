@@ -13,13 +13,14 @@ from armlab.cli import main as cli_main
 from armlab.deploy import read_setpoints
 from armlab.errors import InputError
 from armlab.study import export_study
-from test_deploy import cosine_motion, make_study
+from cases import cosine_motion
+from conftest import make_study_folder
 
 
 @pytest.fixture(scope="module")
 def study(teachbot6, tmp_path_factory):
     tr = cosine_motion(teachbot6, duration_s=2.0, n=201)
-    return make_study(tmp_path_factory.mktemp("outdir"), teachbot6, tr)
+    return make_study_folder(tmp_path_factory.mktemp("outdir") / "study", teachbot6, tr)
 
 
 def _export(study, out, *extra) -> int:
