@@ -38,7 +38,7 @@ from armlab.deploy.provenance import armlab_version, trajectory_sha256
 from armlab.errors import InputError
 from armlab.io import atomic_write_many
 from armlab.names import check_name, check_names
-from armlab.robot.controller import ControllerProfile, load_profile
+from armlab.robot.controller import load_profile
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
@@ -49,7 +49,6 @@ __all__ = [
     "read_setpoints",
     "SETPOINTS_FORMAT",
     "DECIMALS",
-    "counts_per_rad",
 ]
 
 
@@ -214,11 +213,6 @@ class SetpointTable:
         return atomic_write_many(self.files(path, format))[0]
 
 
-def counts_per_rad(robot: Robot, profile: ControllerProfile, index: np.ndarray) -> np.ndarray:
-    """Encoder counts per joint radian of each axis: :meth:`ControllerProfile.counts_per_rad`."""
-    return profile.counts_per_rad(robot, index)
-
-
 def _check_names(robot, trajectory) -> None:
     if trajectory.n_joints != robot.n_joints:
         raise InputError(
@@ -268,7 +262,7 @@ def setpoint_table(
     prof = load_profile(controller)
     _check_names(robot, trajectory)
     index, sign = prof.axes(robot)
-    cpr = counts_per_rad(robot, prof, index)
+    cpr = prof.counts_per_rad(robot, index)  # Drive.counts_per_rad with its decoding
     names = [robot.joint_names[i] for i in index]
     T = prof.cycle_s
     n_steps = max(0, int(math.ceil(trajectory.duration / T - 1e-9)))
