@@ -50,6 +50,8 @@ from armlab.robot.controller import ControllerProfile, load_profile
 from armlab.study.record import (
     controller_from_design,
     load_design,
+    locked_folder,
+    reading_folder,
     robot_from_design,
     verify_folder,
 )
@@ -203,6 +205,17 @@ def export_study(
             f"refusing to write into the study folder {study}: its files are the study's "
             "record; choose another --out folder"
         )
+    with reading_folder(study, "armlab export"):  # no armlab run rewrites it meanwhile
+        result, outputs = _render(study, fmt, controller, out, q_current, force, c_real)
+        with locked_folder(out, "armlab export"):  # one writer per folder
+            result.files = list(atomic_write_many(outputs))
+    return result
+
+
+def _render(
+    study: Path, fmt: str, controller, out: Path, q_current, force: bool, c_real: str
+) -> tuple[ExportResult, list[tuple[Path, bytes | str]]]:
+    """Everything :func:`export_study` writes, rendered and checked: (result, files)."""
     summary = verify_folder(study)
     design = summary.get("design", {})
     failed = list(design.get("failed_checks", []))
@@ -309,6 +322,4 @@ def export_study(
         assert table is not None
         outputs += cia402_csp(robot, table, prof, source=source).files(out)
 
-    out.mkdir(parents=True, exist_ok=True)
-    result.files = list(atomic_write_many(outputs))
-    return result
+    return result, outputs

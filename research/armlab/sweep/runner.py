@@ -26,7 +26,7 @@ Provenance and one writer
   many and what changed; the table never mixes rows of old and new inputs.
 * A folder holds one sweep (``sweep.json``): a sweep with another definition (base study,
   parameter keys or parameter sets) is refused with one line unless ``overwrite``.
-* One client per folder (:class:`armlab.sweep.lock.SweepLock`): a second client is refused while
+* One client per folder (:class:`armlab.io.lock.SweepLock`): a second client is refused while
   the first runs; the lock of a killed client is taken over.
 """
 
@@ -45,7 +45,7 @@ from armlab._cpus import usable_cpus
 from armlab.deploy.provenance import armlab_version, file_sha256
 from armlab.errors import InputError
 from armlab.io import atomic_write
-from armlab.sweep.lock import SweepLock
+from armlab.io.lock import SweepLock
 from armlab.sweep.provenance import describe_changes, file_hashes, input_files, row_provenance
 from armlab.sweep.spec import (
     SweepSpec,
