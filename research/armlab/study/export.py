@@ -4,8 +4,14 @@ A study folder (written by :mod:`armlab.study`) holds ``summary.json`` (the verd
 of every file), ``design.json`` (the resolved design: robot, drive train after the study's
 overrides, limits, controller profile -- :mod:`armlab.study.record`), ``trajectory.npz``,
 ``gains.json`` and, for a passing design, ``setpoints.csv``. Export checks the folder against
-the checksums, refuses a failing design unless ``force``, rebuilds the robot and the controller
-from ``design.json`` alone, and writes into ``out_dir``:
+the checksums, rebuilds the robot, its drive train and the controller from ``design.json`` alone
+and re-checks rather than trusts the record (issue 24): the design's verdict is recomputed from
+the stage results summary.json records (:func:`recorded_verdict`; a ``design.verdict`` that does
+not follow from them is refused), the sizing checks are re-run with design.json's drive train on
+the recorded plan when the study sized its drives, and the set-point pre-flight runs against
+each drive train's own speed limit (:func:`drive_train_velocity`). A failing design is refused
+unless ``force``. The study folder and ``out_dir`` are locked while export reads and writes
+them (:func:`armlab.study.record.locked_folder`). It writes into ``out_dir``:
 
 ==========  ==========================================================================
 format      files
@@ -38,6 +44,9 @@ import math
 import os
 from dataclasses import dataclass, field, fields
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
 
 from armlab._keywords import renamed_keywords
 from armlab.deploy.gains_export import gains_files, load_gains
@@ -55,6 +64,11 @@ from armlab.study.record import (
     robot_from_design,
     verify_folder,
 )
+from armlab.study.verdict import FAIL, PASS, DesignVerdict, StageRecord, design_verdict
+
+if TYPE_CHECKING:
+    from armlab.robot.limits import Limits
+    from armlab.robot.model import Robot
 
 __all__ = [
     "EXPORT_FORMATS",
@@ -64,7 +78,13 @@ __all__ = [
     "ExportResult",
     "export_study",
     "profile_differences",
+    "recorded_verdict",
+    "drive_train_velocity",
 ]
+
+#: The sizing re-check's grid when the study document gives no plan.check_dt_s [s] (the
+#: study's default, :class:`armlab.study.spec.PlanSpec`).
+CHECK_DT_S = 0.001
 
 EXPORT_FORMATS = ("csv", "json", "npz", "c", "ros2", "trajectory", "cia402")
 TRAJECTORY_FILE = "trajectory.npz"
@@ -138,6 +158,113 @@ def _ff_velocity_scale(summary: dict) -> float:
     if isinstance(ff, list):
         return 1.0 if "velocity" in ff else 0.0
     return 1.0
+
+
+def recorded_verdict(summary: dict, record: dict, study: Path) -> DesignVerdict:
+    """The design's verdict recomputed from the stage results summary.json records
+    (:func:`~armlab.study.verdict.design_verdict` over each stage's block), never its
+    ``design.verdict`` / ``failed_checks``.
+
+    A stage block is failed when its verdict or the stages table says ``fail`` or it lists
+    failed checks; the stages the study asked for are those of the study document in
+    design.json (checksummed; for a design assembled in code, without a study document, the
+    stages summary.json records as run).
+
+    Raises
+    ------
+    InputError
+        summary.json's ``design.verdict`` is not the one its stage results give (an edited
+        record): one line naming both.
+    """
+    from armlab.study.spec import STAGES
+    from armlab.study.stages import SUMMARY_KEY
+
+    table = (summary.get("study") or {}).get("stages") or {}
+    records: dict[str, StageRecord] = {}
+    for stage in STAGES:
+        block = summary.get(SUMMARY_KEY.get(stage, stage))
+        if not isinstance(block, dict) or "status" not in block:  # no stage result
+            continue
+        row = table.get(stage)
+        row = row if isinstance(row, dict) else {}
+        checks = block.get("failed_checks") or []
+        failed = [str(c) for c in checks] if isinstance(checks, list) else [str(checks)]
+        says_fail = FAIL in (block.get("verdict"), row.get("verdict"))
+        if says_fail and not failed:
+            failed = [f"{stage}: verdict fail (summary.json {SUMMARY_KEY.get(stage, stage)})"]
+        verdict = block.get("verdict") if block.get("verdict") in (PASS, FAIL) else None
+        records[stage] = StageRecord(
+            stage,
+            str(block["status"]),
+            verdict=FAIL if failed else verdict,
+            failed_checks=tuple(failed),
+            reason=str(block.get("reason", "")),
+        )
+    if isinstance(record.get("study"), dict):
+        doc = (record["study"].get("document") or {}).get("study") or {}
+        asked = doc.get("stages", STAGES)
+        asked = asked if isinstance(asked, list) else STAGES
+    else:  # a design assembled in code (no study document): the stages it records
+        asked = [s for s, r in records.items() if r.status != "skipped"]
+    stages = tuple(s for s in STAGES if s in asked)
+    verdict = design_verdict(records, stages)
+    claimed = (summary.get("design") or {}).get("verdict")
+    if claimed != verdict.verdict:
+        raise InputError(
+            f"{study}: summary.json says the design {claimed!r}, its stage results say "
+            f"{verdict.verdict!r} ({'; '.join(verdict.failed_checks or verdict.not_judged)}): "
+            "the record was edited; run the study again"
+        )
+    return verdict
+
+
+def drive_train_velocity(robot: Robot) -> Limits:
+    """``robot.limits`` with each joint's velocity limit at most its drive train's own,
+    ``Drive.motor_speed_limit_rad_s / ratio`` (motor speed limit and reducer input speed,
+    :class:`~armlab.robot.drives.Drive`): the set-point pre-flight of an export checks the
+    table against the drive train in design.json, not only against the recorded limits.
+    For a design as the study recorded it nothing changes (its limits came from the same
+    drives)."""
+    lim = robot.limits
+    if robot.drives is None:
+        return lim
+    drive = np.array(
+        [
+            robot.drives[n].motor_speed_limit_rad_s / robot.drives[n].reducer.ratio
+            for n in robot.joint_names
+        ]
+    )
+    recorded = lim.velocity_rad_s
+    if recorded is not None and not np.any(drive < recorded):
+        return lim
+    v = drive if recorded is None else np.minimum(recorded, drive)
+    return lim.with_values(
+        "design.json drive train: motor speed limit / ratio (armlab export)", velocity_rad_s=v
+    )
+
+
+def _resized(study: Path, summary: dict, record: dict, robot: Robot) -> list[str]:
+    """The sizing checks re-run on the recorded plan with design.json's drive train
+    (:func:`armlab.dynamics.size`: motor speed and torque, reducer input speed and torque,
+    encoder pulse rate), when the study ran its sizing stage: its failed checks ([] when the
+    study had no sizing stage, no drives or no trajectory)."""
+    block = summary.get("sizing")
+    tpath = study / TRAJECTORY_FILE
+    if not isinstance(block, dict) or block.get("status") != "ok" or robot.drives is None:
+        return []
+    if not tpath.is_file():
+        return []
+    from armlab.dynamics import size
+    from armlab.study.stages import sizing_failures
+
+    plan = ((record.get("study") or {}).get("document") or {}).get("plan") or {}
+    dt = plan.get("check_dt_s", CHECK_DT_S)
+    if not isinstance(dt, (int, float)) or not 0 < dt <= 1:
+        dt = CHECK_DT_S
+    report = size(
+        robot, load_trajectory(tpath), dt=float(dt), controller=controller_from_design(record)
+    )
+    return sizing_failures(report)
 
 
 @renamed_keywords(profile="controller=")
@@ -217,21 +344,24 @@ def _render(
 ) -> tuple[ExportResult, list[tuple[Path, bytes | str]]]:
     """Everything :func:`export_study` writes, rendered and checked: (result, files)."""
     summary = verify_folder(study)
-    design = summary.get("design", {})
-    failed = list(design.get("failed_checks", []))
+    record = load_design(study)
+    verdict = recorded_verdict(summary, record, study)
+    robot = robot_from_design(record)  # every format needs it (table, lever arms, drives)
+    robot.limits = drive_train_velocity(robot)
+    resized = _resized(study, summary, record, robot)  # the drive train judged again
+    failed = list(dict.fromkeys([*verdict.failed_checks, *resized]))
     result = ExportResult()
-    if design.get("verdict") != "pass":
+    if verdict.verdict != "pass" or failed:
         what = (
             f"fails {len(failed)} check(s): " + "; ".join(failed)
             if failed
-            else "was not judged: " + "; ".join(design.get("not_judged", []))
+            else "was not judged: " + "; ".join(verdict.not_judged)
         )
         if not force:
             raise DesignFailure(
                 f"export refused: the design of {study} {what} (--force exports it)"
             )
         result.notes.append(f"forced export: the design {what}")
-    record = load_design(study)
     study_profile = controller_from_design(record)
     prof = study_profile if controller is None else load_profile(controller)
     if controller is not None:
@@ -249,7 +379,6 @@ def _render(
     }
     if failed:
         source["forced_despite"] = failed
-    robot = robot_from_design(record)  # every format needs it (table, lever arms, drives)
 
     table = None
     if fmt in (*_SETPOINT_FILE, "trajectory", "cia402"):

@@ -525,7 +525,8 @@ def select_and_install(ctx: StudyContext) -> list:
     return duty
 
 
-def _sizing_failures(report) -> list[str]:
+def sizing_failures(report) -> list[str]:
+    """One line per failed sizing check of a :class:`~armlab.dynamics.SizingReport`."""
     return [
         f"sizing: {j.joint} {c.describe()}" for j in report.joints for c in j.checks if not c.ok
     ]
@@ -564,7 +565,7 @@ def stage_sizing(ctx: StudyContext) -> StageOutput:
         ctx.requirement_sizing = size(ctx.robot, moves, controller=ctx.controller)
         adv = [
             f.replace("sizing:", "worst-case move:", 1)
-            for f in _sizing_failures(ctx.requirement_sizing)
+            for f in sizing_failures(ctx.requirement_sizing)
         ]
         block["requirement_moves"] = {
             "ok": bool(ctx.requirement_sizing.ok),
@@ -581,7 +582,7 @@ def stage_sizing(ctx: StudyContext) -> StageOutput:
         )
         ctx.selection = sel
         block["selection"] = {"status": "ok", **_to_dict(sel)}
-    return StageOutput(block, failed_checks=_sizing_failures(res), advisories=advisories)
+    return StageOutput(block, failed_checks=sizing_failures(res), advisories=advisories)
 
 
 # ---------------------------------------------------------------------------- control
