@@ -40,6 +40,9 @@ nothing behind.
 
 from __future__ import annotations
 
+import errno
+import hashlib
+import json
 import math
 import os
 from dataclasses import dataclass, field, fields
@@ -73,6 +76,7 @@ if TYPE_CHECKING:
 __all__ = [
     "EXPORT_FORMATS",
     "EXPORT_FILES",
+    "EXPORT_MANIFEST",
     "TRAJECTORY_FILE",
     "GAINS_FILE",
     "ExportResult",
@@ -103,12 +107,15 @@ _GAINS_FILE = {
 }
 _GOAL_FILE = "joint_trajectory.json"
 _CIA402_FILES = ("cia402_csp.csv", "cia402_objects.csv")
+#: What ``armlab export`` wrote into its folder: file name -> sha256 (JSON). An export replaces
+#: only files listed here and unchanged; any other file makes the folder foreign.
+EXPORT_MANIFEST = ".armlab-export.json"
 #: Every file name ``armlab export`` may write (any format).
 EXPORT_FILES = tuple(
     dict.fromkeys(
         [*_SETPOINT_FILE.values(), "setpoints.c"]
         + [n for n, _ in _GAINS_FILE.values()]
-        + ["gains.c", _GOAL_FILE, *_CIA402_FILES]
+        + ["gains.c", _GOAL_FILE, *_CIA402_FILES, EXPORT_MANIFEST]
     )
 )
 
@@ -277,6 +284,7 @@ def export_study(
     q_current=None,
     force: bool = False,
     c_real: str = "double",
+    overwrite: bool = False,
 ) -> ExportResult:
     """Export a finished study's set-points (and gains) for the real controller.
 
@@ -301,6 +309,9 @@ def export_study(
         Export a design that fails checks; the exported table records the failed checks.
     c_real : {"double", "float"}
         C type of the gains (format ``c``).
+    overwrite : bool
+        Replace files in ``out_dir`` that no export wrote (or that changed since); without it
+        such a folder is refused (files an earlier export wrote, unchanged, are replaced).
 
     Returns
     -------
@@ -318,7 +329,11 @@ def export_study(
         Unknown format, not a study folder, files changed since the run (checksums), the URDF
         changed, gains tuned for another servo period, a target inside the study folder, no
         gains for ``ros2``, a goal tolerance below one encoder count, a table the drive cannot
-        take (CiA 402 data types).
+        take (CiA 402 data types), an edited summary.json (a design verdict that does not
+        follow from its stage results), another client writing either folder.
+    OSError
+        ``out_dir`` is a file (NotADirectoryError), holds files no export wrote
+        (FileExistsError, unless ``overwrite``), or the file system refuses a write.
     """
     study = Path(study_dir)
     fmt = str(fmt).lower()
@@ -335,8 +350,56 @@ def export_study(
     with reading_folder(study, "armlab export"):  # no armlab run rewrites it meanwhile
         result, outputs = _render(study, fmt, controller, out, q_current, force, c_real)
         with locked_folder(out, "armlab export"):  # one writer per folder
-            result.files = list(atomic_write_many(outputs))
+            manifest = _exported_before(out, overwrite)
+            manifest.update({p.name: _sha256(d) for p, d in outputs})
+            text = json.dumps({"files": manifest}, indent=2, sort_keys=True) + "\n"
+            written = atomic_write_many([*outputs, (out / EXPORT_MANIFEST, text)])
+            result.files = written[:-1]
     return result
+
+
+def _sha256(data: bytes | str) -> str:
+    return hashlib.sha256(data.encode() if isinstance(data, str) else data).hexdigest()
+
+
+def _exported_before(out: Path, overwrite: bool) -> dict[str, str]:
+    """The files an earlier ``armlab export`` wrote into ``out`` and that are unchanged (name ->
+    sha256, from :data:`EXPORT_MANIFEST`): the ones this export may replace.
+
+    Raises
+    ------
+    FileExistsError
+        ``out`` holds a file no export wrote, or one changed since (without ``overwrite``):
+        ``armlab`` exits 3 with one line naming the files.
+    """
+    from armlab.study.record import is_lock_file
+
+    try:
+        listed = json.loads((out / EXPORT_MANIFEST).read_text()).get("files")
+    except (OSError, ValueError, AttributeError):
+        listed = None
+    listed = listed if isinstance(listed, dict) else {}
+    ours: dict[str, str] = {}
+    foreign = []
+    for p in sorted(out.iterdir()):
+        if p.name == EXPORT_MANIFEST or is_lock_file(p):
+            continue
+        if p.name.startswith(".") and p.name.endswith(".tmp"):  # a killed write's leftover
+            continue
+        sha = listed.get(p.name)
+        if p.is_file() and isinstance(sha, str) and file_sha256(p) == sha:
+            ours[p.name] = sha
+        else:
+            foreign.append(p.name)
+    if foreign and not overwrite:
+        shown = ", ".join(foreign[:5]) + (" ..." if len(foreign) > 5 else "")
+        raise FileExistsError(
+            errno.EEXIST,
+            f"--out holds files armlab export did not write ({shown}): choose an empty or new "
+            "folder, or pass --overwrite to replace them",
+            str(out),
+        )
+    return ours
 
 
 def _render(

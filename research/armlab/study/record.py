@@ -283,7 +283,7 @@ def _recorded_study_hash(folder: Path) -> str | None:
     return None
 
 
-def _is_lock_file(p: Path) -> bool:
+def is_lock_file(p: Path) -> bool:
     """A folder lock or a lock's temporary file (:mod:`armlab.io.lock`): nobody's output."""
     return any(
         p.name == n or (p.name.startswith(n + ".") and p.name.endswith(".tmp"))
@@ -299,12 +299,14 @@ def locked_folder(folder: str | os.PathLike, command: str) -> Iterator[Path]:
     Raises
     ------
     InputError
-        ``folder`` is a file, or another live client (``armlab run``, ``armlab export``) holds
-        the lock: one line naming its command, pid, host and start time.
+        Another live client (``armlab run``, ``armlab export``) holds the lock: one line
+        naming its command, pid, host and start time.
+    NotADirectoryError
+        ``folder`` is a file (``armlab`` exits 3, as for every error of the file system).
     """
     path = Path(folder)
     if path.exists() and not path.is_dir():
-        raise InputError(f"--out {path}: exists and is not a folder")
+        raise NotADirectoryError(errno.ENOTDIR, "--out exists and is not a folder", str(path))
     path.mkdir(parents=True, exist_ok=True)
     with FolderLock(path, command):
         yield path
@@ -319,8 +321,8 @@ def reading_folder(folder: str | os.PathLike, command: str) -> Iterator[Path]:
     try:
         lock = FolderLock(path, command)
         lock.acquire()
-    except (PermissionError, OSError) as exc:
-        if isinstance(exc, PermissionError) or exc.errno in (errno.EROFS, errno.EACCES):
+    except OSError as exc:
+        if exc.errno in (errno.EROFS, errno.EACCES, errno.EPERM):
             yield path
             return
         raise
@@ -333,7 +335,7 @@ def reading_folder(folder: str | os.PathLike, command: str) -> Iterator[Path]:
 def _outputs(folder: Path) -> list[Path]:
     out: set[Path] = set()
     for pattern in OUTPUT_FILES:
-        out.update(p for p in folder.glob(pattern) if p.is_file() and not _is_lock_file(p))
+        out.update(p for p in folder.glob(pattern) if p.is_file() and not is_lock_file(p))
     return sorted(out)
 
 
@@ -356,7 +358,7 @@ def prepare_out_dir(folder: str | os.PathLike, study_hash: str, *, overwrite: bo
     if folder.exists() and not folder.is_dir():
         raise InputError(f"--out {folder}: exists and is not a folder")
     folder.mkdir(parents=True, exist_ok=True)
-    entries = [p for p in folder.iterdir() if not _is_lock_file(p)]
+    entries = [p for p in folder.iterdir() if not is_lock_file(p)]
     if not entries:
         return folder
     ours = set(_outputs(folder))
