@@ -1,5 +1,6 @@
-"""Errors of the file system are one line and exit status 3 (issue 24, item 8); ``armlab export``
-refuses a folder holding files it did not write unless ``--overwrite``."""
+"""Errors of the file system are one line and exit status 3 (issue 24, item 8): ``--out``
+naming a file, disk full, a file-size limit, a read-only folder. (``armlab export`` refusing a
+folder holding files it did not write: tests/study/test_export_outdir.py.)"""
 
 from __future__ import annotations
 
@@ -45,30 +46,6 @@ def test_out_naming_a_file_is_exit_3_and_leaves_the_file(tmp_path, study_dir, ca
     assert main(["run", str(study), "--out", str(target)]) == 3
     assert str(target) in _one_line(capsys)
     assert target.read_text() == "mine\n"
-
-
-def test_export_refuses_a_folder_it_did_not_write_unless_overwrite(tmp_path, study_dir, capsys):
-    out = tmp_path / "controller"
-    out.mkdir()
-    (out / "setpoints.csv").write_text("somebody else's table\n")
-    capsys.readouterr()
-    assert main(["export", str(study_dir), "--out", str(out)]) == 3
-    line = _one_line(capsys)
-    assert "setpoints.csv" in line and "--overwrite" in line
-    assert (out / "setpoints.csv").read_text() == "somebody else's table\n"
-    # a folder export wrote itself: exported again, in another format beside it
-    mine = tmp_path / "mine"
-    assert main(["export", str(study_dir), "--out", str(mine)]) == 0
-    assert main(["export", str(study_dir), "--out", str(mine), "--format", "json"]) == 0
-    assert main(["export", str(study_dir), "--out", str(mine)]) == 0
-    # a file changed since export wrote it is not export's any more
-    (mine / "setpoints.json").write_text("{}")
-    capsys.readouterr()
-    assert main(["export", str(study_dir), "--out", str(mine)]) == 3
-    assert "setpoints.json" in _one_line(capsys)
-    # --overwrite replaces
-    assert main(["export", str(study_dir), "--out", str(out), "--overwrite"]) == 0
-    assert (out / "setpoints.csv").read_text().startswith("#")
 
 
 def test_disk_full_is_one_line_and_exit_3(tmp_path, study_dir, capsys, monkeypatch):

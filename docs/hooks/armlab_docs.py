@@ -58,6 +58,12 @@ def _allowed(check: Callable) -> str:
     nl = inspect.getclosurevars(check).nonlocals if check.__closure__ else {}
     if kind == "_bool":
         return "`true` or `false`"
+    if kind == "_title":
+        return "printable text on one line, <= 200 characters"
+    if kind == "_joint_name":
+        return "a name: letters, digits, `_ . -`, <= 64"
+    if kind == "_drive_value":
+        return _RULE_WORDS[nl["rule"]] + " (as in drives.toml)"
     if kind == "_feedforward":
         return 'list of strings, or `"none"`'
     if kind == "_str":

@@ -4,8 +4,7 @@ Exit status: 0 the design passes (or the command succeeded), 1 the study ran and
 (the failed checks on stderr; also an export refused for a failing design), 2 bad input or usage:
 every other :class:`armlab.ArmlabError` becomes one line on stderr, no traceback; 3 the file
 system refused (an :class:`OSError`: permission denied, disk full, file too large, read-only,
-``--out`` a file, an export folder holding files export did not write): one line naming the
-path; 130 interrupted (Ctrl-C).
+``--out`` a file): one line naming the path; 130 interrupted (Ctrl-C).
 """
 
 from __future__ import annotations
@@ -37,11 +36,11 @@ exit status:
   0  the design passes (or the command succeeded)
   1  the study ran and the design fails a check (the failed checks on stderr), or an export
      was refused for a failing design
-  2  bad input or usage (one line on stderr, no traceback), or another armlab client
-     writes the output folder (its lock names the pid and host)
+  2  bad input or usage (one line on stderr, no traceback), another armlab client
+     writes the output folder (its lock names the pid and host), or an export folder
+     holds files export did not write (without --overwrite)
   3  the file system refused: permission denied, disk full, file too large, read-only,
-     --out is a file, or an export folder holds files export did not write (one line
-     naming the path)
+     --out is a file (one line naming the path)
   130 interrupted (Ctrl-C)"""
 
 
@@ -492,7 +491,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument(
         "--overwrite",
         action="store_true",
-        help="replace files in the --out folder that armlab export did not write",
+        help="write into a folder holding files armlab export did not write (same-named ones "
+        "are replaced, the others kept); without it such a folder is refused",
     )
     s.set_defaults(func=_cmd_export)
     return p

@@ -191,7 +191,18 @@ def test_speed_scale_scales_v_a_j_by_s_s2_s3(teachbot6):
     spec = parse_study(doc)
     ctx = StudyContext(spec, robot=build_robot(spec), controller=controller_profile(spec))
     planned = planning_robot(ctx).limits
-    np.testing.assert_allclose(planned.velocity_rad_s, lim.velocity_rad_s * 0.8)
+    # speeds scaled, then held to whole counts per controller cycle (issue 24 item 6): at most
+    # floor(0.8 v x counts_per_rad x T) - 0.01 counts per cycle
+    per_cycle = (
+        np.array(
+            [ctx.robot.drives[j].counts_per_rad(ctx.controller.decoding) for j in lim.joint_names]
+        )
+        * ctx.controller.cycle_s
+    )
+    whole = np.floor(lim.velocity_rad_s * 0.8 * per_cycle)
+    np.testing.assert_allclose(planned.velocity_rad_s, (whole - 0.01) / per_cycle, rtol=1e-12)
+    assert np.all(planned.velocity_rad_s <= lim.velocity_rad_s * 0.8)
+    assert np.all(planned.velocity_rad_s > lim.velocity_rad_s * 0.8 - 1.01 / per_cycle)
     np.testing.assert_allclose(planned.jerk_rad_s3, lim.jerk_rad_s3 * 0.8**3)
     assert ctx.robot.limits.velocity_rad_s[0] == lim.velocity_rad_s[0]  # untouched
 
@@ -242,7 +253,11 @@ def test_check_limits_takes_a_limits(teachbot6):
 def test_setpoint_preflight_needs_a_velocity_limit(teachbot6):
     from armlab.deploy import setpoint_table
 
-    traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.05), tau_max=False)
+    # planned within the speeds whose rounded counts keep the robot's limits (issue 24 item 6)
+    v = armlab.robot.load_profile("reference_dda").sendable_velocity_rad_s(
+        teachbot6, teachbot6.limits.velocity_rad_s
+    )
+    traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.05), tau_max=False, v_max=v)
     setpoint_table(teachbot6, traj, controller="reference_dda")  # the robot's limits: fine
     blind = teachbot6.with_limits(velocity_rad_s=None)
     with pytest.raises(InputError, match="set-point pre-flight: missing velocity limit"):

@@ -6,12 +6,21 @@ that would trigger one of those is refused here, before any file is written. Eve
 on every cycle ``k`` of the table (positions ``q_k`` at ``t_k = t_0 + k T``, ``T`` the controller
 period):
 
+What the controller receives are the rounded integer counts ``counts_k = round(q_k x
+counts_per_rad x sign)``, not the planned positions; the checks of a position, a start pose and
+a speed run on them (``q_sent_k = counts_k / (counts_per_rad x sign)``), so a table whose
+rounding carries a joint over a limit is refused (issue 24: 45 counts per 1 ms cycle are
+0.5655 rad/s against a 0.56 rad/s limit, although the plan keeps it):
+
 * ``finite``        q_k, qd_k (and qdd_k when given) are finite numbers.
-* ``start pose``    ``|q_0 - q_current| x counts_per_rad <= start_tolerance_counts`` (cycle 0).
-* ``joint range``   ``lower <= q_k <= upper`` (1e-9 rad slack).
+* ``start pose``    ``|counts_0 - q_current x counts_per_rad x sign| <= start_tolerance_counts``
+                    (cycle 0).
+* ``joint range``   ``lower <= q_k <= upper`` for the planned and the sent positions (1e-9 rad
+                    slack).
 * ``counter range`` ``|counts_k| <= 2^31 - 1`` (the int32 registers and C arrays).
-* ``speed``         ``max(|qd_k|, |q_k - q_{k-1}| / T) <= v_max (1 + speed_tolerance)``: the
-                    planned speed and the mean speed over the cycle.
+* ``speed``         ``max(|qd_k|, |dcounts_k| / (counts_per_rad T)) <= v_max (1 +
+                    speed_tolerance)``: the planned speed and the speed the counts of the cycle
+                    command (what the controller runs).
 * ``pulse rate``    ``|dcounts_k| = |counts_k - counts_{k-1}| <= max_pulses_per_cycle``
                     (SHU controller paper, §1: 0..4095 pulses per axis per DDA period).
 * ``continuity``    no jump: the velocity change entering cycle k,
@@ -19,7 +28,9 @@ period):
                     allows in one cycle, ``a_max T (1 + continuity_tolerance)``. The arm is at rest
                     before cycle 0 and after the last cycle (``q_{-1} = q_0``, ``q_{n} = q_{n-1}``):
                     a table must start and end at rest. Skipped for robots without an
-                    acceleration limit (the speed check on ``|q_k - q_{k-1}|`` then bounds jumps).
+                    acceleration limit (the speed check then bounds jumps). On the planned
+                    positions: the rounding of integer counts changes the velocity of a cycle by
+                    up to one count per cycle, a quantisation the servo filters, not a jump.
 
 The report keeps the first failing (cycle, joint) of each check; the error names the earliest.
 """
@@ -175,6 +186,7 @@ def preflight(
     speed_tolerance: float = 1e-6,
     continuity_tolerance: float = 0.05,
     qdd: np.ndarray | None = None,
+    axis_sign: np.ndarray | None = None,
 ) -> PreflightReport:
     """Run every check on every cycle (see the module docstring for the rules).
 
@@ -201,6 +213,8 @@ def preflight(
         From the controller profile.
     qdd : array (n_cycles, n_axes), optional
         Planned accelerations [rad/s^2] (the tables' feed-forward): checked finite.
+    axis_sign : array (n_axes,) of +1/-1, optional
+        The sign of each axis (``counts_exact = q x counts_per_rad x sign``); default all +1.
 
     Returns
     -------
@@ -261,9 +275,15 @@ def preflight(
     qs = np.where(finite, q, 0.0)
     qds = np.where(finite, qd, 0.0)
 
+    # what the controller receives: the rounded counts, as joint positions (the planned ones
+    # where no counts could be formed: such a table fails "finite" or "counter range")
+    cs = np.where(finite, counts_exact, 0.0)
+    sign = np.ones(len(joint_names)) if axis_sign is None else np.asarray(axis_sign, float)
+    sent = qs if dcounts is None else np.rint(cs) / (counts_per_rad * sign)
+
     if q_current is not None:
         report.checks.append("start pose")
-        off = np.abs(qs[0] - q_current) * counts_per_rad
+        off = np.abs(sent[0] - q_current) * counts_per_rad  # = |counts_0 - q_current cpr sign|
         bad = np.zeros_like(qs, dtype=bool)
         bad[0] = ~(off <= start_tolerance_counts)
         add(
@@ -273,27 +293,29 @@ def preflight(
                 off[j],
                 start_tolerance_counts,
                 "counts",
-                f"the table starts at {qs[0, j]:.6g} rad, {off[j]:.4g} counts from the current "
+                f"the table starts at {sent[0, j]:.6g} rad, {off[j]:.4g} counts from the current "
                 f"pose {q_current[j]:.6g} rad (tolerance {start_tolerance_counts:g} counts)",
             ),
         )
 
     report.checks.append("joint range")
-    below, above = qs < lower_rad - RANGE_TOL_RAD, qs > upper_rad + RANGE_TOL_RAD
-    add(
-        "joint range",
-        below | above,
-        lambda k, j: (
-            qs[k, j],
+    lo, hi = np.minimum(qs, sent), np.maximum(qs, sent)  # planned and sent
+    below, above = lo < lower_rad - RANGE_TOL_RAD, hi > upper_rad + RANGE_TOL_RAD
+    planned_out = (qs < lower_rad - RANGE_TOL_RAD) | (qs > upper_rad + RANGE_TOL_RAD)
+
+    def range_failure(k: int, j: int):
+        value = qs[k, j] if planned_out[k, j] else (lo[k, j] if below[k, j] else hi[k, j])
+        return (
+            value,
             lower_rad[j] if below[k, j] else upper_rad[j],
             "rad",
-            f"position {qs[k, j]:.6g} rad is outside the range "
-            f"[{lower_rad[j]:.6g}, {upper_rad[j]:.6g}] rad",
-        ),
-    )
+            f"position {value:.9g} rad ({'planned' if planned_out[k, j] else 'sent as counts'}) "
+            f"is outside the range [{lower_rad[j]:.9g}, {upper_rad[j]:.9g}] rad",
+        )
+
+    add("joint range", below | above, range_failure)
 
     report.checks.append("counter range")
-    cs = np.where(finite, counts_exact, 0.0)
     add(
         "counter range",
         np.abs(cs) > INT32_MAX,
@@ -306,22 +328,29 @@ def preflight(
     )
 
     report.checks.append("speed")
-    mean_speed = np.zeros_like(qs)
-    mean_speed[1:] = np.abs(np.diff(qs, axis=0)) / T
-    speed = np.maximum(np.abs(qds), mean_speed)
+    sent_speed = np.zeros_like(qs)  # what the counts of cycle k command
+    sent_speed[1:] = np.abs(np.diff(sent, axis=0)) / T
+    speed = np.maximum(np.abs(qds), sent_speed)
     vlim = np.asarray(velocity_rad_s, dtype=float)
     report.peak_ratio["speed"] = _peak(speed / vlim, joint_names)
-    add(
-        "speed",
-        speed > vlim * (1.0 + speed_tolerance),
-        lambda k, j: (
+
+    def speed_failure(k: int, j: int):
+        by_counts = sent_speed[k, j] >= abs(qds[k, j]) and dcounts is not None
+        how = (
+            f"{abs(int(np.rint(cs[k, j]) - np.rint(cs[k - 1, j])))} counts in one {T:g} s cycle "
+            "command "
+            if by_counts and k > 0
+            else "planned "
+        )
+        return (
             speed[k, j],
             vlim[j],
             "rad/s",
-            f"speed {speed[k, j]:.6g} rad/s exceeds {vlim[j]:.6g} rad/s "
+            f"{how}speed {speed[k, j]:.6g} rad/s exceeds {vlim[j]:.6g} rad/s "
             f"({100 * speed[k, j] / vlim[j]:.2f} % of the limit)",
-        ),
-    )
+        )
+
+    add("speed", speed > vlim * (1.0 + speed_tolerance), speed_failure)
 
     if max_pulses_per_cycle is not None and dcounts is not None:
         report.checks.append("pulse rate")

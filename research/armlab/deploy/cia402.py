@@ -61,6 +61,7 @@ from armlab.deploy.formats import _read_csv
 from armlab.deploy.numtext import format_rows
 from armlab.errors import InputError
 from armlab.io import atomic_write_many
+from armlab.names import one_line
 
 if TYPE_CHECKING:
     from armlab.deploy.table import SetpointTable
@@ -256,7 +257,7 @@ class Cia402Csp:
         head = [
             f"# armlab CiA 402 cyclic synchronous position set-points ({CIA402_FORMAT}): "
             "one row per interpolation period",
-            f"# robot: {self.robot}; axes: {', '.join(self.joint_names)}",
+            f"# robot: {one_line(self.robot)}; axes: {one_line(', '.join(self.joint_names))}",
             f"# interpolation period 0x60C2: {meta['interpolation_period']['value']} x "
             f"10^{meta['interpolation_period']['index']} s",
             "# target_position: 0x607A [counts]; velocity_offset: 0x60B1 [counts/s]; "

@@ -23,6 +23,7 @@ import numpy as np
 
 from armlab.deploy.numtext import format_list, format_rows
 from armlab.errors import InputError
+from armlab.names import one_line
 
 #: Format tag of every set-point file written.
 SETPOINTS_FORMAT = "armlab.setpoints/2"
@@ -42,6 +43,7 @@ __all__ = [
     "c_identifier",
     "c_string",
     "c_source_lines",
+    "c_comment",
     "c_int_type",
 ]
 
@@ -90,19 +92,26 @@ def _csv(table) -> bytes:
     cpr = " ".join(f"{j}={c:.10g}" for j, c in meta["counts_per_joint_rev"].items())
     pulses = meta.get("max_pulses_per_cycle")
     signs = " ".join(f"{j}={s:+d}" for j, s in zip(meta["joints"], meta["axis_sign"], strict=True))
+    names = table.column_names()
+    bad = next((n for n in names if not all(" " <= c <= "~" and c not in ',"' for c in n)), None)
+    if bad is not None or len(set(names)) != len(names):
+        raise InputError(
+            f"CSV column {bad if bad is not None else 'names'!r}: a column name holds a comma, "
+            "quote or non-printable character, or repeats (joint names: armlab.names)"
+        )
     lines = [
         f"# armlab set-point table ({meta['format']}): one row per controller cycle",
-        f"# robot: {meta['robot']}",
+        f"# robot: {one_line(meta['robot'])}",
         f"# cycle_s: {meta['cycle_s']!r}",
         f"# n_cycles: {meta['n_cycles']}",
-        f"# counts_per_joint_rev: {cpr}",
-        f"# axis_sign: {signs}",
-        f"# profile: {meta.get('profile', '')} (max pulses per cycle: "
+        f"# counts_per_joint_rev: {one_line(cpr)}",
+        f"# axis_sign: {one_line(signs)}",
+        f"# profile: {one_line(meta.get('profile', ''))} (max pulses per cycle: "
         f"{'none' if pulses is None else pulses})",
         f"# trajectory_sha256: {meta.get('trajectory_sha256', '')}",
         f"# armlab_version: {meta.get('armlab_version', '')}",
         f"# meta: {json.dumps(meta, allow_nan=False)}",
-        ",".join(table.column_names()),
+        ",".join(names),
     ]
     head = ("\n".join(lines) + "\n").encode()
     cols = table.columns()
@@ -227,9 +236,36 @@ def c_identifier(text: str) -> str:
 
 
 def c_string(text: str) -> str:
-    """A C string literal (quotes and backslashes escaped, non-ASCII dropped)."""
-    s = str(text).encode("ascii", "ignore").decode()
-    return '"' + s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ") + '"'
+    """A C string literal holding exactly the UTF-8 bytes of ``text``.
+
+    Printable ASCII stays as it is except ``"``, ``\\`` and ``?`` (escaped: ``\\?`` keeps a
+    ``??/`` from being read as a trigraph under ``-std=c99``); every other byte (control
+    characters, line breaks, the bytes of non-ASCII characters) is a three-digit octal escape,
+    which never runs into the next character. Names reaching here already keep the name policy
+    (:mod:`armlab.names`); this is the writer's own defence.
+    """
+    out = []
+    for b in str(text).encode("utf-8", "surrogatepass"):
+        c = chr(b)
+        if c in '"\\?':
+            out.append("\\" + c)
+        elif 0x20 <= b <= 0x7E:
+            out.append(c)
+        else:
+            out.append(f"\\{b:03o}")
+    return '"' + "".join(out) + '"'
+
+
+def c_comment(text: str) -> str:
+    """``text`` safe inside a C block comment: printable ASCII only (anything else becomes
+    ``?``), no ``*/`` or ``/*`` (spaced apart) and no ``??`` (a trigraph ``??/`` before a line
+    end would splice lines). Not reversible: comments are for the reader."""
+    s = "".join(c if " " <= c <= "~" and c != "\\" else "?" for c in str(text))
+    while True:
+        t = s.replace("*/", "* /").replace("/*", "/ *").replace("??", "? ?")
+        if t == s:
+            return s
+        s = t
 
 
 def c_source_lines(prefix: str, source) -> list[str]:
@@ -257,7 +293,7 @@ def c_source_lines(prefix: str, source) -> list[str]:
     if failed:
         lines += [
             f"/* FORCED EXPORT: the design fails {len(failed)} check(s):",
-            *(" *   " + c.replace("*/", "* /").replace("\n", " ") for c in failed),
+            *(" *   " + c_comment(c) for c in failed),
             " */",
             f"#define {prefix}_N_FAILED_CHECKS {len(failed)}",
             f"#define {prefix}_FAILED_CHECKS {c_string('; '.join(failed))}",
@@ -308,6 +344,16 @@ def _c_array_2d(ctype: str, name: str, values: np.ndarray) -> bytes:
     return head + body[:-2] + b"\n};\n"
 
 
+def _check_c_file_name(header_name: str) -> None:
+    """Refuse a header file name ``#include "..."`` cannot carry (C has no escapes there)."""
+    name = Path(header_name).name
+    if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]*", name):
+        raise InputError(
+            f"C header name {name!r}: only letters, digits, _ . - (it is written into "
+            '#include "...")'
+        )
+
+
 def _c_files(table, header_name: str) -> tuple[bytes, bytes]:
     """``(header, data file)`` of the table; the data file includes ``header_name``."""
     meta = table.header_meta()
@@ -318,11 +364,13 @@ def _c_files(table, header_name: str) -> tuple[bytes, bytes]:
     T = table.cycle_s
     pulses = meta.get("max_pulses_per_cycle")
     t_counts, t_dcounts = c_int_type(table.counts), c_int_type(table.dcounts)
+    _check_c_file_name(header_name)
     guard = c_identifier(Path(header_name).name)
     lines = [
         "/* armlab set-point table -- generated by armlab.deploy, do not edit.",
-        f" * robot {meta['robot']}, {table.n_cycles} cycles of {T:g} s, axes "
-        f"{', '.join(table.joint_names)} (profile {meta.get('profile', '')}).",
+        f" * robot {c_comment(meta['robot'])}, {table.n_cycles} cycles of {T:g} s, axes "
+        f"{c_comment(', '.join(table.joint_names))} (profile "
+        f"{c_comment(meta.get('profile', ''))}).",
         " * ARMLAB_SP_COUNTS[k][a]:  absolute motor-encoder counts of axis a at the end of cycle k",
         " *                          (round(q x counts_per_rad x sign); 0 = joint zero).",
         " * ARMLAB_SP_DCOUNTS[k][a]: pulses axis a moves during cycle k (COUNTS[k] - COUNTS[k-1];",

@@ -37,6 +37,7 @@ from armlab.deploy.formats import DECIMALS, READABLE_SETPOINT_FORMATS, SETPOINTS
 from armlab.deploy.provenance import armlab_version, trajectory_sha256
 from armlab.errors import InputError
 from armlab.io import atomic_write_many
+from armlab.names import check_name, check_names
 from armlab.robot.controller import ControllerProfile, load_profile
 
 if TYPE_CHECKING:
@@ -307,6 +308,7 @@ def setpoint_table(
         start_tolerance_counts=prof.start_tolerance_counts,
         speed_tolerance=prof.speed_tolerance,
         continuity_tolerance=prof.continuity_tolerance,
+        axis_sign=sign,
     )
     report.raise_if_failed()
     # non-finite or huge counts fail the "finite" or "counter range" check above
@@ -360,6 +362,10 @@ def _table_from_columns(meta: dict, cols: dict[str, np.ndarray], where: str) -> 
         sign = np.asarray(meta["axis_sign"], dtype=np.int64)
     except (KeyError, TypeError, ValueError) as exc:
         raise InputError(f"{where}: metadata lacks {exc}") from None
+    # a table read back may be written again (C, YAML): its names keep the name policy too
+    check_names(joints, "joint name", where)
+    if meta.get("robot"):
+        check_name(meta["robot"], "robot name", where)
 
     def col(name: str, integer: bool) -> np.ndarray:
         if name not in cols:

@@ -21,6 +21,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from armlab.errors import InputError
+from armlab.names import check_name
+from armlab.robot.drives import value_problem
 from armlab.tomlfile import read_toml
 
 if TYPE_CHECKING:
@@ -35,6 +37,37 @@ _OTHER_AXIS_COUNT = (
     " (for another axis count: [controller] profile = dda_n_axis or generic_1khz, which take "
     "the robot's joint order)"
 )
+
+
+#: Rule of each numeric field (:func:`armlab.robot.drives.value_problem`: "pos" finite > 0,
+#: "nonneg" finite >= 0, "count" a positive integer, "decoding" 1, 2 or 4).
+_RULES = {
+    "max_pulses_per_cycle": "count",
+    "decoding": "decoding",
+    "servo_period_s": "pos",
+    "max_axes": "count",
+    "dac_bits": "count",
+    "dac_range_V": "pos",
+    "start_tolerance_counts": "nonneg",
+    "speed_tolerance": "nonneg",
+    "continuity_tolerance": "nonneg",
+}
+_OPTIONAL = ("max_pulses_per_cycle", "decoding", "max_axes")
+#: Upper bounds: a tolerance is slack for round-off, not a way to switch a check off.
+_MAX = {
+    "dac_bits": 32,
+    "servo_period_s": 2.0,
+    "start_tolerance_counts": 100.0,
+    "speed_tolerance": 0.01,
+    "continuity_tolerance": 0.5,
+}
+_MAX_WHY = {
+    "dac_bits": "a D/A converter's resolution",
+    "servo_period_s": "the slowest controller period armlab knows, SHU controller paper",
+    "start_tolerance_counts": "the start pose, in counts: a larger offset is a jump, not round-off",
+    "speed_tolerance": "1 % relative slack; to allow more speed, raise the limit itself",
+    "continuity_tolerance": "50 % relative slack on the velocity change per cycle",
+}
 
 
 def profiles_dir() -> Path:
@@ -79,11 +112,21 @@ class ControllerProfile:
     dac_bits, dac_range_V : int, float
         D/A resolution and range (+-dac_range_V).
     start_tolerance_counts : float
-        Largest allowed difference in [counts] between the first set-point and the current pose.
+        Largest allowed difference in [counts] between the first set-point and the current pose
+        (0 .. 100).
     speed_tolerance : float
-        Relative slack on the joint speed limits (planner round-off), e.g. 1e-6.
+        Relative slack on the joint speed limits (planner round-off), e.g. 1e-6 (0 .. 0.01).
     continuity_tolerance : float
-        Relative slack on the continuity check (velocity change per cycle <= a_max x cycle).
+        Relative slack on the continuity check (velocity change per cycle <= a_max x cycle;
+        0 .. 0.5).
+
+    Every value is checked by its meaning when the profile is made (:class:`InputError`, one
+    line naming the key): ``decoding`` 1, 2 or 4 and ``max_pulses_per_cycle``, ``max_axes``,
+    ``dac_bits`` (<= 32) positive integers, with the drives file's validator
+    (:func:`armlab.robot.drives.value_problem`: no truncation of ``1.5``); periods, ranges and
+    ``dac_range_V`` finite and > 0 (``servo_period_s`` <= 2 s); tolerances finite, >= 0 and at
+    most the bounds above (a tolerance is slack for round-off: ``1e300`` would switch the
+    pre-flight off); ``name`` keeps the name policy (:mod:`armlab.names`).
     home_position_rad : tuple of float or None
         Joint angle in [rad] of each axis' homing reference (axis order; None: all at the
         joint zero). The CiA 402 export turns it into the home offset (object 0x607C).
@@ -114,6 +157,7 @@ class ControllerProfile:
     modulo_axes: tuple[str | int, ...] | None = None
 
     def __post_init__(self) -> None:
+        check_name(self.name, "name", "controller profile", InputError)
         where = f"controller profile {self.name!r}"
         lo, hi = (float(x) for x in self.cycle_range_s)
         object.__setattr__(self, "cycle_range_s", (lo, hi))
@@ -126,10 +170,19 @@ class ControllerProfile:
                 f"range {lo:g} .. {hi:g} s"
             )
         object.__setattr__(self, "cycle_s", c)
-        if self.max_pulses_per_cycle is not None and int(self.max_pulses_per_cycle) < 1:
-            raise InputError(f"{where}: max_pulses_per_cycle must be >= 1")
-        if self.decoding is not None and int(self.decoding) not in (1, 2, 4):
-            raise InputError(f"{where}: decoding must be 1, 2 or 4, got {self.decoding!r}")
+        # values by meaning, with the drives file's validator (armlab.robot.drives.value_problem)
+        for key, rule in _RULES.items():
+            v = getattr(self, key)
+            if isinstance(v, np.integer):
+                v = int(v)
+                object.__setattr__(self, key, v)
+            if v is None and key in _OPTIONAL:
+                continue
+            problem = value_problem(v, rule)
+            if problem is None and key in _MAX and v > _MAX[key]:
+                problem = f"is above {_MAX[key]:g} ({_MAX_WHY[key]})"
+            if problem is not None:
+                raise InputError(f"{where}: {key} {v!r} {problem}")
         for key in (
             "axis_order",
             "axis_sign",
@@ -154,15 +207,6 @@ class ControllerProfile:
             raise InputError(f"{where}: counts_per_joint_rev must be positive numbers")
         if self.axis_order is not None and len(set(self.axis_order)) != len(self.axis_order):
             raise InputError(f"{where}: axis_order repeats a joint: {self.axis_order}")
-        for key in ("servo_period_s", "dac_range_V"):
-            if not float(getattr(self, key)) > 0:
-                raise InputError(f"{where}: {key} must be > 0")
-        for key in ("start_tolerance_counts", "speed_tolerance", "continuity_tolerance"):
-            v = float(getattr(self, key))
-            if not (math.isfinite(v) and v >= 0):
-                raise InputError(f"{where}: {key} must be >= 0, got {v!r}")
-        if not 1 <= int(self.dac_bits) <= 32:
-            raise InputError(f"{where}: dac_bits must be in 1..32")
 
     # ------------------------------------------------------------------ derived
     @property
@@ -249,6 +293,54 @@ class ControllerProfile:
             [drives[robot.joint_names[i]].counts_per_rad(self.decoding) for i in index],
             dtype=float,
         )
+
+    def sendable_velocity_rad_s(self, robot: Robot, velocity_rad_s) -> np.ndarray:
+        """The joint speed limits a plan may use so that the table's rounded counts keep
+        ``velocity_rad_s``, ``(n_joints,)`` in the robot's joint order.
+
+        The controller receives whole counts per cycle: a plan moving ``d`` counts in a cycle
+        is sent ``floor(d)`` or ``ceil(d)`` counts, so a plan at the limit ``v`` can be sent
+        ``ceil(v x counts_per_rad x T)`` counts, over it (issue 24: 45 counts per 1 ms are
+        0.5655 rad/s against 0.56). A plan at most ``C - 0.01`` counts per cycle, ``C =
+        floor(v x counts_per_rad x T)`` the whole counts within the limit, is always sent at
+        most ``C``: the speed returned is ``(C - 0.01) / (counts_per_rad x T)`` (0.01 count of
+        margin for the planners' round-off). A joint with ``C < 1`` (a limit below one count
+        per cycle) keeps ``v``: no plan can move it within the limit in whole counts, and the
+        pre-flight says so.
+
+        Parameters
+        ----------
+        robot : Robot
+        velocity_rad_s : array (n_joints,)
+            The speed limits in [rad/s] (robot joint order), e.g. ``robot.limits.velocity_rad_s``.
+
+        Raises
+        ------
+        InputError
+            As :meth:`counts_per_rad` (no drives and no ``counts_per_joint_rev``) or
+            :meth:`axes`.
+        """
+        v = np.array(velocity_rad_s, dtype=float)
+        index, _ = self.axes(robot)
+        per_cycle = self.counts_per_rad(robot, index) * self.cycle_s  # counts per (rad/s)
+        whole = np.floor(v[index] * per_cycle)
+        ok = np.isfinite(whole) & (whole >= 1)
+        v[index] = np.where(ok, (whole - 0.01) / per_cycle, v[index])
+        return v
+
+    def robot_for_planning(self, robot: Robot) -> Robot:
+        """``robot`` with the speed limits :meth:`sendable_velocity_rad_s` (a copy; ``robot``
+        itself if nothing changes, or if it has no speed limit or no counts): plan with it, and
+        the set-point table of the plan for this controller keeps the robot's own limits after
+        rounding (``setpoint_table(robot, optimal(profile.robot_for_planning(robot), q),
+        profile)``)."""
+        v = robot.limits.velocity_rad_s
+        if v is None or (robot.drives is None and self.counts_per_joint_rev is None):
+            return robot
+        sendable = self.sendable_velocity_rad_s(robot, v)
+        if np.array_equal(sendable, v):
+            return robot
+        return robot.with_limits(velocity_rad_s=sendable)
 
     def home_positions_rad(self, n_axes: int) -> np.ndarray:
         """Joint angle of each axis' homing reference in [rad], ``(n_axes,)`` (zeros if unset).

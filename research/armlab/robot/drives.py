@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from armlab.errors import RobotDescriptionError
+from armlab.names import check_name
 from armlab.tomlfile import read_toml
 
 __all__ = [
@@ -363,6 +364,19 @@ def _value_problem(value: Any, rule: str) -> str | None:
     return None if value > 0 else "is not > 0"  # pos, count
 
 
+def value_problem(value: Any, rule: str) -> str | None:
+    """Why ``value`` breaks ``rule`` (``"pos"``, ``"nonneg"``, ``"unit"``, ``"count"``,
+    ``"decoding"``: the comment above ``_RULES``), or None: the one validator of drive values,
+    whether given in a drives file, a catalogue entry, a study's ``[drives.<joint>]`` or a
+    controller profile (its ``decoding``, counts and periods)."""
+    return _value_problem(value, rule)
+
+
+def drive_value_rule(part: str, key: str) -> str:
+    """The rule of a drive value: ``drive_value_rule("Encoder", "decoding") == "decoding"``."""
+    return _RULES[part][key]
+
+
 def _check_values(rules: dict[str, str], data: dict, where: str, optional=()) -> None:
     """One :class:`RobotDescriptionError` for the first value of ``data`` breaking its rule:
     ``<where> <key>: <value> is not > 0``. Keys in ``optional`` may be None (not given)."""
@@ -456,7 +470,7 @@ def read_drives(path: str | Path, joint_names: list[str] | tuple[str, ...]) -> d
     if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
         raise RobotDescriptionError(f"{path}: 'joint' must be an array of tables ([[joint]])")
     for row in rows:
-        name = row.get("name")
+        name = check_name(row.get("name"), "joint name", f"{path} [[joint]]", RobotDescriptionError)
         where = f"{path} joint {name!r}"
         if name not in joint_names:
             raise RobotDescriptionError(

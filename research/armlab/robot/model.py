@@ -18,6 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from armlab.errors import InputError, RobotDescriptionError
+from armlab.names import check_name, check_names, one_line
 from armlab.robot.dh import DHTable, read_dh_table
 from armlab.robot.drives import Drive, read_drives
 from armlab.robot.limits import Limits, description_limits, resolve_limits
@@ -439,10 +440,15 @@ def load_robot(
         Unknown name, missing or malformed URDF/drives file, unsupported joints, a physically
         invalid URDF (negative or zero mass on a moving link, an inertia that is not positive
         definite or breaks the triangle inequality, a zero or non-unit joint axis, NaN/inf,
-        lower limit above upper: :mod:`armlab.robot.urdf_check`). The URDF parser's own console
-        output is captured, never printed; its first error line is the message.
+        lower limit above upper: :mod:`armlab.robot.urdf_check`); a robot, joint or tool frame
+        name outside the name policy, or two joints equal in C (:mod:`armlab.names`). The URDF
+        parser's own console output is captured, never printed; its first error line is the
+        message.
     """
     name, urdf, folder = _find_urdf(name_or_path)
+    # the names that reach the exports (armlab.names): robot, moving joints, tool frame
+    what = "robot name (the URDF's file or folder name)"
+    check_name(name, what, one_line(str(urdf)), RobotDescriptionError)
     try:
         text = urdf.read_text()
     except (OSError, UnicodeDecodeError) as exc:
@@ -459,6 +465,7 @@ def load_robot(
         model = pin.buildReducedModel(model, ids, pin.neutral(model))
     if model.nq == 0:
         raise RobotDescriptionError(f"{urdf}: the model has no moving joints")
+    check_names(list(model.names[1:]), "joint name", str(urdf), RobotDescriptionError)
     if model.nq != model.nv:
         bad = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nq != 1]
         raise RobotDescriptionError(
@@ -472,6 +479,7 @@ def load_robot(
     frame_names = [f.name for f in model.frames]
     if tool_frame is None:
         tool_frame = "tool0" if "tool0" in frame_names else model.frames[len(model.frames) - 1].name
+    check_name(tool_frame, "tool frame name", str(urdf), RobotDescriptionError)
     # pinocchio keeps a fixed link's inertia on the frame of the fixed joint that carries it
     payload_frame = next(
         (

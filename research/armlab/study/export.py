@@ -41,8 +41,6 @@ nothing behind.
 from __future__ import annotations
 
 import errno
-import hashlib
-import json
 import math
 import os
 from dataclasses import dataclass, field, fields
@@ -76,7 +74,6 @@ if TYPE_CHECKING:
 __all__ = [
     "EXPORT_FORMATS",
     "EXPORT_FILES",
-    "EXPORT_MANIFEST",
     "TRAJECTORY_FILE",
     "GAINS_FILE",
     "ExportResult",
@@ -107,17 +104,81 @@ _GAINS_FILE = {
 }
 _GOAL_FILE = "joint_trajectory.json"
 _CIA402_FILES = ("cia402_csp.csv", "cia402_objects.csv")
-#: What ``armlab export`` wrote into its folder: file name -> sha256 (JSON). An export replaces
-#: only files listed here and unchanged; any other file makes the folder foreign.
-EXPORT_MANIFEST = ".armlab-export.json"
 #: Every file name ``armlab export`` may write (any format).
 EXPORT_FILES = tuple(
     dict.fromkeys(
         [*_SETPOINT_FILE.values(), "setpoints.c"]
         + [n for n, _ in _GAINS_FILE.values()]
-        + ["gains.c", _GOAL_FILE, *_CIA402_FILES, EXPORT_MANIFEST]
+        + ["gains.c", _GOAL_FILE, *_CIA402_FILES]
     )
 )
+
+
+#: the first line of ``cia402_objects.csv`` (the one export file without an armlab header)
+_OBJECTS_HEADER = b"axis,joint,index,subindex,name,data_type,value,unit"
+
+
+def _written_by_export(path: Path) -> bool:
+    """Whether ``path`` is a file ``armlab export`` writes, by its name and its own header:
+    the first line names armlab (CSV, C, YAML), the JSON has an ``armlab.*`` format tag, the
+    ``.npz`` an ``armlab.*`` ``meta_json``; ``cia402_objects.csv`` starts with its columns."""
+    if path.name not in EXPORT_FILES or not path.is_file() or path.is_symlink():
+        return False
+    try:
+        with open(path, "rb") as f:
+            head = f.read(512)
+    except OSError:
+        return False
+    if path.suffix == ".npz":
+        import json
+        import zipfile
+
+        import numpy as np
+
+        try:
+            with zipfile.ZipFile(path) as z:
+                if "meta_json.npy" not in z.namelist():
+                    return False
+            with np.load(path, allow_pickle=False) as z:
+                meta = json.loads(str(z["meta_json"]))
+        except Exception:  # not a zip, not numpy, not JSON: not armlab's
+            return False
+        return isinstance(meta, dict) and str(meta.get("format", "")).startswith("armlab.")
+    first = head.split(b"\n", 1)[0]
+    if path.name == _CIA402_FILES[1]:
+        return first.rstrip(b"\r") == _OBJECTS_HEADER
+    return b"armlab" in first or b'"format": "armlab.' in head
+
+
+def _partial(path: Path) -> bool:
+    """A temporary file of an atomic write killed before its rename (``.<name>.<hex>.tmp``)."""
+    return path.name.startswith(".") and path.name.endswith(".tmp")
+
+
+def _check_out_dir(out: Path, overwrite: bool) -> None:
+    """Refuse an ``--out`` that is a file, or a folder holding files ``armlab export`` did not
+    write (another program's ``setpoints.csv``, anything else) unless ``overwrite``: export
+    would silently replace them (issue 24 item 8). With ``overwrite`` only the files of this
+    export are replaced; the others are left as they are."""
+    from armlab.study.record import is_lock_file
+
+    if out.exists() and not out.is_dir():  # an error of the file system: exit status 3
+        raise NotADirectoryError(errno.ENOTDIR, "export --out is a file, not a folder", str(out))
+    if not out.is_dir() or overwrite:
+        return
+    foreign = sorted(
+        p.name
+        for p in out.iterdir()
+        if not (_written_by_export(p) or is_lock_file(p) or _partial(p))
+    )
+    if foreign:
+        more = f" and {len(foreign) - 5} more" if len(foreign) > 5 else ""
+        shown = ", ".join(foreign[:5]) + more
+        raise InputError(
+            f"export refused: {out} holds files armlab export did not write ({shown}); choose "
+            "an empty or new folder, or --overwrite to write the export's files there anyway "
+            "(the others are kept)"
+        )
 
 
 @dataclass
@@ -310,8 +371,9 @@ def export_study(
     c_real : {"double", "float"}
         C type of the gains (format ``c``).
     overwrite : bool
-        Replace files in ``out_dir`` that no export wrote (or that changed since); without it
-        such a folder is refused (files an earlier export wrote, unchanged, are replaced).
+        Write into a folder that holds files export did not write (they are kept; same-named
+        ones replaced). Without it such a folder is refused: only a new or empty folder, or
+        one holding earlier exports (recognised by their armlab headers), is written to.
 
     Returns
     -------
@@ -326,14 +388,15 @@ def export_study(
         A pre-flight check fails (first failing cycle, joint and limit in the message);
         nothing is written.
     InputError
-        Unknown format, not a study folder, files changed since the run (checksums), the URDF
+        Unknown format, not a study folder, an ``out_dir`` that holds files export did not
+        write (without ``overwrite``), files changed since the run (checksums), the URDF
         changed, gains tuned for another servo period, a target inside the study folder, no
         gains for ``ros2``, a goal tolerance below one encoder count, a table the drive cannot
         take (CiA 402 data types), an edited summary.json (a design verdict that does not
         follow from its stage results), another client writing either folder.
     OSError
-        ``out_dir`` is a file (NotADirectoryError), holds files no export wrote
-        (FileExistsError, unless ``overwrite``), or the file system refuses a write.
+        ``out_dir`` is a file (NotADirectoryError), or the file system refuses a write
+        (``armlab`` exits 3).
     """
     study = Path(study_dir)
     fmt = str(fmt).lower()
@@ -347,59 +410,13 @@ def export_study(
             f"refusing to write into the study folder {study}: its files are the study's "
             "record; choose another --out folder"
         )
+    _check_out_dir(out, overwrite)  # fail fast, before rendering
     with reading_folder(study, "armlab export"):  # no armlab run rewrites it meanwhile
         result, outputs = _render(study, fmt, controller, out, q_current, force, c_real)
         with locked_folder(out, "armlab export"):  # one writer per folder
-            manifest = _exported_before(out, overwrite)
-            manifest.update({p.name: _sha256(d) for p, d in outputs})
-            text = json.dumps({"files": manifest}, indent=2, sort_keys=True) + "\n"
-            written = atomic_write_many([*outputs, (out / EXPORT_MANIFEST, text)])
-            result.files = written[:-1]
+            _check_out_dir(out, overwrite)  # again, now that no other client writes it
+            result.files = list(atomic_write_many(outputs))
     return result
-
-
-def _sha256(data: bytes | str) -> str:
-    return hashlib.sha256(data.encode() if isinstance(data, str) else data).hexdigest()
-
-
-def _exported_before(out: Path, overwrite: bool) -> dict[str, str]:
-    """The files an earlier ``armlab export`` wrote into ``out`` and that are unchanged (name ->
-    sha256, from :data:`EXPORT_MANIFEST`): the ones this export may replace.
-
-    Raises
-    ------
-    FileExistsError
-        ``out`` holds a file no export wrote, or one changed since (without ``overwrite``):
-        ``armlab`` exits 3 with one line naming the files.
-    """
-    from armlab.study.record import is_lock_file
-
-    try:
-        listed = json.loads((out / EXPORT_MANIFEST).read_text()).get("files")
-    except (OSError, ValueError, AttributeError):
-        listed = None
-    listed = listed if isinstance(listed, dict) else {}
-    ours: dict[str, str] = {}
-    foreign = []
-    for p in sorted(out.iterdir()):
-        if p.name == EXPORT_MANIFEST or is_lock_file(p):
-            continue
-        if p.name.startswith(".") and p.name.endswith(".tmp"):  # a killed write's leftover
-            continue
-        sha = listed.get(p.name)
-        if p.is_file() and isinstance(sha, str) and file_sha256(p) == sha:
-            ours[p.name] = sha
-        else:
-            foreign.append(p.name)
-    if foreign and not overwrite:
-        shown = ", ".join(foreign[:5]) + (" ..." if len(foreign) > 5 else "")
-        raise FileExistsError(
-            errno.EEXIST,
-            f"--out holds files armlab export did not write ({shown}): choose an empty or new "
-            "folder, or pass --overwrite to replace them",
-            str(out),
-        )
-    return ours
 
 
 def _render(

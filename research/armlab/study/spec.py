@@ -46,6 +46,8 @@ from pathlib import Path
 from typing import Any
 
 from armlab.errors import SpecError
+from armlab.names import check_name, check_title
+from armlab.robot.drives import drive_value_rule, value_problem
 from armlab.study.budget import MAX_INERTIA_SAMPLES, MAX_MONTE_CARLO, check_waypoints
 from armlab.tomlfile import read_toml
 
@@ -95,6 +97,28 @@ def _str(choices: tuple[str, ...] | None = None):
         if choices is not None and v not in choices:
             raise _fail(where, f"expected one of {', '.join(choices)}", v)
         return v
+
+    return check
+
+
+def _title(v, where):
+    return check_title(v, "title", where, SpecError)
+
+
+def _joint_name(v, where):
+    return check_name(v, "joint name", where, SpecError)
+
+
+def _drive_value(part: str, key: str):
+    """The drives file's rule for ``part.key`` (:func:`armlab.robot.drives.value_problem`):
+    one validator for a drive value given in a study, a drives file or a catalogue entry."""
+    rule = drive_value_rule(part, key)
+
+    def check(v, where):
+        problem = value_problem(v, rule)
+        if problem is not None:
+            raise SpecError(f"{where}: {v!r} {problem} (as in a drives file)")
+        return v if rule in ("count", "decoding") else float(v)
 
     return check
 
@@ -190,7 +214,7 @@ def _key(check, default=MISSING, doc: str = ""):
 class StudyOptions:
     """``[study]``: name, random seed, the stages to run, and whether to write the report."""
 
-    name: str = _key(_str(), "study", "study name (report title)")
+    name: str = _key(_title, "study", "study name (report title; printable, one line, <= 200)")
     seed: int = _key(_int(0), 0, "seed of every random draw in the study")
     stages: tuple[str, ...] = _key(_str_list(STAGES), STAGES, "stages to run, subset of STAGES")
     report: bool = _key(_bool, True, "write report.md and its PNG plots")
@@ -284,13 +308,19 @@ class DriveOverride:
     jerk from ``[limits]`` or derived from the drive train, docs/drives.md).
     """
 
-    ratio: float | None = _key(_float(0.0, lo_open=True), None, "reducer ratio")
+    ratio: float | None = _key(_drive_value("Reducer", "ratio"), None, "reducer ratio")
     motor: str | None = _key(_str(), None, "motor model (catalogue or the robot's)")
     reducer: str | None = _key(_str(), None, "reducer model (catalogue or the robot's)")
-    efficiency: float | None = _key(_float(0.0, 1.0, lo_open=True), None, "reducer efficiency")
-    derating: float | None = _key(_float(0.0, 1.0, lo_open=True), None, "torque derating")
-    pulses_per_rev: int | None = _key(_int(1), None, "encoder pulses per motor revolution")
-    decoding: int | None = _key(_int(1, 4), None, "encoder decoding factor")
+    efficiency: float | None = _key(
+        _drive_value("Reducer", "efficiency"), None, "reducer efficiency"
+    )
+    derating: float | None = _key(_drive_value("Drive", "derating"), None, "torque derating")
+    pulses_per_rev: int | None = _key(
+        _drive_value("Encoder", "pulses_per_rev"), None, "encoder pulses per motor revolution"
+    )
+    decoding: int | None = _key(
+        _drive_value("Encoder", "decoding"), None, "encoder decoding factor: 1, 2 or 4"
+    )
 
 
 @dataclass(frozen=True)
@@ -488,7 +518,10 @@ def parse_study(
     drives_doc = document.get("drives", {})
     if not isinstance(drives_doc, dict):
         raise SpecError(f"drives: expected tables [drives.<joint>], not {drives_doc!r}")
-    drives = {j: _build(DriveOverride, t, f"drives.{j}") for j, t in drives_doc.items()}
+    drives = {
+        _joint_name(j, "drives"): _build(DriveOverride, t, f"drives.{j}")
+        for j, t in drives_doc.items()
+    }
     wp: WaypointSpec = parts["waypoints"]
     if (wp.joint is None) == (wp.cartesian is None):
         raise SpecError(

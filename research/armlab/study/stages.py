@@ -287,11 +287,18 @@ def stage_kinematics(ctx: StudyContext) -> StageOutput:
 # ---------------------------------------------------------------------------- plan
 def planning_robot(ctx: StudyContext) -> Robot:
     """The robot with its velocity/acceleration/jerk limits scaled by s, s^2, s^3
-    (:meth:`armlab.robot.Limits.scaled`, ``plan.speed_scale``)."""
+    (:meth:`armlab.robot.Limits.scaled`, ``plan.speed_scale``), then its speeds held to whole
+    encoder counts per controller cycle (:meth:`armlab.robot.ControllerProfile.robot_for_planning`),
+    so that the set-point table's rounded counts keep the limits."""
     s = ctx.spec.plan.speed_scale
-    if s == 1.0:
-        return ctx.robot
-    return ctx.robot.with_limits(ctx.robot.limits.scaled(s))
+    robot = ctx.robot if s == 1.0 else ctx.robot.with_limits(ctx.robot.limits.scaled(s))
+    return _in_whole_counts(ctx, robot)
+
+
+def _in_whole_counts(ctx: StudyContext, robot: Robot) -> Robot:
+    """``robot`` with speed limits whose set-point counts keep them after rounding
+    (:meth:`armlab.robot.ControllerProfile.sendable_velocity_rad_s`; issue 24 item 6)."""
+    return robot if ctx.controller is None else ctx.controller.robot_for_planning(robot)
 
 
 def _concat(parts):
