@@ -139,3 +139,21 @@ def test_a_failing_study_whose_stage_results_are_edited_to_pass_is_judged_again(
     line = _one_line(capsys)
     assert "export refused" in line and "sizing: " in line
     assert not (tmp_path / "exp" / "setpoints.csv").exists()
+
+
+def test_an_edited_sizing_grid_is_refused_before_it_is_allocated(tmp_path, capsys):
+    """A sizing grid of 1 ns in design.json's study document (checksum put right) would be
+    ~1e9 samples when export re-runs the sizing: refused by its estimate
+    (armlab.study.budget), one line naming it. (An edited controller cycle is refused by the
+    profile's own range check.)"""
+    out, code = _run(tmp_path, "g", ("kinematics", "plan", "sizing", "export"))
+    assert code == 0
+
+    def edit(record):
+        record["study"]["document"]["plan"]["check_dt_s"] = 1e-9
+
+    _rewrite(out, "design.json", edit)
+    capsys.readouterr()
+    assert main(["export", str(out), "--out", str(tmp_path / "exp")]) == 2
+    line = _one_line(capsys)
+    assert "plan.check_dt_s = 1e-09" in line and "time samples" in line

@@ -57,6 +57,7 @@ from armlab.deploy.trajfile import load_trajectory
 from armlab.errors import DesignFailure, InputError
 from armlab.io import atomic_write_many
 from armlab.robot.controller import ControllerProfile, load_profile
+from armlab.study.budget import check_samples
 from armlab.study.record import (
     controller_from_design,
     load_design,
@@ -65,6 +66,7 @@ from armlab.study.record import (
     robot_from_design,
     verify_folder,
 )
+from armlab.study.spec import PlanSpec
 from armlab.study.verdict import FAIL, PASS, DesignVerdict, StageRecord, design_verdict
 
 if TYPE_CHECKING:
@@ -82,10 +84,6 @@ __all__ = [
     "recorded_verdict",
     "drive_train_velocity",
 ]
-
-#: The sizing re-check's grid when the study document gives no plan.check_dt_s [s] (the
-#: study's default, :class:`armlab.study.spec.PlanSpec`).
-CHECK_DT_S = 0.001
 
 EXPORT_FORMATS = ("csv", "json", "npz", "c", "ros2", "trajectory", "cia402")
 TRAJECTORY_FILE = "trajectory.npz"
@@ -326,12 +324,18 @@ def _resized(study: Path, summary: dict, record: dict, robot: Robot) -> list[str
     from armlab.study.stages import sizing_failures
 
     plan = ((record.get("study") or {}).get("document") or {}).get("plan") or {}
-    dt = plan.get("check_dt_s", CHECK_DT_S)
+    default = PlanSpec().check_dt_s  # the study's own default grid (one home)
+    dt = plan.get("check_dt_s", default)
     if not isinstance(dt, (int, float)) or not 0 < dt <= 1:
-        dt = CHECK_DT_S
-    report = size(
-        robot, load_trajectory(tpath), dt=float(dt), controller=controller_from_design(record)
+        dt = default
+    traj = load_trajectory(tpath)
+    check_samples(
+        traj.duration / dt,
+        robot.n_joints,
+        f"design.json plan.check_dt_s = {dt:g}",
+        f"{traj.duration:.3g} s plan / {dt:g} s sizing grid",
     )
+    report = size(robot, traj, dt=float(dt), controller=controller_from_design(record))
     return sizing_failures(report)
 
 
@@ -466,6 +470,12 @@ def _render(
         if not tpath.is_file():
             raise InputError(f"{study}: no {TRAJECTORY_FILE}")
         traj = load_trajectory(tpath)
+        check_samples(
+            traj.duration / prof.cycle_s,
+            robot.n_joints,
+            f"controller cycle_s = {prof.cycle_s:g}",
+            f"{traj.duration:.3g} s plan / {prof.cycle_s:g} s controller cycle",
+        )
         table = setpoint_table(robot, traj, prof, q_current=q_current, source=source)
         if fmt in _SETPOINT_FILE:
             outputs += table.files(out / _SETPOINT_FILE[fmt], fmt)
