@@ -108,3 +108,16 @@ def test_a_read_only_out_is_one_line_and_exit_3(tmp_path, capsys):
         assert "permission denied" in _one_line(capsys)
     finally:
         ro.chmod(0o755)
+
+
+def test_ctrl_c_while_the_libraries_load_is_one_line_and_130(monkeypatch, capsys):
+    """A Ctrl-C before the command runs (the parser imports the robot and profile lists, main
+    imports numpy) is status 130 and one line, as during a command (it was a traceback)."""
+    import armlab.cli as cli
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "build_parser", interrupted)
+    assert main(["info", "teachbot6"]) == 130
+    assert _one_line(capsys) == "armlab: interrupted"
