@@ -120,3 +120,23 @@ def test_two_runs_racing_into_one_folder_leave_a_refusal_or_a_consistent_folder(
         code, _, err = exp.wait(timeout=600), *exp.communicate()
         assert code == 0, err
         assert not (out / STUDY_LOCK_NAME).exists()
+
+
+def test_export_refuses_a_summary_and_a_design_of_two_studies(tmp_path, capsys):
+    """What two runs racing into one folder used to leave (A's summary.json beside B's
+    design.json, every checksum matching): export refuses it in one line."""
+    from armlab.deploy.provenance import file_sha256
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    assert main(["run", _study(tmp_path, "a"), "--out", str(a)]) == 0
+    assert main(["run", _study(tmp_path, "b", scale=0.5), "--out", str(b)]) == 0
+    for name in ("design.json", "trajectory.npz"):  # B's files into A's folder
+        (a / name).write_bytes((b / name).read_bytes())
+    summary = json.loads((a / "summary.json").read_text())
+    summary["files"].update({n: file_sha256(a / n) for n in ("design.json", "trajectory.npz")})
+    (a / "summary.json").write_text(json.dumps(summary))
+    capsys.readouterr()
+    assert main(["export", str(a), "--out", str(tmp_path / "exp")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "two runs wrote into this folder" in err[0]
+    assert not (tmp_path / "exp").exists()

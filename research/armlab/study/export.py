@@ -226,6 +226,18 @@ def _ff_velocity_scale(summary: dict) -> float:
     return 1.0
 
 
+def _same_study(summary: dict, record: dict, study: Path) -> None:
+    """Refuse a folder whose summary.json and design.json come from two studies (their study
+    sha256 differ: two runs wrote into one folder, issue 24 item 2)."""
+    ran = (summary.get("study") or {}).get("hash")
+    designed = (record.get("study") or {}).get("sha256")
+    if ran is not None and designed is not None and ran != designed:
+        raise InputError(
+            f"{study}: summary.json is of study {str(ran)[:12]}..., design.json of study "
+            f"{str(designed)[:12]}... (two runs wrote into this folder): run the study again"
+        )
+
+
 def recorded_verdict(summary: dict, record: dict, study: Path) -> DesignVerdict:
     """The design's verdict recomputed from the stage results summary.json records
     (:func:`~armlab.study.verdict.design_verdict` over each stage's block), never its
@@ -429,6 +441,7 @@ def _render(
     """Everything :func:`export_study` writes, rendered and checked: (result, files)."""
     summary = verify_folder(study)
     record = load_design(study)
+    _same_study(summary, record, study)
     verdict = recorded_verdict(summary, record, study)
     robot = robot_from_design(record)  # every format needs it (table, lever arms, drives)
     robot.limits = drive_train_velocity(robot)
