@@ -157,3 +157,22 @@ def test_an_edited_sizing_grid_is_refused_before_it_is_allocated(tmp_path, capsy
     assert main(["export", str(out), "--out", str(tmp_path / "exp")]) == 2
     line = _one_line(capsys)
     assert "plan.check_dt_s = 1e-09" in line and "time samples" in line
+
+
+def test_a_study_without_sizing_is_held_to_the_drives_peak_torque(tmp_path, capsys):
+    """A study that did not size its drives: export still re-checks the hardware limits of
+    design.json's drive train along the plan (peak motor torque, motor and reducer speed,
+    pulse rate). joint2's derating edited to 0.01 (checksum put right): its motor can give 1 %
+    of its peak torque, far below what the plan needs -- refused, the check named."""
+    out, code = _run(tmp_path, "t", ("kinematics", "plan", "export"))
+    assert code == 0
+
+    def edit(record):
+        record["drives"]["joint2"]["derating"] = 0.01
+
+    _rewrite(out, "design.json", edit)
+    capsys.readouterr()
+    assert main(["export", str(out), "--out", str(tmp_path / "exp")]) == 1
+    line = _one_line(capsys)
+    assert "export refused" in line and "sizing: joint2 motor_peak_torque" in line
+    assert not (tmp_path / "exp" / "setpoints.csv").exists()

@@ -8,8 +8,10 @@ the checksums, rebuilds the robot, its drive train and the controller from ``des
 and re-checks rather than trusts the record (issue 24): the design's verdict is recomputed from
 the stage results summary.json records (:func:`recorded_verdict`; a ``design.verdict`` that does
 not follow from them is refused), the sizing checks are re-run with design.json's drive train on
-the recorded plan when the study sized its drives, and the set-point pre-flight runs against
-each drive train's own speed limit (:func:`drive_train_velocity`). A failing design is refused
+the recorded plan (all of them when the study sized its drives, else the limits of the hardware,
+:data:`HARDWARE_CHECKS`: peak motor and reducer torque, motor and reducer input speed, pulse
+rate), and the set-point pre-flight runs against each drive train's own speed limit
+(:func:`drive_train_velocity`). A failing design is refused
 unless ``force``. The study folder and ``out_dir`` are locked while export reads and writes
 them (:func:`armlab.study.record.locked_folder`). It writes into ``out_dir``:
 
@@ -321,20 +323,31 @@ def drive_train_velocity(robot: Robot) -> Limits:
     )
 
 
+#: The sizing checks that are limits of the hardware at each instant (what the drive can give or
+#: take), re-checked by every export of a design with a drive train; the others (RMS and average
+#: torque, the thesis rules, encoder resolution) judge a design only where the study sized it.
+HARDWARE_CHECKS = (
+    "motor_peak_torque",
+    "motor_speed",
+    "reducer_peak_torque",
+    "reducer_input_speed",
+    "encoder_pulse_rate",
+)
+
+
 def _resized(study: Path, summary: dict, record: dict, robot: Robot) -> list[str]:
     """The sizing checks re-run on the recorded plan with design.json's drive train
-    (:func:`armlab.dynamics.size`: motor speed and torque, reducer input speed and torque,
-    encoder pulse rate), when the study ran its sizing stage: its failed checks ([] when the
-    study had no sizing stage, no drives or no trajectory)."""
-    block = summary.get("sizing")
+    (:func:`armlab.dynamics.size`, ``Drive.peak_motor_torque_Nm`` and the speed limits through
+    the one drive-train model): every check when the study ran its sizing stage, else the
+    :data:`HARDWARE_CHECKS`. Their failed checks ([] without drives or trajectory)."""
     tpath = study / TRAJECTORY_FILE
-    if not isinstance(block, dict) or block.get("status") != "ok" or robot.drives is None:
-        return []
-    if not tpath.is_file():
+    if robot.drives is None or not tpath.is_file():
         return []
     from armlab.dynamics import size
     from armlab.study.stages import sizing_failures
 
+    block = summary.get("sizing")
+    sized = isinstance(block, dict) and block.get("status") == "ok"
     plan = ((record.get("study") or {}).get("document") or {}).get("plan") or {}
     default = PlanSpec().check_dt_s  # the study's own default grid (one home)
     dt = plan.get("check_dt_s", default)
@@ -348,7 +361,7 @@ def _resized(study: Path, summary: dict, record: dict, robot: Robot) -> list[str
         f"{traj.duration:.3g} s plan / {dt:g} s sizing grid",
     )
     report = size(robot, traj, dt=float(dt), controller=controller_from_design(record))
-    return sizing_failures(report)
+    return sizing_failures(report, None if sized else HARDWARE_CHECKS)
 
 
 @renamed_keywords(profile="controller=")

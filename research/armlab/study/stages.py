@@ -561,10 +561,14 @@ def select_and_install(ctx: StudyContext) -> list:
     return duty
 
 
-def sizing_failures(report) -> list[str]:
-    """One line per failed sizing check of a :class:`~armlab.dynamics.SizingReport`."""
+def sizing_failures(report, only: tuple[str, ...] | None = None) -> list[str]:
+    """One line per failed sizing check of a :class:`~armlab.dynamics.SizingReport` (of the
+    checks named in ``only``, if given)."""
     return [
-        f"sizing: {j.joint} {c.describe()}" for j in report.joints for c in j.checks if not c.ok
+        f"sizing: {j.joint} {c.describe()}"
+        for j in report.joints
+        for c in j.checks
+        if not c.ok and (only is None or c.name in only)
     ]
 
 
