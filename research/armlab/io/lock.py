@@ -31,7 +31,14 @@ from typing import Any
 
 from armlab.errors import InputError
 
-__all__ = ["LOCK_NAME", "STUDY_LOCK_NAME", "FolderLock", "SweepLock", "lock_names"]
+__all__ = [
+    "LOCK_NAME",
+    "STUDY_LOCK_NAME",
+    "FolderLock",
+    "SweepLock",
+    "lock_names",
+    "is_lock_file",
+]
 
 #: The lock file of a sweep folder.
 LOCK_NAME = ".sweep.lock"
@@ -42,6 +49,15 @@ STUDY_LOCK_NAME = ".armlab.lock"
 def lock_names() -> tuple[str, ...]:
     """Every lock file name (a folder check must not count a lock as a foreign file)."""
     return (LOCK_NAME, STUDY_LOCK_NAME)
+
+
+def is_lock_file(path: Path) -> bool:
+    """A folder lock or a lock's temporary file: nobody's output (a folder check must not count
+    it as a foreign file)."""
+    name = Path(path).name
+    return any(
+        name == n or (name.startswith(n + ".") and name.endswith(".tmp")) for n in lock_names()
+    )
 
 
 #: A lock file still empty after this long lost its writer between create and write [s].

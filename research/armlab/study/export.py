@@ -58,6 +58,7 @@ from armlab.deploy.table import setpoint_table
 from armlab.deploy.trajfile import load_trajectory
 from armlab.errors import DesignFailure, InputError
 from armlab.io import atomic_write_many
+from armlab.io.lock import is_lock_file
 from armlab.robot.controller import ControllerProfile, load_profile
 from armlab.study.budget import check_samples
 from armlab.study.record import (
@@ -68,7 +69,7 @@ from armlab.study.record import (
     robot_from_design,
     verify_folder,
 )
-from armlab.study.spec import PlanSpec
+from armlab.study.spec import STAGES, PlanSpec
 from armlab.study.verdict import FAIL, PASS, DesignVerdict, StageRecord, design_verdict
 
 if TYPE_CHECKING:
@@ -133,8 +134,6 @@ def _written_by_export(path: Path) -> bool:
         import json
         import zipfile
 
-        import numpy as np
-
         try:
             with zipfile.ZipFile(path) as z:
                 if "meta_json.npy" not in z.namelist():
@@ -160,8 +159,6 @@ def _check_out_dir(out: Path, overwrite: bool) -> None:
     write (another program's ``setpoints.csv``, anything else) unless ``overwrite``: export
     would silently replace them (issue 24 item 8). With ``overwrite`` only the files of this
     export are replaced; the others are left as they are."""
-    from armlab.study.record import is_lock_file
-
     if out.exists() and not out.is_dir():  # an error of the file system: exit status 3
         raise NotADirectoryError(errno.ENOTDIR, "export --out is a file, not a folder", str(out))
     if not out.is_dir() or overwrite:
@@ -256,7 +253,6 @@ def recorded_verdict(summary: dict, record: dict, study: Path) -> DesignVerdict:
         summary.json's ``design.verdict`` is not the one its stage results give (an edited
         record): one line naming both.
     """
-    from armlab.study.spec import STAGES
     from armlab.study.stages import SUMMARY_KEY
 
     table = (summary.get("study") or {}).get("stages") or {}

@@ -27,7 +27,7 @@ import numpy as np
 
 from armlab.deploy.provenance import armlab_version, file_sha256
 from armlab.errors import InputError
-from armlab.io.lock import FolderLock, lock_names
+from armlab.io.lock import FolderLock, is_lock_file
 from armlab.robot.controller import ControllerProfile
 from armlab.robot.drives import Drive, Encoder, motor_from_dict, reducer_from_dict
 
@@ -283,14 +283,6 @@ def _recorded_study_hash(folder: Path) -> str | None:
     return None
 
 
-def is_lock_file(p: Path) -> bool:
-    """A folder lock or a lock's temporary file (:mod:`armlab.io.lock`): nobody's output."""
-    return any(
-        p.name == n or (p.name.startswith(n + ".") and p.name.endswith(".tmp"))
-        for n in lock_names()
-    )
-
-
 @contextmanager
 def locked_folder(folder: str | os.PathLike, command: str) -> Iterator[Path]:
     """Create ``folder`` if needed and hold its lock (``folder/.armlab.lock``,
@@ -356,7 +348,7 @@ def prepare_out_dir(folder: str | os.PathLike, study_hash: str, *, overwrite: bo
     """
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
-        raise InputError(f"--out {folder}: exists and is not a folder")
+        raise NotADirectoryError(errno.ENOTDIR, "--out exists and is not a folder", str(folder))
     folder.mkdir(parents=True, exist_ok=True)
     entries = [p for p in folder.iterdir() if not is_lock_file(p)]
     if not entries:

@@ -176,7 +176,6 @@ def run_spec(
     ArmlabError
         The first stage that fails, with the stage's name in front of its message; the
         summary.json written so far records it.
-
     InputError
         Another client (``armlab run``, ``armlab export``) holds the output folder's lock.
 
