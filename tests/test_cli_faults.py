@@ -121,3 +121,12 @@ def test_ctrl_c_while_the_libraries_load_is_one_line_and_130(monkeypatch, capsys
     monkeypatch.setattr(cli, "build_parser", interrupted)
     assert main(["info", "teachbot6"]) == 130
     assert _one_line(capsys) == "armlab: interrupted"
+
+
+def test_a_sweep_into_a_file_is_exit_3(tmp_path, capsys):
+    target = tmp_path / "results"
+    target.write_text("mine\n")
+    assert main(["sweep", "demo", "--out", str(target)]) == 3
+    line = _one_line(capsys)
+    assert str(target) in line and "not a folder" in line
+    assert target.read_text() == "mine\n"

@@ -32,6 +32,7 @@ Provenance and one writer
 
 from __future__ import annotations
 
+import errno
 import logging
 import sys
 import time
@@ -204,8 +205,8 @@ def run_sweep_spec(
     ``client`` (a ``distributed.Client``) reuses an open cluster instead of starting one.
     """
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: exists and is not a folder")
+    if out.exists() and not out.is_dir():  # an error of the file system: exit status 3
+        raise NotADirectoryError(errno.ENOTDIR, "--out exists and is not a folder", str(out))
     out.mkdir(parents=True, exist_ok=True)
     sets = parameter_sets(spec)
     keys = [parameter_key(s) for s in sets]
