@@ -6,12 +6,12 @@ overrides, limits, controller profile -- :mod:`armlab.study.record`), ``trajecto
 ``gains.json`` and, for a passing design, ``setpoints.csv``. Export checks the folder against
 the checksums, rebuilds the robot, its drive train and the controller from ``design.json`` alone
 and re-checks rather than trusts the record (issue 24): the design's verdict is recomputed from
-the stage results summary.json records (:func:`recorded_verdict`; a ``design.verdict`` that does
+the stage results summary.json records (:mod:`armlab.study.recheck`; a ``design.verdict`` that does
 not follow from them is refused), the sizing checks are re-run with design.json's drive train on
 the recorded plan (all of them when the study sized its drives, else the limits of the hardware,
-:data:`HARDWARE_CHECKS`: peak motor and reducer torque, motor and reducer input speed, pulse
+``HARDWARE_CHECKS``: peak motor and reducer torque, motor and reducer input speed, pulse
 rate), and the set-point pre-flight runs against each drive train's own speed limit
-(:func:`drive_train_velocity`). A failing design is refused
+(``drive_train_velocity``). A failing design is refused
 unless ``force``. The study folder and ``out_dir`` are locked while export reads and writes
 them (:func:`armlab.study.record.locked_folder`). It writes into ``out_dir``:
 
@@ -61,6 +61,7 @@ from armlab.io import atomic_write_many
 from armlab.io.lock import is_lock_file
 from armlab.robot.controller import ControllerProfile, load_profile
 from armlab.study.budget import check_samples
+from armlab.study.recheck import drive_train_velocity, recorded_verdict, resized, same_study
 from armlab.study.record import (
     controller_from_design,
     load_design,
@@ -69,12 +70,9 @@ from armlab.study.record import (
     robot_from_design,
     verify_folder,
 )
-from armlab.study.spec import STAGES, PlanSpec
-from armlab.study.verdict import FAIL, PASS, DesignVerdict, StageRecord, design_verdict
 
 if TYPE_CHECKING:
-    from armlab.robot.limits import Limits
-    from armlab.robot.model import Robot
+    pass
 
 __all__ = [
     "EXPORT_FORMATS",
@@ -84,8 +82,6 @@ __all__ = [
     "ExportResult",
     "export_study",
     "profile_differences",
-    "recorded_verdict",
-    "drive_train_velocity",
 ]
 
 EXPORT_FORMATS = ("csv", "json", "npz", "c", "ros2", "trajectory", "cia402")
@@ -225,141 +221,6 @@ def _ff_velocity_scale(summary: dict) -> float:
     return 1.0
 
 
-def _same_study(summary: dict, record: dict, study: Path) -> None:
-    """Refuse a folder whose summary.json and design.json come from two studies (their study
-    sha256 differ: two runs wrote into one folder, issue 24 item 2)."""
-    ran = (summary.get("study") or {}).get("hash")
-    designed = (record.get("study") or {}).get("sha256")
-    if ran is not None and designed is not None and ran != designed:
-        raise InputError(
-            f"{study}: summary.json is of study {str(ran)[:12]}..., design.json of study "
-            f"{str(designed)[:12]}... (two runs wrote into this folder): run the study again"
-        )
-
-
-def recorded_verdict(summary: dict, record: dict, study: Path) -> DesignVerdict:
-    """The design's verdict recomputed from the stage results summary.json records
-    (:func:`~armlab.study.verdict.design_verdict` over each stage's block), never its
-    ``design.verdict`` / ``failed_checks``.
-
-    A stage block is failed when its verdict or the stages table says ``fail`` or it lists
-    failed checks; the stages the study asked for are those of the study document in
-    design.json (checksummed; for a design assembled in code, without a study document, the
-    stages summary.json records as run).
-
-    Raises
-    ------
-    InputError
-        summary.json's ``design.verdict`` is not the one its stage results give (an edited
-        record): one line naming both.
-    """
-    from armlab.study.stages import SUMMARY_KEY
-
-    table = (summary.get("study") or {}).get("stages") or {}
-    records: dict[str, StageRecord] = {}
-    for stage in STAGES:
-        block = summary.get(SUMMARY_KEY.get(stage, stage))
-        if not isinstance(block, dict) or "status" not in block:  # no stage result
-            continue
-        row = table.get(stage)
-        row = row if isinstance(row, dict) else {}
-        checks = block.get("failed_checks") or []
-        failed = [str(c) for c in checks] if isinstance(checks, list) else [str(checks)]
-        says_fail = FAIL in (block.get("verdict"), row.get("verdict"))
-        if says_fail and not failed:
-            failed = [f"{stage}: verdict fail (summary.json {SUMMARY_KEY.get(stage, stage)})"]
-        verdict = block.get("verdict") if block.get("verdict") in (PASS, FAIL) else None
-        records[stage] = StageRecord(
-            stage,
-            str(block["status"]),
-            verdict=FAIL if failed else verdict,
-            failed_checks=tuple(failed),
-            reason=str(block.get("reason", "")),
-        )
-    if isinstance(record.get("study"), dict):
-        doc = (record["study"].get("document") or {}).get("study") or {}
-        asked = doc.get("stages", STAGES)
-        asked = asked if isinstance(asked, list) else STAGES
-    else:  # a design assembled in code (no study document): the stages it records
-        asked = [s for s, r in records.items() if r.status != "skipped"]
-    stages = tuple(s for s in STAGES if s in asked)
-    verdict = design_verdict(records, stages)
-    claimed = (summary.get("design") or {}).get("verdict")
-    if claimed != verdict.verdict:
-        raise InputError(
-            f"{study}: summary.json says the design {claimed!r}, its stage results say "
-            f"{verdict.verdict!r} ({'; '.join(verdict.failed_checks or verdict.not_judged)}): "
-            "the record was edited; run the study again"
-        )
-    return verdict
-
-
-def drive_train_velocity(robot: Robot) -> Limits:
-    """``robot.limits`` with each joint's velocity limit at most its drive train's own,
-    ``Drive.motor_speed_limit_rad_s / ratio`` (motor speed limit and reducer input speed,
-    :class:`~armlab.robot.drives.Drive`): the set-point pre-flight of an export checks the
-    table against the drive train in design.json, not only against the recorded limits.
-    For a design as the study recorded it nothing changes (its limits came from the same
-    drives)."""
-    lim = robot.limits
-    if robot.drives is None:
-        return lim
-    drive = np.array(
-        [
-            robot.drives[n].motor_speed_limit_rad_s / robot.drives[n].reducer.ratio
-            for n in robot.joint_names
-        ]
-    )
-    recorded = lim.velocity_rad_s
-    if recorded is not None and not np.any(drive < recorded):
-        return lim
-    v = drive if recorded is None else np.minimum(recorded, drive)
-    return lim.with_values(
-        "design.json drive train: motor speed limit / ratio (armlab export)", velocity_rad_s=v
-    )
-
-
-#: The sizing checks that are limits of the hardware at each instant (what the drive can give or
-#: take), re-checked by every export of a design with a drive train; the others (RMS and average
-#: torque, the thesis rules, encoder resolution) judge a design only where the study sized it.
-HARDWARE_CHECKS = (
-    "motor_peak_torque",
-    "motor_speed",
-    "reducer_peak_torque",
-    "reducer_input_speed",
-    "encoder_pulse_rate",
-)
-
-
-def _resized(study: Path, summary: dict, record: dict, robot: Robot) -> list[str]:
-    """The sizing checks re-run on the recorded plan with design.json's drive train
-    (:func:`armlab.dynamics.size`, ``Drive.peak_motor_torque_Nm`` and the speed limits through
-    the one drive-train model): every check when the study ran its sizing stage, else the
-    :data:`HARDWARE_CHECKS`. Their failed checks ([] without drives or trajectory)."""
-    tpath = study / TRAJECTORY_FILE
-    if robot.drives is None or not tpath.is_file():
-        return []
-    from armlab.dynamics import size
-    from armlab.study.stages import sizing_failures
-
-    block = summary.get("sizing")
-    sized = isinstance(block, dict) and block.get("status") == "ok"
-    plan = ((record.get("study") or {}).get("document") or {}).get("plan") or {}
-    default = PlanSpec().check_dt_s  # the study's own default grid (one home)
-    dt = plan.get("check_dt_s", default)
-    if not isinstance(dt, (int, float)) or not 0 < dt <= 1:
-        dt = default
-    traj = load_trajectory(tpath)
-    check_samples(
-        traj.duration / dt,
-        robot.n_joints,
-        f"design.json plan.check_dt_s = {dt:g}",
-        f"{traj.duration:.3g} s plan / {dt:g} s sizing grid",
-    )
-    report = size(robot, traj, dt=float(dt), controller=controller_from_design(record))
-    return sizing_failures(report, None if sized else HARDWARE_CHECKS)
-
-
 @renamed_keywords(profile="controller=")
 def export_study(
     study_dir: str | os.PathLike,
@@ -450,12 +311,12 @@ def _render(
     """Everything :func:`export_study` writes, rendered and checked: (result, files)."""
     summary = verify_folder(study)
     record = load_design(study)
-    _same_study(summary, record, study)
+    same_study(summary, record, study)
     verdict = recorded_verdict(summary, record, study)
     robot = robot_from_design(record)  # every format needs it (table, lever arms, drives)
     robot.limits = drive_train_velocity(robot)
-    resized = _resized(study, summary, record, robot)  # the drive train judged again
-    failed = list(dict.fromkeys([*verdict.failed_checks, *resized]))
+    again = resized(study / TRAJECTORY_FILE, summary, record, robot)  # the drive train judged again
+    failed = list(dict.fromkeys([*verdict.failed_checks, *again]))
     result = ExportResult()
     if verdict.verdict != "pass" or failed:
         what = (
