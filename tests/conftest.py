@@ -116,7 +116,8 @@ def arm_gains(teachbot6):
 def make_study_folder(folder: Path, robot, trajectory, gains=None, profile=None) -> Path:
     """A study folder as ``armlab run`` leaves it for a design that passed, assembled from
     objects (for export tests whose trajectory no planner would produce): design.json,
-    trajectory.npz, gains.json and a summary.json with the design verdict and checksums."""
+    trajectory.npz, gains.json and a summary.json with the design verdict, the stage results it
+    follows from (plan and export passed) and checksums."""
     from armlab.deploy import save_trajectory, write_gains
     from armlab.deploy.provenance import file_sha256
     from armlab.io import write_json
@@ -131,7 +132,11 @@ def make_study_folder(folder: Path, robot, trajectory, gains=None, profile=None)
     if gains is not None:
         write_gains(folder / "gains.json", gains, format="json")
         names.append("gains.json")
+    passed = {"status": "ok", "verdict": "pass", "failed_checks": []}
     summary = {
+        "study": {"stages": {"plan": passed, "export": passed}},
+        "trajectory": passed,  # the plan stage's block
+        "export": passed,
         "design": {"verdict": "pass", "failed_checks": [], "advisories": []},
         "files": {n: file_sha256(folder / n) for n in names},
     }

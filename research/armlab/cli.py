@@ -2,18 +2,19 @@
 
 Exit status: 0 the design passes (or the command succeeded), 1 the study ran and the design fails
 (the failed checks on stderr; also an export refused for a failing design), 2 bad input or usage:
-every other :class:`armlab.ArmlabError` becomes one line on stderr, no traceback.
+every other :class:`armlab.ArmlabError` becomes one line on stderr, no traceback; 3 the file
+system refused (an :class:`OSError`: permission denied, disk full, file too large, read-only,
+``--out`` a file): one line naming the path; 130 interrupted (Ctrl-C).
 """
 
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
 import sys
 from typing import TYPE_CHECKING
-
-import numpy as np
 
 from armlab.errors import ArmlabError, DesignFailure
 
@@ -35,7 +36,12 @@ exit status:
   0  the design passes (or the command succeeded)
   1  the study ran and the design fails a check (the failed checks on stderr), or an export
      was refused for a failing design
-  2  bad input or usage (one line on stderr, no traceback)"""
+  2  bad input or usage (one line on stderr, no traceback), another armlab client
+     writes the output folder (its lock names the pid and host), or an export folder
+     holds files export did not write (without --overwrite)
+  3  the file system refused: permission denied, disk full, file too large, read-only,
+     --out is a file (one line naming the path)
+  130 interrupted (Ctrl-C)"""
 
 
 def info_text(
@@ -520,11 +526,38 @@ def one_blas_thread() -> bool:
     return True
 
 
+#: What to do about an error of the file system, by errno (the one line of exit status 3).
+_OS_ERROR_HINTS = {
+    errno.EACCES: "permission denied: choose a folder you can write",
+    errno.EPERM: "not permitted: choose a folder you can write",
+    errno.EROFS: "read-only file system: choose another folder",
+    errno.ENOSPC: "no space left on the device: free space or choose another disk",
+    errno.EDQUOT: "disk quota exceeded: free space or choose another disk",
+    errno.EFBIG: "file too large for the file system or the process's file-size limit",
+}
+
+
+def os_error_line(exc: OSError) -> str:
+    """One line for an error of the file system: the path(s), what the system said, and what
+    to do (:data:`_OS_ERROR_HINTS`), never a traceback (exit status 3)."""
+    paths = [str(p) for p in (exc.filename, exc.filename2) if p is not None]
+    what = _OS_ERROR_HINTS.get(exc.errno or 0) or exc.strerror or str(exc) or type(exc).__name__
+    text = (" -> ".join(paths) + ": " if paths else "") + what
+    return " ".join(text.split())  # one line whatever the message held
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    np.set_printoptions(precision=4, suppress=True)
-    one_blas_thread()
+    """Run the ``armlab`` command line; returns the exit status (:data:`EXIT_STATUS`).
+
+    Everything after the argument parsing -- numpy's and the command's imports included -- runs
+    inside the error handling, so a Ctrl-C while the libraries load is status 130 on one line.
+    """
     try:
+        args = build_parser().parse_args(argv)
+        import numpy as np
+
+        np.set_printoptions(precision=4, suppress=True)
+        one_blas_thread()
         return int(args.func(args) or 0)
     except DesignFailure as exc:
         print(f"armlab: {exc}", file=sys.stderr)
@@ -532,6 +565,9 @@ def main(argv: list[str] | None = None) -> int:
     except ArmlabError as exc:
         print(f"armlab: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:
+        print(f"armlab: error: {os_error_line(exc)}", file=sys.stderr)
+        return 3
     except KeyboardInterrupt:
         print("armlab: interrupted", file=sys.stderr)
         return 130

@@ -1,7 +1,7 @@
 """``armlab export --out`` never replaces files it did not write (issue 24 item 8): a folder
 holding another program's ``setpoints.csv`` (or anything else) is refused with one line unless
 ``--overwrite``, which replaces only the export's own files; a folder of earlier exports is
-written again; an ``--out`` naming a file is one line."""
+written again; an ``--out`` naming a file is one line (exit status 3)."""
 
 from __future__ import annotations
 
@@ -65,7 +65,7 @@ def test_earlier_exports_are_written_again(study, tmp_path, capsys):
 def test_out_naming_a_file_is_one_line(study, tmp_path, capsys):
     target = tmp_path / "setpoints.csv"
     target.write_text("keep\n")
-    assert _export(study, target) == 2
+    assert _export(study, target) == 3  # an error of the file system (README exit status)
     err = capsys.readouterr().err.strip()
-    assert err == f"armlab: error: export --out {target} is a file, not a folder"
+    assert err == f"armlab: error: {target}: export --out is a file, not a folder"
     assert target.read_text() == "keep\n"

@@ -22,8 +22,8 @@ import armlab
 from armlab.cli import main
 from armlab.deploy.provenance import file_sha256
 from armlab.errors import InputError
+from armlab.io.lock import SweepLock
 from armlab.sweep import load_sweep, run_sweep_spec
-from armlab.sweep.lock import SweepLock
 from armlab.sweep.provenance import PROVENANCE_FIELDS
 from armlab.sweep.spec import parameter_key, parameter_sets
 from armlab.sweep.task import run_parameter_set
@@ -271,7 +271,7 @@ RACER = """
 import sys, time
 from pathlib import Path
 from armlab.errors import InputError
-from armlab.sweep.lock import SweepLock
+from armlab.io.lock import SweepLock
 folder, go = Path(sys.argv[1]), Path(sys.argv[2])
 print("ready", flush=True)
 while not go.exists():

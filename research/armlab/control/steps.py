@@ -15,8 +15,14 @@ import math
 import numpy as np
 
 from armlab.control.lti import SS, zoh
+from armlab.errors import InputError
 
-__all__ = ["step_many", "dcgain", "step_metrics"]
+__all__ = ["step_many", "dcgain", "step_metrics", "MAX_STEP_SAMPLES"]
+
+#: Samples of one discrete step response (``t_final / dt``): a larger one is refused before
+#: it is allocated (the tuning's position-loop steps last ~12 / kp s; at a 1 ms servo period
+#: that is a few hundred samples, at 1e-9 s it was 1.7e8 and a MemoryError, issue 24).
+MAX_STEP_SAMPLES = 1_000_000
 
 
 def step_many(
@@ -26,7 +32,13 @@ def step_many(
     ``step_response`` samples them (continuous: 1500 points on ``[0, t_final]``, exact for a
     step; discrete: every sample up to ``t_final``). All the time steps of all systems in one
     go: the state after ``k`` steps is ``M^k z0`` with the augmented ``M = [[Ad, Bd], [0, 1]]``,
-    its powers by doubling."""
+    its powers by doubling.
+
+    Raises
+    ------
+    InputError
+        A discrete response of more than :data:`MAX_STEP_SAMPLES` samples.
+    """
     A = np.stack([s[0] for s in systems])
     B = np.stack([s[1] for s in systems])
     C = np.stack([s[2] for s in systems])
@@ -38,6 +50,13 @@ def step_many(
         Ad = np.stack([ab[0] for ab in AB])
         Bd = np.stack([ab[1] for ab in AB])
     else:
+        n_samples = float(np.max(t_final)) / dt
+        if not n_samples <= MAX_STEP_SAMPLES:
+            raise InputError(
+                f"servo_period_s = {dt:g} s: a discrete step response over "
+                f"{float(np.max(t_final)):.3g} s needs {n_samples:.3g} samples per loop, above "
+                f"the bound of {MAX_STEP_SAMPLES:.3g} (armlab.control.steps.MAX_STEP_SAMPLES)"
+            )
         T = [np.arange(0.0, tf + dt, dt) for tf in t_final]
         Ad, Bd = A, B
     N = max(t.size for t in T)

@@ -4,8 +4,16 @@ A study folder (written by :mod:`armlab.study`) holds ``summary.json`` (the verd
 of every file), ``design.json`` (the resolved design: robot, drive train after the study's
 overrides, limits, controller profile -- :mod:`armlab.study.record`), ``trajectory.npz``,
 ``gains.json`` and, for a passing design, ``setpoints.csv``. Export checks the folder against
-the checksums, refuses a failing design unless ``force``, rebuilds the robot and the controller
-from ``design.json`` alone, and writes into ``out_dir``:
+the checksums, rebuilds the robot, its drive train and the controller from ``design.json`` alone
+and re-checks rather than trusts the record (issue 24): the design's verdict is recomputed from
+the stage results summary.json records (:mod:`armlab.study.recheck`; a ``design.verdict`` that does
+not follow from them is refused), the sizing checks are re-run with design.json's drive train on
+the recorded plan (all of them when the study sized its drives, else the limits of the hardware,
+``HARDWARE_CHECKS``: peak motor and reducer torque, motor and reducer input speed, pulse
+rate), and the set-point pre-flight runs against each drive train's own speed limit
+(``drive_train_velocity``). A failing design is refused
+unless ``force``. The study folder and ``out_dir`` are locked while export reads and writes
+them (:func:`armlab.study.record.locked_folder`). It writes into ``out_dir``:
 
 ==========  ==========================================================================
 format      files
@@ -34,10 +42,14 @@ nothing behind.
 
 from __future__ import annotations
 
+import errno
 import math
 import os
 from dataclasses import dataclass, field, fields
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
 
 from armlab._keywords import renamed_keywords
 from armlab.deploy.gains_export import gains_files, load_gains
@@ -46,13 +58,21 @@ from armlab.deploy.table import setpoint_table
 from armlab.deploy.trajfile import load_trajectory
 from armlab.errors import DesignFailure, InputError
 from armlab.io import atomic_write_many
+from armlab.io.lock import is_lock_file
 from armlab.robot.controller import ControllerProfile, load_profile
+from armlab.study.budget import check_samples
+from armlab.study.recheck import drive_train_velocity, recorded_verdict, resized, same_study
 from armlab.study.record import (
     controller_from_design,
     load_design,
+    locked_folder,
+    reading_folder,
     robot_from_design,
     verify_folder,
 )
+
+if TYPE_CHECKING:
+    pass
 
 __all__ = [
     "EXPORT_FORMATS",
@@ -110,8 +130,6 @@ def _written_by_export(path: Path) -> bool:
         import json
         import zipfile
 
-        import numpy as np
-
         try:
             with zipfile.ZipFile(path) as z:
                 if "meta_json.npy" not in z.namelist():
@@ -127,16 +145,25 @@ def _written_by_export(path: Path) -> bool:
     return b"armlab" in first or b'"format": "armlab.' in head
 
 
+def _partial(path: Path) -> bool:
+    """A temporary file of an atomic write killed before its rename (``.<name>.<hex>.tmp``)."""
+    return path.name.startswith(".") and path.name.endswith(".tmp")
+
+
 def _check_out_dir(out: Path, overwrite: bool) -> None:
     """Refuse an ``--out`` that is a file, or a folder holding files ``armlab export`` did not
     write (another program's ``setpoints.csv``, anything else) unless ``overwrite``: export
     would silently replace them (issue 24 item 8). With ``overwrite`` only the files of this
     export are replaced; the others are left as they are."""
-    if out.exists() and not out.is_dir():
-        raise InputError(f"export --out {out} is a file, not a folder")
+    if out.exists() and not out.is_dir():  # an error of the file system: exit status 3
+        raise NotADirectoryError(errno.ENOTDIR, "export --out is a file, not a folder", str(out))
     if not out.is_dir() or overwrite:
         return
-    foreign = sorted(p.name for p in out.iterdir() if not _written_by_export(p))
+    foreign = sorted(
+        p.name
+        for p in out.iterdir()
+        if not (_written_by_export(p) or is_lock_file(p) or _partial(p))
+    )
     if foreign:
         more = f" and {len(foreign) - 5} more" if len(foreign) > 5 else ""
         shown = ", ".join(foreign[:5]) + more
@@ -247,11 +274,15 @@ def export_study(
         A pre-flight check fails (first failing cycle, joint and limit in the message);
         nothing is written.
     InputError
-        Unknown format, not a study folder, an ``out_dir`` that is a file or holds files export
-        did not write (without ``overwrite``), files changed since the run (checksums), the URDF
+        Unknown format, not a study folder, an ``out_dir`` that holds files export did not
+        write (without ``overwrite``), files changed since the run (checksums), the URDF
         changed, gains tuned for another servo period, a target inside the study folder, no
         gains for ``ros2``, a goal tolerance below one encoder count, a table the drive cannot
-        take (CiA 402 data types).
+        take (CiA 402 data types), an edited summary.json (a design verdict that does not
+        follow from its stage results), another client writing either folder.
+    OSError
+        ``out_dir`` is a file (NotADirectoryError), or the file system refuses a write
+        (``armlab`` exits 3).
     """
     study = Path(study_dir)
     fmt = str(fmt).lower()
@@ -265,23 +296,39 @@ def export_study(
             f"refusing to write into the study folder {study}: its files are the study's "
             "record; choose another --out folder"
         )
-    _check_out_dir(out, overwrite)
+    _check_out_dir(out, overwrite)  # fail fast, before rendering
+    with reading_folder(study, "armlab export"):  # no armlab run rewrites it meanwhile
+        result, outputs = _render(study, fmt, controller, out, q_current, force, c_real)
+        with locked_folder(out, "armlab export"):  # one writer per folder
+            _check_out_dir(out, overwrite)  # again, now that no other client writes it
+            result.files = list(atomic_write_many(outputs))
+    return result
+
+
+def _render(
+    study: Path, fmt: str, controller, out: Path, q_current, force: bool, c_real: str
+) -> tuple[ExportResult, list[tuple[Path, bytes | str]]]:
+    """Everything :func:`export_study` writes, rendered and checked: (result, files)."""
     summary = verify_folder(study)
-    design = summary.get("design", {})
-    failed = list(design.get("failed_checks", []))
+    record = load_design(study)
+    same_study(summary, record, study)
+    verdict = recorded_verdict(summary, record, study)
+    robot = robot_from_design(record)  # every format needs it (table, lever arms, drives)
+    robot.limits = drive_train_velocity(robot)
+    again = resized(study / TRAJECTORY_FILE, summary, record, robot)  # the drive train judged again
+    failed = list(dict.fromkeys([*verdict.failed_checks, *again]))
     result = ExportResult()
-    if design.get("verdict") != "pass":
+    if verdict.verdict != "pass" or failed:
         what = (
             f"fails {len(failed)} check(s): " + "; ".join(failed)
             if failed
-            else "was not judged: " + "; ".join(design.get("not_judged", []))
+            else "was not judged: " + "; ".join(verdict.not_judged)
         )
         if not force:
             raise DesignFailure(
                 f"export refused: the design of {study} {what} (--force exports it)"
             )
         result.notes.append(f"forced export: the design {what}")
-    record = load_design(study)
     study_profile = controller_from_design(record)
     prof = study_profile if controller is None else load_profile(controller)
     if controller is not None:
@@ -299,7 +346,6 @@ def export_study(
     }
     if failed:
         source["forced_despite"] = failed
-    robot = robot_from_design(record)  # every format needs it (table, lever arms, drives)
 
     table = None
     if fmt in (*_SETPOINT_FILE, "trajectory", "cia402"):
@@ -307,6 +353,12 @@ def export_study(
         if not tpath.is_file():
             raise InputError(f"{study}: no {TRAJECTORY_FILE}")
         traj = load_trajectory(tpath)
+        check_samples(
+            traj.duration / prof.cycle_s,
+            robot.n_joints,
+            f"controller cycle_s = {prof.cycle_s:g}",
+            f"{traj.duration:.3g} s plan / {prof.cycle_s:g} s controller cycle",
+        )
         table = setpoint_table(robot, traj, prof, q_current=q_current, source=source)
         if fmt in _SETPOINT_FILE:
             outputs += table.files(out / _SETPOINT_FILE[fmt], fmt)
@@ -372,6 +424,4 @@ def export_study(
         assert table is not None
         outputs += cia402_csp(robot, table, prof, source=source).files(out)
 
-    out.mkdir(parents=True, exist_ok=True)
-    result.files = list(atomic_write_many(outputs))
-    return result
+    return result, outputs

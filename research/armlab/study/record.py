@@ -14,8 +14,11 @@ refuses a folder whose files no longer match.
 
 from __future__ import annotations
 
+import errno
 import json
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -24,6 +27,7 @@ import numpy as np
 
 from armlab.deploy.provenance import armlab_version, file_sha256
 from armlab.errors import InputError
+from armlab.io.lock import FolderLock, is_lock_file
 from armlab.robot.controller import ControllerProfile
 from armlab.robot.drives import Drive, Encoder, motor_from_dict, reducer_from_dict
 
@@ -43,6 +47,8 @@ __all__ = [
     "controller_from_design",
     "verify_folder",
     "prepare_out_dir",
+    "locked_folder",
+    "reading_folder",
 ]
 
 DESIGN_FILE = "design.json"
@@ -277,10 +283,51 @@ def _recorded_study_hash(folder: Path) -> str | None:
     return None
 
 
+@contextmanager
+def locked_folder(folder: str | os.PathLike, command: str) -> Iterator[Path]:
+    """Create ``folder`` if needed and hold its lock (``folder/.armlab.lock``,
+    :class:`armlab.io.lock.FolderLock`) while the block runs: one writer per study folder.
+
+    Raises
+    ------
+    InputError
+        Another live client (``armlab run``, ``armlab export``) holds the lock: one line
+        naming its command, pid, host and start time.
+    NotADirectoryError
+        ``folder`` is a file (``armlab`` exits 3, as for every error of the file system).
+    """
+    path = Path(folder)
+    if path.exists() and not path.is_dir():
+        raise NotADirectoryError(errno.ENOTDIR, "--out exists and is not a folder", str(path))
+    path.mkdir(parents=True, exist_ok=True)
+    with FolderLock(path, command):
+        yield path
+
+
+@contextmanager
+def reading_folder(folder: str | os.PathLike, command: str) -> Iterator[Path]:
+    """Hold the lock of a study folder that is read (``armlab export``): no ``armlab run`` can
+    rewrite it meanwhile. A folder this process cannot write (read-only media, another user's
+    archive) is read without the lock: no writer of this kind can change it either."""
+    path = Path(folder)
+    try:
+        lock = FolderLock(path, command)
+        lock.acquire()
+    except OSError as exc:
+        if exc.errno in (errno.EROFS, errno.EACCES, errno.EPERM):
+            yield path
+            return
+        raise
+    try:
+        yield path
+    finally:
+        lock.release()
+
+
 def _outputs(folder: Path) -> list[Path]:
     out: set[Path] = set()
     for pattern in OUTPUT_FILES:
-        out.update(p for p in folder.glob(pattern) if p.is_file())
+        out.update(p for p in folder.glob(pattern) if p.is_file() and not is_lock_file(p))
     return sorted(out)
 
 
@@ -291,7 +338,7 @@ def prepare_out_dir(folder: str | os.PathLike, study_hash: str, *, overwrite: bo
     has the same study sha256), is cleared of the files a run writes (:data:`OUTPUT_FILES`),
     so no output of the earlier run can sit beside the new ones. Anything else is refused unless
     ``overwrite``; even then, files armlab did not write are never deleted: such a folder is
-    refused.
+    refused. The caller holds the folder's lock (:func:`locked_folder`): one writer.
 
     Raises
     ------
@@ -301,9 +348,9 @@ def prepare_out_dir(folder: str | os.PathLike, study_hash: str, *, overwrite: bo
     """
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
-        raise InputError(f"--out {folder}: exists and is not a folder")
+        raise NotADirectoryError(errno.ENOTDIR, "--out exists and is not a folder", str(folder))
     folder.mkdir(parents=True, exist_ok=True)
-    entries = [p for p in folder.iterdir()]
+    entries = [p for p in folder.iterdir() if not is_lock_file(p)]
     if not entries:
         return folder
     ours = set(_outputs(folder))

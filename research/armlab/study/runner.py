@@ -24,7 +24,13 @@ from armlab.deploy.provenance import armlab_version
 from armlab.errors import ArmlabError
 from armlab.io import write_json
 from armlab.study.figures import KEY_FIGURES, key_figures
-from armlab.study.record import DESIGN_FILE, SUMMARY_FILE, design_record, prepare_out_dir
+from armlab.study.record import (
+    DESIGN_FILE,
+    SUMMARY_FILE,
+    design_record,
+    locked_folder,
+    prepare_out_dir,
+)
 from armlab.study.spec import STAGES, StudySpec, load_study
 from armlab.study.stages import (
     NEEDS,
@@ -170,13 +176,26 @@ def run_spec(
     ArmlabError
         The first stage that fails, with the stage's name in front of its message; the
         summary.json written so far records it.
+    InputError
+        Another client (``armlab run``, ``armlab export``) holds the output folder's lock.
 
     Notes
     -----
     A study runs in this process, its stages and then its report's plots one after the other;
-    parallelism is across studies (``armlab sweep --workers``).
+    parallelism is across studies (``armlab sweep --workers``). The output folder is locked
+    while the study runs (:func:`armlab.study.record.locked_folder`): one writer per folder.
     """
-    out = None if out_dir is None else prepare_out_dir(out_dir, spec.hash, overwrite=overwrite)
+    if out_dir is None:
+        return _run(spec, None, progress=progress, report=report, force=force)
+    with locked_folder(out_dir, "armlab run") as folder:
+        out = prepare_out_dir(folder, spec.hash, overwrite=overwrite)
+        return _run(spec, out, progress=progress, report=report, force=force)
+
+
+def _run(
+    spec: StudySpec, out: Path | None, *, progress: bool | None, report: bool | None, force: bool
+) -> StudyResult:
+    """:func:`run_spec` into the prepared (and locked) folder ``out``, or in memory."""
     written: dict[str, str] = {}  # file name -> path, of every data file the run wrote
     failed: list[str] = []  # the failed checks of the stages so far
     records: dict[str, StageRecord] = {}

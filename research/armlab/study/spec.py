@@ -48,6 +48,7 @@ from typing import Any
 from armlab.errors import SpecError
 from armlab.names import check_name, check_title
 from armlab.robot.drives import drive_value_rule, value_problem
+from armlab.study.budget import MAX_INERTIA_SAMPLES, MAX_MONTE_CARLO, check_waypoints
 from armlab.tomlfile import read_toml
 
 __all__ = [
@@ -326,8 +327,8 @@ class DriveOverride:
 class KinematicsSpec:
     """``[kinematics]``: the Monte-Carlo sizes of the workspace and accuracy studies (0: skip)."""
 
-    workspace_samples: int = _key(_int(0), 0, "workspace cloud size")
-    accuracy_samples: int = _key(_int(0), 0, "accuracy Monte-Carlo size")
+    workspace_samples: int = _key(_int(0, MAX_MONTE_CARLO), 0, "workspace cloud size")
+    accuracy_samples: int = _key(_int(0, MAX_MONTE_CARLO), 0, "accuracy Monte-Carlo size")
 
 
 @dataclass(frozen=True)
@@ -366,7 +367,9 @@ class ControlSpec:
     current_sample_time_s: float | None = _key(
         _float(0.0, 0.01, lo_open=True), None, "current loop sample time, s"
     )
-    n_inertia_samples: int | None = _key(_int(1), None, "workspace samples of the inertia range")
+    n_inertia_samples: int | None = _key(
+        _int(1, MAX_INERTIA_SAMPLES), None, "workspace samples of the inertia range"
+    )
 
 
 def _feedforward(v, where):
@@ -528,6 +531,7 @@ def parse_study(
     if n_wp < 2 and "plan" in parts["study"].stages:
         raise SpecError(f"waypoints: at least 2 waypoints needed to plan, got {n_wp}")
     plan: PlanSpec = parts["plan"]
+    check_waypoints(n_wp, plan.planner, "waypoints.joint" if wp.joint else "waypoints.cartesian")
     if plan.planner in ("line", "arc3", "blend") and wp.cartesian is None:
         raise SpecError(f"plan.planner: {plan.planner!r} needs waypoints.cartesian")
     if plan.planner == "arc3" and n_wp != 3:

@@ -18,6 +18,7 @@ range, an infeasible plan, an impossible control spec); the runner records it an
 
 from __future__ import annotations
 
+import inspect
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -373,6 +374,33 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
     return T.blend(robot, poses, plan.blend_radius_m, speed, q_start=Q[0], dt=dt, tau_max=tau_max)
 
 
+def _plan_budget(ctx: StudyContext) -> None:
+    """Refuse a plan whose check grid would exceed :data:`armlab.study.budget.MAX_SAMPLES`
+    before planning: its duration is at least :func:`~armlab.study.budget.min_duration_s` at the
+    scaled limits (and the fixed ``plan.duration_s``, the Cartesian path length over
+    ``plan.speed_m_s``)."""
+    from armlab.study.budget import check_samples, min_duration_s
+
+    plan, Q = ctx.spec.plan, ctx.waypoints_q
+    assert Q is not None  # set by stage_kinematics
+    duration = min_duration_s(Q, planning_robot(ctx).limits.velocity_rad_s)
+    keys = [f"plan.speed_scale = {plan.speed_scale:g}", f"plan.check_dt_s = {plan.check_dt_s:g}"]
+    if plan.duration_s is not None:
+        duration = max(duration, plan.duration_s)
+        keys.append(f"plan.duration_s = {plan.duration_s:g}")
+    poses = ctx.waypoint_poses
+    if plan.speed_m_s is not None and poses is not None and len(poses) > 1:
+        path = float(np.sum(np.linalg.norm(np.diff(poses[:, :3, 3], axis=0), axis=1)))
+        duration = max(duration, path / plan.speed_m_s)
+        keys.append(f"plan.speed_m_s = {plan.speed_m_s:g}")
+    check_samples(
+        duration / plan.check_dt_s,
+        ctx.robot.n_joints,
+        ", ".join(keys),
+        f"the plan lasts at least {duration:.3g} s, checked every {plan.check_dt_s:g} s",
+    )
+
+
 def stage_plan(ctx: StudyContext) -> StageOutput:
     """Plan, then check the plan on a fine grid against the robot's full limits.
 
@@ -383,6 +411,7 @@ def stage_plan(ctx: StudyContext) -> StageOutput:
     is a failed check of the design (verdict ``fail``).
     """
     spec = ctx.spec
+    _plan_budget(ctx)
     traj = plan_trajectory(ctx)
     assert ctx.waypoints_q is not None  # plan_trajectory needs them
     ctx.trajectory = traj
@@ -532,9 +561,14 @@ def select_and_install(ctx: StudyContext) -> list:
     return duty
 
 
-def _sizing_failures(report) -> list[str]:
+def sizing_failures(report, only: tuple[str, ...] | None = None) -> list[str]:
+    """One line per failed sizing check of a :class:`~armlab.dynamics.SizingReport` (of the
+    checks named in ``only``, if given)."""
     return [
-        f"sizing: {j.joint} {c.describe()}" for j in report.joints for c in j.checks if not c.ok
+        f"sizing: {j.joint} {c.describe()}"
+        for j in report.joints
+        for c in j.checks
+        if not c.ok and (only is None or c.name in only)
     ]
 
 
@@ -571,7 +605,7 @@ def stage_sizing(ctx: StudyContext) -> StageOutput:
         ctx.requirement_sizing = size(ctx.robot, moves, controller=ctx.controller)
         adv = [
             f.replace("sizing:", "worst-case move:", 1)
-            for f in _sizing_failures(ctx.requirement_sizing)
+            for f in sizing_failures(ctx.requirement_sizing)
         ]
         block["requirement_moves"] = {
             "ok": bool(ctx.requirement_sizing.ok),
@@ -588,7 +622,7 @@ def stage_sizing(ctx: StudyContext) -> StageOutput:
         )
         ctx.selection = sel
         block["selection"] = {"status": "ok", **_to_dict(sel)}
-    return StageOutput(block, failed_checks=_sizing_failures(res), advisories=advisories)
+    return StageOutput(block, failed_checks=sizing_failures(res), advisories=advisories)
 
 
 # ---------------------------------------------------------------------------- control
@@ -665,9 +699,21 @@ def stage_tracking(ctx: StudyContext) -> StageOutput:
     """Closed-loop simulation of the arm tracking the plan with the tuned cascades; the verdict
     is the TCP error against the accuracy budget."""
     from armlab.control import simulate_tracking
+    from armlab.study.budget import check_samples
 
     _needs_drives(ctx)
     opts = tracking_options(ctx)
+    assert ctx.trajectory is not None and ctx.controller is not None  # NEEDS: plan
+    # simulate_tracking's own default where the study gives none (one home)
+    default = inspect.signature(simulate_tracking).parameters["t_after_s"].default
+    t_after = float(opts.get("t_after_s", default))
+    period = ctx.controller.servo_period_s
+    check_samples(
+        (ctx.trajectory.duration + t_after) / period,
+        ctx.robot.n_joints,
+        f"tracking.t_after_s = {t_after:g}, controller.servo_period_s = {period:g}",
+        f"({ctx.trajectory.duration:.3g} s plan + {t_after:g} s after) / {period:g} s servo period",
+    )
     res = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, **opts)
     ctx.tracking, ctx.tracking_options, ctx.tracking_variants = res, opts, {}
     failed = []
@@ -707,6 +753,15 @@ def stage_export(ctx: StudyContext) -> StageOutput:
             f"{ctx.robot.name} has no drives.toml and controller profile "
             f"{prof.name!r} gives no counts_per_joint_rev"
         )
+    from armlab.study.budget import check_samples
+
+    assert ctx.trajectory is not None  # NEEDS: plan
+    check_samples(
+        ctx.trajectory.duration / prof.cycle_s,
+        ctx.robot.n_joints,
+        f"controller.cycle_s = {prof.cycle_s:g}",
+        f"{ctx.trajectory.duration:.3g} s plan / {prof.cycle_s:g} s controller cycle",
+    )
     source: dict[str, Any] = {"study": ctx.spec.source, "study_sha256": ctx.spec.hash}
     if ctx.failed_so_far:
         source["forced_despite"] = list(ctx.failed_so_far)

@@ -26,12 +26,13 @@ Provenance and one writer
   many and what changed; the table never mixes rows of old and new inputs.
 * A folder holds one sweep (``sweep.json``): a sweep with another definition (base study,
   parameter keys or parameter sets) is refused with one line unless ``overwrite``.
-* One client per folder (:class:`armlab.sweep.lock.SweepLock`): a second client is refused while
+* One client per folder (:class:`armlab.io.lock.SweepLock`): a second client is refused while
   the first runs; the lock of a killed client is taken over.
 """
 
 from __future__ import annotations
 
+import errno
 import logging
 import sys
 import time
@@ -45,7 +46,7 @@ from armlab._cpus import usable_cpus
 from armlab.deploy.provenance import armlab_version, file_sha256
 from armlab.errors import InputError
 from armlab.io import atomic_write
-from armlab.sweep.lock import SweepLock
+from armlab.io.lock import SweepLock
 from armlab.sweep.provenance import describe_changes, file_hashes, input_files, row_provenance
 from armlab.sweep.spec import (
     SweepSpec,
@@ -204,8 +205,8 @@ def run_sweep_spec(
     ``client`` (a ``distributed.Client``) reuses an open cluster instead of starting one.
     """
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: exists and is not a folder")
+    if out.exists() and not out.is_dir():  # an error of the file system: exit status 3
+        raise NotADirectoryError(errno.ENOTDIR, "--out exists and is not a folder", str(out))
     out.mkdir(parents=True, exist_ok=True)
     sets = parameter_sets(spec)
     keys = [parameter_key(s) for s in sets]

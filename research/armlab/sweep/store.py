@@ -3,7 +3,7 @@
 Layout of a sweep's output folder::
 
     DIR/sweep.json              the sweep's definition and provenance (a folder holds one sweep)
-    DIR/.sweep.lock             while a client writes the folder (armlab.sweep.lock)
+    DIR/.sweep.lock             while a client writes the folder (armlab.io.lock)
     DIR/results.parts/<key>.parquet   one row each, written when the row finishes
     DIR/results.parquet         every row, rewritten after completions (at most once per
                                 ``consolidate_s``) and at the end
@@ -89,7 +89,7 @@ def _difference(folder: Path, old: dict[str, Any], new: dict[str, Any]) -> str |
 class ResultStore:
     """The rows of one sweep's output folder.
 
-    The caller holds the folder's lock (:class:`armlab.sweep.lock.SweepLock`): one writer.
+    The caller holds the folder's lock (:class:`armlab.io.lock.SweepLock`): one writer.
 
     Parameters
     ----------

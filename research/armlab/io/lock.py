@@ -1,19 +1,22 @@
-"""One writer per sweep folder: an exclusive lock file, ``DIR/.sweep.lock``.
+"""One writer per output folder: an exclusive lock file in the folder -- the one lock of armlab.
 
-``armlab sweep`` creates the lock file exclusively (the operating system lets one process create
-it) holding who has it: pid, host, start time, the process's start time (``/proc/<pid>/stat``,
-to tell a recycled pid) and a random token. The content goes to a temporary file first, which is
-then hard-linked to the lock's name (``link`` fails if the name exists), so the lock file is
-complete whenever it exists (without hard links: ``O_CREAT | O_EXCL``, then a write). A second
-client on the same folder is refused with one line naming the holder; the holder removes the
-file when it ends, whatever the reason (Ctrl-C included).
+``armlab run`` and ``armlab export`` lock a study folder (``DIR/.armlab.lock``,
+:class:`FolderLock`), ``armlab sweep`` its sweep folder (``DIR/.sweep.lock``, :class:`SweepLock`).
+The client creates the lock file exclusively (the operating system lets one process create
+it) holding who has it: the command, pid, host, start time, the process's start time
+(``/proc/<pid>/stat``, to tell a recycled pid) and a random token. The content goes to a
+temporary file first, which is then hard-linked to the lock's name (``link`` fails if the name
+exists), so the lock file is complete whenever it exists (without hard links:
+``O_CREAT | O_EXCL``, then a write). A second client on the same folder is refused with one
+line naming the holder; the holder removes the file when it ends, whatever the
+reason (Ctrl-C included).
 
 A lock left by a client that was killed (``kill -9``, power loss of a laptop that comes back) is
 stale: on the same host, a holder whose pid is gone, a zombie, or a recycled pid (another start
 time) is taken over. The take-over happens under ``flock`` of the folder and only if the file
 still holds the bytes judged stale, so two clients that find the same stale lock cannot both
 take it. A lock of another host cannot be checked: the message says which file to delete once
-that sweep is known to be gone.
+that client is known to be gone.
 """
 
 from __future__ import annotations
@@ -28,9 +31,34 @@ from typing import Any
 
 from armlab.errors import InputError
 
-__all__ = ["LOCK_NAME", "SweepLock"]
+__all__ = [
+    "LOCK_NAME",
+    "STUDY_LOCK_NAME",
+    "FolderLock",
+    "SweepLock",
+    "lock_names",
+    "is_lock_file",
+]
 
+#: The lock file of a sweep folder.
 LOCK_NAME = ".sweep.lock"
+#: The lock file of a study folder (``armlab run``, ``armlab export``).
+STUDY_LOCK_NAME = ".armlab.lock"
+
+
+def lock_names() -> tuple[str, ...]:
+    """Every lock file name (a folder check must not count a lock as a foreign file)."""
+    return (LOCK_NAME, STUDY_LOCK_NAME)
+
+
+def is_lock_file(path: Path) -> bool:
+    """A folder lock or a lock's temporary file: nobody's output (a folder check must not count
+    it as a foreign file)."""
+    name = Path(path).name
+    return any(
+        name == n or (name.startswith(n + ".") and name.endswith(".tmp")) for n in lock_names()
+    )
+
 
 #: A lock file still empty after this long lost its writer between create and write [s].
 _EMPTY_STALE_S = 30.0
@@ -66,23 +94,31 @@ def _alive(pid: int, started: int | None) -> bool:
     return started is None or start == started
 
 
-class SweepLock:
-    """The lock of one sweep folder (a context manager).
+class FolderLock:
+    """The lock of one output folder (a context manager).
 
     Parameters
     ----------
     folder : path
-        The sweep's output folder (must exist).
+        The output folder (must exist).
+    command : str
+        What takes it (``"armlab run"``), recorded in the lock and named to a refused client.
+    name : str
+        The lock file's name in the folder.
     """
 
-    def __init__(self, folder: str | Path):
+    def __init__(
+        self, folder: str | Path, command: str = "armlab run", name: str = STUDY_LOCK_NAME
+    ):
         self.folder = Path(folder)
-        self.path = self.folder / LOCK_NAME
+        self.command = command
+        self.path = self.folder / name
         self._content: bytes | None = None
 
     def _holder_info(self) -> dict[str, Any]:
         stat = _proc_stat(os.getpid())
         return {
+            "command": self.command,
             "pid": os.getpid(),
             "host": socket.gethostname(),
             "started_at": time.time(),
@@ -114,7 +150,7 @@ class SweepLock:
                 self._break(seen)
                 continue
             raise InputError(self._busy_message(seen))
-        raise InputError(f"{self.path}: cannot take the sweep lock (it keeps changing)")
+        raise InputError(f"{self.path}: cannot take the folder's lock (it keeps changing)")
 
     def _create(self, content: bytes) -> bool:
         """Create the lock file holding ``content``, exclusively; False if it exists.
@@ -123,7 +159,7 @@ class SweepLock:
         (``link`` fails if the name exists), so the lock file is never seen empty; where the
         file system has no hard links, ``O_CREAT | O_EXCL`` and a write.
         """
-        tmp = self.folder / f"{LOCK_NAME}.{secrets.token_hex(4)}.tmp"
+        tmp = self.folder / f"{self.path.name}.{secrets.token_hex(4)}.tmp"
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
         try:
             try:
@@ -164,7 +200,7 @@ class SweepLock:
             pass
         self._content = None
 
-    def __enter__(self) -> SweepLock:
+    def __enter__(self) -> FolderLock:
         self.acquire()
         return self
 
@@ -221,14 +257,24 @@ class SweepLock:
         except ValueError:
             info = None
         if not isinstance(info, dict):
-            return f"{self.folder}: another armlab sweep is starting in this folder ({self.path})"
+            return f"{self.folder}: another {self.command} is starting in this folder ({self.path})"
+        command = info.get("command")
+        if not isinstance(command, str) or not command:
+            command = self.command
         since = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(info.get("started_at", 0)))
         where = (
-            "delete it if that sweep is gone"
+            f"delete it if that {command.split()[-1]} is gone"
             if info.get("host") != socket.gethostname()
             else "wait for it to end"
         )
         return (
-            f"{self.folder}: another armlab sweep writes here (pid {info.get('pid')} on "
+            f"{self.folder}: another {command} writes here (pid {info.get('pid')} on "
             f"{info.get('host')} since {since}; lock {self.path}): {where}"
         )
+
+
+class SweepLock(FolderLock):
+    """The lock of one sweep folder, ``DIR/.sweep.lock`` (:class:`FolderLock`)."""
+
+    def __init__(self, folder: str | Path):
+        super().__init__(folder, command="armlab sweep", name=LOCK_NAME)
