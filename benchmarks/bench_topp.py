@@ -68,7 +68,7 @@ from armlab.planning.topp import build_topp  # noqa: E402
 from armlab.robot import rigid_body  # noqa: E402
 from armlab.robot.limits import resolve_limits  # noqa: E402
 from armlab.trajectory import Trajectory, time_optimal_path  # noqa: E402
-from armlab.trajectory.core import LimitSamples  # noqa: E402
+from armlab.trajectory.sampling import LimitSamples  # noqa: E402
 
 SEED = 20261123
 CASES = 12  # paths per robot

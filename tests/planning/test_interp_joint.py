@@ -21,13 +21,14 @@ from armlab.trajectory import (
     trapezoid_profile,
     trapezoid_steps,
 )
-from armlab.trajectory.core import MERGE_FRACTION, Trajectory, sample_times
+from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import (
     double_s_min_time,
     double_s_profile_for_duration,
     trapezoid_min_time,
     trapezoid_profile_for_duration,
 )
+from armlab.trajectory.sampling import MERGE_FRACTION, sample_times
 
 # ------------------------------------------------------- SHU controller paper, table 1
 

@@ -734,7 +734,7 @@ def test_no_near_duplicate_sample_at_the_end():
     sync): the last regular sample lay 1.3e-5 s before the end and a knot pair added another,
     so that every joint "arrived" three samples early. A regular sample within MERGE_FRACTION
     dt of the end or of a knot now merges into it, and corners are single knots."""
-    from armlab.trajectory.core import MERGE_FRACTION, sample_times
+    from armlab.trajectory.sampling import MERGE_FRACTION, sample_times
 
     robot = get_robot("teachbot6")
     rng = np.random.default_rng(4653)

@@ -28,7 +28,7 @@ from armlab.robot import rigid_body
 from armlab.robot.drives import Drive
 from armlab.robot.drivetrain import DriveTrain, motor_side
 from armlab.trajectory import Trajectory
-from armlab.trajectory.core import sample_weights  # its home: timing primitives
+from armlab.trajectory.sampling import sample_weights  # its home: timing primitives
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot

@@ -267,7 +267,7 @@ def _runner_up_text(c: Candidate | None) -> str:
 def hold_trajectories(robot: Robot, static) -> list[Trajectory]:
     """One single-sample trajectory per joint: the arm held still at that joint's worst static
     pose (:func:`armlab.dynamics.static_load`), standing for 1 s of holding each
-    (:func:`armlab.trajectory.core.sample_weights`). Added to a planned motion, they make the
+    (:func:`armlab.trajectory.sampling.sample_weights`). Added to a planned motion, they make the
     duty cycle a selection must carry: the motion and the worst-case static load."""
     out = []
     for x in static.joints:

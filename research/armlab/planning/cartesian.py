@@ -33,8 +33,9 @@ from armlab.kinematics import fk, has_analytic_ik, ik, ik_all_batch, ik_nearest
 from armlab.planning.paths import ArcPath, BlendPath, CartesianPath, LinePath
 from armlab.planning.timescale import finish, stretch_needed
 from armlab.robot.limits import resolve_limits
-from armlab.trajectory.core import Trajectory, sample_times
+from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import double_s_profile, trapezoid_profile
+from armlab.trajectory.sampling import sample_times
 from armlab.trajectory.waypoints import validate_waypoints
 
 if TYPE_CHECKING:

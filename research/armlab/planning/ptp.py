@@ -59,7 +59,7 @@ from armlab.errors import InputError, LimitViolation
 from armlab.planning.timescale import finish, stretch_needed
 from armlab.robot import rigid_body
 from armlab.robot.limits import resolve_limits
-from armlab.trajectory.core import Trajectory, sample_times
+from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import (
     MotionProfile,
     double_s_binding,
@@ -72,6 +72,7 @@ from armlab.trajectory.profiles import (
     trapezoid_min_time_from_state,
     trapezoid_profile,
 )
+from armlab.trajectory.sampling import sample_times
 from armlab.trajectory.waypoints import check_stoppable, validate_joint_state, validate_waypoints
 
 if TYPE_CHECKING:

@@ -29,7 +29,7 @@ import numpy as np
 
 from armlab.errors import InfeasibleError, LimitViolation
 from armlab.robot import drivetrain, rigid_body
-from armlab.trajectory.core import sample_weights
+from armlab.trajectory.sampling import sample_weights
 
 if TYPE_CHECKING:
     from armlab.robot.drivetrain import DriveTrain
@@ -334,7 +334,7 @@ def drive_check(traj: Trajectory, robot: Robot, train: DriveTrain, dt: float) ->
     ``motor_envelope`` and ``motor_speed`` on :meth:`Trajectory.limit_samples` (every knot,
     the critical times, the uniform grid ``dt`` [s] and the refined torque peaks) with the exact
     numeric drive-train model; ``motor_rms`` on the uniform grid ``dt`` with trapezoidal
-    weights (:func:`armlab.trajectory.core.sample_weights`).
+    weights (:func:`armlab.trajectory.sampling.sample_weights`).
     """
     samples = traj.limit_samples(dt, robot=robot)
     assert samples.tau is not None  # a robot was given

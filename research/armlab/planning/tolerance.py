@@ -34,7 +34,8 @@ from armlab.planning.timescale import CHECK_TOL, stretch_needed
 if TYPE_CHECKING:
     from armlab.robot.limits import Limits
     from armlab.robot.model import Robot
-    from armlab.trajectory.core import LimitSamples, Trajectory
+    from armlab.trajectory.core import Trajectory
+    from armlab.trajectory.sampling import LimitSamples
 
 __all__ = ["Absorbed", "absorb_tolerance", "STRETCH_MARGIN"]
 

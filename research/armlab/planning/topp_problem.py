@@ -28,7 +28,8 @@ from armlab.planning.tolerance import absorb_tolerance
 from armlab.planning.topp_path import VELOCITY_POINTS, GeometricPath, path_dynamics
 from armlab.robot import drivetrain
 from armlab.robot.limits import Limits, resolve_limits
-from armlab.trajectory.core import LimitSamples, Trajectory, sample_weights
+from armlab.trajectory.core import Trajectory
+from armlab.trajectory.sampling import LimitSamples, sample_weights
 
 if TYPE_CHECKING:
     import casadi as ca  # the real module for the type checker (CasADi ships type stubs)

@@ -37,8 +37,9 @@ from armlab._keywords import renamed_keywords
 from armlab.errors import InputError, LimitViolation
 from armlab.planning.timescale import check_in_range, finish, stretch_needed
 from armlab.robot.limits import resolve_limits
-from armlab.trajectory.core import Trajectory, sample_times
+from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import trapezoid_min_time
+from armlab.trajectory.sampling import sample_times
 from armlab.trajectory.waypoints import validate_waypoints
 
 if TYPE_CHECKING:
@@ -155,7 +156,7 @@ class _PiecewisePoly:
 def _sample_times(knots: np.ndarray, dt: float, extra: np.ndarray) -> np.ndarray:
     """Uniform grid of step ``dt`` plus every knot (the via points are samples, where the
     acceleration may step) plus the ``extra`` times (velocity and acceleration peaks), all
-    kept exactly (:func:`armlab.trajectory.core.sample_times`)."""
+    kept exactly (:func:`armlab.trajectory.sampling.sample_times`)."""
     return sample_times(float(knots[-1]), dt, np.concatenate([knots[1:-1], extra]))
 
 

@@ -482,7 +482,7 @@ def rms_torque(t_m, weights) -> np.ndarray:
     """Time-weighted RMS over the samples, ``sqrt(sum w_k T_k^2 / sum w_k)``, per column [N m].
 
     ``weights`` (n_samples,) in [s]: the time each sample stands for (trapezoidal,
-    :func:`armlab.trajectory.core.sample_weights`); with zero total weight, the peak ``|T|``.
+    :func:`armlab.trajectory.sampling.sample_weights`); with zero total weight, the peak ``|T|``.
     """
     t_m = np.atleast_2d(np.asarray(t_m, float))
     w = np.asarray(weights, float).reshape(-1, 1)

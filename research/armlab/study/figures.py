@@ -49,7 +49,7 @@ def key_figures(
     and the design's verdict.
 
     ``max_reach_m``; ``duration_s``; ``peak_<kind>_ratio`` (max over joints of the plan's ratio
-    to each limit, :class:`~armlab.trajectory.core.LimitReport`); ``max_static_torque_Nm``;
+    to each limit, :class:`~armlab.trajectory.sampling.LimitReport`); ``max_static_torque_Nm``;
     ``sizing_ok`` and ``sizing_min_margin`` (smallest finite margin of every drive check) with
     ``sizing_binding`` (``joint:check``); ``min_phase_margin_deg``, ``min_gain_margin_dB``
     (every loop, continuous and discrete), ``position_crossover_min_rad_s``;

@@ -51,7 +51,7 @@ if TYPE_CHECKING:
     from armlab.kinematics.workspace import WorkspaceResult
     from armlab.robot.model import Robot
     from armlab.trajectory import Trajectory
-    from armlab.trajectory.core import LimitReport
+    from armlab.trajectory.sampling import LimitReport
 
 __all__ = [
     "StudyContext",

@@ -1,7 +1,8 @@
 """Joint trajectories: the :class:`Trajectory` type and its primitives.
 
-* :mod:`.core` -- :class:`Trajectory` (the one currency between planners and consumers) and
-  :class:`LimitReport`;
+* :mod:`.core` -- :class:`Trajectory` (the one currency between planners and consumers);
+* :mod:`.sampling` -- where a trajectory is evaluated for its limits (sample grids, the exact
+  limit samples) and the :class:`LimitReport` a check returns;
 * :mod:`.profiles` -- the timing primitives (trapezoid and double-S motion profiles; batches
   of time-synchronised rest-to-rest S-curves in closed form, :func:`synchronised_scurves`);
 * :mod:`.waypoints` -- the one validation of joint waypoints.
@@ -16,13 +17,14 @@ from __future__ import annotations
 
 from typing import Any
 
-from armlab.trajectory.core import LimitReport, Trajectory
+from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import (
     MotionProfile,
     double_s_profile,
     synchronised_scurves,
     trapezoid_profile,
 )
+from armlab.trajectory.sampling import LimitReport
 from armlab.trajectory.waypoints import validate_waypoints
 
 __all__ = [

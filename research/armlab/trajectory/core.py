@@ -49,9 +49,6 @@ interpolation around every local peak (RNEA at each point).
 
 from __future__ import annotations
 
-import functools
-import math
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -59,288 +56,26 @@ import numpy as np
 from armlab.errors import InputError
 from armlab.robot import rigid_body
 from armlab.robot.limits import Limits
+from armlab.trajectory.sampling import (
+    REFINE_STEPS,
+    TORQUE_GRID,
+    LimitReport,
+    LimitSamples,
+    drop_noise,
+    merge_rows,
+    peak_vertices,
+    sample_times,
+    unit_roots,
+)
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
 
-__all__ = [
-    "Trajectory",
-    "LimitReport",
-    "LimitSamples",
-    "LIMIT_KINDS",
-    "sample_times",
-    "sample_weights",
-    "MERGE_FRACTION",
-]
-
-LIMIT_KINDS = ("position", "velocity", "acceleration", "jerk", "torque")
+__all__ = ["Trajectory"]
 
 #: relative rounding noise of knot data: a closure coefficient within this times the
 #: magnitudes that enter it is taken as zero (module docstring)
 _NOISE = 256 * np.finfo(float).eps
-#: a regular sample closer than this fraction of the step to a knot or to the end is dropped
-MERGE_FRACTION = 1e-2
-#: steps of successive parabolic interpolation towards each torque peak inside a piece
-REFINE_STEPS = 3
-#: a piece longer than duration / TORQUE_GRID gets torque points at most that far apart before
-#: the peak refinement
-TORQUE_GRID = 1024
-
-
-def sample_weights(t: np.ndarray) -> np.ndarray:
-    """Time each sample stands for, in [s]: trapezoidal weights summing to the duration
-    (a single sample stands for 1 s, a held pose)."""
-    t = np.asarray(t, float)
-    if t.size == 1:
-        return np.ones(1)
-    dt = np.diff(t)
-    w = np.zeros_like(t)
-    w[:-1] += 0.5 * dt
-    w[1:] += 0.5 * dt
-    return w
-
-
-def sample_times(duration: float, dt: float, knots=()) -> np.ndarray:
-    """Sample times [s] from 0 to ``duration``: the regular grid ``0, dt, 2 dt, ...``, the end
-    and the ``knots`` (a planner's switching times, kept exactly).
-
-    A regular sample closer than ``MERGE_FRACTION * dt`` to a knot or to the end is dropped, so
-    there are no near-duplicate samples: the last regular step may be up to
-    ``(1 + MERGE_FRACTION) dt`` long. Knots outside ``(0, duration)`` are ignored; knots closer
-    than the rounding of the times (``8 eps duration``) to each other or to an end merge into
-    the later one (the end); a zero duration gives ``[0.0]``.
-    """
-    dt = float(dt)
-    if not np.isfinite(dt) or dt <= 0:
-        raise InputError(f"sample step dt must be a positive number of seconds, not {dt!r}")
-    duration = float(duration)
-    if not np.isfinite(duration):
-        raise InputError(f"duration must be a finite number of seconds, not {duration!r}")
-    if duration <= 0:
-        return np.zeros(1)
-    n = int(np.floor(duration / dt + 1e-9))
-    grid = dt * np.arange(n + 1)
-    k = np.asarray(knots, dtype=float).reshape(-1)
-    # knots within rounding of each other or of an end (a phase shorter than the times' own
-    # noise) merge into the later one
-    tiny = 8 * np.finfo(float).eps * duration
-    fixed = np.unique(np.append(k[(k > tiny) & (k < duration - tiny)], duration))
-    fixed = fixed[np.append(np.diff(fixed) > tiny, True)]
-    i = np.searchsorted(fixed, grid)
-    left = fixed[np.clip(i - 1, 0, fixed.size - 1)]
-    right = fixed[np.clip(i, 0, fixed.size - 1)]
-    near = np.minimum(np.abs(grid - left), np.abs(right - grid)) < MERGE_FRACTION * dt
-    near[0] = False
-    return np.union1d(grid[~near], fixed)
-
-
-@dataclass
-class LimitSamples:
-    """The points where a trajectory's limits are checked (:meth:`Trajectory.limit_samples`).
-
-    Arrays as a :class:`Trajectory`'s -- ``t`` (n,) in [s], ``q``, ``qd``, ``qdd``, ``qddd``
-    (n, n_joints) in [rad], [rad/s], [rad/s^2], [rad/s^3] -- except that ``t`` may repeat (a
-    knot's left limit and its own value) and is not a time grid; ``qddd`` is None when the
-    trajectory defines no jerk; ``tau`` (n, n_joints) in [N m] the RNEA torques when a robot was
-    given. Anything that reads samples of a trajectory (e.g.
-    :func:`armlab.planning.timescale.stretch_needed`) reads these too.
-    """
-
-    t: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
-    qdd: np.ndarray
-    qddd: np.ndarray | None = None
-    tau: np.ndarray | None = None
-
-
-@functools.cache
-def _to_bernstein(D: int) -> np.ndarray:
-    """The matrix taking the power coefficients of a degree-``D`` polynomial on [0, 1] to its
-    Bernstein coefficients (``b = c @ M.T``)."""
-    return np.array(
-        [
-            [math.comb(k, i) / math.comb(D, i) if i <= k else 0.0 for i in range(D + 1)]
-            for k in range(D + 1)
-        ]
-    )
-
-
-def _unit_roots(*polys: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Real roots in (0, 1) of the polynomials ``sum_i coeffs[i] s^i`` of every ``coeffs`` in
-    ``polys`` (each coefficient an array of one shape, one polynomial per element): (flat
-    element index, root) arrays, all of them together (unordered).
-
-    The degree of each polynomial is its highest coefficient above ``1e-12`` times the sum of
-    their magnitudes; roots from the closed forms up to degree 2, else from the eigenvalues of
-    the companion matrix."""
-    width = max(len(coeffs) for coeffs in polys)
-    kept: list[tuple[np.ndarray, np.ndarray]] = []
-    for coeffs in polys:
-        c = np.stack([np.asarray(x, dtype=float).reshape(-1) for x in coeffs], axis=1)
-        # no root in [0, 1] where the Bernstein coefficients share one strict sign (convex
-        # hull; Farouki, CAGD 29 2012): most pieces, whose derivative does not vanish inside
-        D = c.shape[1] - 1
-        # one coefficient per row (contiguous): the sign tests reduce across rows, not along
-        # each short one (numpy's slow case)
-        b = np.ascontiguousarray((c @ _to_bernstein(D).T).T)
-        index = np.flatnonzero(~(np.all(b > 0, axis=0) | np.all(b < 0, axis=0)))
-        # the rest on the few rows left, of all the polynomials at once (zero coefficients
-        # above their degree change nothing below)
-        padded = np.zeros((index.size, width))
-        padded[:, : D + 1] = c[index]
-        kept.append((index, padded))
-    index = np.concatenate([i for i, _ in kept])
-    c = np.concatenate([x for _, x in kept])
-    scale = np.abs(c).sum(axis=1)
-    big = np.abs(c) > 1e-12 * scale[:, None]
-    deg = np.where(big.any(axis=1), c.shape[1] - 1 - np.argmax(big[:, ::-1], axis=1), 0)
-    rows: list[np.ndarray] = []
-    roots: list[np.ndarray] = []
-    m = np.flatnonzero(deg == 1)
-    rows.append(m)
-    roots.append(-c[m, 0] / c[m, 1])
-    m = np.flatnonzero(deg == 2)
-    if m.size:
-        a, b, cc = c[m, 2], c[m, 1], c[m, 0]
-        disc = b * b - 4 * a * cc
-        ok = disc >= 0
-        m, a, b, cc, disc = m[ok], a[ok], b[ok], cc[ok], disc[ok]
-        qq = -0.5 * (b + np.where(b >= 0, 1.0, -1.0) * np.sqrt(disc))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            r1, r2 = qq / a, np.where(qq != 0, cc / qq, np.nan)
-        rows += [m, m]
-        roots += [r1, r2]
-    for d in range(3, c.shape[1]):
-        m = np.flatnonzero(deg == d)
-        if not m.size:
-            continue
-        comp = np.zeros((m.size, d, d))
-        comp[:, np.arange(1, d), np.arange(d - 1)] = 1.0
-        comp[:, :, -1] = -c[m, :d] / c[m, d, None]
-        ev = np.linalg.eigvals(comp)
-        real = np.abs(ev.imag) <= 1e-7 * np.maximum(1.0, np.abs(ev.real))
-        rows.append(np.repeat(m, d)[real.reshape(-1)])
-        roots.append(ev.real[real])
-    row, root = np.concatenate(rows).astype(int), np.concatenate(roots)
-    inside = np.isfinite(root) & (root > 0) & (root < 1)
-    return index[row[inside]], root[inside]
-
-
-@dataclass
-class LimitReport:
-    """Peak ratio of a trajectory to each limit, per joint (``<= 1`` means within the limit).
-
-    ``ratios[kind]`` is an array ``(n_joints,)`` for kind in :data:`LIMIT_KINDS` (absent when the
-    robot has no such limit or the trajectory has no such signal). For ``position`` the ratio is
-    ``|q - centre| / half range``. ``at_s[kind]`` holds the time of each peak in [s].
-    """
-
-    joint_names: list[str]
-    ratios: dict[str, np.ndarray] = field(default_factory=dict)
-    at_s: dict[str, np.ndarray] = field(default_factory=dict)
-
-    def worst(self) -> tuple[str, str, float]:
-        """(kind, joint, ratio) of the largest ratio over all kinds and joints."""
-        best = ("", "", -np.inf)
-        for kind, r in self.ratios.items():
-            j = int(np.argmax(r))
-            if r[j] > best[2]:
-                best = (kind, self.joint_names[j], float(r[j]))
-        return best
-
-    def ok(self, tol: float = 1e-9) -> bool:
-        """True if every ratio is <= 1 + tol."""
-        return all(bool(np.all(r <= 1.0 + tol)) for r in self.ratios.values())
-
-    def violations(self, tol: float = 1e-9) -> list[tuple[str, str, float, float]]:
-        """(kind, joint, ratio, time in [s]) of every ratio above 1 + tol."""
-        out = []
-        for kind, r in self.ratios.items():
-            for j in np.flatnonzero(r > 1.0 + tol):
-                out.append((kind, self.joint_names[j], float(r[j]), float(self.at_s[kind][j])))
-        return out
-
-    def to_dict(self) -> dict[str, dict[str, float]]:
-        """``{kind: {joint: ratio}}`` for JSON."""
-        return {
-            k: dict(zip(self.joint_names, map(float, r), strict=True))
-            for k, r in self.ratios.items()
-        }
-
-
-def _drop_noise(x: np.ndarray, tol: np.ndarray) -> np.ndarray:
-    """``x`` with the entries within ``tol`` (rounding noise) set to zero."""
-    return np.where(np.abs(x) <= tol, 0.0, x)
-
-
-def _peak_vertices(
-    t: np.ndarray,
-    y: np.ndarray,
-    piece: np.ndarray,
-    *,
-    any_triple: bool = False,
-    near: np.ndarray | None = None,
-    y_max: np.ndarray | None = None,
-) -> np.ndarray:
-    """Times [s] of the maxima of the parabolas through three consecutive samples of ``y``
-    (n, n_joints) over ``t`` (n,) that lie in one piece (no knot between them: the signal is
-    smooth there) -- one step of successive parabolic interpolation towards each peak.
-
-    Triples whose middle sample is a local peak; with ``any_triple`` every concave triple whose
-    parabola peaks between its ends (a peak next to a knot, whose samples fall on one side of
-    it). Only triples reaching 0.9 of the joint's largest ``y`` (``y_max`` (n_joints,) if the
-    caller has it) are refined. With ``near`` (sample indices), only the triples that contain
-    one of those samples (the points a previous step added: every other triple gave its
-    vertex then).
-    """
-    if t.size < 3:
-        return np.zeros(0)
-    if y_max is None:
-        y_max = np.ascontiguousarray(y.T).max(axis=1)  # across rows: numpy's fast reduction
-    if near is None:  # every triple: views
-        first = np.arange(t.size - 2)
-        y0, y1, y2 = y[:-2], y[1:-1], y[2:]
-        p0, p1, p2 = piece[:-2], piece[1:-1], piece[2:]
-        ta, tb, tc = t[:-2], t[1:-1], t[2:]
-    else:
-        first = np.unique(np.clip(np.concatenate([near - 2, near - 1, near]), 0, t.size - 3))
-        y0, y1, y2 = (np.take(y, first + d, axis=0) for d in range(3))
-        p0, p1, p2 = (piece[first + d] for d in range(3))
-        ta, tb, tc = (t[first + d] for d in range(3))
-    ok = np.maximum(np.maximum(y0, y1), y2) >= 0.9 * y_max
-    if not any_triple:
-        ok &= (y1 >= y0) & (y1 >= y2) & ((y1 > y0) | (y1 > y2))
-    ok &= ((p0 == p1) & (p1 == p2) & (ta < tb) & (tb < tc))[:, None]
-    # the (triple, joint) pairs left, in row-major order: the vertices of those only
-    k, j = np.divmod(np.flatnonzero(ok), y.shape[1])
-    i = first[k]
-    t0, t1, t2 = t[i], t[i + 1], t[i + 2]
-    y0, y1, y2 = y[i, j], y[i + 1, j], y[i + 2, j]
-    num = (t1 - t0) ** 2 * (y1 - y2) - (t1 - t2) ** 2 * (y1 - y0)
-    den = (t1 - t0) * (y1 - y2) - (t1 - t2) * (y1 - y0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tv = t1 - 0.5 * num / den
-        concave = (y2 - y1) / (t2 - t1) < (y1 - y0) / (t1 - t0)
-    keep = concave & np.isfinite(tv) & (tv > t0) & (tv < t2)
-    return np.unique(tv[keep])
-
-
-def _merge_rows(a: np.ndarray, b: np.ndarray, old: np.ndarray, at: np.ndarray) -> np.ndarray:
-    """Rows of ``a`` where ``old`` is True and rows of ``b`` at the indices ``at`` (sorted)."""
-    out = np.empty((old.size,) + a.shape[1:], dtype=a.dtype)
-    if at.size > 16:
-        out[old], out[at] = a, b
-        return out
-    # a few rows (the peak refinement): slices of a around them, not a boolean mask
-    src = dst = 0
-    for r, row in zip(at.tolist(), b, strict=True):
-        out[dst:r] = a[src : src + r - dst]
-        src += r - dst
-        out[r] = row
-        dst = r + 1
-    out[dst:] = a[src:]
-    return out
 
 
 def _as_series(x, n: int, name: str, n_joints: int | None) -> np.ndarray:
@@ -447,16 +182,16 @@ class Trajectory:
         if self.qddd is None:  # quartic closure onto the right knot's q and qd
             # e (s^3 / 3: the velocity) first, then what the position still misses
             # (4 s^3 - 3 s^4: no velocity); each within its noise is zero
-            e = _drop_noise(e, ne)
-            r = _drop_noise(d - e / 3, nd + ne / 3)
+            e = drop_noise(e, ne)
+            r = drop_noise(d - e / 3, nd + ne / 3)
             return h, j, e / 3 + 4 * r, -3 * r, np.zeros_like(d)
         # quintic closure onto the right knot's q, qd and qdd (continuous with a jerk): the
         # acceleration residual (s^3 / 6), then the velocity's (s^3 - s^4 / 2: no acceleration),
         # then the position's (10 s^3 - 15 s^4 + 6 s^5: neither)
         nf = _NOISE * h * h * (A + J * t_abs)  # noise of f
-        f = _drop_noise(h * h * (self.qdd[1:] - (a0 + h * j)), nf)
-        e = _drop_noise(e - f / 2, ne + nf / 2)
-        r = _drop_noise(d - f / 6 - e / 2, nd + nf / 6 + (ne + nf / 2) / 2)
+        f = drop_noise(h * h * (self.qdd[1:] - (a0 + h * j)), nf)
+        e = drop_noise(e - f / 2, ne + nf / 2)
+        r = drop_noise(d - f / 6 - e / 2, nd + nf / 6 + (ne + nf / 2) / 2)
         return h, j, f / 6 + e + 10 * r, -e / 2 - 15 * r, 6 * r
 
     def _evaluate(
@@ -544,7 +279,7 @@ class Trajectory:
         ]
         if self.qddd is not None:
             polys.append([24 * K4, 120 * K5])  # snap: jerk extremes
-        row, s = _unit_roots(*polys)
+        row, s = unit_roots(*polys)
         piece = row // self.n_joints
         times = np.unique(self.t[piece] + s * h[piece, 0])
         return times[(times > self.t[0]) & (times < self.t[-1])]
@@ -632,7 +367,7 @@ class Trajectory:
         added: list[tuple[np.ndarray, tuple[np.ndarray | None, ...]]] = []
         new_rows: np.ndarray | None = None  # the rows the last step added
         for step in range(REFINE_STEPS):  # successive parabolic interpolation to each peak
-            vertex = _peak_vertices(
+            vertex = peak_vertices(
                 t_s, np.abs(tau), piece, any_triple=step == 0, near=new_rows, y_max=tau_max
             )
             # not at a sample's time (t_s is sorted)
@@ -649,9 +384,9 @@ class Trajectory:
             at = np.searchsorted(t_s, vertex) + np.arange(vertex.size)  # their rows
             old = np.ones(t_s.size + vertex.size, bool)
             old[at] = False
-            t_s = _merge_rows(t_s, vertex, old, at)
-            piece = _merge_rows(piece, new_piece, old, at)
-            tau = _merge_rows(tau, new_tau, old, at)
+            t_s = merge_rows(t_s, vertex, old, at)
+            piece = merge_rows(piece, new_piece, old, at)
+            tau = merge_rows(tau, new_tau, old, at)
             added.append((vertex, state))
             new_rows = at
         if added:  # the states of the refined points, merged once
@@ -664,7 +399,7 @@ class Trajectory:
             for name, i in (("q", 0), ("qd", 1), ("qdd", 2), ("qddd", 3)):
                 if i < 3 or jerk:
                     new = np.concatenate([x[i] for _, x in added])[k]
-                    setattr(out, name, _merge_rows(getattr(out, name), new, old, at))
+                    setattr(out, name, merge_rows(getattr(out, name), new, old, at))
         out.tau = tau
         return out
 
