@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from armlab.errors import InputError, LimitViolation, UnreachableError
 from armlab.kinematics import fk, fk_batch
-from armlab.planning.cartesian import path_derivatives, track_path
+from armlab.planning.path_ik import path_derivatives, track_path
 from armlab.planning.paths import circle_through
 from armlab.trajectory import ArcPath, BlendPath, LinePath, arc3, blend, line
 

@@ -32,9 +32,10 @@ timing (PTP, steps, Cartesian, the optimiser's warm start) is
 :mod:`armlab.trajectory.profiles`.
 """
 
-from armlab.planning.cartesian import arc3, blend, follow_path, line, track_path
+from armlab.planning.cartesian import arc3, blend, follow_path, line
 from armlab.planning.online import OnlineInterpolator
 from armlab.planning.optimiser import optimal
+from armlab.planning.path_ik import track_path
 from armlab.planning.paths import ArcPath, BlendPath, CartesianPath, JointPath, LinePath
 from armlab.planning.ptp import ptp_sync
 from armlab.planning.steps import trapezoid_steps
