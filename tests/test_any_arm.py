@@ -21,9 +21,10 @@ from armlab.errors import ArmlabError, InfeasibleError, RobotDescriptionError
 from armlab.robot import load_profile, load_robot
 from armlab.robot.catalogue import load_catalogue
 from armlab.robot.drives import drives_toml, read_drives
+from armlab.study.build import build_robot
+from armlab.study.drive_stages import selection_duty
 from armlab.study.runner import run_spec
 from armlab.study.spec import load_study, parse_study
-from armlab.study.stages import build_robot, selection_duty
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = REPO / "examples"

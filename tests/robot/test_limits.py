@@ -17,7 +17,9 @@ from armlab.errors import InputError, SpecError
 from armlab.robot import Limits, load_robot, resolve_limits
 from armlab.robot.limits import description_limits
 from armlab.study import parse_study
-from armlab.study.stages import StudyContext, build_robot, controller_profile, planning_robot
+from armlab.study.build import build_robot, controller_profile
+from armlab.study.context import StudyContext
+from armlab.study.stages import planning_robot
 from armlab.trajectory import optimal, ptp_sync
 from conftest import REPO, UR5_URDF
 

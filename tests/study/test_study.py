@@ -23,9 +23,9 @@ from armlab.study import (
     run_spec,
     run_study,
 )
+from armlab.study.build import build_robot
 from armlab.study.runner import KEY_FIGURES
 from armlab.study.spec import STAGES, check_key
-from armlab.study.stages import build_robot
 
 DESIGN_KEYS = ("robot", "static_load", "trajectory", "sizing", "control", "tracking", "export")
 

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from armlab.study.stages import StudyContext
+    from armlab.study.context import StudyContext
     from armlab.study.verdict import DesignVerdict, StageRecord
 
 __all__ = ["KEY_FIGURES", "key_figures"]

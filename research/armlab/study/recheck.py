@@ -157,7 +157,7 @@ def resized(tpath: Path, summary: dict, record: dict, robot: Robot) -> list[str]
     if robot.drives is None or not tpath.is_file():
         return []
     from armlab.dynamics import size
-    from armlab.study.stages import sizing_failures
+    from armlab.study.drive_stages import sizing_failures
 
     block = summary.get("sizing")
     sized = isinstance(block, dict) and block.get("status") == "ok"

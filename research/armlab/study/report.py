@@ -21,8 +21,8 @@ from armlab.io import atomic_open, atomic_write
 if TYPE_CHECKING:
     from armlab.control.gains import ArmGains
     from armlab.control.result import TrackingResult
+    from armlab.study.context import StudyContext
     from armlab.study.runner import StudyResult
-    from armlab.study.stages import StudyContext
     from armlab.study.verdict import DesignVerdict, StageRecord
 
 __all__ = ["write_report", "summary_text"]

@@ -23,6 +23,8 @@ from typing import TYPE_CHECKING, Any
 from armlab.deploy.provenance import armlab_version
 from armlab.errors import ArmlabError
 from armlab.io import write_json
+from armlab.study.build import build_robot, controller_profile
+from armlab.study.context import NotApplicable, StudyContext
 from armlab.study.figures import KEY_FIGURES, key_figures
 from armlab.study.record import (
     DESIGN_FILE,
@@ -32,16 +34,7 @@ from armlab.study.record import (
     prepare_out_dir,
 )
 from armlab.study.spec import STAGES, StudySpec, load_study
-from armlab.study.stages import (
-    NEEDS,
-    STAGE_FUNCTIONS,
-    SUMMARY_KEY,
-    NotApplicable,
-    StudyContext,
-    build_robot,
-    controller_profile,
-    robot_block,
-)
+from armlab.study.stages import NEEDS, STAGE_FUNCTIONS, SUMMARY_KEY, robot_block
 from armlab.study.verdict import (
     JUDGING_STAGES,
     DesignVerdict,

@@ -18,50 +18,34 @@ range, an infeasible plan, an impossible control spec); the runner records it an
 
 from __future__ import annotations
 
-import inspect
-import math
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from armlab.errors import LimitViolation, SpecError, UnreachableError
-from armlab.robot.controller import ControllerProfile
 from armlab.study.build import (  # the robot and controller the stages share
-    _catalogue,
     _per_joint,
-    _resolve_robot_limits,
-    base_transform,
     build_robot,
     controller_profile,
     rpy_to_matrix,
+)
+from armlab.study.context import NotApplicable, StudyContext, jsonable, jsonable_block
+from armlab.study.drive_stages import (
+    select_and_install,
+    stage_sizing,
+    stage_static_load,
+    stage_tracking,
+    stage_tuning,
 )
 from armlab.study.spec import StudySpec
 from armlab.study.verdict import StageOutput
 
 if TYPE_CHECKING:
-    from armlab.control.gains import ArmGains
-    from armlab.control.result import TrackingResult
-    from armlab.deploy.table import SetpointTable
-    from armlab.dynamics.selection import Selection
-    from armlab.dynamics.sizing import SizingReport
-    from armlab.dynamics.static_load import StaticLoadReport
-    from armlab.kinematics.accuracy import AccuracyResult
-    from armlab.kinematics.workspace import WorkspaceResult
     from armlab.robot.model import Robot
     from armlab.trajectory import Trajectory
-    from armlab.trajectory.sampling import LimitReport
 
-__all__ = [
-    "StudyContext",
-    "NotApplicable",
-    "STAGE_FUNCTIONS",
-    "SUMMARY_KEY",
-    "build_robot",
-    "controller_profile",
-    "base_transform",
-]
+__all__ = ["STAGE_FUNCTIONS", "NEEDS", "SUMMARY_KEY"]
 
 #: summary.json block written by each stage.
 SUMMARY_KEY = {
@@ -77,64 +61,6 @@ SUMMARY_KEY = {
 
 #: Limit kinds a planner must honour exactly (the plan stage refuses a plan that breaks them).
 _KINEMATIC = ("position", "velocity", "acceleration", "jerk")
-
-
-class NotApplicable(Exception):
-    """A stage that does not apply to this robot (no drive data): the stage is skipped."""
-
-
-@dataclass
-class StudyContext:
-    """Everything the stages share: the spec, the resolved design and each stage's typed result
-    (None until the stage that makes it has run)."""
-
-    spec: StudySpec
-    #: the robot (:func:`build_robot`; the sizing stage may give it its drive train) and the
-    #: controller (:func:`controller_profile`)
-    robot: Robot
-    controller: ControllerProfile
-    out_dir: Path | None = None
-    force: bool = False
-    #: kinematics: the joint waypoints (n, n_joints) [rad or m], the Cartesian ones as poses,
-    #: where the joint ones come from, the tool positions (n, 3) [m] and the reach [m]
-    waypoints_q: np.ndarray | None = None
-    waypoint_poses: np.ndarray | None = None
-    waypoints_from: str = ""
-    tcp_positions_m: np.ndarray | None = None
-    max_reach_m: float = math.nan
-    #: the kinematics stage's Monte-Carlo studies (``kinematics.workspace_samples``,
-    #: ``accuracy_samples``; None when the study asks for none)
-    workspace: WorkspaceResult | None = None
-    accuracy: AccuracyResult | None = None
-    #: plan: the trajectory and its check against the robot's full limits
-    trajectory: Trajectory | None = None
-    limit_report: LimitReport | None = None
-    jerk_limited: bool = True
-    #: static load
-    static_load: StaticLoadReport | None = None
-    #: sizing: the planned duty cycle's, the worst-case requirement moves', the selection
-    sizing: SizingReport | None = None
-    requirement_sizing: SizingReport | None = None
-    selection: Selection | None = None
-    drives_selected: bool = False
-    #: tuning
-    gains: ArmGains | None = None
-    #: tracking: the result, the diagnosis of a miss (:func:`~armlab.control.simulate.
-    #: diagnose_tracking`), its simulate_tracking options and the drive-model variants so far
-    tracking: TrackingResult | None = None
-    diagnosis: dict[str, Any] | None = None
-    tracking_options: dict[str, Any] = field(default_factory=dict)
-    tracking_variants: dict[str, TrackingResult] = field(default_factory=dict)
-    #: export: the set-point table (None: it breaks a controller limit) and the sha256 of each
-    #: file the stage wrote, by name
-    setpoints: SetpointTable | None = None
-    exported: dict[str, str] = field(default_factory=dict)
-    failed_so_far: list[str] = field(default_factory=list)
-    files: dict[str, str] = field(default_factory=dict)
-
-    @property
-    def rng(self) -> np.random.Generator:
-        return np.random.default_rng(self.spec.study.seed)
 
 
 # ---------------------------------------------------------------------------- robot
@@ -172,7 +98,7 @@ def robot_block(ctx: StudyContext) -> dict:
         "payload_kg": r.payload.mass_kg,
         "total_mass_kg": r.total_mass_kg,
         "transform_base_to_world": np.asarray(r.transform_base_to_world).tolist(),
-        "limits": _jsonable(r.limits.to_dict()),
+        "limits": jsonable(r.limits.to_dict()),
         "controller": ctx.controller.name if ctx.controller is not None else None,
     }
     if r.drives is not None:
@@ -271,7 +197,7 @@ def stage_kinematics(ctx: StudyContext) -> StageOutput:
 
         res = workspace_cloud(robot, n_samples=ks.workspace_samples, seed=spec.study.seed)
         ctx.workspace = res
-        block["workspace"] = {"status": "ok", **_to_dict(res)}
+        block["workspace"] = {"status": "ok", **jsonable_block(res)}
     if ks.accuracy_samples:
         if robot.dh is None:
             block["accuracy"] = {"status": "skipped", "reason": f"{robot.name} has no DH table"}
@@ -280,7 +206,7 @@ def stage_kinematics(ctx: StudyContext) -> StageOutput:
 
             acc = accuracy_study(robot, n_samples=ks.accuracy_samples, seed=spec.study.seed)
             ctx.accuracy = acc
-            block["accuracy"] = {"status": "ok", **_to_dict(acc)}
+            block["accuracy"] = {"status": "ok", **jsonable_block(acc)}
     return StageOutput(block)
 
 
@@ -460,278 +386,9 @@ def stage_plan(ctx: StudyContext) -> StageOutput:
         "feasible": report.ok(tol=1e-6),
         "drive_ratios": drive,
         "worst": {"kind": kind, "joint": joint, "ratio": ratio},
-        "stats": _jsonable(getattr(traj, "stats", {})),
+        "stats": jsonable(getattr(traj, "stats", {})),
     }
     return StageOutput(block, failed_checks=failed)
-
-
-# ---------------------------------------------------------------------------- dynamics
-def _to_dict(obj) -> dict:
-    if hasattr(obj, "to_dict"):
-        return _jsonable(obj.to_dict())
-    if isinstance(obj, dict):
-        return _jsonable(obj)
-    raise TypeError(f"{type(obj).__name__} has no to_dict()")
-
-
-def _jsonable(x):
-    """Plain JSON values (numpy arrays/scalars to lists/floats; NaN/inf kept for the writer)."""
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, Path):
-        return str(x)
-    return x
-
-
-def stage_static_load(ctx: StudyContext) -> StageOutput:
-    """Worst-case static holding torque per joint (HEU thesis 4.2.1) with the payload.
-
-    The worst case is a requirement of the drive train, not of the study's motion: a joint whose
-    worst-case torque exceeds its torque limit is listed under ``advisories`` (and in the
-    summary), while the verdict judges the planned duty cycle (sizing stage).
-    """
-    from armlab.dynamics import static_load
-
-    res = static_load(ctx.robot, seed=ctx.spec.study.seed)
-    ctx.static_load = res
-    limit = ctx.robot.limits.effort_Nm
-    advisories = []
-    for j, x in enumerate(res.joints):
-        lim = float(limit[j]) if limit is not None else math.inf
-        if math.isfinite(lim) and x.torque_Nm > lim * (1 + 1e-9):
-            advisories.append(
-                f"static_load: {x.joint} worst-case {x.torque_Nm:.4g} N m > {lim:.4g} N m "
-                "available (torque limit)"
-            )
-    return StageOutput(_to_dict(res), advisories=advisories)
-
-
-def _needs_drives(ctx: StudyContext) -> None:
-    if ctx.robot.drives is None:
-        raise NotApplicable(
-            f"{ctx.robot.name} has no drive train (no drives.toml: give [robot] drives = "
-            "<drives file>, [drives.<joint>] catalogue names, or [sizing] select = true)"
-        )
-
-
-def selection_duty(ctx: StudyContext) -> list:
-    """The duty cycle a selection is made for: the planned motion plus a 1 s hold at each
-    joint's worst static pose (:func:`armlab.dynamics.selection.hold_trajectories`; the static
-    load stage's result, computed here if that stage did not run)."""
-    from armlab.dynamics import static_load
-    from armlab.dynamics.selection import hold_trajectories
-
-    static = ctx.static_load
-    if static is None:
-        static = static_load(ctx.robot, seed=ctx.spec.study.seed)
-    return [ctx.trajectory, *hold_trajectories(ctx.robot, static)]
-
-
-def select_and_install(ctx: StudyContext) -> list:
-    """Select every joint's motor + reducer from the catalogue against :func:`selection_duty`
-    and make them the robot's drive train (limits resolved again: motor speed / ratio, available
-    torque, derived acceleration and jerk where the study gives none). Returns the duty cycle.
-
-    Raises
-    ------
-    InfeasibleError
-        A joint for which no catalogue entry passes, naming the check every candidate fails.
-    """
-    from armlab.dynamics import select_drives
-
-    assert ctx.controller is not None  # run_study sets it before the stages
-    duty = selection_duty(ctx)
-    sel = select_drives(
-        ctx.robot,
-        duty,
-        catalogue=_catalogue(ctx.spec),
-        dt=ctx.spec.plan.check_dt_s,
-        controller=ctx.controller,
-    )
-    ctx.selection = sel
-    ctx.robot.drives = sel.require().drives(ctx.robot)
-    _resolve_robot_limits(ctx.robot, ctx.spec)
-    ctx.drives_selected = True
-    return duty
-
-
-def sizing_failures(report, only: tuple[str, ...] | None = None) -> list[str]:
-    """One line per failed sizing check of a :class:`~armlab.dynamics.SizingReport` (of the
-    checks named in ``only``, if given)."""
-    return [
-        f"sizing: {j.joint} {c.describe()}"
-        for j in report.joints
-        for c in j.checks
-        if not c.ok and (only is None or c.name in only)
-    ]
-
-
-def stage_sizing(ctx: StudyContext) -> StageOutput:
-    """Drive sizing checks along the planned trajectory, against the study's controller (encoder
-    checks at its cycle and pulse limit); the worst-case requirement moves of HEU thesis tables
-    4.2/4.3 beside them (advisories); optional selection from a catalogue.
-
-    A robot without a drive train and ``[sizing] select = true``: the drives are first selected
-    from the catalogue (:func:`select_and_install`) against the planned motion plus a hold at
-    each joint's worst static pose, become the robot's drive train for the later stages, and are
-    sized on that same duty cycle.
-    """
-    from armlab.dynamics import requirement_moves, select_drives, size
-
-    assert ctx.controller is not None  # run_study sets it before the stages
-    duty = [ctx.trajectory]
-    if ctx.robot.drives is None and ctx.spec.sizing.select:
-        duty = select_and_install(ctx)
-    _needs_drives(ctx)
-    res = size(ctx.robot, duty, dt=ctx.spec.plan.check_dt_s, controller=ctx.controller)
-    ctx.sizing = res
-    block = _to_dict(res)
-    advisories = None
-    if ctx.drives_selected:
-        block["duty_cycle"] = (
-            "planned motion + 1 s hold at each joint's worst static pose (the selection's)"
-        )
-        block["selection"] = {"status": "ok", "installed": True, **_to_dict(ctx.selection)}
-    if ctx.static_load is not None:
-        # HEU thesis tables 4.2/4.3: the drives against each joint's worst case (full speed and
-        # acceleration from its worst static pose), beside the planned cycle
-        moves = requirement_moves(ctx.robot, ctx.static_load)
-        ctx.requirement_sizing = size(ctx.robot, moves, controller=ctx.controller)
-        adv = [
-            f.replace("sizing:", "worst-case move:", 1)
-            for f in sizing_failures(ctx.requirement_sizing)
-        ]
-        block["requirement_moves"] = {
-            "ok": bool(ctx.requirement_sizing.ok),
-            "failures": [f"{joint}:{check}" for joint, check in ctx.requirement_sizing.failures()],
-        }
-        advisories = adv
-    if ctx.spec.sizing.select and not ctx.drives_selected:
-        sel = select_drives(
-            ctx.robot,
-            [ctx.trajectory],
-            catalogue=_catalogue(ctx.spec),
-            dt=ctx.spec.plan.check_dt_s,
-            controller=ctx.controller,
-        )
-        ctx.selection = sel
-        block["selection"] = {"status": "ok", **_to_dict(sel)}
-    return StageOutput(block, failed_checks=sizing_failures(res), advisories=advisories)
-
-
-# ---------------------------------------------------------------------------- control
-def _tuning_failures(gains, spec: dict) -> list[str]:
-    """Loops whose worst-case margins miss the spec (continuous or discrete)."""
-    pm_req = float(spec.get("phase_margin_deg", math.nan))
-    gm_req = float(spec.get("gain_margin_dB", math.nan))
-    out = []
-    for joint, loops in gains.summary().items():
-        for loop, fig in loops.items():
-            if not isinstance(fig, dict):
-                continue
-            for key, req, unit in (
-                ("phase_margin_deg", pm_req, "deg"),
-                ("phase_margin_discrete_deg", pm_req, "deg"),
-                ("gain_margin_dB", gm_req, "dB"),
-                ("gain_margin_discrete_dB", gm_req, "dB"),
-            ):
-                v = fig.get(key)
-                if isinstance(v, (int, float)) and math.isfinite(req) and v < req - 1e-6:
-                    out.append(f"tuning: {joint} {loop} {key} {v:.4g} < {req:.4g} {unit}")
-    return out
-
-
-def tuning_options(ctx: StudyContext) -> dict[str, Any]:
-    """The :func:`~armlab.control.tune_arm` options of the study's ``[control]`` table (those
-    it sets; the others keep ``tune_arm``'s defaults) and seed."""
-    c = ctx.spec.control
-    options = {
-        "position_bandwidth_rad_s": c.position_bandwidth_rad_s,
-        "rise_time_s": c.rise_time_s,
-        "phase_margin_deg": c.phase_margin_deg,
-        "gain_margin_dB": c.gain_margin_dB,
-        "overshoot_pct": c.overshoot_pct,
-        "method": c.method,
-        "current_sample_time_s": c.current_sample_time_s,
-        "n_inertia_samples": c.n_inertia_samples,
-        "seed": ctx.spec.study.seed,
-    }
-    return {k: v for k, v in options.items() if v is not None}
-
-
-def stage_tuning(ctx: StudyContext) -> StageOutput:
-    """Robust cascade tuning of every joint (current PI, speed PI, position P) to the study's
-    control specs, discretised at the controller's servo period and checked continuous and
-    discrete over each joint's inertia range."""
-    from armlab.control import tune_arm
-
-    _needs_drives(ctx)
-    gains = tune_arm(ctx.robot, controller=ctx.controller, **tuning_options(ctx))
-    ctx.gains = gains
-    block = {"servo_period_s": ctx.controller.servo_period_s, **_jsonable(gains.summary())}
-    return StageOutput(block, failed_checks=_tuning_failures(gains, gains.spec))
-
-
-def tracking_options(ctx: StudyContext) -> dict[str, Any]:
-    """The :func:`~armlab.control.simulate_tracking` options of the study's ``[tracking]``
-    table and controller: the full drive model (supply-voltage limit with back-EMF, reducer
-    efficiency and friction, the controller's servo period, D/A and encoder)."""
-    t = ctx.spec.tracking
-    ff = t.feedforward if t.feedforward is None or t.feedforward == "none" else tuple(t.feedforward)
-    opts: dict[str, Any] = {"quantise": t.quantise}
-    if ff is not None:
-        opts["feedforward"] = ff
-    if t.t_after_s is not None:
-        opts["t_after_s"] = t.t_after_s
-    if t.accuracy_m is not None:
-        opts["accuracy_m"] = t.accuracy_m
-    opts["controller"] = ctx.controller
-    return opts
-
-
-def stage_tracking(ctx: StudyContext) -> StageOutput:
-    """Closed-loop simulation of the arm tracking the plan with the tuned cascades; the verdict
-    is the TCP error against the accuracy budget."""
-    from armlab.control import simulate_tracking
-    from armlab.study.budget import check_samples
-
-    _needs_drives(ctx)
-    opts = tracking_options(ctx)
-    assert ctx.trajectory is not None and ctx.controller is not None  # NEEDS: plan
-    # simulate_tracking's own default where the study gives none (one home)
-    default = inspect.signature(simulate_tracking).parameters["t_after_s"].default
-    t_after = float(opts.get("t_after_s", default))
-    period = ctx.controller.servo_period_s
-    check_samples(
-        (ctx.trajectory.duration + t_after) / period,
-        ctx.robot.n_joints,
-        f"tracking.t_after_s = {t_after:g}, controller.servo_period_s = {period:g}",
-        f"({ctx.trajectory.duration:.3g} s plan + {t_after:g} s after) / {period:g} s servo period",
-    )
-    res = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, **opts)
-    ctx.tracking, ctx.tracking_options, ctx.tracking_variants = res, opts, {}
-    failed = []
-    block: dict[str, Any] = {}
-    if not res.within_accuracy:
-        from armlab.control.diagnosis import diagnose_tracking
-
-        diag = diagnose_tracking(
-            ctx.robot, ctx.trajectory, ctx.gains, res, cache=ctx.tracking_variants, **opts
-        )
-        block["diagnosis"] = diag
-        ctx.diagnosis = diag
-        failed.append(
-            f"tracking: TCP error {res.tcp_max_error_m * 1e3:.4g} mm > budget "
-            f"{res.accuracy_m * 1e3:.4g} mm; limiting factor: {diag['limiting_factor']}; "
-            f"{diag['offer']}"
-        )
-    return StageOutput({**_to_dict(res), **block}, failed_checks=failed)
 
 
 # ---------------------------------------------------------------------------- export
@@ -780,7 +437,7 @@ def stage_export(ctx: StudyContext) -> StageOutput:
     }
     preflight = table.meta.get("preflight")
     if preflight is not None:
-        block["preflight"] = _jsonable(preflight)
+        block["preflight"] = jsonable(preflight)
     out = ctx.out_dir
     if out is None:
         return StageOutput(block, failed_checks=[])
