@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 from pathlib import Path
@@ -142,3 +143,20 @@ def make_study_folder(folder: Path, robot, trajectory, gains=None, profile=None)
     }
     write_json(folder / "summary.json", summary)
     return folder
+
+
+@pytest.fixture(scope="module")
+def client():
+    """One local Dask cluster per test module (the same kind run_sweep starts): the sweep tests."""
+    from distributed import Client, LocalCluster
+
+    cluster = LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",
+        silence_logs=logging.ERROR,
+    )
+    with Client(cluster) as c:
+        yield c
+    cluster.close()

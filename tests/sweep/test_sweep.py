@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import logging
 import math
 import os
 import re
@@ -38,23 +37,6 @@ def sweep_doc(**sweep) -> dict:
             {"key": "drives.joint2.ratio", "low": 300, "high": 500, "num": 3},
         ],
     }
-
-
-@pytest.fixture(scope="module")
-def client():
-    """One local Dask cluster for the module (the same kind run_sweep starts)."""
-    from distributed import Client, LocalCluster
-
-    cluster = LocalCluster(
-        n_workers=2,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=":0",
-        silence_logs=logging.ERROR,
-    )
-    with Client(cluster) as c:
-        yield c
-    cluster.close()
 
 
 # ---------------------------------------------------------------------------- spec

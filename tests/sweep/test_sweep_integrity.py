@@ -4,7 +4,6 @@ folder, the exit status of ``armlab sweep``, and a client killed with SIGKILL.""
 from __future__ import annotations
 
 import json
-import logging
 import os
 import random
 import shutil
@@ -61,23 +60,6 @@ values = {json.dumps(values)}
 """
     )
     return path
-
-
-@pytest.fixture(scope="module")
-def client():
-    """One local Dask cluster for the module (the same kind run_sweep starts)."""
-    from distributed import Client, LocalCluster
-
-    cluster = LocalCluster(
-        n_workers=2,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=":0",
-        silence_logs=logging.ERROR,
-    )
-    with Client(cluster) as c:
-        yield c
-    cluster.close()
 
 
 def cli(args: list[str], client) -> int:
