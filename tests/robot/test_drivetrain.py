@@ -91,7 +91,7 @@ def test_available_torque_rule_is_the_model_at_rest():
     robot = armlab.load_robot("teachbot6")
     dt = dtm.drive_train(robot)
     z = np.zeros((1, robot.n_joints))
-    delivered = dtm.joint_torque_delivered(dt.continuous_torque_Nm[None, :], z, z, dt)[0]
+    delivered = dtm.joint_torque_delivered(dt.continuous_motor_torque_Nm[None, :], z, z, dt)[0]
     for j, name in enumerate(robot.joint_names):
         d = robot.drives[name]
         rule = available_torque_Nm(

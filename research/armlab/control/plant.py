@@ -179,16 +179,12 @@ class JointPlant:
         The joint's drive (after study overrides): the one home of every drive number.
     ratio : float
         Reducer ratio N (motor / joint speed).
-    efficiency : float
-        Motoring reducer efficiency (``drive.reducer.efficiency``).
     Kt, Ke : float
         Torque constant [N m/A] and back-EMF constant [V s/rad].
     R, L : float
         Armature resistance [ohm] and inductance [H].
     B : float
         Viscous friction at the motor [N m s/rad].
-    J_rotor, J_reducer : float
-        Rotor and reducer-input inertias [kg m^2].
     J_arm : dict
         Arm inertia at the joint [kg m^2] for ``min``/``nominal``/``max``.
     inertia : str or float
@@ -205,14 +201,11 @@ class JointPlant:
     joint: str
     drive: Drive
     ratio: float
-    efficiency: float
     Kt: float
     Ke: float
     R: float
     L: float
     B: float
-    J_rotor: float
-    J_reducer: float
     J_arm: dict
     inertia: str | float = "nominal"
     supply_voltage_V: float = 24.0
@@ -238,14 +231,11 @@ class JointPlant:
             joint=drive.joint,
             drive=drive,
             ratio=float(reducer.ratio),
-            efficiency=float(reducer.efficiency),
             Kt=motor.torque_constant_Nm_A,
             Ke=motor.back_emf_V_s_rad,
             R=motor.resistance_ohm,
             L=motor.inductance_H,
             B=float(motor.viscous_friction_Nm_s_rad or 0.0),
-            J_rotor=motor.rotor_inertia_kg_m2,
-            J_reducer=float(reducer.inertia_kg_m2 or 0.0),
             J_arm=dict(J_arm),
             inertia=inertia,
             supply_voltage_V=motor.supply_voltage_V,

@@ -1,7 +1,8 @@
 """Robust inside-out tuning of a joint cascade (current PI -> speed PI -> position P).
 
-:func:`tune_cascade` builds the joint's tuning plant (:func:`tuning_plant`: the drive at the
-motor shaft with its min/nominal/max inertia), tunes the three loops robustly over that range
+:func:`tune_cascade` builds the joint's tuning plant (:func:`~armlab.control.plant.joint_plant`:
+the drive at the motor shaft with its min/nominal/max inertia), tunes the three loops robustly
+over that range
 (:mod:`armlab.control.robust`), recomputes every figure on a finer grid
 (:func:`armlab.control.check.check_cascade`) and refuses a result that misses the spec
 (:class:`armlab.control.spec.TuningSpec`). :func:`tune_arm` does it for every joint with one
@@ -16,7 +17,7 @@ import numpy as np
 
 from armlab.control.check import check_cascade
 from armlab.control.gains import ArmGains, CascadeGains, PlantSummary
-from armlab.control.plant import InertiaRange, JointPlant, inertia_range, joint_plant
+from armlab.control.plant import InertiaRange, inertia_range, joint_plant
 from armlab.control.robust import tune_loops
 from armlab.control.spec import TuningSpec, controller_spec
 from armlab.errors import ArmlabError, SpecError
@@ -25,19 +26,13 @@ from armlab.robot.controller import ControllerProfile, load_profile
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
 
-__all__ = ["TuningSpec", "tune_cascade", "tune_arm", "check_cascade", "tuning_plant"]
+__all__ = ["TuningSpec", "tune_cascade", "tune_arm", "check_cascade"]
 
 
 def tuning_inertias(robot: Robot, sp: TuningSpec) -> InertiaRange:
     """The arm's inertia range the tuning holds over: the one call that computes it
     (``sp.n_inertia_samples`` workspace samples, ``sp.seed``)."""
     return inertia_range(robot, n_samples=sp.n_inertia_samples, seed=sp.seed)
-
-
-def tuning_plant(robot: Robot, joint: str, inertias: InertiaRange) -> JointPlant:
-    """The plant a joint's loops are tuned on: the one call that builds it (motor constants,
-    current limit, inertia range at the motor; :func:`armlab.control.plant.joint_plant`)."""
-    return joint_plant(robot, joint, inertias=inertias)
 
 
 def tune_cascade(
@@ -73,7 +68,7 @@ def tune_cascade(
     sp = TuningSpec.from_kwargs(name, **spec)
     if inertias is None:
         inertias = tuning_inertias(robot, sp)
-    base = tuning_plant(robot, name, inertias)
+    base = joint_plant(robot, name, inertias=inertias)  # the drive: current limit, inertias
     try:
         cur, spd, pos = tune_loops(base, sp, n_grid)
     except ArmlabError:

@@ -23,7 +23,7 @@ import numpy as np
 
 from armlab.deploy.numtext import format_list, format_rows
 from armlab.errors import InputError
-from armlab.names import one_line
+from armlab.names import identifier_key, one_line
 
 #: Format tag of every set-point file written.
 SETPOINTS_FORMAT = "armlab.setpoints/2"
@@ -231,7 +231,7 @@ def _read_npz(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
 # ---------------------------------------------------------------------- C header
 def c_identifier(text: str) -> str:
     """An upper-case C identifier from any text (``joint-1`` -> ``JOINT_1``)."""
-    s = re.sub(r"[^0-9A-Za-z_]", "_", str(text)).upper()
+    s = identifier_key(str(text))
     return s if s and not s[0].isdigit() else f"_{s}"
 
 

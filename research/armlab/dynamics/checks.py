@@ -213,7 +213,7 @@ def evaluate_checks(
     peak_wm = np.abs(w_m).max(axis=0)
     out["reducer_input_speed"] = (peak_wm, drives.reducer_max_input_speed_rad_s)
     rms = drivetrain.rms_torque(t_m, np.asarray(weights, float))
-    out["motor_rms_torque"] = (rms, drives.continuous_torque_Nm)
+    out["motor_rms_torque"] = (rms, drives.continuous_motor_torque_Nm)
     out["motor_peak_torque"] = (np.abs(t_m).max(axis=0), drives.peak_motor_torque_Nm)
     out["motor_speed"] = (peak_wm, drives.rated_speed_rad_s)
     t_env = drivetrain.envelope_torque(w_m, drives)

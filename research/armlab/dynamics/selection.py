@@ -37,7 +37,7 @@ from armlab.dynamics.sizing import lever_arms_m
 from armlab.errors import InfeasibleError, InputError
 from armlab.robot.catalogue import Catalogue, load_catalogue
 from armlab.robot.controller import ControllerProfile, load_profile
-from armlab.robot.drives import Drive, Encoder, Motor, Reducer
+from armlab.robot.drives import Drive, Encoder, Motor, Reducer, available_torque_Nm
 from armlab.robot.drivetrain import DriveTrain
 from armlab.trajectory import Trajectory
 
@@ -80,11 +80,11 @@ class Candidate(Checked):
 
     @property
     def available_torque_Nm(self) -> float:
-        """The thesis rule of this motor + reducer, as the joint's :class:`Drive` answers it."""
-        drive = Drive(
-            "candidate", self.motor, self.reducer, ASSUMED_ENCODER, derating=self.derating
+        """The thesis rule (table 4.3) of this motor + reducer: :func:`available_torque_Nm`,
+        the rule :attr:`Drive.available_torque_Nm` answers for a joint."""
+        return available_torque_Nm(
+            self.motor.stall_torque_Nm, self.reducer.ratio, self.reducer.efficiency, self.derating
         )
-        return drive.available_torque_Nm
 
     def to_dict(self) -> dict:
         return {

@@ -182,7 +182,7 @@ def params(prob: OptimalProblem, limits: Limits, drive_scale=None) -> np.ndarray
             tr.symbolic_coefficients().T.reshape(-1),  # coefficient-major, joint-minor
             prob._column_directions().reshape(-1, order="F"),  # as casadi's vec
             eps,
-            (tr.continuous_torque_Nm * rms_s) ** 2,
+            (tr.continuous_motor_torque_Nm * rms_s) ** 2,
         ]
     return np.concatenate(
         [tau, [w], ref, ew, sc["v"], sc["a"], sc["u"], sc["T"], prob.fractions, pi, *drive]

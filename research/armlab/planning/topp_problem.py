@@ -188,7 +188,7 @@ class ToppProblem:
             tau = fine.torques(self.robot)
             t_m, _ = drivetrain.motor_torque(tau, fine.qd, fine.qdd, tr)
             r = drivetrain.envelope_ratio(t_m, drivetrain.motor_speed(fine.qd, tr), tr)
-            rms = drivetrain.rms_torque(t_m, sample_weights(fine.t)) / tr.continuous_torque_Nm
+            rms = drivetrain.rms_torque(t_m, sample_weights(fine.t)) / tr.continuous_motor_torque_Nm
             r = np.minimum(np.maximum(r, rms[None, :]), 2.0)  # inf beyond no-load: cap
             out["motor_envelope"] = per_interval(fine.t, r)
         return out

@@ -276,18 +276,19 @@ class Drive:
         """The motor shaft speed the drive may run at, in [rad/s]: the motor's speed limit
         (rated table speed, else no-load ``U / Ke``) and the reducer's maximum input speed,
         whichever is lower. The joint velocity limit is this over the ratio."""
-        red = self.reducer.max_input_speed_rad_s
-        lim = self.motor.speed_limit_rad_s
-        return min(lim, red) if math.isfinite(red) and red > 0 else lim
+        return self._within_reducer_input(self.motor.speed_limit_rad_s)
 
     @property
     def max_motor_speed_rad_s(self) -> float:
         """The fastest the motor shaft can physically turn, in [rad/s]: the no-load speed
         ``U / Ke`` and the reducer's maximum input speed, whichever is lower (the servo's speed
         command saturates here)."""
+        return self._within_reducer_input(self.motor.no_load_speed_rad_s)
+
+    def _within_reducer_input(self, speed_rad_s: float) -> float:
+        """``speed_rad_s`` at most the reducer's maximum input speed (where one is given)."""
         red = self.reducer.max_input_speed_rad_s
-        lim = self.motor.no_load_speed_rad_s
-        return min(lim, red) if math.isfinite(red) and red > 0 else lim
+        return min(speed_rad_s, red) if math.isfinite(red) and red > 0 else speed_rad_s
 
     @property
     def quadrant_band_rad_s(self) -> float:
@@ -347,8 +348,11 @@ _TEXT_FIELDS = ("model", "source")
 _DECODINGS = (1, 2, 4)
 
 
-def _value_problem(value: Any, rule: str) -> str | None:
-    """Why ``value`` breaks ``rule`` (a phrase after the value), or None if it keeps it."""
+def value_problem(value: Any, rule: str) -> str | None:
+    """Why ``value`` breaks ``rule`` (``"pos"``, ``"nonneg"``, ``"unit"``, ``"count"``,
+    ``"decoding"``: the comment above ``_RULES``) -- a phrase after the value -- or None: the
+    one validator of drive values, whether given in a drives file, a catalogue entry, a study's
+    ``[drives.<joint>]`` or a controller profile (its ``decoding``, counts and periods)."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return "is not a number"
     if not math.isfinite(value):
@@ -362,14 +366,6 @@ def _value_problem(value: Any, rule: str) -> str | None:
     if rule == "unit":
         return None if 0 < value <= 1 else "is not in (0, 1]"
     return None if value > 0 else "is not > 0"  # pos, count
-
-
-def value_problem(value: Any, rule: str) -> str | None:
-    """Why ``value`` breaks ``rule`` (``"pos"``, ``"nonneg"``, ``"unit"``, ``"count"``,
-    ``"decoding"``: the comment above ``_RULES``), or None: the one validator of drive values,
-    whether given in a drives file, a catalogue entry, a study's ``[drives.<joint>]`` or a
-    controller profile (its ``decoding``, counts and periods)."""
-    return _value_problem(value, rule)
 
 
 def drive_value_rule(part: str, key: str) -> str:
@@ -388,7 +384,7 @@ def _check_values(rules: dict[str, str], data: dict, where: str, optional=()) ->
         rule = rules.get(key)
         if rule is None or (value is None and key in optional):
             continue
-        problem = _value_problem(value, rule)
+        problem = value_problem(value, rule)
         if problem is not None:
             raise RobotDescriptionError(f"{where}{key}: {value!r} {problem}")
 

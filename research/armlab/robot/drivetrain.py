@@ -137,7 +137,9 @@ class DriveTrain:
     torque_constant_Nm_A, back_emf_V_s_rad, resistance_ohm, supply_voltage_V : Kt, Ke, R, U
     power_W : table power in [W] (NaN when not given)
     reducer_rated_torque_Nm, reducer_peak_torque_Nm, reducer_max_input_speed_rad_s
-    counts_per_motor_rev, pulses_per_rev : encoder
+    peak_motor_torque_Nm, continuous_motor_torque_Nm : derated peak and continuous motor torque
+        in [N m] (:attr:`~armlab.robot.drives.Drive.peak_motor_torque_Nm`,
+        :attr:`~armlab.robot.drives.Drive.continuous_motor_torque_Nm`)
     quadrant_band_rad_s : joint speed over which the reducer passes from motoring to
         back-driven efficiency through standstill [rad/s] (:func:`quadrant_share`)
     reflected_inertia_kg_m2 : ``(J_rotor + J_reducer) N^2`` seen at the joint [kg m^2]
@@ -169,11 +171,11 @@ class DriveTrain:
     reducer_rated_torque_Nm: np.ndarray
     reducer_peak_torque_Nm: np.ndarray
     reducer_max_input_speed_rad_s: np.ndarray
-    counts_per_motor_rev: np.ndarray
-    pulses_per_rev: np.ndarray
+    peak_motor_torque_Nm: np.ndarray
+    continuous_motor_torque_Nm: np.ndarray
     quadrant_band_rad_s: np.ndarray
     reflected_inertia_kg_m2: np.ndarray
-    drives: tuple[Drive, ...] = ()
+    drives: tuple[Drive, ...]
 
     @classmethod
     def from_drives(cls, drives: list[Drive]) -> DriveTrain:
@@ -204,8 +206,8 @@ class DriveTrain:
             reducer_rated_torque_Nm=arr(lambda d: d.reducer.rated_torque_Nm),
             reducer_peak_torque_Nm=arr(lambda d: d.reducer.peak_torque_Nm),
             reducer_max_input_speed_rad_s=arr(lambda d: d.reducer.max_input_speed_rad_s),
-            counts_per_motor_rev=arr(lambda d: d.counts_per_motor_rev()),
-            pulses_per_rev=arr(lambda d: d.encoder.pulses_per_rev),
+            peak_motor_torque_Nm=arr(lambda d: d.peak_motor_torque_Nm),
+            continuous_motor_torque_Nm=arr(lambda d: d.continuous_motor_torque_Nm),
             quadrant_band_rad_s=arr(lambda d: d.quadrant_band_rad_s),
             reflected_inertia_kg_m2=arr(lambda d: d.reflected_inertia_kg_m2),
             drives=tuple(drives),
@@ -221,24 +223,12 @@ class DriveTrain:
         return self.supply_voltage_V / self.back_emf_V_s_rad
 
     @property
-    def continuous_torque_Nm(self) -> np.ndarray:
-        """The RMS bound: stall torque x derating, in [N m]
-        (:attr:`armlab.robot.drives.Drive.continuous_motor_torque_Nm`)."""
-        return self.stall_torque_Nm * self.derating
-
-    @property
     def standstill_torque_Nm(self) -> np.ndarray:
         """Where the voltage line meets zero speed, derated: ``derating Kt U / R`` in [N m]
         (the envelope's bound at standstill before the peak rating caps it)."""
         return (
             self.derating * self.torque_constant_Nm_A * self.supply_voltage_V / self.resistance_ohm
         )
-
-    @property
-    def peak_motor_torque_Nm(self) -> np.ndarray:
-        """derating x peak rating (the stall torque where the data sheet gives none), in [N m]
-        (:attr:`armlab.robot.drives.Drive.peak_motor_torque_Nm`)."""
-        return self.peak_torque_Nm * self.derating
 
     @property
     def available_joint_torque_Nm(self) -> np.ndarray:
@@ -516,7 +506,7 @@ def drive_ratios(tau, qd, qdd, weights, dt: DriveTrain) -> dict[str, np.ndarray]
     return {
         "motor_envelope": envelope_ratio(t_m, w_m, dt).max(axis=0),
         "motor_speed": np.abs(w_m).max(axis=0) / dt.rated_speed_rad_s,
-        "motor_rms": rms_torque(t_m, weights) / dt.continuous_torque_Nm,
+        "motor_rms": rms_torque(t_m, weights) / dt.continuous_motor_torque_Nm,
     }
 
 

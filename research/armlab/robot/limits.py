@@ -361,15 +361,17 @@ def _owner(source: str) -> str:
 def _apply_drives(cur: dict, src: dict, drives, names) -> None:
     """Layer 2 (module docstring), in place on ``cur`` (kind -> (n,) with NaN = unknown)."""
     for j, d in enumerate(_drive_list(drives, names)):
-        ratio = d.reducer.ratio
+        # the drive's speed limit (Drive.motor_speed_limit_rad_s) over the ratio, named by
+        # what binds: the reducer's input limit, else the motor's rated or no-load speed
         motor = d.motor
-        rated = motor.rated_speed_rpm
-        msrc = SRC_MOTOR_RATED if math.isfinite(rated) and rated > 0 else SRC_MOTOR_NO_LOAD
-        cands = [(cur["velocity"][j], src["velocity"][j])]
-        cands.append((motor.speed_limit_rad_s / ratio, msrc))
-        red = d.reducer.max_input_speed_rad_s
-        if math.isfinite(red) and red > 0:
-            cands.append((red / ratio, SRC_REDUCER))
+        drive_v = d.motor_speed_limit_rad_s / d.reducer.ratio
+        if d.motor_speed_limit_rad_s < motor.speed_limit_rad_s:
+            drive_src = SRC_REDUCER
+        elif math.isfinite(motor.rated_speed_rpm) and motor.rated_speed_rpm > 0:
+            drive_src = SRC_MOTOR_RATED
+        else:
+            drive_src = SRC_MOTOR_NO_LOAD
+        cands = [(cur["velocity"][j], src["velocity"][j]), (drive_v, drive_src)]
         best = min((c for c in cands if c[0] > 0), key=lambda c: c[0], default=None)
         if best is not None:
             cur["velocity"][j], src["velocity"][j] = best
