@@ -191,7 +191,9 @@ def test_diagnosis_names_the_limiting_factor_and_measures_the_fix(teachbot6, gai
     """A budget the full model misses: the diagnosis re-simulates without each effect and
     with the loss feed-forward, and its numbers are those re-simulations'."""
     tight = full.tcp_max_error_m * 0.5
-    d = diagnose_tracking(teachbot6, move, gains, full, feedforward=FF, t_after_s=0.1)
+    d = diagnose_tracking(
+        teachbot6, move, gains, full, feedforward=FF, t_after_s=0.1, controller="reference_dda"
+    )
     no_loss = simulate_tracking(
         teachbot6,
         move,

@@ -50,7 +50,7 @@ def _loss_feedforward(ff: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[str, 
 
 
 def tracking_variants(
-    robot: Robot, trajectory, gains, names, *, known=None, **options
+    robot: Robot, trajectory, gains, names, *, controller, known=None, **options
 ) -> dict[str, TrackingResult]:
     """The motion :func:`simulate_tracking` gives with ``options`` (the full drive model)
     simulated under each named :data:`DRIVE_VARIANTS` instead; those in ``known`` are reused,
@@ -71,13 +71,22 @@ def tracking_variants(
                 continue
         todo[name] = (ff_v, switches["voltage_limit"], switches["losses"])
     if todo:  # simulated together, each as it would be alone
-        runs = _simulate_many(robot, trajectory, gains, list(todo.values()), **opts)
+        runs = _simulate_many(
+            robot, trajectory, gains, list(todo.values()), controller=controller, **opts
+        )
         out.update(zip(todo, runs, strict=True))
     return out
 
 
 def diagnose_tracking(
-    robot: Robot, trajectory, gains, result: TrackingResult, *, cache: dict | None = None, **options
+    robot: Robot,
+    trajectory,
+    gains,
+    result: TrackingResult,
+    *,
+    controller,
+    cache: dict | None = None,
+    **options,
 ) -> dict:
     """Why a tracking simulation misses its budget, and what fixes it -- measured, not asserted.
 
@@ -112,6 +121,7 @@ def diagnose_tracking(
         trajectory,
         gains,
         ("no_voltage_limit", "no_losses", "with_loss_feedforward"),
+        controller=controller,
         known=cache,
         **options,
     )

@@ -188,7 +188,7 @@ def _simulate_many(
     t_after_s: float = 0.2,
     accuracy_m: float | None = None,
     tcp: bool = True,
-    controller: ControllerProfile | str | None = None,
+    controller: ControllerProfile | str,
 ) -> list[TrackingResult]:
     """:func:`simulate_tracking` of one motion under several ``(feedforward, voltage_limit,
     losses)`` variants, simulated together (:func:`_run_variants`): each result is the one
@@ -280,7 +280,7 @@ def _result(robot, raw: dict, prof, controller, quantise, p_ref, accuracy_m) -> 
             "losses": raw["losses"],
             "quantise": bool(quantise),
             "controller": prof.name,
-            "controller_source": "given" if controller is not None else "default (reference_dda)",
+            "controller_source": "given",  # controller= is required: no silent default
             "servo_period_s": float(prof.servo_period_s),
             "current_sample_time_s": raw["current_sample_time_s"],
             "dac_bits": int(prof.dac_bits),
