@@ -186,7 +186,6 @@ def preflight(
     speed_tolerance: float = 1e-6,
     continuity_tolerance: float = 0.05,
     qdd: np.ndarray | None = None,
-    axis_sign: np.ndarray | None = None,
 ) -> PreflightReport:
     """Run every check on every cycle (see the module docstring for the rules).
 
@@ -213,8 +212,6 @@ def preflight(
         From the controller profile.
     qdd : array (n_cycles, n_axes), optional
         Planned accelerations [rad/s^2] (the tables' feed-forward): checked finite.
-    axis_sign : array (n_axes,) of +1/-1, optional
-        The sign of each axis (``counts_exact = q x counts_per_rad x sign``); default all +1.
 
     Returns
     -------
@@ -278,8 +275,8 @@ def preflight(
     # what the controller receives: the rounded counts, as joint positions (the planned ones
     # where no counts could be formed: such a table fails "finite" or "counter range")
     cs = np.where(finite, counts_exact, 0.0)
-    sign = np.ones(len(joint_names)) if axis_sign is None else np.asarray(axis_sign, float)
-    sent = qs if dcounts is None else np.rint(cs) / (counts_per_rad * sign)
+    # rint(q cpr sign) / (cpr sign) = rint(q cpr) / cpr: rounding is symmetric about zero
+    sent = qs if dcounts is None else np.rint(qs * counts_per_rad) / counts_per_rad
 
     if q_current is not None:
         report.checks.append("start pose")
@@ -335,13 +332,9 @@ def preflight(
     report.peak_ratio["speed"] = _peak(speed / vlim, joint_names)
 
     def speed_failure(k: int, j: int):
-        by_counts = sent_speed[k, j] >= abs(qds[k, j]) and dcounts is not None
-        how = (
-            f"{abs(int(np.rint(cs[k, j]) - np.rint(cs[k - 1, j])))} counts in one {T:g} s cycle "
-            "command "
-            if by_counts and k > 0
-            else "planned "
-        )
+        how = "planned "
+        if dcounts is not None and k > 0 and sent_speed[k, j] >= abs(qds[k, j]):
+            how = f"{abs(int(dcounts[k, j]))} counts in one {T:g} s cycle command "
         return (
             speed[k, j],
             vlim[j],

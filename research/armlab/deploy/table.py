@@ -302,7 +302,6 @@ def setpoint_table(
         start_tolerance_counts=prof.start_tolerance_counts,
         speed_tolerance=prof.speed_tolerance,
         continuity_tolerance=prof.continuity_tolerance,
-        axis_sign=sign,
     )
     report.raise_if_failed()
     # non-finite or huge counts fail the "finite" or "counter range" check above
