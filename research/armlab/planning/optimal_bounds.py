@@ -16,9 +16,6 @@ from armlab.robot.symbolic import (
 )
 
 if TYPE_CHECKING:
-    pass
-
-if TYPE_CHECKING:
     from armlab.planning.optimal_problem import OptimalProblem
 
 __all__ = [

@@ -28,9 +28,6 @@ from armlab.trajectory.profiles import (
 )
 
 if TYPE_CHECKING:
-    pass
-
-if TYPE_CHECKING:
     from armlab.planning.optimal_problem import OptimalProblem
 
 __all__ = ["make_warm_start", "warm_boundaries"]

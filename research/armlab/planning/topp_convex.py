@@ -19,8 +19,6 @@ if TYPE_CHECKING:
 else:
     ca = lazy_import("casadi")  # CasADi loads at the first symbolic build, not with the package
 
-if TYPE_CHECKING:
-    pass
 
 if TYPE_CHECKING:
     from armlab.planning.topp_problem import ToppProblem
@@ -228,10 +226,8 @@ def solve_convex_drive(
     tr = prob.train
     assert tr is not None
     d1 = prob.coeffs["node"]["d1"]
-    line = tr.torque_constant_Nm_A * tr.supply_voltage_V / tr.resistance_ohm
-    emf = tr.torque_constant_Nm_A * tr.back_emf_V_s_rad / tr.resistance_ohm * tr.ratio
-    with np.errstate(divide="ignore"):
-        cap = np.min((0.5 * line / (emf * np.abs(d1))) ** 2, axis=1)
+    with np.errstate(divide="ignore"):  # the no-load speed U / Ke at the joint, over |q'(s)|
+        cap = np.min((0.5 * tr.no_load_speed_rad_s / (tr.ratio * np.abs(d1))) ** 2, axis=1)
     b = np.minimum(b, cap)  # linearise no faster than half the no-load path speed
     T = np.inf
     for _ in range(DRIVE_SCP_ITER):

@@ -20,8 +20,6 @@ if TYPE_CHECKING:
 else:
     ca = lazy_import("casadi")  # CasADi loads at the first symbolic build, not with the package
 
-if TYPE_CHECKING:
-    pass
 
 if TYPE_CHECKING:
     from armlab.planning.topp_problem import ToppProblem

@@ -47,7 +47,6 @@ import math
 import os
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -70,9 +69,6 @@ from armlab.study.record import (
     robot_from_design,
     verify_folder,
 )
-
-if TYPE_CHECKING:
-    pass
 
 __all__ = [
     "EXPORT_FORMATS",

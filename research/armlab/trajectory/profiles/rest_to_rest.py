@@ -224,9 +224,10 @@ def synchronised_profiles(
         (a resting one for a zero length).
     """
     L, v, a, j = (x.reshape(-1) for x in _floats(lengths, v_max, a_max, j_max))
-    t_min = double_s_min_times(L, v, a, j)
+    peak = double_s_peak_speed(L, v, a, j)  # computed once for both (as the batch does)
+    t_min = double_s_min_times(L, v, a, j, peak=peak)
     T = float(t_min.max()) if t_min.size else 0.0
-    vp = double_s_speed_for_duration(L, T, a, j, v)
+    vp = double_s_speed_for_duration(L, T, a, j, v, peak=peak, t_min=t_min)
     profiles = [
         _double_s_phases(float(L[i]), float(vp[i]), float(a[i]), float(j[i]), T)
         if L[i] > 0 and vp[i] > 0
