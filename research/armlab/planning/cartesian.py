@@ -191,7 +191,7 @@ def follow_path(
         need=("velocity", "acceleration") + (("jerk",) if scurve else ()),
         where=method,
     )
-    torque = tau_max is not False
+    torque = lim.torque_Nm is not None  # tau_max=False switched it off in resolve_limits
     pose0 = path.point(0.0)
     q0 = _start_configuration(robot, pose0, q_start)
     L = path.length
@@ -436,7 +436,7 @@ def line(
         j_max=kwargs.get("j_max"),
         tau_max=kwargs.get("tau_max"),
     )
-    return finish(traj, robot, lim, torque=kwargs.get("tau_max") is not False, what="line")
+    return finish(traj, robot, lim, torque=lim.torque_Nm is not None, what="line")
 
 
 def arc3(
@@ -593,7 +593,7 @@ def blend(
             j_max=kwargs.get("j_max"),
             tau_max=kwargs.get("tau_max"),
         )
-        return finish(traj, robot, lim, torque=kwargs.get("tau_max") is not False, what="blend")
+        return finish(traj, robot, lim, torque=lim.torque_Nm is not None, what="blend")
     path = BlendPath(
         points, radius, rotation=R0, orientation=orientation, rotation_end=rotation_end
     )

@@ -56,7 +56,7 @@ import numpy as np
 
 from armlab._keywords import renamed_keywords
 from armlab.errors import InputError, LimitViolation
-from armlab.planning.timescale import finish, stretch_needed
+from armlab.planning.timescale import finish, held_over_limit, stretch_needed
 from armlab.robot import rigid_body
 from armlab.robot.limits import resolve_limits
 from armlab.trajectory.core import Trajectory
@@ -241,7 +241,7 @@ def ptp_sync(
         need=need,
         where=f"ptp_sync {profile}",
     )
-    torque = tau_max is not False
+    torque = lim.torque_Nm is not None  # tau_max=False switched it off in resolve_limits
     v, a, j = lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3
     assert v is not None  # resolve_limits raises when a needed limit is missing
     v0 = validate_joint_state(robot, qd_start, "qd_start", v, "velocity", where="ptp_sync")
@@ -414,11 +414,11 @@ def _ptp_from_state(robot, q0, q1, v0, a0, v1, v, a, j, lim, dt, torque) -> Traj
         )
 
     tau_max = lim.torque_Nm
-    if torque and tau_max is not None:  # the start state alone, before any change
+    if tau_max is not None:  # the start state alone, before any change
         h = rigid_body.inverse_dynamics(robot, q0[None], v0[None], a0[None])[0]
-        over = np.abs(h) > np.asarray(tau_max) * (1 + 1e-9)
-        if np.any(over):
-            jk = int(np.flatnonzero(over)[0])
+        over = held_over_limit(np.abs(h)[None] / np.asarray(tau_max))  # the planners' one rule
+        if over is not None:
+            jk = over[1]
             raise LimitViolation(
                 f"{method}: {robot.joint_names[jk]} needs {h[jk]:.4g} N m at the start state "
                 f"(qd_start, qdd_start) before any change, above its torque limit "

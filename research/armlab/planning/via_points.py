@@ -199,7 +199,7 @@ def _via_plan(
         need=("velocity",) if durations is not None else ("velocity", "acceleration"),
         where=method,
     )
-    torque = tau_max is not False
+    torque = lim.torque_Nm is not None  # tau_max=False switched it off in resolve_limits
     merged = 0
     if durations is None:
         # merge repeated waypoints (a zero-length segment has no natural duration)
