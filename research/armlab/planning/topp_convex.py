@@ -169,9 +169,10 @@ def solve_convex(
         scale = {k: np.ones((K, n)) for k in ("velocity", "acceleration", "torque")}
     A, lo, hi, ub, kinds = rows(prob, ls, scale)
     key = (tuple(kinds), A.nnz())
-    if "motor_envelope" in kinds:
-        key = (key, id(A))  # linearised rows: their coefficients change every pass
-    if prob._convex_solver is None or prob._convex_solver[0] != key:
+    # linearised envelope rows change their coefficients every pass: never reuse that solver
+    # (a key on id(A) could match a new matrix at a freed one's address)
+    fresh = "motor_envelope" in kinds
+    if fresh or prob._convex_solver is None or prob._convex_solver[0] != key:
         x = ca.SX.sym("b", K + 1)
         eps = 1e-14
         root = ca.sqrt(x + eps)
