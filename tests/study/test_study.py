@@ -24,7 +24,7 @@ from armlab.study import (
     run_study,
 )
 from armlab.study.build import build_robot
-from armlab.study.runner import KEY_FIGURES
+from armlab.study.figures import KEY_FIGURES
 from armlab.study.spec import STAGES, check_key
 
 DESIGN_KEYS = ("robot", "static_load", "trajectory", "sizing", "control", "tracking", "export")

@@ -115,3 +115,15 @@ def check_waypoints(n_waypoints: int, planner: str, where: str) -> None:
             f"{where}: {n_waypoints} waypoints, above armlab's bound of {bound} for planner "
             f"{planner!r} (armlab.study.budget): split the motion into several studies"
         )
+
+
+def check_table_rows(trajectory, controller, n_joints: int) -> None:
+    """Refuse a set-point table of more than :data:`MAX_SAMPLES` cycles before it is made:
+    the plan's duration over the controller's cycle (the run's export stage and
+    ``armlab export`` ask this one check)."""
+    check_samples(
+        trajectory.duration / controller.cycle_s,
+        n_joints,
+        f"controller.cycle_s = {controller.cycle_s:g}",
+        f"{trajectory.duration:.3g} s plan / {controller.cycle_s:g} s controller cycle",
+    )

@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     from armlab.kinematics.accuracy import AccuracyResult
     from armlab.kinematics.workspace import WorkspaceResult
     from armlab.robot.model import Robot
+    from armlab.study.verdict import StageRecord
     from armlab.trajectory import Trajectory
     from armlab.trajectory.sampling import LimitReport
 
@@ -79,8 +80,15 @@ class StudyContext:
     #: file the stage wrote, by name
     setpoints: SetpointTable | None = None
     exported: dict[str, str] = field(default_factory=dict)
-    failed_so_far: list[str] = field(default_factory=list)
+    #: each stage's record so far (the runner's own dict: the records are the one home of
+    #: what failed)
+    records: dict[str, StageRecord] = field(default_factory=dict)
     files: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def failed_so_far(self) -> list[str]:
+        """The failed checks of the stages recorded so far, in stage order."""
+        return [f for rec in self.records.values() for f in rec.failed_checks]
 
     @property
     def rng(self) -> np.random.Generator:

@@ -59,7 +59,7 @@ from armlab.errors import DesignFailure, InputError
 from armlab.io import atomic_write_many
 from armlab.io.lock import is_lock_file
 from armlab.robot.controller import ControllerProfile, load_profile
-from armlab.study.budget import check_samples
+from armlab.study.budget import check_table_rows
 from armlab.study.recheck import drive_train_velocity, recorded_verdict, resized, same_study
 from armlab.study.record import (
     controller_from_design,
@@ -311,7 +311,10 @@ def _render(
     verdict = recorded_verdict(summary, record, study)
     robot = robot_from_design(record)  # every format needs it (table, lever arms, drives)
     robot.limits = drive_train_velocity(robot)
-    again = resized(study / TRAJECTORY_FILE, summary, record, robot)  # the drive train judged again
+    tpath = study / TRAJECTORY_FILE
+    traj = load_trajectory(tpath) if tpath.is_file() else None  # read once, for both uses
+    study_profile = controller_from_design(record)
+    again = resized(traj, summary, record, robot, study_profile)  # the drive train judged again
     failed = list(dict.fromkeys([*verdict.failed_checks, *again]))
     result = ExportResult()
     if verdict.verdict != "pass" or failed:
@@ -325,7 +328,6 @@ def _render(
                 f"export refused: the design of {study} {what} (--force exports it)"
             )
         result.notes.append(f"forced export: the design {what}")
-    study_profile = controller_from_design(record)
     prof = study_profile if controller is None else load_profile(controller)
     if controller is not None:
         diff = profile_differences(study_profile, prof)
@@ -345,16 +347,9 @@ def _render(
 
     table = None
     if fmt in (*_SETPOINT_FILE, "trajectory", "cia402"):
-        tpath = study / TRAJECTORY_FILE
-        if not tpath.is_file():
+        if traj is None:
             raise InputError(f"{study}: no {TRAJECTORY_FILE}")
-        traj = load_trajectory(tpath)
-        check_samples(
-            traj.duration / prof.cycle_s,
-            robot.n_joints,
-            f"controller cycle_s = {prof.cycle_s:g}",
-            f"{traj.duration:.3g} s plan / {prof.cycle_s:g} s controller cycle",
-        )
+        check_table_rows(traj, prof, robot.n_joints)
         table = setpoint_table(robot, traj, prof, q_current=q_current, source=source)
         if fmt in _SETPOINT_FILE:
             outputs += table.files(out / _SETPOINT_FILE[fmt], fmt)

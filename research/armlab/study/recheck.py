@@ -22,10 +22,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from armlab.deploy.trajfile import load_trajectory
 from armlab.errors import InputError
 from armlab.study.budget import check_samples
-from armlab.study.record import controller_from_design
 from armlab.study.spec import STAGES, PlanSpec
 from armlab.study.verdict import FAIL, PASS, DesignVerdict, StageRecord, design_verdict
 
@@ -148,13 +146,14 @@ HARDWARE_CHECKS = (
 )
 
 
-def resized(tpath: Path, summary: dict, record: dict, robot: Robot) -> list[str]:
+def resized(traj, summary: dict, record: dict, robot: Robot, controller) -> list[str]:
     """The sizing checks re-run on the recorded plan with design.json's drive train
     (:func:`armlab.dynamics.size`, ``Drive.peak_motor_torque_Nm`` and the speed limits through
-    the one drive-train model) on the plan in ``tpath`` (the study's trajectory.npz): every
+    the one drive-train model) on the recorded plan: every
     check when the study ran its sizing stage, else the :data:`HARDWARE_CHECKS`. Their failed
-    checks ([] without drives or trajectory)."""
-    if robot.drives is None or not tpath.is_file():
+    checks ([] without drives or trajectory). ``traj``: the study's trajectory.npz (None when
+    it has none); ``controller``: design.json's."""
+    if robot.drives is None or traj is None:
         return []
     from armlab.dynamics import size
     from armlab.study.drive_stages import sizing_failures
@@ -166,12 +165,11 @@ def resized(tpath: Path, summary: dict, record: dict, robot: Robot) -> list[str]
     dt = plan.get("check_dt_s", default)
     if not isinstance(dt, (int, float)) or not 0 < dt <= 1:
         dt = default
-    traj = load_trajectory(tpath)
     check_samples(
         traj.duration / dt,
         robot.n_joints,
         f"design.json plan.check_dt_s = {dt:g}",
         f"{traj.duration:.3g} s plan / {dt:g} s sizing grid",
     )
-    report = size(robot, traj, dt=float(dt), controller=controller_from_design(record))
+    report = size(robot, traj, dt=float(dt), controller=controller)
     return sizing_failures(report, None if sized else HARDWARE_CHECKS)

@@ -346,10 +346,7 @@ def prepare_out_dir(folder: str | os.PathLike, study_hash: str, *, overwrite: bo
         The folder holds another study's outputs (without ``overwrite``) or files armlab does
         not write.
     """
-    folder = Path(folder)
-    if folder.exists() and not folder.is_dir():
-        raise NotADirectoryError(errno.ENOTDIR, "--out exists and is not a folder", str(folder))
-    folder.mkdir(parents=True, exist_ok=True)
+    folder = Path(folder)  # made, and checked to be a folder, by locked_folder
     entries = [p for p in folder.iterdir() if not is_lock_file(p)]
     if not entries:
         return folder

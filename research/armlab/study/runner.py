@@ -25,7 +25,7 @@ from armlab.errors import ArmlabError
 from armlab.io import write_json
 from armlab.study.build import build_robot, controller_profile
 from armlab.study.context import NotApplicable, StudyContext
-from armlab.study.figures import KEY_FIGURES, key_figures
+from armlab.study.figures import key_figures
 from armlab.study.record import (
     DESIGN_FILE,
     SUMMARY_FILE,
@@ -36,7 +36,6 @@ from armlab.study.record import (
 from armlab.study.spec import STAGES, StudySpec, load_study
 from armlab.study.stages import NEEDS, STAGE_FUNCTIONS, SUMMARY_KEY, robot_block
 from armlab.study.verdict import (
-    JUDGING_STAGES,
     DesignVerdict,
     StageOutput,
     StageRecord,
@@ -48,18 +47,7 @@ if TYPE_CHECKING:
     from armlab.robot.model import Robot
     from armlab.trajectory import Trajectory
 
-__all__ = [
-    "StudyResult",
-    "run_study",
-    "run_spec",
-    "key_figures",
-    "KEY_FIGURES",
-    "write_json",
-    "design_verdict",
-    "JUDGING_STAGES",
-    "StageRecord",
-    "DesignVerdict",
-]
+__all__ = ["StudyResult", "run_study", "run_spec"]
 
 
 @dataclass
@@ -190,7 +178,6 @@ def _run(
 ) -> StudyResult:
     """:func:`run_spec` into the prepared (and locked) folder ``out``, or in memory."""
     written: dict[str, str] = {}  # file name -> path, of every data file the run wrote
-    failed: list[str] = []  # the failed checks of the stages so far
     records: dict[str, StageRecord] = {}
     ctx: StudyContext | None = None  # made once the robot is built
     summary: dict[str, Any] = {
@@ -227,7 +214,6 @@ def _run(
         records[stage] = rec
         summary[SUMMARY_KEY.get(stage, stage)] = rec.block(output)
         summary["study"]["stages"][stage] = rec.to_dict()
-        failed.extend(rec.failed_checks)
 
     def stopped(stage: str, t0: float, exc: ArmlabError) -> ArmlabError:
         record(stage, t0, status="error", error=str(exc), error_type=type(exc).__name__)
@@ -265,7 +251,7 @@ def _run(
             controller=controller,
             out_dir=out,
             force=force,
-            failed_so_far=failed,
+            records=records,
             files=written,
         )
         record("robot", t0, StageOutput(robot_block(ctx)))

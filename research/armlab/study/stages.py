@@ -410,15 +410,10 @@ def stage_export(ctx: StudyContext) -> StageOutput:
             f"{ctx.robot.name} has no drives.toml and controller profile "
             f"{prof.name!r} gives no counts_per_joint_rev"
         )
-    from armlab.study.budget import check_samples
+    from armlab.study.budget import check_table_rows
 
     assert ctx.trajectory is not None  # NEEDS: plan
-    check_samples(
-        ctx.trajectory.duration / prof.cycle_s,
-        ctx.robot.n_joints,
-        f"controller.cycle_s = {prof.cycle_s:g}",
-        f"{ctx.trajectory.duration:.3g} s plan / {prof.cycle_s:g} s controller cycle",
-    )
+    check_table_rows(ctx.trajectory, prof, ctx.robot.n_joints)
     source: dict[str, Any] = {"study": ctx.spec.source, "study_sha256": ctx.spec.hash}
     if ctx.failed_so_far:
         source["forced_despite"] = list(ctx.failed_so_far)

@@ -371,7 +371,7 @@ def run_sweep(
     -------
     pandas.DataFrame
         Columns ``key``, the parameter keys, ``status``, ``error``, ``elapsed_s``, ``worker``,
-        ``finished_at``, the key figures of :func:`armlab.study.runner.key_figures` (``verdict``
+        ``finished_at``, the key figures of :func:`armlab.study.figures.key_figures` (``verdict``
         among them) and the provenance columns (:mod:`armlab.sweep.provenance`).
         :func:`sweep_outcome` counts its errors and failing designs.
     """

@@ -9,7 +9,7 @@ Format (TOML)::
     mode = "grid"            # "grid" (every combination), "random" or "lhs" (Latin hypercube)
     samples = 16             # random / lhs: number of parameter sets
     seed = 0                 # random / lhs: the draw is reproducible from the file
-    figures = ["duration_s"] # key figures (study.runner.key_figures) plotted vs each parameter
+    figures = ["duration_s"] # key figures (study.figures.key_figures) plotted vs each parameter
     retries = 2              # resubmissions of a set whose worker died (beyond Dask's own)
     rerun_errors = false     # a re-run also repeats the sets that ended in an error
 
@@ -241,7 +241,7 @@ def parse_sweep(
     figures = sw.get("figures", ["duration_s"])
     if not isinstance(figures, list) or not figures or not all(isinstance(f, str) for f in figures):
         raise SpecError(f"sweep.figures: expected a list of key-figure names, not {figures!r}")
-    from armlab.study.runner import KEY_FIGURES
+    from armlab.study.figures import KEY_FIGURES
 
     unknown = [f for f in figures if f not in KEY_FIGURES]
     if unknown:

@@ -82,8 +82,8 @@ def run_parameter_set(
     dict
         ``key``, the parameters, ``status`` ("done" or "error"), ``error`` (one line, "" when
         done), ``elapsed_s``, ``worker`` (host:pid), ``finished_at`` (Unix time), the study's
-        key figures (:func:`armlab.study.runner.key_figures`; NaN where a stage did not run) and the
-        provenance columns.
+        key figures (:func:`armlab.study.figures.key_figures`; NaN where a stage did not run)
+        and the provenance columns.
     """
     t0 = time.perf_counter()
     row: dict[str, Any] = {"key": key, **params}
