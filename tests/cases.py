@@ -65,3 +65,10 @@ def cosine_motion(robot, duration_s=60.0, n=6001, scale=0.9, terms=((3, 0.45), (
             qd[:, j] += A * w * np.sin(w * t)
             qdd[:, j] += A * w * w * np.cos(w * t)
     return Trajectory(t, q, qd, qdd, joint_names=robot.joint_names, method="cosines")
+
+
+def one_line(capsys) -> str:
+    """The one line a refused command wrote to stderr (asserts it is exactly one)."""
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    return err[0]

@@ -13,7 +13,7 @@ import textwrap
 import pytest
 
 from armlab.cli import main, os_error_line
-from cases import quick_study
+from cases import one_line, quick_study
 from conftest import sweep_env
 
 STAGES = ("kinematics", "plan", "export")
@@ -29,22 +29,16 @@ def study_dir(tmp_path):
     return out
 
 
-def _one_line(capsys) -> str:
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1, err
-    return err[0]
-
-
 def test_out_naming_a_file_is_exit_3_and_leaves_the_file(tmp_path, study_dir, capsys):
     target = tmp_path / "notes.txt"
     target.write_text("mine\n")
     capsys.readouterr()
     assert main(["export", str(study_dir), "--out", str(target)]) == 3
-    line = _one_line(capsys)
+    line = one_line(capsys)
     assert str(target) in line and "not a folder" in line
     study = tmp_path / "q.toml"
     assert main(["run", str(study), "--out", str(target)]) == 3
-    assert str(target) in _one_line(capsys)
+    assert str(target) in one_line(capsys)
     assert target.read_text() == "mine\n"
 
 
@@ -57,7 +51,7 @@ def test_disk_full_is_one_line_and_exit_3(tmp_path, study_dir, capsys, monkeypat
     monkeypatch.setattr(export, "atomic_write_many", full)
     capsys.readouterr()
     assert main(["export", str(study_dir), "--out", str(tmp_path / "e")]) == 3
-    line = _one_line(capsys)
+    line = one_line(capsys)
     assert "no space left" in line and "x.tmp" in line
 
 
@@ -105,7 +99,7 @@ def test_a_read_only_out_is_one_line_and_exit_3(tmp_path, capsys):
     ro.chmod(0o555)
     try:
         assert main(["run", str(study), "--out", str(ro / "out")]) == 3
-        assert "permission denied" in _one_line(capsys)
+        assert "permission denied" in one_line(capsys)
     finally:
         ro.chmod(0o755)
 
@@ -120,13 +114,13 @@ def test_ctrl_c_while_the_libraries_load_is_one_line_and_130(monkeypatch, capsys
 
     monkeypatch.setattr(cli, "build_parser", interrupted)
     assert main(["info", "teachbot6"]) == 130
-    assert _one_line(capsys) == "armlab: interrupted"
+    assert one_line(capsys) == "armlab: interrupted"
 
 
 def test_a_sweep_into_a_file_is_exit_3(tmp_path, capsys):
     target = tmp_path / "results"
     target.write_text("mine\n")
     assert main(["sweep", "demo", "--out", str(target)]) == 3
-    line = _one_line(capsys)
+    line = one_line(capsys)
     assert str(target) in line and "not a folder" in line
     assert target.read_text() == "mine\n"

@@ -18,7 +18,7 @@ from armlab.cli import main
 from armlab.deploy.provenance import file_sha256
 from armlab.deploy.table import read_setpoints
 from armlab.robot.drives import Drive, Encoder, motor_from_dict, reducer_from_dict
-from cases import quick_study
+from cases import one_line, quick_study
 
 #: relative tolerance of the motor-speed comparison (the pre-flight's speed tolerance is 1e-6)
 SPEED_RTOL = 1e-6
@@ -43,12 +43,6 @@ def _rewrite(folder, name: str, edit) -> None:
         summary = json.loads((folder / "summary.json").read_text())
         summary["files"][name] = file_sha256(path)
         (folder / "summary.json").write_text(json.dumps(summary, indent=2))
-
-
-def _one_line(capsys) -> str:
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1, err
-    return err[0]
 
 
 def _drive(d: dict) -> Drive:
@@ -80,7 +74,7 @@ def test_an_edited_ratio_is_refused_or_exported_within_the_motor_speed(tmp_path,
     code = main(["export", str(out), "--out", str(exp)])
     if code != 0:
         assert code in (1, 2)
-        line = _one_line(capsys)
+        line = one_line(capsys)
         assert "joint2" in line and "speed" in line
         assert not exp.exists() or not any(exp.iterdir())
         return
@@ -117,7 +111,7 @@ def test_a_failing_study_edited_to_pass_is_refused(tmp_path, capsys):
     capsys.readouterr()
     code = main(["export", str(out), "--out", str(tmp_path / "exp")])
     assert code in (1, 2)
-    line = _one_line(capsys)
+    line = one_line(capsys)
     assert "sizing" in line
     assert not (tmp_path / "exp" / "setpoints.csv").exists()
 
@@ -136,7 +130,7 @@ def test_a_failing_study_whose_stage_results_are_edited_to_pass_is_judged_again(
     capsys.readouterr()
     code = main(["export", str(out), "--out", str(tmp_path / "exp")])
     assert code == 1
-    line = _one_line(capsys)
+    line = one_line(capsys)
     assert "export refused" in line and "sizing: " in line
     assert not (tmp_path / "exp" / "setpoints.csv").exists()
 
@@ -155,7 +149,7 @@ def test_an_edited_sizing_grid_is_refused_before_it_is_allocated(tmp_path, capsy
     _rewrite(out, "design.json", edit)
     capsys.readouterr()
     assert main(["export", str(out), "--out", str(tmp_path / "exp")]) == 2
-    line = _one_line(capsys)
+    line = one_line(capsys)
     assert "plan.check_dt_s = 1e-09" in line and "time samples" in line
 
 
@@ -173,6 +167,6 @@ def test_a_study_without_sizing_is_held_to_the_drives_peak_torque(tmp_path, caps
     _rewrite(out, "design.json", edit)
     capsys.readouterr()
     assert main(["export", str(out), "--out", str(tmp_path / "exp")]) == 1
-    line = _one_line(capsys)
+    line = one_line(capsys)
     assert "export refused" in line and "sizing: joint2 motor_peak_torque" in line
     assert not (tmp_path / "exp" / "setpoints.csv").exists()
