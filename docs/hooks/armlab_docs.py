@@ -233,7 +233,7 @@ def stages() -> str:
 
 
 def key_figures() -> str:
-    from armlab.study.runner import KEY_FIGURES
+    from armlab.study.figures import KEY_FIGURES
 
     return ", ".join(f"`{k}`" for k in KEY_FIGURES)
 
