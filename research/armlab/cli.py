@@ -347,7 +347,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--tool-frame",
         default=None,
         metavar="FRAME",
-        help="tool frame (a study's [robot] tool_frame; default tool0 or the last frame)",
+        help="tool frame (a study's [robot] tool_frame; default tool0, else a frame of the last joint named like a tool, else its link)",
     )
     s.add_argument(
         "--lock-joints",

@@ -22,7 +22,7 @@ from armlab.names import check_name, check_names, one_line
 from armlab.robot.dh import DHTable, read_dh_table
 from armlab.robot.drives import Drive, read_drives
 from armlab.robot.limits import Limits, description_limits, resolve_limits
-from armlab.robot.urdf_check import build_model_quietly, check_urdf
+from armlab.robot.urdf_check import build_model_quietly, check_urdf, revolute_continuous
 
 __all__ = [
     "Robot",
@@ -145,6 +145,10 @@ class Robot:
     ) -> None:
         self.name = name
         self.model = model
+        #: continuous joints of the URDF -> True when they came with a range (revolute over it),
+        #: False when unbounded (no position limit); and how the tool frame was chosen
+        self.continuous_joints: dict[str, bool] = {}
+        self.tool_frame_from = "given"
         self.urdf_path = Path(urdf_path)
         self.joint_names = list(model.names[1:])
         self.dh = dh
@@ -408,6 +412,43 @@ def _find_urdf(name_or_path: str | os.PathLike) -> tuple[str, Path, Path | None]
     return s, urdf, folder
 
 
+#: Words that name a tool or flange frame, in the order :func:`default_tool_frame` prefers them.
+TOOL_FRAME_WORDS = ("tcp", "tool", "end_effector", "eef", "ee", "flange", "hand")
+
+
+def default_tool_frame(model: pin.Model) -> tuple[str, str]:
+    """The tool frame a URDF implies when the study names none, and the rule that chose it.
+
+    Among the frames carried by the last moving joint (those on its link and the fixed links
+    below it), the first match in :data:`TOOL_FRAME_WORDS` order: a frame named ``tool0``
+    (ROS-Industrial's convention, anywhere in the URDF), else one whose name has ``tcp``,
+    ``tool``, ``end_effector``, ``eef``, ``ee``, ``flange`` or ``hand`` in it; else the link the
+    last joint moves (its flange). The URDF's last frame is not a tool by itself: on many arms it is a finger
+    tip (Kinova j2s6s200) or a camera.
+
+    Returns
+    -------
+    frame : str
+    rule : str
+        How it was chosen, for the study's decisions (``"frame named tool0"`` ...).
+    """
+    if model.existFrame("tool0"):
+        return "tool0", "the frame named tool0"
+    last = model.njoints - 1
+    kinds = (pin.FrameType.BODY, pin.FrameType.OP_FRAME)
+    carried = [f for f in model.frames if f.parentJoint == last and f.type in kinds]
+    for word in TOOL_FRAME_WORDS:
+        for f in carried:
+            parts = [p for p in f.name.lower().replace("-", "_").split("_") if p]
+            if word in parts or (word != "ee" and word in f.name.lower()):
+                return f.name, f"the last joint's frame named like a tool ({word!r})"
+    if carried:  # the link the last joint moves
+        return carried[0].name, (
+            f"no tool frame in the URDF: the link of the last moving joint {model.names[last]!r}"
+        )
+    return model.frames[len(model.frames) - 1].name, "the URDF's last frame"
+
+
 def load_robot(
     name_or_path: str | os.PathLike,
     payload_kg: float | None = None,
@@ -428,7 +469,9 @@ def load_robot(
         Replace the description's payload mass (its centre of mass is kept; for a plain URDF it
         is put at the tool frame). None keeps the description's payload.
     tool_frame : str, optional
-        The tool frame; default ``tool0`` if the URDF has it, else the last frame.
+        The tool frame; default :func:`default_tool_frame` (``tool0`` if the URDF has it, else
+        a frame of the last joint named like a tool, else that joint's link), recorded with its
+        rule in ``robot.tool_frame_from``.
     lock_joints : sequence of str
         Joints to lock at 0 (gripper fingers, for example).
     transform_base_to_world : (4, 4) array, optional
@@ -456,7 +499,14 @@ def load_robot(
     if "<robot" not in text:
         raise RobotDescriptionError(f"{urdf}: not a URDF (no <robot> element)")
     check_urdf(text, urdf)  # physical validity; what the C++ parser would drop silently
-    model = build_model_quietly(urdf)
+    rewritten, continuous = revolute_continuous(text)
+    model = build_model_quietly(urdf, rewritten if continuous else None)
+    unbounded = [j for j, bounded in continuous.items() if not bounded]
+    for j in unbounded:  # no position limit at all (revolute_continuous)
+        if model.existJointName(j):
+            i = model.joints[model.getJointId(j)].idx_q
+            model.lowerPositionLimit[i] = -np.inf
+            model.upperPositionLimit[i] = np.inf
     if lock_joints:
         unknown = [j for j in lock_joints if not model.existJointName(j)]
         if unknown:
@@ -470,15 +520,17 @@ def load_robot(
         bad = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nq != 1]
         raise RobotDescriptionError(
             f"{urdf}: only 1-DOF revolute/prismatic joints are supported (not: {bad}); "
-            "give continuous joints limits or lock them"
+            "lock them or describe them as revolute/prismatic joints"
         )
+    free = np.array([n in unbounded for n in model.names[1:]], bool)
     limits_bad = ~np.isfinite(model.lowerPositionLimit) | ~np.isfinite(model.upperPositionLimit)
+    limits_bad &= ~free
     if np.any(limits_bad):
         names = [model.names[i + 1] for i in np.flatnonzero(limits_bad)]
         raise RobotDescriptionError(f"{urdf}: joint(s) without finite range: {names}")
-    frame_names = [f.name for f in model.frames]
+    tool_from = "given"
     if tool_frame is None:
-        tool_frame = "tool0" if "tool0" in frame_names else model.frames[len(model.frames) - 1].name
+        tool_frame, tool_from = default_tool_frame(model)
     check_name(tool_frame, "tool frame name", str(urdf), RobotDescriptionError)
     # pinocchio keeps a fixed link's inertia on the frame of the fixed joint that carries it
     payload_frame = next(
@@ -511,6 +563,8 @@ def load_robot(
         payload_frame=payload_frame,
         transform_base_to_world=transform_base_to_world,
     )
+    robot.continuous_joints = {j: b for j, b in continuous.items() if j in robot.joint_names}
+    robot.tool_frame_from = tool_from
     if payload_kg is not None:
         p = robot.payload
         scale = float(payload_kg) / p.mass_kg if p.mass_kg > 0 else 0.0

@@ -53,7 +53,11 @@ import pinocchio as pin
 
 from armlab.errors import RobotDescriptionError
 
-__all__ = ["check_urdf", "build_model_quietly"]
+__all__ = ["check_urdf", "build_model_quietly", "revolute_continuous", "UNBOUNDED_SENTINEL_RAD"]
+
+#: The range a continuous joint without ``<limit lower upper>`` is built with before its limits
+#: become +-inf (:func:`revolute_continuous`): far beyond any motion, never a real limit.
+UNBOUNDED_SENTINEL_RAD = 1.0e9
 
 _log = logging.getLogger(__name__)
 
@@ -267,8 +271,11 @@ def _parser_summary(lines: list[str]) -> str:
     return errors[0] + (f" (+{more} more parser error{'s' if more > 1 else ''})" if more else "")
 
 
-def build_model_quietly(path: str | os.PathLike) -> pin.Model:
+def build_model_quietly(path: str | os.PathLike, text: str | None = None) -> pin.Model:
     """``pinocchio.buildModelFromUrdf(path)`` with the parser's console output captured.
+
+    ``text``: the URDF's XML to build instead of the file's (``path`` then only names it in
+    messages), e.g. with continuous joints rewritten (:func:`revolute_continuous`).
 
     The C-level stdout and stderr (file descriptors 1 and 2) point to a temporary file during
     the call (under a lock: they are shared by the threads of the process); nothing the parser
@@ -299,7 +306,10 @@ def build_model_quietly(path: str | os.PathLike) -> pin.Model:
             if saved:
                 os.dup2(tmp.fileno(), 1)
                 os.dup2(tmp.fileno(), 2)
-            model = pin.buildModelFromUrdf(str(path))
+            if text is None:
+                model = pin.buildModelFromUrdf(str(path))
+            else:
+                model = pin.buildModelFromXML(text)
         except Exception as exc:  # pinocchio raises ValueError/RuntimeError with XML details
             failure = exc
         finally:
@@ -322,3 +332,50 @@ def build_model_quietly(path: str | os.PathLike) -> pin.Model:
         _log.debug("%s: URDF parser output: %s", path, " | ".join(lines))
     assert model is not None
     return model
+
+
+def revolute_continuous(text: str) -> tuple[str, dict[str, bool]]:
+    """The URDF with every ``continuous`` joint rewritten as ``revolute``, and which had limits.
+
+    Pinocchio builds a continuous joint as an unbounded revolute joint with two configuration
+    variables (cos, sin), which armlab's planners, tables and checks cannot take. A continuous
+    joint is one angle all the same:
+
+    * with ``<limit lower upper>`` it is a revolute joint over that range (ROS' URDF spec
+      ignores the range of a continuous joint; armlab honours it, as its docs say);
+    * without them it is a revolute joint over ``+-UNBOUNDED_SENTINEL_RAD``, which
+      :func:`armlab.robot.load_robot` turns into an unbounded range (``-inf, inf``): no
+      position limit in plans and set-point tables.
+
+    Returns
+    -------
+    text : str
+        The rewritten XML (``text`` itself when it has no continuous joint).
+    continuous : dict of str to bool
+        Joint name -> True when the joint came with a range.
+    """
+    if 'continuous' not in text:
+        return text, {}
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError:  # the parser's own message is the better one
+        return text, {}
+    found: dict[str, bool] = {}
+    for joint in root.iter("joint"):
+        if joint.get("type") != "continuous":
+            continue
+        joint.set("type", "revolute")
+        limit = joint.find("limit")
+        if limit is None:
+            limit = ET.SubElement(joint, "limit", {"effort": "0", "velocity": "0"})
+        bounded = limit.get("lower") is not None and limit.get("upper") is not None
+        if not bounded:
+            limit.set("lower", repr(-UNBOUNDED_SENTINEL_RAD))
+            limit.set("upper", repr(UNBOUNDED_SENTINEL_RAD))
+        for key in ("effort", "velocity"):
+            if limit.get(key) is None:
+                limit.set(key, "0")
+        found[str(joint.get("name"))] = bounded
+    if not found:
+        return text, {}
+    return ET.tostring(root, encoding="unicode"), found
