@@ -73,7 +73,9 @@ def info_text(
     w = max(10, *(len(n) + 2 for n in robot.joint_names))
     lines = [
         f"robot      {robot.name}  ({robot.urdf_path})",
-        f"joints     {robot.n_joints}; tool frame {robot.tool_frame}; "
+        f"joints     {robot.n_joints}; tool frame {robot.tool_frame}"
+        + ("" if robot.tool_frame_from == "given" else f" ({robot.tool_frame_from})")
+        + "; "
         f"payload {robot.payload.mass_kg:g} kg",
         f"mass       {robot.total_mass_kg:.3f} kg moving (payload included)",
         f"reach      {max_reach_m(robot) * 1000:.1f} mm max radius of the tool point from the "
@@ -81,7 +83,7 @@ def info_text(
         "",
         f"{'joint':<{w}}{'type':<6}{'range':>20}{'velocity':>13}{'acceleration':>14}"
         f"{'jerk':>14}{'effort':>10}",
-        f"{'':<{w}}{'R | P':<6}{'[deg | m]':>20}{'[rad|m /s]':>13}{'[rad|m /s2]':>14}"
+        f"{'':<{w}}{'R|P|C':<6}{'[deg | m]':>20}{'[rad|m /s]':>13}{'[rad|m /s2]':>14}"
         f"{'[rad|m /s3]':>14}{'[Nm | N]':>10}",
     ]
 
@@ -94,12 +96,20 @@ def info_text(
         else:
             deg = (math.degrees(lim.lower_rad[i]), math.degrees(lim.upper_rad[i]))
             kind, rng = "R", f"{deg[0]:.0f} .. {deg[1]:.0f} deg"
+            if name in robot.continuous_joints:  # continuous in the URDF (revolute_continuous)
+                kind = "C"
+                rng = rng if robot.continuous_joints[name] else "unbounded"
         lines.append(
             f"{name:<{w}}{kind:<6}{rng:>20}{cell(lim.velocity_rad_s, i, 13)}"
             f"{cell(lim.acceleration_rad_s2, i, 14)}{cell(lim.jerk_rad_s3, i, 14)}"
             f"{cell(lim.torque_Nm, i, 10)}"
         )
     lines += ["", "limit sources (acceleration): " + _sources(lim.sources.get("acceleration"))]
+    if robot.continuous_joints:
+        lines.append(
+            "C: continuous in the URDF, loaded as revolute over its <limit> range, or unbounded "
+            "(no position limit in plans and tables) without one"
+        )
     if robot.drives is not None:
         mw = max(8, *(len(d.motor.model) + 2 for d in robot.drives.values()))
         rw = max(9, *(len(d.reducer.model) + 2 for d in robot.drives.values()))

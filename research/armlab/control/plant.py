@@ -124,7 +124,7 @@ def inertia_range(robot: Robot, *, n_samples: int = 400, seed: int = 0) -> Inert
     """
     rng = np.random.default_rng(seed)
     Q = robot.random_q(rng, n_samples)
-    centre = 0.5 * (robot.limits.lower_rad + robot.limits.upper_rad)
+    centre = robot.limits.centre_rad
     Q = np.vstack([centre, Q])
     with_payload = _mass_diag(robot, Q)
     empty = _mass_diag(robot.with_payload(0.0), Q) if robot.payload.mass_kg > 0 else with_payload

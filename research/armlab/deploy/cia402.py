@@ -418,7 +418,12 @@ def cia402_csp(
     )
     objects: list[Cia402Object] = []
     for a, (j, d) in enumerate(zip(names, drives, strict=True)):
-        range_counts = None if modulo[a] else np.sort(np.rint(ranges[a] * cpr[a] * sign[a]))
+        if modulo[a]:
+            range_counts = None
+        elif np.all(np.isinf(ranges[a])):  # an unbounded joint: the whole INTEGER32 range
+            range_counts = np.array([-(2**31), 2**31 - 1], dtype=float)
+        else:
+            range_counts = np.sort(np.rint(ranges[a] * cpr[a] * sign[a]))
         rows = _axis_rows(
             j, d, (value, exponent), float(per_rev[a]), int(home_counts[a]), int(period[a]),
             range_counts, int(rated_mNm[a]),

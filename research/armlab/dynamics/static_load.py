@@ -183,9 +183,9 @@ def build_static_load(
     if mode not in MODES:
         raise InputError(f"static-load mode must be one of {MODES}, not {mode!r}")
     rng = np.random.default_rng(0) if rng is None else rng
-    lo, hi = robot.limits.lower_rad.copy(), robot.limits.upper_rad.copy()
+    lo, hi = robot.limits.sample_lower_rad.copy(), robot.limits.sample_upper_rad.copy()
     q = robot.random_q(rng, n_samples)
-    q = np.vstack([q, 0.5 * (lo + hi)])
+    q = np.vstack([q, robot.limits.centre_rad])
     zeros = np.zeros_like(q)
     acc = zeros.copy()
     acc[:, j] = acceleration_rad_s2

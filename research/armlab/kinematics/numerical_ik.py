@@ -228,7 +228,7 @@ def ik_solve(
     lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
     n = robot.n_joints
     if q_seed is None:
-        q = 0.5 * (lo + hi)
+        q = robot.limits.centre_rad
     else:
         q = np.clip(robot.check_q(q_seed, name="q_seed"), lo, hi)
     T_des = np.linalg.solve(robot.transform_base_to_world, T[0])

@@ -15,6 +15,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+import math
+
 import numpy as np
 
 from armlab.errors import InputError
@@ -36,7 +38,11 @@ def _refine(robot, q0: np.ndarray, objective) -> tuple[float, np.ndarray]:
     """Maximise ``objective(p_tool_in_base)`` from q0 (L-BFGS-B inside the ranges)."""
     from scipy.optimize import minimize  # 0.3 s to import: when a reach is refined
 
-    bounds = list(zip(robot.limits.lower_rad, robot.limits.upper_rad, strict=True))
+    lim = robot.limits  # L-BFGS-B takes +-inf bounds (an unbounded joint)
+    bounds = [
+        (None if math.isinf(lo) else lo, None if math.isinf(hi) else hi)
+        for lo, hi in zip(lim.lower_rad, lim.upper_rad, strict=True)
+    ]
     inv_base = np.linalg.inv(robot.transform_base_to_world)
 
     def neg(x: np.ndarray) -> float:

@@ -123,11 +123,15 @@ class Limits:
         n = len(names)
         set_ = object.__setattr__
         set_(self, "joint_names", names)
-        for name in ("lower_rad", "upper_rad"):
+        for name, bad in (("lower_rad", np.inf), ("upper_rad", -np.inf)):
             a = _readonly(getattr(self, name))
-            if a.shape != (n,) or not np.all(np.isfinite(a)):
-                raise InputError(f"limits {name} must be {n} finite numbers, not {a.tolist()}")
+            # an unbounded joint (a continuous joint without range) has -inf / +inf
+            if a.shape != (n,) or np.any(np.isnan(a)) or np.any(a == bad):
+                raise InputError(f"limits {name} must be {n} numbers, not {a.tolist()}")
             set_(self, name, a)
+        if np.any(np.isinf(self.lower_rad) != np.isinf(self.upper_rad)):
+            j = int(np.argmax(np.isinf(self.lower_rad) != np.isinf(self.upper_rad)))
+            raise InputError(f"limits of {names[j]}: a range unbounded on one side only")
         if np.any(self.lower_rad > self.upper_rad):
             j = int(np.argmax(self.lower_rad > self.upper_rad))
             raise InputError(f"limits of {names[j]}: lower_rad is above upper_rad")
@@ -273,6 +277,27 @@ class Limits:
         raise InputError(
             f"{head}missing {' and '.join(missing)} limit{plural}{why}: {'; '.join(parts)}"
         )
+
+    @property
+    def unbounded(self) -> np.ndarray:
+        """True for a joint without position limit (a continuous joint without range), (n,)."""
+        return np.isinf(self.lower_rad)
+
+    @property
+    def sample_lower_rad(self) -> np.ndarray:
+        """Lower end of the range random poses and seeds are drawn from [rad]: the joint range,
+        one turn (-pi) for an unbounded joint (every pose of a revolute joint is in one turn)."""
+        return np.where(self.unbounded, -np.pi, self.lower_rad)
+
+    @property
+    def sample_upper_rad(self) -> np.ndarray:
+        """Upper end of :attr:`sample_lower_rad`'s range [rad] (+pi for an unbounded joint)."""
+        return np.where(self.unbounded, np.pi, self.upper_rad)
+
+    @property
+    def centre_rad(self) -> np.ndarray:
+        """Middle of each joint range [rad] (0 for an unbounded joint): the default seed/pose."""
+        return 0.5 * (self.sample_lower_rad + self.sample_upper_rad)
 
     def to_dict(self) -> dict:
         """JSON-able: ``{field: {joint: value} or None, "sources": {kind: {joint: source}}}``."""

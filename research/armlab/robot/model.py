@@ -275,9 +275,10 @@ class Robot:
         )
 
     def random_q(self, rng: np.random.Generator, n: int | None = None) -> np.ndarray:
-        """Uniform random configurations inside the joint ranges: (n_joints,) or (n, n_joints)."""
+        """Uniform random configurations inside the joint ranges (one turn for an unbounded joint):
+        (n_joints,) or (n, n_joints)."""
         size = (self.n_joints,) if n is None else (n, self.n_joints)
-        lo, hi = self.limits.lower_rad, self.limits.upper_rad
+        lo, hi = self.limits.sample_lower_rad, self.limits.sample_upper_rad
         return lo + (hi - lo) * rng.random(size)
 
     # ------------------------------------------------------------------ tool and payload

@@ -144,7 +144,7 @@ def _solve_ik(ctx: StudyContext, poses: np.ndarray) -> np.ndarray:
     robot, wp = ctx.robot, ctx.spec.waypoints
     lim = robot.limits
     seed = (
-        0.5 * (lim.lower_rad + lim.upper_rad)
+        lim.centre_rad
         if wp.ik_seed is None
         else _per_joint(list(_angles(wp.ik_seed, wp.unit)), robot.n_joints, "waypoints.ik_seed")
     )
