@@ -231,6 +231,7 @@ def _cmd_run(args) -> int:
     the exit status from the design's verdict."""
     from armlab.errors import InputError
     from armlab.study import load_study, run_spec
+    from armlab.study.decisions import print_decisions
     from armlab.study.report import summary_text
 
     if args.workers is not None:  # the option of armlab <= issue 23, refused on one line
@@ -239,7 +240,14 @@ def _cmd_run(args) -> int:
             "armlab sweep --workers N"
         )
     spec = load_study(args.study)
-    result = run_spec(spec, args.out, progress=None, force=args.force, overwrite=args.overwrite)
+    result = run_spec(
+        spec,
+        args.out,
+        progress=None,
+        force=args.force,
+        overwrite=args.overwrite,
+        announce=print_decisions,
+    )
     print(summary_text(result))
     return _verdict_status(result.design)
 
@@ -357,7 +365,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--tool-frame",
         default=None,
         metavar="FRAME",
-        help="tool frame (a study's [robot] tool_frame; default tool0, else a frame of the last joint named like a tool, else its link)",
+        help="tool frame (a study's [robot] tool_frame; default tool0, else a frame named like a tool)",
     )
     s.add_argument(
         "--lock-joints",

@@ -12,10 +12,9 @@ is undone): reach is a property of the arm, not of where it stands.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
-
-import math
 
 import numpy as np
 

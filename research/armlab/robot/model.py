@@ -424,8 +424,8 @@ def default_tool_frame(model: pin.Model) -> tuple[str, str]:
     below it), the first match in :data:`TOOL_FRAME_WORDS` order: a frame named ``tool0``
     (ROS-Industrial's convention, anywhere in the URDF), else one whose name has ``tcp``,
     ``tool``, ``end_effector``, ``eef``, ``ee``, ``flange`` or ``hand`` in it; else the link the
-    last joint moves (its flange). The URDF's last frame is not a tool by itself: on many arms it is a finger
-    tip (Kinova j2s6s200) or a camera.
+    last joint moves (its flange). The URDF's last frame is not a tool by itself: on many arms it
+    is a finger tip (Kinova j2s6s200) or a camera.
 
     Returns
     -------

@@ -354,7 +354,7 @@ def revolute_continuous(text: str) -> tuple[str, dict[str, bool]]:
     continuous : dict of str to bool
         Joint name -> True when the joint came with a range.
     """
-    if 'continuous' not in text:
+    if "continuous" not in text:
         return text, {}
     try:
         root = ET.fromstring(text)

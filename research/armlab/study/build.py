@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from armlab.errors import SpecError
-from armlab.robot.controller import ControllerProfile, load_profile
+from armlab.robot.controller import ControllerProfile
 from armlab.study.spec import StudySpec
 
 if TYPE_CHECKING:
@@ -233,19 +233,15 @@ def base_transform(spec: StudySpec) -> np.ndarray | None:
     return T
 
 
-def controller_profile(spec: StudySpec) -> ControllerProfile:
+def controller_profile(spec: StudySpec, robot: Robot | None = None) -> ControllerProfile:
     """The study's controller: the profile ``[controller] profile`` (default: the reference
-    controller) with the study's ``cycle_s``, ``pulse_limit`` and ``servo_period_s``.
+    controller, or for a robot it cannot drive the same controller for any axis count:
+    :func:`armlab.study.decisions.resolve_controller`) with the study's ``cycle_s``,
+    ``pulse_limit`` and ``servo_period_s``, validated against ``robot`` when given.
 
     This is the one controller of a study: sizing's encoder checks, the tuning's discretisation,
     the simulation's servo period and the set-point table all read it.
     """
-    c = spec.controller
-    prof = load_profile(None if c.profile is None else spec.resolve(c.profile))
-    if c.cycle_s is not None:
-        prof = prof.with_cycle(c.cycle_s)
-    if c.pulse_limit is not None:
-        prof = prof.replace(max_pulses_per_cycle=c.pulse_limit)
-    if c.servo_period_s is not None:
-        prof = prof.replace(servo_period_s=c.servo_period_s)
-    return prof
+    from armlab.study.decisions import resolve_controller
+
+    return resolve_controller(spec, robot)[0]

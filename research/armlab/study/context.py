@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     from armlab.kinematics.accuracy import AccuracyResult
     from armlab.kinematics.workspace import WorkspaceResult
     from armlab.robot.model import Robot
+    from armlab.study.decisions import Decision
     from armlab.study.verdict import StageRecord
     from armlab.trajectory import Trajectory
     from armlab.trajectory.sampling import LimitReport
@@ -46,6 +47,8 @@ class StudyContext:
     controller: ControllerProfile
     out_dir: Path | None = None
     force: bool = False
+    #: what was decided before the first stage (:mod:`armlab.study.decisions`)
+    decisions: tuple[Decision, ...] = ()
     #: kinematics: the joint waypoints (n, n_joints) [rad or m], the Cartesian ones as poses,
     #: where the joint ones come from, the tool positions (n, 3) [m] and the reach [m]
     waypoints_q: np.ndarray | None = None

@@ -388,6 +388,10 @@ def _robot_lines(ctx: StudyContext) -> list[str]:
         f"{_fmt(r.payload.mass_kg)} kg, moving mass {_fmt(r.total_mass_kg)} kg.",
         "",
     ]
+    if ctx.decisions:
+        lines += ["Decided before the first stage (the study's key, its value, and why):", ""]
+        lines += _table(["key", "value", "how"], [[d.key, d.value, d.how] for d in ctx.decisions])
+        lines.append("")
     if r.drives is not None:
         lines += _table(
             ["joint", "motor", "reducer", "ratio", "available torque [N m]"],

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -23,8 +24,14 @@ from typing import TYPE_CHECKING, Any
 from armlab.deploy.provenance import armlab_version
 from armlab.errors import ArmlabError
 from armlab.io import write_json
-from armlab.study.build import build_robot, controller_profile
+from armlab.study.build import build_robot
 from armlab.study.context import NotApplicable, StudyContext
+from armlab.study.decisions import (
+    controller_decision,
+    design_decisions,
+    print_decisions,
+    resolve_controller,
+)
 from armlab.study.figures import key_figures
 from armlab.study.record import (
     DESIGN_FILE,
@@ -131,6 +138,7 @@ def run_spec(
     report: bool | None = None,
     force: bool = False,
     overwrite: bool = False,
+    announce: Callable[[list[str]], None] | None = None,
 ) -> StudyResult:
     """Run every stage of a study.
 
@@ -151,6 +159,10 @@ def run_spec(
         Write the set-point table even when the design fails a check (recorded in the table).
     overwrite : bool
         Clear an output folder that holds another study's outputs.
+    announce : callable, optional
+        Called once, before the first stage, with the study's decisions
+        (:mod:`armlab.study.decisions`: tool frame, controller, drives, limits ... each with the
+        rule that chose it) as lines; ``armlab run`` prints them.
 
     Raises
     ------
@@ -167,14 +179,20 @@ def run_spec(
     while the study runs (:func:`armlab.study.record.locked_folder`): one writer per folder.
     """
     if out_dir is None:
-        return _run(spec, None, progress=progress, report=report, force=force)
+        return _run(spec, None, progress=progress, report=report, force=force, announce=announce)
     with locked_folder(out_dir, "armlab run") as folder:
         out = prepare_out_dir(folder, spec.hash, overwrite=overwrite)
-        return _run(spec, out, progress=progress, report=report, force=force)
+        return _run(spec, out, progress=progress, report=report, force=force, announce=announce)
 
 
 def _run(
-    spec: StudySpec, out: Path | None, *, progress: bool | None, report: bool | None, force: bool
+    spec: StudySpec,
+    out: Path | None,
+    *,
+    progress: bool | None,
+    report: bool | None,
+    force: bool,
+    announce: Callable[[list[str]], None] | None = None,
 ) -> StudyResult:
     """:func:`run_spec` into the prepared (and locked) folder ``out``, or in memory."""
     written: dict[str, str] = {}  # file name -> path, of every data file the run wrote
@@ -241,20 +259,28 @@ def _run(
         t0 = time.perf_counter()
         bar.set_postfix_str("robot")
         try:
-            controller = controller_profile(spec)
             robot = build_robot(spec)
+            controller, controller_how = resolve_controller(spec, robot)
         except ArmlabError as exc:
             raise stopped("robot", t0, exc) from None
+        decisions = [
+            *design_decisions(spec, robot, controller_how),
+            controller_decision(controller, controller_how),
+        ]
+        if announce is not None:
+            announce([d.line() for d in decisions])
         ctx = StudyContext(
             spec,
             robot=robot,
             controller=controller,
             out_dir=out,
             force=force,
+            decisions=tuple(decisions),
             records=records,
             files=written,
         )
         record("robot", t0, StageOutput(robot_block(ctx)))
+        summary["robot"]["decisions"] = [d.to_dict() for d in decisions]
         if out is not None:
             path = write_json(out / DESIGN_FILE, design_record(robot, controller, spec))
             written[DESIGN_FILE] = str(path)
@@ -350,7 +376,15 @@ def run_study(
         verdict.
     """
     spec = load_study(study, overrides)
-    result = run_spec(spec, out_dir, progress=progress, force=force, overwrite=overwrite)
+
+    result = run_spec(
+        spec,
+        out_dir,
+        progress=progress,
+        force=force,
+        overwrite=overwrite,
+        announce=None if quiet else print_decisions,
+    )
     if not quiet:
         from armlab.study.report import summary_text
 

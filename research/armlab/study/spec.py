@@ -231,7 +231,9 @@ class RobotSpec:
         "drives file (docs/drives.md), relative to the study file; replaces the "
         "drives.toml beside the URDF",
     )
-    tool_frame: str | None = _key(_str(), None, "tool frame (default tool0, else one named like a tool)")
+    tool_frame: str | None = _key(
+        _str(), None, "tool frame (default tool0, else one named like a tool)"
+    )
     lock_joints: tuple[str, ...] = _key(_str_list(), (), "joints locked at 0")
     base_xyz_m: tuple[float, ...] | None = _key(
         _vector(3), None, "position of the base in the world, m (default 0 0 0)"

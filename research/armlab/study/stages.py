@@ -78,7 +78,8 @@ def selection_for_study(spec: StudySpec) -> StudyContext:
     """
     from armlab.dynamics import size
 
-    ctx = StudyContext(spec, robot=build_robot(spec), controller=controller_profile(spec))
+    robot = build_robot(spec)
+    ctx = StudyContext(spec, robot=robot, controller=controller_profile(spec, robot))
     for stage in ("kinematics", "plan", "static_load"):
         STAGE_FUNCTIONS[stage](ctx)
     duty = select_and_install(ctx)
