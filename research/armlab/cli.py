@@ -365,7 +365,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--tool-frame",
         default=None,
         metavar="FRAME",
-        help="tool frame (a study's [robot] tool_frame; default tool0, else a frame named like a tool)",
+        help="tool frame (study: [robot] tool_frame; default tool0, else one named like a tool)",
     )
     s.add_argument(
         "--lock-joints",
