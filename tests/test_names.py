@@ -264,8 +264,11 @@ def test_hostile_name_in_drives_file_profile_and_study_is_refused(tmp_path, name
 
 @pytest.mark.parametrize("name", INJECTIONS, ids=lambda s: repr(s[:12]))
 def test_hostile_robot_and_tool_names_are_refused(tmp_path, name):
-    with pytest.raises(RobotDescriptionError) as exc:
-        load_robot(_write_urdf(tmp_path, ["joint1"], tool=name))
+    with pytest.raises(RobotDescriptionError) as exc:  # named as the tool
+        load_robot(_write_urdf(tmp_path, ["joint1"], tool=name), tool_frame=name)
+    _refused_in_one_line(exc, "tool frame name")
+    with pytest.raises(RobotDescriptionError) as exc:  # the default rule picks it (issue 25)
+        load_robot(_write_urdf(tmp_path, ["joint1"], tool=name + "tool"))
     _refused_in_one_line(exc, "tool frame name")
     if "/" not in name and len(name) < 200:  # a file name can hold it
         with pytest.raises(RobotDescriptionError) as exc:

@@ -253,7 +253,10 @@ def test_run_study_prints_a_one_screen_summary(tmp_path, capsys):
     path.write_text(QUICK)
     summary = run_study(path, tmp_path / "out")
     out = capsys.readouterr().out
-    lines = out.strip().splitlines()
+    decided, rest = out.split("armlab study 'quick'", 1)
+    assert decided.startswith("decided before the first stage:")  # armlab.study.decisions
+    assert "robot.tool_frame = tool0 (default: the frame named tool0)" in decided
+    lines = ("armlab study 'quick'" + rest).strip().splitlines()
     assert len(lines) <= 24
     assert lines[0].startswith("armlab study 'quick': robot teachbot6")
     for stage in STAGES:

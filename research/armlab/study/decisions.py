@@ -197,9 +197,11 @@ def design_decisions(spec: StudySpec, robot: Robot, controller_how: str) -> list
     return out
 
 
-def print_decisions(lines: list[str]) -> None:
-    """Print the decisions (``armlab run``, :func:`armlab.study.run_study`), flushed so they
-    come before the first stage's output."""
+def print_decisions(decisions: list[Decision]) -> None:
+    """Print what armlab decided for the study (``armlab run``, :func:`armlab.study.run_study`):
+    every decision the study file did not make itself (those are in summary.json too), flushed
+    so they come before the first stage's output."""
+    lines = [d.line() for d in decisions if d.how != "study"] or ["nothing: the study set it all"]
     print("decided before the first stage:\n" + "\n".join(f"  {s}" for s in lines), flush=True)
 
 

@@ -27,6 +27,7 @@ from armlab.io import write_json
 from armlab.study.build import build_robot
 from armlab.study.context import NotApplicable, StudyContext
 from armlab.study.decisions import (
+    Decision,
     controller_decision,
     design_decisions,
     print_decisions,
@@ -138,7 +139,7 @@ def run_spec(
     report: bool | None = None,
     force: bool = False,
     overwrite: bool = False,
-    announce: Callable[[list[str]], None] | None = None,
+    announce: Callable[[list[Decision]], None] | None = None,
 ) -> StudyResult:
     """Run every stage of a study.
 
@@ -162,7 +163,7 @@ def run_spec(
     announce : callable, optional
         Called once, before the first stage, with the study's decisions
         (:mod:`armlab.study.decisions`: tool frame, controller, drives, limits ... each with the
-        rule that chose it) as lines; ``armlab run`` prints them.
+        rule that chose it); ``armlab run`` prints them (:func:`print_decisions`).
 
     Raises
     ------
@@ -192,7 +193,7 @@ def _run(
     progress: bool | None,
     report: bool | None,
     force: bool,
-    announce: Callable[[list[str]], None] | None = None,
+    announce: Callable[[list[Decision]], None] | None = None,
 ) -> StudyResult:
     """:func:`run_spec` into the prepared (and locked) folder ``out``, or in memory."""
     written: dict[str, str] = {}  # file name -> path, of every data file the run wrote
@@ -268,7 +269,7 @@ def _run(
             controller_decision(controller, controller_how),
         ]
         if announce is not None:
-            announce([d.line() for d in decisions])
+            announce(decisions)
         ctx = StudyContext(
             spec,
             robot=robot,
