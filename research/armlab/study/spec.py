@@ -398,7 +398,11 @@ class TrackingSpec:
 class ControllerSpec:
     """``[controller]``: the controller profile of the set-point table and its overrides."""
 
-    profile: str | None = _key(_str(), None, "profile name or TOML path (default: reference; dda_n_axis for other axis counts)")
+    profile: str | None = _key(
+        _str(),
+        None,
+        "profile name or TOML path (default: reference; dda_n_axis for other axis counts)",
+    )
     cycle_s: float | None = _key(_float(0.0, 2.0, lo_open=True), None, "cycle period in s")
     pulse_limit: int | None = _key(_int(1), None, "pulses per cycle limit")
     servo_period_s: float | None = _key(
