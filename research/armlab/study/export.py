@@ -60,6 +60,7 @@ from armlab.io import atomic_write_many
 from armlab.io.lock import is_lock_file
 from armlab.robot.controller import ControllerProfile, load_profile
 from armlab.study.budget import check_table_rows
+from armlab.study.export_target import check_target
 from armlab.study.recheck import drive_train_velocity, recorded_verdict, resized, same_study
 from armlab.study.record import (
     controller_from_design,
@@ -344,6 +345,21 @@ def _render(
     }
     if failed:
         source["forced_despite"] = failed
+    # export what was verified: the controller this format feeds (armlab.deploy.carries)
+    target = check_target(
+        fmt,
+        summary=summary,
+        record=record,
+        robot=robot,
+        traj=traj,
+        gains_path=study / GAINS_FILE,
+        controller=study_profile,
+        force=force,
+    )
+    result.notes += target.notes
+    source["controller"] = target.block
+    if target.forced:
+        source["forced_despite"] = [*source.get("forced_despite", []), *target.forced]
 
     table = None
     if fmt in (*_SETPOINT_FILE, "trajectory", "cia402"):
@@ -371,8 +387,9 @@ def _render(
     gsource: dict[str, object] | None = None
     if gains is not None:
         gsource = {"file": GAINS_FILE, "sha256": file_sha256(gpath)}
-        if failed:
-            gsource["forced_despite"] = failed
+        gsource["controller"] = target.block
+        if "forced_despite" in source:
+            gsource["forced_despite"] = source["forced_despite"]
 
     constraints = None
     if fmt in ("ros2", "trajectory"):
