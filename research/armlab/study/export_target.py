@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from armlab.robot.model import Robot
     from armlab.trajectory import Trajectory
 
-__all__ = ["TargetCheck", "check_target", "verified_feedforward"]
+__all__ = ["TargetCheck", "check_target", "carried_block", "verified_feedforward"]
 
 
 @dataclass
@@ -43,6 +43,20 @@ def verified_feedforward(summary: dict) -> tuple[str, ...] | None:
         return None
     ff = block.get("feedforward")
     return tuple(ff) if isinstance(ff, list) else ()
+
+
+def carried_block(fmt: str, verified: tuple[str, ...] | None) -> dict[str, Any]:
+    """The provenance block of a ``fmt`` file: its target, loops, the feed-forward terms
+    verified and run and what differs (``armlab run``'s table and ``armlab export`` write the
+    same one)."""
+    target = target_of(fmt)
+    if verified is None:
+        return {
+            "target": target.name,
+            "loops": target.loops,
+            "verified": "no tracking stage: the controller was not verified in simulation",
+        }
+    return dict(target.to_dict(verified))
 
 
 def _simulate(
@@ -95,14 +109,9 @@ def check_target(
     """
     target = target_of(fmt)
     verified = verified_feedforward(summary)
+    block = carried_block(fmt, verified)
     if verified is None:
-        block: dict[str, Any] = {
-            "target": target.name,
-            "loops": target.loops,
-            "verified": "no tracking stage: the controller was not verified in simulation",
-        }
         return TargetCheck(block, [f"{fmt}: not verified in a tracking simulation"])
-    block = dict(target.to_dict(verified))
     diffs = target.differences(verified)
     runs = target.feedforward(verified)
     check = TargetCheck(block)

@@ -418,6 +418,15 @@ def stage_export(ctx: StudyContext) -> StageOutput:
     source: dict[str, Any] = {"study": ctx.spec.source, "study_sha256": ctx.spec.hash}
     if ctx.failed_so_far:
         source["forced_despite"] = list(ctx.failed_so_far)
+    from armlab.study.export_target import carried_block
+
+    tracked = ctx.records.get("tracking")
+    verified = (
+        tuple(ctx.tracking.feedforward)
+        if ctx.tracking is not None and tracked is not None and tracked.status == "ok"
+        else None
+    )
+    source["controller"] = carried_block("csv", verified)  # what the table's controller runs
     try:
         table = setpoint_table(ctx.robot, ctx.trajectory, prof, source=source)
     except LimitViolation as exc:
