@@ -75,6 +75,14 @@ class Motor:
     peak_torque_Nm : float
         Peak (momentary) torque in [N m]; NaN when the data sheet gives none (sizing then
         limits the peak to the stall torque, conservatively).
+    thermal_resistance_winding_housing_K_W, thermal_resistance_housing_ambient_K_W : float
+        Thermal resistances winding-housing ``R_th1`` and housing-ambient ``R_th2`` in [K/W]
+        (maxon data sheets, "thermal data"); NaN: not given.
+    thermal_time_constant_winding_s, thermal_time_constant_motor_s : float
+        Thermal time constants of the winding and of the motor in [s]; NaN: not given.
+    max_winding_temperature_degC : float
+        Maximum permissible winding temperature in [degC]; NaN: not given. Without these five
+        the winding-temperature check (:mod:`armlab.dynamics.thermal`) is "not checked".
     """
 
     model: str
@@ -93,6 +101,11 @@ class Motor:
     mass_kg: float = math.nan
     price: float = math.nan
     source: str = ""
+    thermal_resistance_winding_housing_K_W: float = math.nan
+    thermal_resistance_housing_ambient_K_W: float = math.nan
+    thermal_time_constant_winding_s: float = math.nan
+    thermal_time_constant_motor_s: float = math.nan
+    max_winding_temperature_degC: float = math.nan
 
     @property
     def rated_speed_rad_s(self) -> float:
@@ -327,6 +340,11 @@ _RULES: dict[str, dict[str, str]] = {
         "peak_torque_Nm": "pos",
         "mass_kg": "nonneg",
         "price": "nonneg",
+        "thermal_resistance_winding_housing_K_W": "pos",
+        "thermal_resistance_housing_ambient_K_W": "pos",
+        "thermal_time_constant_winding_s": "pos",
+        "thermal_time_constant_motor_s": "pos",
+        "max_winding_temperature_degC": "pos",
     },
     "Reducer": {
         "ratio": "pos",

@@ -18,7 +18,8 @@ A study file has these tables (every key optional unless marked; units in the ke
                  for every joint build its drive train)
     [kinematics] workspace_samples, accuracy_samples
     [sizing]     catalogue, select (true: choose motor + reducer per joint from the catalogue;
-                 a robot without a drive train then runs the later stages on the selection)
+                 a robot without a drive train then runs the later stages on the selection),
+                 dwell_s, cycles, ambient_degC (the thermal check), max_inertia_ratio
     [control]    position_bandwidth_rad_s | rise_time_s, phase_margin_deg, gain_margin_dB,
                  overshoot_pct, method, current_sample_time_s, n_inertia_samples
     [tracking]   feedforward, quantise, t_after_s, accuracy_m
@@ -341,6 +342,26 @@ class SizingSpec:
         False,
         "choose motor + reducer per joint from the catalogue (a robot without a drive train: "
         "the selection becomes its drive train for tuning, tracking and export)",
+    )
+    dwell_s: float = _key(
+        _float(0.0, 3600.0),
+        0.0,
+        "rest at the cycle's last pose before it repeats, s (in the RMS and the thermal check)",
+    )
+    cycles: int | None = _key(
+        _int(1, 100000),
+        None,
+        "cycles of the thermal check from ambient (left out: the periodic state)",
+    )
+    ambient_degC: float = _key(
+        _float(-50.0, 150.0),
+        25.0,
+        "ambient of the thermal check, degC (25: ASSUMED, the makers' rating condition)",
+    )
+    max_inertia_ratio: float | None = _key(
+        _float(0.0, lo_open=True),
+        None,
+        "largest load-to-motor inertia ratio (check inertia_ratio; left out: reported only)",
     )
 
 
