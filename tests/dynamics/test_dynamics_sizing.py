@@ -108,7 +108,10 @@ def test_sizing_report_contract(report, teachbot6):
             "checks",
         } <= set(row)
         names = [c["name"] for c in row["checks"]]
-        assert names == list(CHECK_NAMES)  # every rating is known for teachbot6
+        # every rating is known for teachbot6 (its thermal data ESTIMATED, drives.toml); the
+        # inertia-ratio rule is off by default (reported, not checked)
+        assert names == [n for n in CHECK_NAMES if n != "inertia_ratio"]
+        assert row["inertia_ratio_max"] >= row["inertia_ratio_min"] > 0
         for c in row["checks"]:
             assert {"name", "value", "limit", "margin", "ok"} <= set(c)
             assert c["ok"] == (c["value"] <= c["limit"] * (1 + 1e-9) + 1e-12)

@@ -19,6 +19,7 @@ __all__ = [
     "Motor",
     "Reducer",
     "Encoder",
+    "Amplifier",
     "Drive",
     "read_drives",
     "drives_toml",
@@ -170,6 +171,59 @@ class Reducer:
 
 
 @dataclass(frozen=True)
+class Amplifier:
+    """A servo amplifier (drive electronics) feeding one motor from its DC bus.
+
+    Attributes
+    ----------
+    model : str
+    continuous_current_A, peak_current_A : float
+        Continuous and peak output current in [A] (the data sheet's; the peak for the
+        maker's stated time, typically a few seconds).
+    bus_voltage_V : float
+        DC bus (supply) voltage in [V]: the voltage the amplifier can apply to the motor
+        (the envelope's ``U``; the PWM's few per cent of loss are not counted).
+    regenerates : bool
+        True when the amplifier is four-quadrant: it brakes the motor by returning the
+        current to its bus (the braking quadrants may then use ``Kt (U + Ke |w|) / R``) and the
+        cycle's braking energy is sized against the bus capacitor and the brake resistor.
+    bus_capacitance_F : float
+        Capacitance on the bus in [F]; NaN: not given.
+    brake_resistor_ohm, brake_resistor_power_W : float
+        Brake (shunt) resistor in [ohm] and its continuous power rating in [W]; NaN: none.
+    brake_threshold_V : float
+        Bus voltage at which the brake chopper switches the resistor on (or, without one, the
+        highest bus voltage allowed) in [V]; NaN: not given.
+    source : str
+        The data sheet (document, page) the numbers come from.
+    """
+
+    model: str
+    continuous_current_A: float
+    peak_current_A: float
+    bus_voltage_V: float
+    regenerates: bool = False
+    bus_capacitance_F: float = math.nan
+    brake_resistor_ohm: float = math.nan
+    brake_resistor_power_W: float = math.nan
+    brake_threshold_V: float = math.nan
+    source: str = ""
+
+    @property
+    def bus_energy_J(self) -> float:
+        """Braking energy the bus capacitor takes from the bus voltage up to the brake
+        threshold, ``C (U_max^2 - U_bus^2) / 2`` in [J]; NaN when either is not given."""
+        c, u_max, u = self.bus_capacitance_F, self.brake_threshold_V, self.bus_voltage_V
+        return 0.5 * c * (u_max**2 - u**2)
+
+    @property
+    def brake_peak_power_W(self) -> float:
+        """The power the brake resistor sinks at the threshold voltage, ``U_max^2 / R`` in
+        [W]; NaN without a resistor or a threshold."""
+        return self.brake_threshold_V**2 / self.brake_resistor_ohm
+
+
+@dataclass(frozen=True)
 class Encoder:
     """An incremental encoder on the motor shaft (counts: :meth:`Drive.counts_per_rad`)."""
 
@@ -190,6 +244,10 @@ class Drive:
         ``[limits]`` gives them; the limit sources say which.
     derating : float
         Extra factor on the available torque (0.8 for the thesis' joint 2).
+    amplifier : Amplifier or None
+        The joint's servo amplifier; None: not described (the motor's ``supply_voltage_V``
+        stands for its bus, its current is not limited beyond the motor's peak torque, and
+        braking takes no regeneration credit).
     """
 
     joint: str
@@ -199,6 +257,7 @@ class Drive:
     acceleration_rad_s2: float = math.nan
     jerk_rad_s3: float = math.nan
     derating: float = 1.0
+    amplifier: Amplifier | None = None
 
     # ------------------------------------------------------------------ the one home
     # Every quantity of a joint's drive is answered here, with one rule each; the vectorised
@@ -234,15 +293,39 @@ class Drive:
         return self.derating * self.motor.stall_torque_Nm
 
     @property
+    def supply_voltage_V(self) -> float:
+        """The voltage the amplifier can apply to the motor, in [V]: the amplifier's bus
+        voltage when one is described, else the motor's ``supply_voltage_V`` (the drives
+        file's estimate of it). The envelope, the no-load speed, the current slew and the servo
+        plant use this one number."""
+        a = self.amplifier
+        return float(a.bus_voltage_V) if a is not None else float(self.motor.supply_voltage_V)
+
+    @property
+    def regenerates(self) -> bool:
+        """True when the amplifier is four-quadrant (brakes by regeneration, see
+        :class:`Amplifier`); False without an amplifier (no credit, conservative)."""
+        return self.amplifier is not None and bool(self.amplifier.regenerates)
+
+    @property
     def current_limit_A(self) -> float:
         """The amplifier's current limit in [A]: the current of the peak torque,
         ``peak_motor_torque_Nm / Kt``, at most the standstill current the supply can drive,
-        ``U / R`` (armature equation ``U = R i + Ke w``, HEU thesis ch. 5)."""
+        ``U / R`` (armature equation ``U = R i + Ke w``, HEU thesis ch. 5), and at most the
+        amplifier's peak current when one is described."""
         m = self.motor
+        amp = self.amplifier.peak_current_A if self.amplifier is not None else math.inf
         return min(
             self.peak_motor_torque_Nm / m.torque_constant_Nm_A,
-            m.supply_voltage_V / m.resistance_ohm,
+            self.supply_voltage_V / m.resistance_ohm,
+            amp,
         )
+
+    @property
+    def continuous_current_limit_A(self) -> float:
+        """The RMS current the amplifier may carry, in [A]: its continuous current (inf
+        without an amplifier: the motor's RMS check alone applies)."""
+        return math.inf if self.amplifier is None else float(self.amplifier.continuous_current_A)
 
     @property
     def available_torque_Nm(self) -> float:
@@ -294,9 +377,9 @@ class Drive:
     @property
     def max_motor_speed_rad_s(self) -> float:
         """The fastest the motor shaft can physically turn, in [rad/s]: the no-load speed
-        ``U / Ke`` and the reducer's maximum input speed, whichever is lower (the servo's speed
-        command saturates here)."""
-        return self._within_reducer_input(self.motor.no_load_speed_rad_s)
+        ``U / Ke`` (``U``: :attr:`supply_voltage_V`) and the reducer's maximum input speed,
+        whichever is lower (the servo's speed command saturates here)."""
+        return self._within_reducer_input(self.supply_voltage_V / self.motor.back_emf_V_s_rad)
 
     def _within_reducer_input(self, speed_rad_s: float) -> float:
         """``speed_rad_s`` at most the reducer's maximum input speed (where one is given)."""
@@ -361,6 +444,15 @@ _RULES: dict[str, dict[str, str]] = {
     },
     "Encoder": {"pulses_per_rev": "count", "decoding": "decoding"},
     "Drive": {"acceleration_rad_s2": "pos", "jerk_rad_s3": "pos", "derating": "unit"},
+    "Amplifier": {
+        "continuous_current_A": "pos",
+        "peak_current_A": "pos",
+        "bus_voltage_V": "pos",
+        "bus_capacitance_F": "pos",
+        "brake_resistor_ohm": "pos",
+        "brake_resistor_power_W": "pos",
+        "brake_threshold_V": "pos",
+    },
 }
 _TEXT_FIELDS = ("model", "source")
 _DECODINGS = (1, 2, 4)
