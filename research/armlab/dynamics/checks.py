@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from armlab.dynamics.regeneration import regeneration
 from armlab.dynamics.thermal import AMBIENT_DEGC, ThermalModel, winding_temperature
 from armlab.errors import InputError
 from armlab.robot import drivetrain
@@ -51,6 +52,11 @@ CHECK_NAMES: dict[str, str] = {
     "encoder_pulse_rate": "counts/cycle",
     "winding_temperature_rise": "K",
     "inertia_ratio": "",
+    "amplifier_peak_current": "A",
+    "amplifier_continuous_current": "A",
+    "bus_capacitor_energy": "J",
+    "brake_resistor_power": "W",
+    "brake_resistor_peak_power": "W",
 }
 
 _TINY = 1e-12
@@ -60,10 +66,13 @@ _NO_LIMIT_LEFT = {
     "motor_envelope": "above the motor's no-load speed at its supply voltage: no torque left",
 }
 
-#: Checks whose limit is NaN where a part lacks the data (not infinite: no such rating) and
-#: what the check then says instead of passing.
+#: Checks whose limit is NaN where a part lacks the data (not infinite: no such rating), what
+#: the check then says instead of passing, and the part whose source it names.
 _NOT_CHECKED = {
-    "winding_temperature_rise": "not checked: no thermal data",
+    "winding_temperature_rise": ("not checked: no thermal data", "motor"),
+    "bus_capacitor_energy": ("not checked: no bus capacitance or threshold voltage", "amplifier"),
+    "brake_resistor_power": ("not checked: no brake resistor power rating", "amplifier"),
+    "brake_resistor_peak_power": ("not checked: no brake threshold voltage", "amplifier"),
 }
 
 
@@ -232,7 +241,8 @@ def evaluate_checks(
     figures : dict, optional
         Filled with what the checks computed beside their values, arrays (n_columns,):
         ``winding_peak_temperature_degC``, ``housing_temperature_degC`` (end of the cycle),
-        ``inertia_ratio_min`` and ``inertia_ratio_max`` (NaN where not computed).
+        ``inertia_ratio_min`` and ``inertia_ratio_max`` (NaN where not computed),
+        ``braking_energy_J``, ``peak_regenerated_power_W``, ``largest_braking_stretch_J``.
 
     Notes
     -----
@@ -264,6 +274,14 @@ def evaluate_checks(
       (:meth:`~armlab.robot.drives.Drive.load_inertia_at_motor_kg_m2`, motoring: ``/ (eta
       N^2)``) <= ``options.max_inertia_ratio`` (off by default). The smallest ratio uses the
       back-driven ``eta_b M_jj / N^2`` (the range the tuning sees, :mod:`armlab.control.plant`).
+    * ``amplifier_peak_current``: peak ``|T_m| / Kt`` <= the amplifier's peak current;
+      ``amplifier_continuous_current``: RMS ``T_m / Kt`` <= its continuous current (both only
+      where the drive has an amplifier, :attr:`~armlab.robot.drives.Drive.amplifier`).
+    * ``bus_capacitor_energy``, ``brake_resistor_power``, ``brake_resistor_peak_power``: the
+      cycle's braking energy against the bus capacitor and the brake resistor of an amplifier
+      that regenerates (:mod:`armlab.dynamics.regeneration`).
+    * ``motor_envelope`` is four-quadrant for an amplifier that regenerates: braking samples
+      are bounded by ``Kt (U + Ke |w_m|) / R`` (:func:`armlab.robot.drivetrain.envelope_torque`).
     """
     w = np.asarray(weights, float)[:, None]
     t_m, w_m, _ = drivetrain.motor_side(tau, qd, qdd, drives)
@@ -293,7 +311,7 @@ def evaluate_checks(
     out["motor_rms_torque"] = (rms, drives.continuous_motor_torque_Nm)
     out["motor_peak_torque"] = (np.abs(t_m).max(axis=0), drives.peak_motor_torque_Nm)
     out["motor_speed"] = (peak_wm, drives.rated_speed_rad_s)
-    t_env = drivetrain.envelope_torque(w_m, drives)
+    t_env = drivetrain.envelope_torque(w_m, drives, t_m)
     ratio = drivetrain.envelope_ratio(t_m, w_m, drives)
     k = np.argmax(ratio, axis=0)
     cols = np.arange(ratio.shape[1])
@@ -304,6 +322,22 @@ def evaluate_checks(
     counts = abs_qd.max(axis=0) * counts_per_joint_rev / (2.0 * np.pi) * options.cycle_s
     out["encoder_pulse_rate"] = (counts, options.max_counts_per_cycle)
     n_col = drives.ratio.size
+    figs = _thermal_and_inertia(t_m, weights, drives, options, joint_inertia_kg_m2, out)
+    figs.update(_amplifier_checks(t_m, w_m, weights, drives, out))
+    if figures is not None:
+        figures.update(figs)
+    return {
+        name: (
+            np.broadcast_to(np.asarray(v, float), (n_col,)),
+            np.broadcast_to(np.asarray(lim, float), (n_col,)),
+        )
+        for name, (v, lim) in out.items()
+    }
+
+
+def _thermal_and_inertia(t_m, weights, drives, options, joint_inertia_kg_m2, out) -> dict:
+    """The ``winding_temperature_rise`` and ``inertia_ratio`` checks into ``out``; returns
+    the figures beside them (:func:`evaluate_checks`)."""
     thermal = ThermalModel.from_drives(drives.drives)
     heat = winding_temperature(
         t_m, weights, thermal, ambient_degC=options.ambient_degC, cycles=options.cycles
@@ -315,19 +349,58 @@ def evaluate_checks(
     )
     r_min, r_max = _inertia_ratios(joint_inertia_kg_m2, drives)
     out["inertia_ratio"] = (r_max, options.max_inertia_ratio)
-    if figures is not None:
-        figures.update(
-            winding_peak_temperature_degC=heat.peak_winding_degC,
-            housing_temperature_degC=heat.end_housing_degC,
-            inertia_ratio_min=r_min,
-            inertia_ratio_max=r_max,
-        )
     return {
-        name: (
-            np.broadcast_to(np.asarray(v, float), (n_col,)),
-            np.broadcast_to(np.asarray(lim, float), (n_col,)),
+        "winding_peak_temperature_degC": heat.peak_winding_degC,
+        "housing_temperature_degC": heat.end_housing_degC,
+        "inertia_ratio_min": r_min,
+        "inertia_ratio_max": r_max,
+    }
+
+
+def _amplifier_checks(t_m, w_m, weights, drives: DriveTrain, out) -> dict:
+    """The amplifier's current checks and the braking-energy checks
+    (:mod:`armlab.dynamics.regeneration`) into ``out`` (limit inf: no amplifier, or one that
+    does not regenerate; NaN: it regenerates but the data sheet lacks the value); returns the
+    braking figures."""
+    kt = drives.torque_constant_Nm_A
+    amps = [d.amplifier for d in drives.drives]
+
+    def amp_value(name: str, regen_only: bool = False) -> np.ndarray:
+        return np.array(
+            [
+                np.inf
+                if a is None or (regen_only and not a.regenerates)
+                else float(getattr(a, name))
+                for a in amps
+            ]
         )
-        for name, (v, lim) in out.items()
+
+    w = np.asarray(weights, float)
+    out["amplifier_peak_current"] = (np.abs(t_m).max(axis=0) / kt, amp_value("peak_current_A"))
+    out["amplifier_continuous_current"] = (
+        drivetrain.rms_torque(t_m, w) / kt,
+        np.array([d.continuous_current_limit_A for d in drives.drives]),
+    )
+    regen, stretches = regeneration(t_m, w_m, w, drives.resistance_ohm, kt)
+    cap = amp_value("bus_energy_J", regen_only=True)
+    resistor = amp_value("brake_resistor_ohm", regen_only=True)
+    has_resistor = np.isfinite(resistor)
+    # without a resistor the capacitor takes every stretch; with one, the excess goes to it
+    out["bus_capacitor_energy"] = (regen.largest_stretch_J, np.where(has_resistor, np.inf, cap))
+    beyond = regen.beyond_J(stretches, np.nan_to_num(cap, nan=0.0, posinf=0.0))
+    cycle_s = max(float(w.sum()), _TINY)
+    out["brake_resistor_power"] = (
+        beyond / cycle_s,
+        np.where(has_resistor, amp_value("brake_resistor_power_W", regen_only=True), np.inf),
+    )
+    out["brake_resistor_peak_power"] = (
+        regen.peak_power_W,
+        np.where(has_resistor, amp_value("brake_peak_power_W", regen_only=True), np.inf),
+    )
+    return {
+        "braking_energy_J": regen.energy_J,
+        "peak_regenerated_power_W": regen.peak_power_W,
+        "largest_braking_stretch_J": regen.largest_stretch_J,
     }
 
 
@@ -370,8 +443,8 @@ def checks_for_column(
     for name, (value, limit) in results.items():
         v, lim = float(value[c]), float(limit[c])
         if math.isnan(lim) and name in _NOT_CHECKED:
-            note = _NOT_CHECKED[name]
-            src = drives.drives[c].motor.source if drives is not None else ""
+            note, part = _NOT_CHECKED[name]
+            src = getattr(getattr(drives.drives[c], part), "source", "") if drives else ""
             note += f" ({src or 'no source given'})"
             checks.append(Check(name, v, lim, math.nan, True, CHECK_NAMES[name], note, False))
             continue

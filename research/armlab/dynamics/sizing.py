@@ -89,6 +89,8 @@ class JointSizing(Checked):
     housing_temperature_degC: float = float("nan")
     inertia_ratio_min: float = float("nan")
     inertia_ratio_max: float = float("nan")
+    braking_energy_J: float = float("nan")
+    peak_regenerated_power_W: float = float("nan")
 
     def check(self, name: str) -> Check:
         for c in self.checks:
@@ -110,6 +112,9 @@ class JointSizing(Checked):
             "housing_temperature_degC": self.housing_temperature_degC,
             "inertia_ratio_min": self.inertia_ratio_min,
             "inertia_ratio_max": self.inertia_ratio_max,
+            "braking_energy_J": self.braking_energy_J,
+            "peak_regenerated_power_W": self.peak_regenerated_power_W,
+            "amplifier": None if self.drive.amplifier is None else self.drive.amplifier.model,
             "motor": self.drive.motor.model,
             "reducer": self.drive.reducer.model,
             "ok": self.ok,
@@ -266,6 +271,8 @@ def size(
                 housing_temperature_degC=float(figures["housing_temperature_degC"][j]),
                 inertia_ratio_min=float(figures["inertia_ratio_min"][j]),
                 inertia_ratio_max=float(figures["inertia_ratio_max"][j]),
+                braking_energy_J=float(figures["braking_energy_J"][j]),
+                peak_regenerated_power_W=float(figures["peak_regenerated_power_W"][j]),
             )
         )
     return SizingReport(

@@ -455,6 +455,7 @@ _RULES: dict[str, dict[str, str]] = {
     },
 }
 _TEXT_FIELDS = ("model", "source")
+_BOOL_FIELDS = ("regenerates",)
 _DECODINGS = (1, 2, 4)
 
 
@@ -487,6 +488,8 @@ def _check_values(rules: dict[str, str], data: dict, where: str, optional=()) ->
     """One :class:`RobotDescriptionError` for the first value of ``data`` breaking its rule:
     ``<where> <key>: <value> is not > 0``. Keys in ``optional`` may be None (not given)."""
     for key, value in data.items():
+        if key in _BOOL_FIELDS:
+            continue  # checked by its reader (amplifier_from_dict)
         if key in _TEXT_FIELDS:
             if not isinstance(value, str):
                 raise RobotDescriptionError(f"{where}{key}: {value!r} is not a string")
@@ -601,7 +604,12 @@ def read_drives(path: str | Path, joint_names: list[str] | tuple[str, ...]) -> d
             else reducer_from_dict(dict(row["reducer"]), where, "reducer")
         )
         encoder = _build(Encoder, dict(row["encoder"]), where, "encoder")
-        own = {k: v for k, v in row.items() if k not in ("name", "motor", "reducer", "encoder")}
+        amplifier = _amplifier_of(path, data, row.get("amplifier"), where)
+        own = {
+            k: v
+            for k, v in row.items()
+            if k not in ("name", "motor", "reducer", "encoder", "amplifier")
+        }
         unknown = sorted(set(own) - set(_RULES["Drive"]))
         if unknown:
             raise RobotDescriptionError(f"{where}: unknown key(s) {unknown}")
@@ -615,11 +623,51 @@ def read_drives(path: str | Path, joint_names: list[str] | tuple[str, ...]) -> d
             acceleration_rad_s2=float(row.get("acceleration_rad_s2", math.nan)),
             jerk_rad_s3=float(row.get("jerk_rad_s3", math.nan)),
             derating=float(row.get("derating", catalogue_derating)),
+            amplifier=amplifier,
         )
     missing = [n for n in joint_names if n not in drives]
     if missing:
         raise RobotDescriptionError(f"{path}: no drive for joint(s) {missing}")
     return drives
+
+
+def amplifier_from_dict(data: dict, where: str = "amplifier", part: str = "") -> Amplifier:
+    """An :class:`Amplifier` from a table, every value checked (as :func:`motor_from_dict`):
+    currents, voltages, capacitance and resistor > 0, ``regenerates`` true or false, the peak
+    current not below the continuous one and the brake threshold above the bus voltage."""
+    prefix = f"{where} {part}." if part else f"{where} "
+    regen = data.get("regenerates", False)
+    if not isinstance(regen, bool):
+        raise RobotDescriptionError(f"{prefix}regenerates: {regen!r} is not true or false")
+    amp = _build(Amplifier, data, where, part)
+    if amp.peak_current_A < amp.continuous_current_A:
+        raise RobotDescriptionError(
+            f"{prefix}peak_current_A: {amp.peak_current_A:g} A is below the continuous current "
+            f"({amp.continuous_current_A:g} A)"
+        )
+    if math.isfinite(amp.brake_threshold_V) and amp.brake_threshold_V <= amp.bus_voltage_V:
+        raise RobotDescriptionError(
+            f"{prefix}brake_threshold_V: {amp.brake_threshold_V:g} V is not above the bus "
+            f"voltage ({amp.bus_voltage_V:g} V)"
+        )
+    return amp
+
+
+def _amplifier_of(path: Path, data: dict, value: Any, where: str) -> Amplifier | None:
+    """The amplifier a drives file's joint names (a catalogue model or an inline table)."""
+    if value is None:
+        return None
+    if isinstance(value, str):
+        from armlab.robot.catalogue import load_catalogue
+
+        cat_key = data.get("catalogue")
+        if cat_key is not None and not isinstance(cat_key, str):
+            raise RobotDescriptionError(f"{path} catalogue: {cat_key!r} is not a path")
+        catalogue = load_catalogue(None if cat_key is None else path.parent / cat_key)
+        return catalogue.amplifier(value, f"{where} amplifier")
+    if isinstance(value, dict):
+        return amplifier_from_dict(dict(value), where, "amplifier")
+    raise RobotDescriptionError(f"{where} amplifier: {value!r} is not a model name or a table")
 
 
 def _catalogue_part(path: Path, data: dict, kind: str, model: str, where: str) -> tuple[Any, float]:
@@ -659,10 +707,13 @@ def drives_toml(drives: dict[str, Drive], header: str = "") -> str:
     for name, drive in drives.items():
         data = asdict(drive)
         lines += ["[[joint]]", f"name = {_toml_value(name)}"]
+        parts = ("motor", "reducer", "encoder", "amplifier")
         for key, value in data.items():
-            if key not in ("joint", "motor", "reducer", "encoder") and _given(value):
+            if key not in ("joint", *parts) and _given(value):
                 lines.append(f"{key} = {_toml_value(value)}")
-        for part in ("motor", "reducer", "encoder"):
+        for part in parts:
+            if data.get(part) is None:
+                continue  # no amplifier described
             lines += ["", f"[joint.{part}]"]
             lines += [f"{k} = {_toml_value(v)}" for k, v in data[part].items() if _given(v)]
         lines.append("")

@@ -13,7 +13,8 @@ A study file has these tables (every key optional unless marked; units in the ke
                  joint or a list (n_joints,) -- the robot's limits for the whole study
     [plan]       planner, profile, objective, duration_s, speed_scale, torque_limits,
                  jerk_limits, check_dt_s, speed_m_s, blend_radius_m
-    [drives.<joint>]  ratio, motor, reducer, efficiency, derating, pulses_per_rev, decoding
+    [drives.<joint>]  ratio, motor, reducer, efficiency, derating, pulses_per_rev, decoding,
+                 amplifier (catalogue name or table)
                  (catalogue names; a robot without drives: motor, reducer, pulses_per_rev
                  for every joint build its drive train)
     [kinematics] workspace_samples, accuracy_samples
@@ -300,6 +301,14 @@ class PlanSpec:
     blend_radius_m: float | None = _key(_float(0.0, lo_open=True), None, "blend: corner radius")
 
 
+def _amplifier(v, where):
+    """A catalogue amplifier name or an inline table (its fields are checked when the robot is
+    built, as in a drives file)."""
+    if isinstance(v, dict):
+        return dict(v)
+    return _str()(v, where)
+
+
 @dataclass(frozen=True)
 class DriveOverride:
     """``[drives.<joint>]``: change a joint's drive train (catalogue names or numbers).
@@ -321,6 +330,11 @@ class DriveOverride:
     )
     decoding: int | None = _key(
         _drive_value("Encoder", "decoding"), None, "encoder decoding factor: 1, 2 or 4"
+    )
+    amplifier: str | dict | None = _key(
+        _amplifier,
+        None,
+        "servo amplifier: catalogue model or a table of Amplifier fields (docs/drives.md)",
     )
 
 
