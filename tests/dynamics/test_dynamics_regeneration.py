@@ -180,7 +180,9 @@ def test_drives_file_names_an_amplifier(tmp_path):
     p.write_text(drives_toml({"j1": d}))
     assert read_drives(p, ["j1"])["j1"] == d
     # bad values: one line naming the key
-    p.write_text(DRIVES.format(amp="") + table.replace("peak_current_A = 3", "peak_current_A = 0.5"))
+    p.write_text(
+        DRIVES.format(amp="") + table.replace("peak_current_A = 3", "peak_current_A = 0.5")
+    )
     with pytest.raises(RobotDescriptionError, match=r"amplifier\.peak_current_A: 0.5 A is below"):
         read_drives(p, ["j1"])
     p.write_text(DRIVES.format(amp='amplifier = "no such amp"'))

@@ -33,7 +33,6 @@ def _model(n=1, **kw) -> ThermalModel:
 
 
 def _constant(torque_Nm, duration_s, n=601):
-    t = np.linspace(0.0, duration_s, n)
     w = np.full(n, duration_s / (n - 1))
     w[0] = w[-1] = 0.5 * duration_s / (n - 1)
     return np.full((n, 1), torque_Nm), w

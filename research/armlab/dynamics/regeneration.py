@@ -56,7 +56,10 @@ class Regeneration:
     def beyond_J(self, stretch_energies: list[np.ndarray], capacity_J: np.ndarray) -> np.ndarray:
         """Energy per cycle beyond ``capacity_J`` of each stretch (what the resistor takes)."""
         return np.array(
-            [float(np.maximum(e - c, 0.0).sum()) for e, c in zip(stretch_energies, capacity_J)]
+            [
+                float(np.maximum(e - c, 0.0).sum())
+                for e, c in zip(stretch_energies, capacity_J, strict=True)
+            ]
         )
 
 
@@ -72,7 +75,7 @@ def stretch_energies_J(p_reg, weights) -> list[np.ndarray]:
     one array per column [J]."""
     p = np.atleast_2d(np.asarray(p_reg, float))
     w = np.asarray(weights, float).reshape(-1)
-    out = []
+    out: list[np.ndarray] = []
     for c in range(p.shape[1]):
         on = p[:, c] > 0.0
         if not on.any():
@@ -80,7 +83,7 @@ def stretch_energies_J(p_reg, weights) -> list[np.ndarray]:
             continue
         starts = on & ~np.concatenate([[False], on[:-1]])
         ids = np.cumsum(starts) - 1
-        out.append(np.bincount(ids[on], weights=(p[:, c] * w)[on]))
+        out.append(np.bincount(ids[on], weights=(p[:, c] * w)[on]).astype(float))
     return out
 
 

@@ -6,7 +6,9 @@ with the checks of :func:`armlab.dynamics.checks.evaluate_checks`: the thesis ru
 the harmonic-reducer makers' peak / average (cubic-mean) torque and input-speed limits, the
 motor's RMS and peak torque, speed and speed-torque envelope, the encoder resolution, the
 winding temperature over the cycle repeated with its dwell (:mod:`armlab.dynamics.thermal`) and,
-when the user sets a rule, the load-to-motor inertia ratio. Each check is ``{name, value, limit, margin, ok}``; a failing check is a result, not an error.
+when the user sets a rule, the load-to-motor inertia ratio, and, with an amplifier, its currents
+and the braking energy (:mod:`armlab.dynamics.regeneration`). Each check is
+``{name, value, limit, margin, ok}``; a failing check is a result, not an error.
 """
 
 from __future__ import annotations
@@ -25,7 +27,6 @@ from armlab.dynamics.checks import (
     counts_per_joint_rev_of,
     evaluate_checks,
 )
-from armlab.dynamics.thermal import AMBIENT_DEGC, with_dwell
 from armlab.dynamics.inverse import (
     RAD_S_TO_RPM,
     JointLoads,
@@ -33,6 +34,7 @@ from armlab.dynamics.inverse import (
     inverse_dynamics,
     require_drives,
 )
+from armlab.dynamics.thermal import AMBIENT_DEGC, with_dwell
 from armlab.errors import InputError
 from armlab.robot import rigid_body
 from armlab.robot.controller import ControllerProfile, load_profile

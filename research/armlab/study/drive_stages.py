@@ -77,7 +77,8 @@ def _thermal_block(ctx: StudyContext) -> dict[str, Any]:
     s = ctx.spec.sizing
     return {
         "ambient_degC": s.ambient_degC,
-        "ambient_source": "study" if "ambient_degC" in ctx.spec.document.get("sizing", {})
+        "ambient_source": "study"
+        if "ambient_degC" in ctx.spec.document.get("sizing", {})
         else "ASSUMED 25 degC: the motor makers' rating condition",
         "dwell_s": s.dwell_s,
         "dwell_at": "the cycle's last pose, at rest, before the cycle repeats",
