@@ -5,8 +5,9 @@ entries (and ``[[amplifier]]`` servo amplifiers, :class:`armlab.robot.drives.Amp
 named by drives files and studies) whose fields are those of :class:`armlab.robot.Motor` /
 :class:`armlab.robot.Reducer` (``mass_kg`` and ``price`` required), plus ``derating`` on a
 motor (extra factor on its torque limits, default 1) and ``thesis_joints`` (joints of
-teachbot6 that use the part in thesis table 4.3). The file's header records where every number comes from, and every entry's
-``source`` names its data sheet (ASSUMED / ESTIMATED where a value is not from one).
+teachbot6 that use the part in thesis table 4.3). The file's header records where every number
+comes from, and every entry's ``source`` names its data sheet (ASSUMED / ESTIMATED where a
+value is not from one).
 
 The shipped catalogue spans the thesis' small DC motors and harmonic reducers up to UR5 / Panda
 class parts: maxon EC flat / EC-i and Kollmorgen AKM motors (about 0.05-5 N m continuous),
