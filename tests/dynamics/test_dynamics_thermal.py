@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
 
 import numpy as np
@@ -107,3 +109,39 @@ def test_dwell_is_a_rest_at_the_last_pose():
     assert np.allclose(hold.q, q[-1]) and not hold.qd.any() and not hold.qdd.any()
     with pytest.raises(InputError, match="sizing.dwell_s"):
         with_dwell([tr], -1.0)
+
+
+def _catalogue_text(parts) -> str:
+    lines = ['currency = "EUR"']
+    for kind, part in parts:
+        lines.append(f"[[{kind}]]")
+        for k, v in dataclasses.asdict(part).items():
+            if not (isinstance(v, float) and math.isnan(v)):
+                lines.append(f"{k} = {json.dumps(v)}")
+    return "\n".join(lines) + "\n"
+
+
+def test_selection_skips_a_motor_that_overheats(tmp_path, teachbot6):
+    # two copies of joint 2's motor: the lighter one sheds its heat 50 x worse (housing to
+    # ambient); holding the upper arm 40 deg from upright, the selection must take the heavier
+    # one, every other check being the same for both
+    from armlab.dynamics import select_drives
+
+    d = teachbot6.drives["joint2"]
+    r_ha = d.motor.thermal_resistance_housing_ambient_K_W
+    hot = dataclasses.replace(
+        d.motor, model="hot", thermal_resistance_housing_ambient_K_W=50 * r_ha, mass_kg=0.5
+    )
+    hot = dataclasses.replace(hot, price=1.0)
+    cool = dataclasses.replace(d.motor, model="cool", mass_kg=1.0, price=1.0)
+    red = dataclasses.replace(d.reducer, mass_kg=0.5, price=1.0)
+    cat = tmp_path / "cat.toml"
+    cat.write_text(_catalogue_text([("motor", hot), ("motor", cool), ("reducer", red)]))
+    q = np.radians([[0.0, 40.0, 0.0, 0.0, 0.0, 0.0]] * 2)
+    hold = Trajectory([0.0, 10.0], q, np.zeros_like(q), np.zeros_like(q))
+    sel = select_drives(teachbot6, hold, cat, controller="reference_dda")
+    js = sel.joint("joint2")
+    assert js.chosen is not None and js.chosen.motor.model == "cool", js.why_none()
+    winding = {c.name: c for c in js.chosen.checks}["winding_temperature_rise"]
+    assert winding.ok and winding.value > 0.5  # it heats, within its limit
+    assert js.n_passing == 1 and js.n_candidates == 2  # the hot copy fails (only) the heat

@@ -101,6 +101,27 @@ def _failed(res) -> list[str]:
             },
             "amplifier_peak_current",
         ),
+        # its RMS motor current is 0.29 A
+        (
+            {"drives": {"joint2": {"amplifier": {**AMP, "continuous_current_A": 0.2}}}},
+            "amplifier_continuous_current",
+        ),
+        # a brake resistor rated 1 mW takes what a 0.1 mF bus cannot (about 0.1 W on average)
+        (
+            {
+                "drives": {
+                    "joint2": {
+                        "amplifier": {
+                            **AMP,
+                            "bus_capacitance_F": 1e-4,
+                            "brake_resistor_ohm": 10.0,
+                            "brake_resistor_power_W": 1e-3,
+                        }
+                    }
+                }
+            },
+            "brake_resistor_power",
+        ),
         # its largest braking stretch returns 1.24 J: 10 mF from 24 to 30 V take 1.62 J, 0.1 mF
         # 0.016 J
         (
@@ -110,10 +131,17 @@ def _failed(res) -> list[str]:
     ],
 )
 def test_one_changed_value_fails_each_new_check(change, check):
-    assert _failed(_run(drives={"joint2": {"amplifier": AMP}})) == []
+    # the study with the amplifier AMP on joint 2 passes (test_the_amplified_study_passes)
     failed = _failed(_run(**change))
     assert failed and all("\n" not in f for f in failed)
     assert any(f.startswith("sizing: ") and check in f for f in failed), failed
+
+
+def test_the_amplified_study_passes():
+    res = _run(drives={"joint2": {"amplifier": AMP}})
+    assert _failed(res) == [] and res.summary["sizing"]["joint2"]["amplifier"] == AMP["model"]
+    names = [c["name"] for c in res.summary["sizing"]["joint2"]["checks"]]
+    assert {"amplifier_peak_current", "bus_capacitor_energy"} <= set(names)
 
 
 def test_bad_sizing_and_amplifier_values_name_the_key():
