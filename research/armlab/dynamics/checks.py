@@ -10,7 +10,9 @@ One model, :mod:`armlab.robot.drivetrain` (its docstring has the equations): joi
 reducer efficiency by quadrant (motoring ``/ eta``, back-driven ``x eta_b``; holding counts as
 motoring, the thesis rule of table 4.3), reflected rotor + reducer inertia and motor friction;
 the envelope is ``derating x min(T_peak, Kt (U - Ke |w|) / R)`` in both quadrants (no credit
-for regeneration), all from :mod:`armlab.robot.drivetrain`.
+for regeneration unless the drive's amplifier regenerates: then ``Kt (U + Ke |w|) / R`` while
+braking), all from :mod:`armlab.robot.drivetrain`. The winding temperature is
+:mod:`armlab.dynamics.thermal`'s, the braking energy :mod:`armlab.dynamics.regeneration`'s.
 """
 
 from __future__ import annotations

@@ -238,11 +238,12 @@ def _thermal_markdown(report) -> list[str]:
         f"Thermal check: two-body motor model over the cycle repeated ({cycles}) with a "
         f"{o.dwell_s:g} s dwell at its last pose, ambient {o.ambient_degC:g} degC; copper "
         f"resistance rising 0.393 %/K. Inertia ratio: arm inertia at the motor / rotor + "
-        f"reducer inertia over the cycle's samples, {rule}.",
+        f"reducer inertia over the cycle's samples, {rule}. Braking: the energy the motor "
+        f"returns over the cycle (mechanical power absorbed less copper loss).",
         "",
         "| joint | motor | peak winding [degC] | max winding [degC] | housing [degC] | "
-        "inertia ratio min | max |",
-        "|---|---|---|---|---|---|---|",
+        "inertia ratio min | max | amplifier | braking energy [J] | peak regenerated [W] |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
 
     def fmt(x: float) -> str:
@@ -253,7 +254,9 @@ def _thermal_markdown(report) -> list[str]:
         lines.append(
             f"| {js.joint} | {m.model} | {fmt(js.winding_peak_temperature_degC)} | "
             f"{fmt(m.max_winding_temperature_degC)} | {fmt(js.housing_temperature_degC)} | "
-            f"{fmt(js.inertia_ratio_min)} | {fmt(js.inertia_ratio_max)} |"
+            f"{fmt(js.inertia_ratio_min)} | {fmt(js.inertia_ratio_max)} | "
+            f"{js.drive.amplifier.model if js.drive.amplifier is not None else '-'} | "
+            f"{fmt(js.braking_energy_J)} | {fmt(js.peak_regenerated_power_W)} |"
         )
     return lines
 
