@@ -107,6 +107,10 @@ def test_dwell_is_a_rest_at_the_last_pose():
     hold = out[-1]
     assert len(out) == 2 and hold.duration == pytest.approx(2.5)
     assert np.allclose(hold.q, q[-1]) and not hold.qd.any() and not hold.qdd.any()
+    # after the motion, before a selection's single-sample holds
+    held = Trajectory([0.0], q[:1] + 1.0, np.zeros((1, 2)), np.zeros((1, 2)))
+    out = with_dwell([tr, held], 1.0)
+    assert [x.n_samples for x in out] == [2, 2, 1] and np.allclose(out[1].q, q[-1])
     with pytest.raises(InputError, match="sizing.dwell_s"):
         with_dwell([tr], -1.0)
 

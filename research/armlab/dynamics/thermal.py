@@ -26,7 +26,8 @@ The duty cycle
 --------------
 Each sample of the cycle stands for its trapezoidal weight (:func:`~armlab.trajectory.sampling.
 sample_weights`) at a constant current, as the RMS does; a dwell (``[sizing] dwell_s``) is the
-arm at rest at the cycle's **last pose** for ``dwell_s`` before the cycle repeats
+arm at rest at the cycle's **last pose** (the end of its motion) for ``dwell_s`` before the
+cycle repeats
 (:func:`with_dwell`: every planner ends at rest there, while a plan through its waypoints need
 not stop at them), the motor then giving the holding torque.
 
@@ -148,19 +149,23 @@ class ThermalResult:
 
 
 def with_dwell(trajectories: list[Trajectory], dwell_s: float) -> list[Trajectory]:
-    """The duty cycle with a dwell: the trajectories, then the arm at rest at the last pose
-    for ``dwell_s`` [s] (a two-sample trajectory ``t = 0, dwell_s`` with zero speed: its
-    trapezoidal weights sum to the dwell). ``dwell_s = 0``: the trajectories unchanged."""
+    """The duty cycle with a dwell: the arm at rest for ``dwell_s`` [s] at the last pose of the
+    cycle's motion (a two-sample trajectory ``t = 0, dwell_s`` with zero speed: its trapezoidal
+    weights sum to the dwell), inserted after the last trajectory that moves (several samples);
+    held poses after it (a selection's single-sample holds at the worst static poses) stay
+    after the dwell. ``dwell_s = 0``: the trajectories unchanged."""
     dwell_s = float(dwell_s)
     if not math.isfinite(dwell_s) or dwell_s < 0:
         raise InputError(f"sizing.dwell_s: {dwell_s!r} is not a time >= 0 s")
-    if dwell_s == 0.0:
-        return list(trajectories)
-    last = trajectories[-1]
-    q = np.repeat(last.q[-1:], 2, axis=0)
+    trajs = list(trajectories)
+    if dwell_s == 0.0 or not trajs:
+        return trajs
+    moving = [k for k, tr in enumerate(trajs) if tr.n_samples > 1]
+    k = moving[-1] if moving else len(trajs) - 1
+    q = np.repeat(trajs[k].q[-1:], 2, axis=0)
     zero = np.zeros_like(q)
     hold = Trajectory(np.array([0.0, dwell_s]), q, zero, zero, method=f"dwell {dwell_s:g} s")
-    return [*trajectories, hold]
+    return [*trajs[: k + 1], hold, *trajs[k + 1 :]]
 
 
 def _steps(weights: np.ndarray, current_sq: np.ndarray, h_max: float):
