@@ -151,3 +151,27 @@ def test_bad_sizing_and_amplifier_values_name_the_key():
         _run(sizing={"max_inertia_ratio": 0})
     with pytest.raises(SpecError, match=r"drives.joint2.*amplifier\.bus_voltage_V"):
         _run(drives={"joint2": {"amplifier": {**AMP, "bus_voltage_V": -1.0}}})
+
+
+def test_export_judges_the_new_checks_again(tmp_path, capsys):
+    """A study failing the inertia-ratio rule of its [sizing] table, its verdicts edited to
+    pass (checksums put right): ``armlab export`` re-runs the sizing with the recorded
+    [sizing] options and refuses, naming the check."""
+    from armlab.cli import main
+    from cases import one_line, quick_study
+
+    study = tmp_path / "ratio.toml"
+    stages = ("kinematics", "plan", "sizing", "export")
+    study.write_text(quick_study("ratio", stages) + "[sizing]\nmax_inertia_ratio = 0.01\n")
+    out = tmp_path / "ratio"
+    assert main(["run", str(study), "--out", str(out)]) == 1
+    summary = json.loads((out / "summary.json").read_text())
+    assert any("inertia_ratio" in f for f in summary["design"]["failed_checks"])
+    summary["design"].update(verdict="pass", failed_checks=[])
+    summary["sizing"].update(verdict="pass", failed_checks=[])
+    summary["study"]["stages"]["sizing"]["verdict"] = "pass"
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    capsys.readouterr()
+    assert main(["export", str(out), "--out", str(tmp_path / "exp")]) == 1
+    line = one_line(capsys)
+    assert "export refused" in line and "inertia_ratio" in line

@@ -21,6 +21,7 @@ __all__ = [
     "selection_duty",
     "sizing_failures",
     "sizing_options",
+    "sizing_keywords",
     "tuning_options",
     "tracking_options",
 ]
@@ -62,7 +63,12 @@ def sizing_options(ctx: StudyContext, *, duty: bool = True) -> dict[str, Any]:
     of the study's ``[sizing]`` table: the duty cycle's dwell (``duty``: the study's cycle;
     False for the worst-case requirement moves, which have none), the thermal check's cycles
     and ambient, the inertia-ratio rule (left out: reported only)."""
-    s = ctx.spec.sizing
+    return sizing_keywords(ctx.spec.sizing, duty=duty)
+
+
+def sizing_keywords(s, *, duty: bool = True) -> dict[str, Any]:
+    """:func:`sizing_options` of a :class:`~armlab.study.spec.SizingSpec` (also what
+    ``armlab export`` re-checks a recorded design with)."""
     opts: dict[str, Any] = {
         "ambient_degC": s.ambient_degC,
         "max_inertia_ratio": math.inf if s.max_inertia_ratio is None else s.max_inertia_ratio,

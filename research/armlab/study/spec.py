@@ -592,6 +592,12 @@ def parse_study(
     )
 
 
+def parse_sizing(table: Any) -> SizingSpec:
+    """A ``[sizing]`` table on its own, validated (:class:`SpecError` naming the key): what
+    ``armlab export`` re-checks a recorded design's sizing with."""
+    return _build(SizingSpec, table, "sizing")
+
+
 def demo_study_path() -> Path:
     """The built-in teachbot6 demo study (``armlab/data/demo_study.toml``)."""
     return Path(str(resources.files("armlab") / "data" / "demo_study.toml"))
