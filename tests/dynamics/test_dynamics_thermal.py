@@ -149,3 +149,34 @@ def test_selection_skips_a_motor_that_overheats(tmp_path, teachbot6):
     winding = {c.name: c for c in js.chosen.checks}["winding_temperature_rise"]
     assert winding.ok and winding.value > 0.5  # it heats, within its limit
     assert js.n_passing == 1 and js.n_candidates == 2  # the hot copy fails (only) the heat
+
+
+def test_a_motor_without_thermal_data_is_not_checked(teachbot6):
+    from armlab.dynamics.checks import SizingOptions, binding, checks_for_column, evaluate_checks
+    from armlab.robot import load_profile
+    from armlab.robot.drivetrain import DriveTrain
+
+    d = teachbot6.drives["joint2"]
+    bare = dataclasses.replace(
+        d,
+        motor=dataclasses.replace(
+            d.motor, max_winding_temperature_degC=math.nan, source="data sheet X p. 3"
+        ),
+    )
+    train = DriveTrain.from_drives([d, bare])
+    tau = np.array([[5.0, 5.0], [5.0, 5.0]])
+    res = evaluate_checks(
+        tau,
+        np.zeros_like(tau),
+        np.zeros_like(tau),
+        np.ones(2),
+        train,
+        np.array([0.5, 0.5]),
+        SizingOptions(load_profile()),
+    )
+    made, missing = ({c.name: c for c in checks_for_column(res, k, drives=train)} for k in (0, 1))
+    assert made["winding_temperature_rise"].checked and made["winding_temperature_rise"].ok
+    c = missing["winding_temperature_rise"]
+    assert not c.checked and c.note == "not checked: no thermal data (data sheet X p. 3)"
+    assert c.to_dict()["ok"] is None and c.describe().endswith("(data sheet X p. 3)")
+    assert binding(list(missing.values())).name != "winding_temperature_rise"
