@@ -229,14 +229,15 @@ def _thermal_markdown(report) -> list[str]:
     """The winding temperatures and inertia ratios of a :class:`SizingReport` (a table)."""
     o = report.options
     cycles = "periodic state" if o.cycles is None else f"{o.cycles} cycles from ambient"
+    dwell = f"a {o.dwell_s:g} s dwell at its last pose" if o.dwell_s > 0 else "no dwell"
     rule = (
         f"rule <= {o.max_inertia_ratio:g}"
         if math.isfinite(o.max_inertia_ratio)
         else "no rule set (reported only)"
     )
     lines = [
-        f"Thermal check: two-body motor model over the cycle repeated ({cycles}) with a "
-        f"{o.dwell_s:g} s dwell at its last pose, ambient {o.ambient_degC:g} degC; copper "
+        f"Thermal check: two-body motor model over the cycle repeated ({cycles}) with "
+        f"{dwell}, ambient {o.ambient_degC:g} degC; copper "
         f"resistance rising 0.393 %/K. Inertia ratio: arm inertia at the motor / rotor + "
         f"reducer inertia over the cycle's samples, {rule}. Braking: the energy the motor "
         f"returns over the cycle (mechanical power absorbed less copper loss).",
