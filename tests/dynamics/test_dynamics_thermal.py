@@ -180,3 +180,17 @@ def test_a_motor_without_thermal_data_is_not_checked(teachbot6):
     assert not c.checked and c.note == "not checked: no thermal data (data sheet X p. 3)"
     assert c.to_dict()["ok"] is None and c.describe().endswith("(data sheet X p. 3)")
     assert binding(list(missing.values())).name != "winding_temperature_rise"
+
+
+def test_cycles_from_ambient_approach_the_periodic_state():
+    # a 2 s cycle (0.3 N m for a quarter of it), repeated: the slow mode's time constant is
+    # about tau_m (R1 + R2) / R2 = 1200 s, lengthened to ~1700 s by the copper's resistance
+    # rising (mean I^2 R25 alpha Rth = 0.28); after 20 000 cycles (40 000 s) the state is
+    # periodic to e^-23 of the rise
+    n = 40
+    torque = np.where(np.arange(n) < n // 4, 0.3, 0.0)[:, None]
+    w = np.full(n, 2.0 / n)
+    periodic = winding_temperature(torque, w, _model()).peak_winding_degC[0]
+    one = winding_temperature(torque, w, _model(), cycles=1).peak_winding_degC[0]
+    many = winding_temperature(torque, w, _model(), cycles=20000).peak_winding_degC[0]
+    assert 25.0 < one < many and many == pytest.approx(periodic, abs=1e-3)
