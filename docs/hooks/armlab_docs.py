@@ -64,6 +64,8 @@ def _allowed(check: Callable) -> str:
         return "a name: letters, digits, `_ . -`, <= 64"
     if kind == "_drive_value":
         return _RULE_WORDS[nl["rule"]] + " (as in drives.toml)"
+    if kind == "_amplifier":
+        return "catalogue amplifier name, or a table of `[joint.amplifier]` keys (drives.toml)"
     if kind == "_feedforward":
         return 'list of strings, or `"none"`'
     if kind == "_str":
@@ -186,6 +188,11 @@ def drives_keys() -> str:
         ("[joint.motor]", drives.Motor, "the DC motor"),
         ("[joint.reducer]", drives.Reducer, "the reducer (ratio = motor speed / joint speed)"),
         ("[joint.encoder]", drives.Encoder, "the incremental encoder on the motor shaft"),
+        (
+            "[joint.amplifier]",
+            drives.Amplifier,
+            'the servo amplifier (optional; or `amplifier = "<catalogue model>"`)',
+        ),
     )
     for title, cls, what in parts:
         rules = drives._RULES.get(cls.__name__, {})
@@ -195,9 +202,14 @@ def drives_keys() -> str:
             if f.name in ("motor", "reducer", "encoder"):
                 continue
             name = "name" if f.name == "joint" else f.name
-            accepts = (
-                "string" if f.name in ("model", "source", "joint") else _RULE_WORDS[rules[f.name]]
-            )
+            if f.name in ("model", "source", "joint"):
+                accepts = "string"
+            elif f.name == "amplifier":
+                accepts = "catalogue amplifier name, or the `[joint.amplifier]` table below"
+            elif f.name == "regenerates":
+                accepts = "true or false"
+            else:
+                accepts = _RULE_WORDS[rules[f.name]]
             default = f.default if f.default is not MISSING else MISSING
             meaning = docs.get(f.name) or _FIELD_MEANING.get(f.name, "")
             rows.append([f"`{name}`", accepts, _toml(default), _md(meaning)])

@@ -108,7 +108,12 @@ def test_sizing_report_contract(report, teachbot6):
             "checks",
         } <= set(row)
         names = [c["name"] for c in row["checks"]]
-        assert names == list(CHECK_NAMES)  # every rating is known for teachbot6
+        # every rating is known for teachbot6 (its thermal data ESTIMATED, drives.toml); the
+        # inertia-ratio rule is off by default (reported, not checked) and its amplifiers are
+        # not described (the thesis has none: no amplifier checks)
+        off = ("inertia_ratio", "amplifier_", "bus_capacitor_", "brake_resistor_")
+        assert names == [n for n in CHECK_NAMES if not n.startswith(off)]
+        assert row["inertia_ratio_max"] >= row["inertia_ratio_min"] > 0
         for c in row["checks"]:
             assert {"name", "value", "limit", "margin", "ok"} <= set(c)
             assert c["ok"] == (c["value"] <= c["limit"] * (1 + 1e-9) + 1e-12)

@@ -287,7 +287,7 @@ def test_design_record_rebuilds_the_study_robot(tmp_path):
     doc = tomllib.loads(path.read_text())
     doc["robot"]["base_rpy_deg"] = [90.0, 0.0, 0.0]
     doc["payload"]["mass_kg"] = 1.25
-    doc["drives"] = {"joint3": {"ratio": 80}}
+    doc["drives"] = {"joint3": {"ratio": 80}, "joint2": {"amplifier": "maxon ESCON Module 50/5"}}
     # a wall-mounted teachbot6 cannot hold its arm on joint 1 (27 N m of gravity, 9.6 N m
     # available): the record is written before any stage, so the kinematics stage suffices
     doc["study"]["stages"] = ["kinematics"]
@@ -299,6 +299,8 @@ def test_design_record_rebuilds_the_study_robot(tmp_path):
     ref = res.context.robot
     assert robot.payload.mass_kg == pytest.approx(1.25)
     assert robot.drives["joint3"].reducer.ratio == 80
+    amp = ref.drives["joint2"].amplifier
+    assert amp is not None and robot.drives["joint2"].amplifier == amp  # issue 28
     np.testing.assert_allclose(robot.transform_base_to_world, ref.transform_base_to_world)
     np.testing.assert_allclose(robot.model.gravity.linear, ref.model.gravity.linear)
     assert abs(robot.model.gravity.linear[2]) < 1e-9  # 90 deg about x: gravity along base y

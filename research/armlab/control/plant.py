@@ -238,7 +238,7 @@ class JointPlant:
             B=float(motor.viscous_friction_Nm_s_rad or 0.0),
             J_arm=dict(J_arm),
             inertia=inertia,
-            supply_voltage_V=motor.supply_voltage_V,
+            supply_voltage_V=drive.supply_voltage_V,
             current_limit_A=drive.current_limit_A,
             speed_limit_rad_s=drive.max_motor_speed_rad_s,
             payload_kg=float(payload_kg),

@@ -10,7 +10,9 @@ One model, :mod:`armlab.robot.drivetrain` (its docstring has the equations): joi
 reducer efficiency by quadrant (motoring ``/ eta``, back-driven ``x eta_b``; holding counts as
 motoring, the thesis rule of table 4.3), reflected rotor + reducer inertia and motor friction;
 the envelope is ``derating x min(T_peak, Kt (U - Ke |w|) / R)`` in both quadrants (no credit
-for regeneration), all from :mod:`armlab.robot.drivetrain`.
+for regeneration unless the drive's amplifier regenerates: then ``Kt (U + Ke |w|) / R`` while
+braking), all from :mod:`armlab.robot.drivetrain`. The winding temperature is
+:mod:`armlab.dynamics.thermal`'s, the braking energy :mod:`armlab.dynamics.regeneration`'s.
 """
 
 from __future__ import annotations
@@ -20,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from armlab.dynamics.regeneration import regeneration
+from armlab.dynamics.thermal import AMBIENT_DEGC, ThermalModel, winding_temperature
 from armlab.errors import InputError
 from armlab.robot import drivetrain
 from armlab.robot.controller import ControllerProfile
@@ -48,6 +52,13 @@ CHECK_NAMES: dict[str, str] = {
     "motor_envelope": "N m",
     "encoder_resolution": "rad",
     "encoder_pulse_rate": "counts/cycle",
+    "winding_temperature_rise": "K",
+    "inertia_ratio": "",
+    "amplifier_peak_current": "A",
+    "amplifier_continuous_current": "A",
+    "bus_capacitor_energy": "J",
+    "brake_resistor_power": "W",
+    "brake_resistor_peak_power": "W",
 }
 
 _TINY = 1e-12
@@ -55,6 +66,15 @@ _TINY = 1e-12
 #: What a failed check against a zero limit means, in words (its margin is no number).
 _NO_LIMIT_LEFT = {
     "motor_envelope": "above the motor's no-load speed at its supply voltage: no torque left",
+}
+
+#: Checks whose limit is NaN where a part lacks the data (not infinite: no such rating), what
+#: the check then says instead of passing, and the part whose source it names.
+_NOT_CHECKED = {
+    "winding_temperature_rise": ("not checked: no thermal data", "motor"),
+    "bus_capacitor_energy": ("not checked: no bus capacitance or threshold voltage", "amplifier"),
+    "brake_resistor_power": ("not checked: no brake resistor power rating", "amplifier"),
+    "brake_resistor_peak_power": ("not checked: no brake threshold voltage", "amplifier"),
 }
 
 
@@ -73,9 +93,23 @@ class Check:
     ok: bool
     unit: str = ""
     note: str = ""
+    checked: bool = True
 
     def to_dict(self) -> dict:
-        """JSON-able dict; a margin that is not a number (no limit left) is None, with a note."""
+        """JSON-able dict; a margin that is not a number (no limit left) is None, with a note;
+        a check that could not be made (``checked`` false: the part lacks the data) has
+        ``ok``, ``value``, ``limit`` and ``margin`` None and says why in ``note``."""
+        if not self.checked:
+            return {
+                "name": self.name,
+                "value": None,
+                "limit": None,
+                "margin": None,
+                "ok": None,
+                "unit": self.unit,
+                "note": self.note,
+                "checked": False,
+            }
         return {
             "name": self.name,
             "value": float(self.value),
@@ -88,6 +122,8 @@ class Check:
 
     def describe(self) -> str:
         """One line: ``motor_speed 2390 > 2200 rad/s (margin -8.6 %)`` or the check's note."""
+        if not self.checked:
+            return f"{self.name} {self.note}"
         rel = ">" if not self.ok else "<="
         text = f"{self.name} {self.value:.4g} {rel} {self.limit:.4g} {self.unit}".rstrip()
         if self.note:
@@ -110,10 +146,37 @@ class SizingOptions:
         decoding and counts per revolution are what the encoder checks use (the same function,
         :meth:`ControllerProfile.counts_per_rad`, as the table). :func:`size` and
         :func:`select_drives` build it from their ``controller=``.
+
+    dwell_s : float
+        Rest at the cycle's last pose before it repeats, in [s] (default 0): part of the duty
+        cycle (:func:`armlab.dynamics.thermal.with_dwell`), so of the RMS and the thermal check.
+    cycles : int or None
+        Cycles of the thermal check from ambient; None (default): the periodic state of the
+        cycle repeated for ever (:func:`armlab.dynamics.thermal.winding_temperature`).
+    ambient_degC : float
+        Ambient temperature of the thermal check in [degC]; default 25 degC, ASSUMED: the
+        motor makers' rating condition.
+    max_inertia_ratio : float
+        Largest load-to-motor inertia ratio allowed (check ``inertia_ratio``); inf (default):
+        no rule, the ratios are reported only.
     """
 
     controller: ControllerProfile
     tool_resolution_m: float = 1e-4
+    dwell_s: float = 0.0
+    cycles: int | None = None
+    ambient_degC: float = AMBIENT_DEGC
+    max_inertia_ratio: float = math.inf
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.dwell_s) and self.dwell_s >= 0):
+            raise InputError(f"sizing.dwell_s: {self.dwell_s!r} is not a time >= 0 s")
+        if self.cycles is not None and (isinstance(self.cycles, bool) or self.cycles < 1):
+            raise InputError(f"sizing.cycles: {self.cycles!r} is not a count >= 1")
+        if not (math.isfinite(self.ambient_degC) and -50.0 <= self.ambient_degC <= 150.0):
+            raise InputError(f"sizing.ambient_degC: {self.ambient_degC!r} is not in [-50, 150]")
+        if not self.max_inertia_ratio > 0:
+            raise InputError(f"sizing.max_inertia_ratio: {self.max_inertia_ratio!r} is not > 0")
 
     @property
     def cycle_s(self) -> float:
@@ -150,7 +213,16 @@ def _margin(value, limit):
 
 
 def evaluate_checks(
-    tau, qd, qdd, weights, drives: DriveTrain, lever_m, options: SizingOptions
+    tau,
+    qd,
+    qdd,
+    weights,
+    drives: DriveTrain,
+    lever_m,
+    options: SizingOptions,
+    *,
+    joint_inertia_kg_m2=None,
+    figures: dict[str, np.ndarray] | None = None,
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Every sizing check for every column: ``{name: (value, limit)}``, arrays (n_columns,).
 
@@ -165,6 +237,14 @@ def evaluate_checks(
     lever_m : array (n_columns,)
         Largest distance from each joint's axis to the tool point, in [m].
     options : SizingOptions
+    joint_inertia_kg_m2 : array (n_samples, n_columns) or (n_samples, 1), optional
+        The arm's inertia at each joint along the cycle, ``M_jj(q)`` [kg m^2] (the inertia
+        ratio; without it no ratio is computed).
+    figures : dict, optional
+        Filled with what the checks computed beside their values, arrays (n_columns,):
+        ``winding_peak_temperature_degC``, ``housing_temperature_degC`` (end of the cycle),
+        ``inertia_ratio_min`` and ``inertia_ratio_max`` (NaN where not computed),
+        ``braking_energy_J``, ``peak_regenerated_power_W``, ``largest_braking_stretch_J``.
 
     Notes
     -----
@@ -187,6 +267,23 @@ def evaluate_checks(
       ``tool_resolution_m / lever_m``.
     * ``encoder_pulse_rate``: peak counts per controller cycle <= the controller's pulse limit
       (``options.controller``: cycle, decoding and limit of the profile the table is written for).
+    * ``winding_temperature_rise``: peak winding temperature over the cycle repeated (with its
+      dwell, from ``options.ambient_degC``; :func:`armlab.dynamics.thermal.winding_temperature`)
+      minus the ambient <= maximum winding temperature minus the ambient [K] (the margin is the
+      share of the allowed rise still free). Not checked where the motor has no thermal data.
+    * ``inertia_ratio``: largest load-to-motor inertia ratio over the cycle's samples,
+      ``J_load / J_motor_side`` with ``J_load`` the arm's ``M_jj`` seen at the motor
+      (:meth:`~armlab.robot.drives.Drive.load_inertia_at_motor_kg_m2`, motoring: ``/ (eta
+      N^2)``) <= ``options.max_inertia_ratio`` (off by default). The smallest ratio uses the
+      back-driven ``eta_b M_jj / N^2`` (the range the tuning sees, :mod:`armlab.control.plant`).
+    * ``amplifier_peak_current``: peak ``|T_m| / Kt`` <= the amplifier's peak current;
+      ``amplifier_continuous_current``: RMS ``T_m / Kt`` <= its continuous current (both only
+      where the drive has an amplifier, :attr:`~armlab.robot.drives.Drive.amplifier`).
+    * ``bus_capacitor_energy``, ``brake_resistor_power``, ``brake_resistor_peak_power``: the
+      cycle's braking energy against the bus capacitor and the brake resistor of an amplifier
+      that regenerates (:mod:`armlab.dynamics.regeneration`).
+    * ``motor_envelope`` is four-quadrant for an amplifier that regenerates: braking samples
+      are bounded by ``Kt (U + Ke |w_m|) / R`` (:func:`armlab.robot.drivetrain.envelope_torque`).
     """
     w = np.asarray(weights, float)[:, None]
     t_m, w_m, _ = drivetrain.motor_side(tau, qd, qdd, drives)
@@ -216,7 +313,7 @@ def evaluate_checks(
     out["motor_rms_torque"] = (rms, drives.continuous_motor_torque_Nm)
     out["motor_peak_torque"] = (np.abs(t_m).max(axis=0), drives.peak_motor_torque_Nm)
     out["motor_speed"] = (peak_wm, drives.rated_speed_rad_s)
-    t_env = drivetrain.envelope_torque(w_m, drives)
+    t_env = drivetrain.envelope_torque(w_m, drives, t_m)
     ratio = drivetrain.envelope_ratio(t_m, w_m, drives)
     k = np.argmax(ratio, axis=0)
     cols = np.arange(ratio.shape[1])
@@ -227,6 +324,10 @@ def evaluate_checks(
     counts = abs_qd.max(axis=0) * counts_per_joint_rev / (2.0 * np.pi) * options.cycle_s
     out["encoder_pulse_rate"] = (counts, options.max_counts_per_cycle)
     n_col = drives.ratio.size
+    figs = _thermal_and_inertia(t_m, weights, drives, options, joint_inertia_kg_m2, out)
+    figs.update(_amplifier_checks(t_m, w_m, weights, drives, out))
+    if figures is not None:
+        figures.update(figs)
     return {
         name: (
             np.broadcast_to(np.asarray(v, float), (n_col,)),
@@ -236,13 +337,119 @@ def evaluate_checks(
     }
 
 
+def _thermal_and_inertia(t_m, weights, drives, options, joint_inertia_kg_m2, out) -> dict:
+    """The ``winding_temperature_rise`` and ``inertia_ratio`` checks into ``out``; returns
+    the figures beside them (:func:`evaluate_checks`)."""
+    thermal = ThermalModel.from_drives(drives.drives)
+    heat = winding_temperature(
+        t_m, weights, thermal, ambient_degC=options.ambient_degC, cycles=options.cycles
+    )
+    amb = options.ambient_degC
+    out["winding_temperature_rise"] = (
+        heat.peak_winding_degC - amb,
+        np.where(thermal.given, thermal.max_winding_degC - amb, np.nan),
+    )
+    r_min, r_max = _inertia_ratios(joint_inertia_kg_m2, drives)
+    out["inertia_ratio"] = (r_max, options.max_inertia_ratio)
+    return {
+        "winding_peak_temperature_degC": heat.peak_winding_degC,
+        "housing_temperature_degC": heat.end_housing_degC,
+        "inertia_ratio_min": r_min,
+        "inertia_ratio_max": r_max,
+    }
+
+
+def _amplifier_checks(t_m, w_m, weights, drives: DriveTrain, out) -> dict:
+    """The amplifier's current checks and the braking-energy checks
+    (:mod:`armlab.dynamics.regeneration`) into ``out`` (limit inf: no amplifier, or one that
+    does not regenerate; NaN: it regenerates but the data sheet lacks the value); returns the
+    braking figures."""
+    kt = drives.torque_constant_Nm_A
+    amps = [d.amplifier for d in drives.drives]
+
+    def amp_value(name: str, regen_only: bool = False) -> np.ndarray:
+        return np.array(
+            [
+                np.inf
+                if a is None or (regen_only and not a.regenerates)
+                else float(getattr(a, name))
+                for a in amps
+            ]
+        )
+
+    w = np.asarray(weights, float)
+    out["amplifier_peak_current"] = (np.abs(t_m).max(axis=0) / kt, amp_value("peak_current_A"))
+    out["amplifier_continuous_current"] = (
+        drivetrain.rms_torque(t_m, w) / kt,
+        np.array([d.continuous_current_limit_A for d in drives.drives]),
+    )
+    regen, stretches = regeneration(t_m, w_m, w, drives.resistance_ohm, kt)
+    cap = amp_value("bus_energy_J", regen_only=True)
+    resistor = amp_value("brake_resistor_ohm", regen_only=True)
+    has_resistor = np.isfinite(resistor)
+    # without a resistor the capacitor takes every stretch; with one, the excess goes to it
+    out["bus_capacitor_energy"] = (regen.largest_stretch_J, np.where(has_resistor, np.inf, cap))
+    beyond = regen.beyond_J(stretches, np.nan_to_num(cap, nan=0.0, posinf=0.0))
+    cycle_s = max(float(w.sum()), _TINY)
+    out["brake_resistor_power"] = (
+        beyond / cycle_s,
+        np.where(has_resistor, amp_value("brake_resistor_power_W", regen_only=True), np.inf),
+    )
+    out["brake_resistor_peak_power"] = (
+        regen.peak_power_W,
+        np.where(has_resistor, amp_value("brake_peak_power_W", regen_only=True), np.inf),
+    )
+    return {
+        "braking_energy_J": regen.energy_J,
+        "peak_regenerated_power_W": regen.peak_power_W,
+        "largest_braking_stretch_J": regen.largest_stretch_J,
+    }
+
+
+def _inertia_ratios(joint_inertia_kg_m2, drives: DriveTrain) -> tuple[np.ndarray, np.ndarray]:
+    """Smallest and largest load-to-motor inertia ratio of each column over the samples:
+    the arm's ``M_jj`` seen at the motor (the drive's
+    :meth:`~armlab.robot.drives.Drive.load_inertia_at_motor_kg_m2`, back-driven for the
+    smallest, motoring for the largest) over the motor-side inertia (rotor + reducer input).
+    NaN without the inertias; inf where the motor-side inertia is zero."""
+    n_col = drives.ratio.size
+    if joint_inertia_kg_m2 is None:
+        return np.full(n_col, np.nan), np.full(n_col, np.nan)
+    m = np.asarray(joint_inertia_kg_m2, float)
+    if m.ndim == 1:
+        m = m[:, None]
+    m = np.broadcast_to(m, (m.shape[0], n_col))
+    lo, hi = m.min(axis=0), m.max(axis=0)
+    r_min, r_max = np.empty(n_col), np.empty(n_col)
+    for c, d in enumerate(drives.drives):
+        own = d.motor_side_inertia_kg_m2
+        load_lo = d.load_inertia_at_motor_kg_m2(lo[c], motoring=False)
+        load_hi = d.load_inertia_at_motor_kg_m2(hi[c], motoring=True)
+        r_min[c] = load_lo / own if own > 0 else math.inf
+        r_max[c] = load_hi / own if own > 0 else math.inf
+    return r_min, r_max
+
+
 def checks_for_column(
-    results: dict[str, tuple[np.ndarray, np.ndarray]], c: int, rtol: float = 1e-9
+    results: dict[str, tuple[np.ndarray, np.ndarray]],
+    c: int,
+    rtol: float = 1e-9,
+    drives: DriveTrain | None = None,
 ) -> list[Check]:
-    """The :class:`Check` list of column ``c`` of :func:`evaluate_checks`'s output."""
+    """The :class:`Check` list of column ``c`` of :func:`evaluate_checks`'s output.
+
+    A check without a rating (limit inf) is left out; one the part lacks the data for (limit
+    NaN, :data:`_NOT_CHECKED`) is kept as "not checked" with the reason (and the motor's source,
+    when ``drives`` is given), neither passing nor failing."""
     checks = []
     for name, (value, limit) in results.items():
         v, lim = float(value[c]), float(limit[c])
+        if math.isnan(lim) and name in _NOT_CHECKED:
+            note, part = _NOT_CHECKED[name]
+            src = getattr(getattr(drives.drives[c], part), "source", "") if drives else ""
+            note += f" ({src or 'no source given'})"
+            checks.append(Check(name, v, lim, math.nan, True, CHECK_NAMES[name], note, False))
+            continue
         if not math.isfinite(lim):  # no such rating: nothing to check
             continue
         ok = bool(v <= lim * (1.0 + rtol) + _TINY)
@@ -258,8 +465,10 @@ def checks_for_column(
 
 
 def binding(checks: list[Check]) -> Check:
-    """The check with the smallest margin (the one that binds, or fails worst)."""
-    return min(checks, key=lambda ch: ch.margin)
+    """The check with the smallest margin (the one that binds, or fails worst); checks that
+    could not be made (``checked`` false) are not candidates."""
+    made = [ch for ch in checks if ch.checked] or checks
+    return min(made, key=lambda ch: ch.margin)
 
 
 class Checked:

@@ -225,6 +225,43 @@ def _fmt(value: float, unit: str) -> str:
     return f"{value:.3g} {unit}"
 
 
+def _thermal_markdown(report) -> list[str]:
+    """The winding temperatures and inertia ratios of a :class:`SizingReport` (a table)."""
+    o = report.options
+    cycles = "periodic state" if o.cycles is None else f"{o.cycles} cycles from ambient"
+    dwell = f"a {o.dwell_s:g} s dwell at its last pose" if o.dwell_s > 0 else "no dwell"
+    rule = (
+        f"rule <= {o.max_inertia_ratio:g}"
+        if math.isfinite(o.max_inertia_ratio)
+        else "no rule set (reported only)"
+    )
+    lines = [
+        f"Thermal check: two-body motor model over the cycle repeated ({cycles}) with "
+        f"{dwell}, ambient {o.ambient_degC:g} degC; copper "
+        f"resistance rising 0.393 %/K. Inertia ratio: arm inertia at the motor / rotor + "
+        f"reducer inertia over the cycle's samples, {rule}. Braking: the energy the motor "
+        f"returns over the cycle (mechanical power absorbed less copper loss).",
+        "",
+        "| joint | motor | peak winding [degC] | max winding [degC] | housing [degC] | "
+        "inertia ratio min | max | amplifier | braking energy [J] | peak regenerated [W] |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+
+    def fmt(x: float) -> str:
+        return f"{x:.3g}" if math.isfinite(x) else ("-" if math.isnan(x) else "inf")
+
+    for js in report.joints:
+        m = js.drive.motor
+        lines.append(
+            f"| {js.joint} | {m.model} | {fmt(js.winding_peak_temperature_degC)} | "
+            f"{fmt(m.max_winding_temperature_degC)} | {fmt(js.housing_temperature_degC)} | "
+            f"{fmt(js.inertia_ratio_min)} | {fmt(js.inertia_ratio_max)} | "
+            f"{js.drive.amplifier.model if js.drive.amplifier is not None else '-'} | "
+            f"{fmt(js.braking_energy_J)} | {fmt(js.peak_regenerated_power_W)} |"
+        )
+    return lines
+
+
 def sizing_markdown(report) -> str:
     """Markdown of a :class:`SizingReport` (with thesis table 4.3 beside it for teachbot6)."""
     thesis = is_thesis_robot(report.robot_name, len(report.joints))
@@ -272,9 +309,13 @@ def sizing_markdown(report) -> str:
                 f"{js.peak_torque_Nm:.3g} | {'pass' if js.ok else 'FAIL'} | "
                 f"{', '.join(failing) if failing else js.binding.name} |"
             )
+    lines += ["", *_thermal_markdown(report)]
     lines += ["", "| joint | check | value | limit | margin | ok |", "|---|---|---|---|---|---|"]
     for js in report.joints:
         for c in js.checks:
+            if not c.checked:
+                lines.append(f"| {js.joint} | {c.name} | - | - | - | {c.note} |")
+                continue
             lines.append(
                 f"| {js.joint} | {c.name} | {_fmt(c.value, c.unit)} | "
                 f"{_fmt(c.limit, c.unit)} | {100 * c.margin:+.0f} % | "

@@ -33,7 +33,8 @@ from armlab.dynamics.checks import (
     evaluate_checks,
 )
 from armlab.dynamics.inverse import as_trajectories, inverse_dynamics
-from armlab.dynamics.sizing import lever_arms_m
+from armlab.dynamics.sizing import joint_inertias_kg_m2, lever_arms_m
+from armlab.dynamics.thermal import AMBIENT_DEGC, with_dwell
 from armlab.errors import InfeasibleError, InputError
 from armlab.robot.catalogue import Catalogue, load_catalogue
 from armlab.robot.controller import ControllerProfile, load_profile
@@ -306,6 +307,10 @@ def select_drives(
     tool_resolution_m: float = SizingOptions.tool_resolution_m,
     dt: float | None = None,
     threads: int = 1,
+    dwell_s: float = 0.0,
+    cycles: int | None = None,
+    ambient_degC: float = AMBIENT_DEGC,
+    max_inertia_ratio: float = math.inf,
 ) -> Selection:
     """Choose each joint's lightest (or cheapest) catalogue motor + reducer passing every check.
 
@@ -326,6 +331,8 @@ def select_drives(
         Largest tool-point displacement of one encoder count [m] (:class:`SizingOptions`).
     dt : float, optional
         Resample the trajectories on this grid [s] first.
+    dwell_s, cycles, ambient_degC, max_inertia_ratio
+        As :func:`~armlab.dynamics.size`: the winding-temperature and inertia-ratio checks.
 
     Returns
     -------
@@ -337,11 +344,20 @@ def select_drives(
         raise InputError(f"objective must be one of {OBJECTIVES}, not {objective!r}")
     if not isinstance(catalogue, Catalogue):  # None or a path: read it
         catalogue = load_catalogue(catalogue)
-    options = SizingOptions(load_profile(controller), tool_resolution_m)
+    options = SizingOptions(
+        load_profile(controller),
+        tool_resolution_m,
+        dwell_s=dwell_s,
+        cycles=cycles,
+        ambient_degC=ambient_degC,
+        max_inertia_ratio=max_inertia_ratio,
+    )
     trajs = as_trajectories(trajectories, robot)
     if dt is not None:
         trajs = [tr.sample(dt) for tr in trajs]
+    trajs = with_dwell(trajs, options.dwell_s)
     loads = inverse_dynamics(robot, trajs, threads=threads)
+    inertias = joint_inertias_kg_m2(robot, loads.q)
     levers = lever_arms_m(robot)
     combos = [(m, r) for m in catalogue.motors for r in catalogue.reducers]
 
@@ -353,17 +369,19 @@ def select_drives(
     for j, name in enumerate(robot.joint_names):
         drives = [_drive(robot, j, m, r, catalogue.derating.get(m.model, 1.0)) for m, r in combos]
         columns = slice(j, j + 1)
+        train = DriveTrain.from_drives(drives)
         results = evaluate_checks(
             loads.torque_Nm[:, columns],
             loads.qd[:, columns],
             loads.qdd[:, columns],
             loads.weights,
-            DriveTrain.from_drives(drives),
+            train,
             levers[j],
             options,
+            joint_inertia_kg_m2=inertias[:, columns],
         )
         cands = [
-            Candidate(m, r, drives[c].derating, checks_for_column(results, c))
+            Candidate(m, r, drives[c].derating, checks_for_column(results, c, drives=train))
             for c, (m, r) in enumerate(combos)
         ]
         passing = sorted((c for c in cands if c.ok), key=key)
@@ -376,14 +394,16 @@ def select_drives(
         current = None
         if robot.drives is not None:
             d = robot.drives[name]
+            own = DriveTrain.from_drives([d])
             res = evaluate_checks(
                 loads.torque_Nm[:, columns],
                 loads.qd[:, columns],
                 loads.qdd[:, columns],
                 loads.weights,
-                DriveTrain.from_drives([d]),
+                own,
                 levers[j],
                 options,
+                joint_inertia_kg_m2=inertias[:, columns],
             )
             motor, reducer = d.motor, d.reducer
             tagged = catalogue.thesis_parts.get(name)
@@ -394,7 +414,7 @@ def select_drives(
                 ):
                     motor = replace(motor, mass_kg=cm.mass_kg, price=cm.price)
                     reducer = replace(reducer, mass_kg=cr.mass_kg, price=cr.price)
-            current = Candidate(motor, reducer, d.derating, checks_for_column(res, 0))
+            current = Candidate(motor, reducer, d.derating, checks_for_column(res, 0, drives=own))
         joints.append(
             JointSelection(
                 joint=name,

@@ -4,8 +4,11 @@
 checks each joint's drive train (``robot.drives``, from drives.toml, or the ``drives`` given)
 with the checks of :func:`armlab.dynamics.checks.evaluate_checks`: the thesis rule (table 4.3),
 the harmonic-reducer makers' peak / average (cubic-mean) torque and input-speed limits, the
-motor's RMS and peak torque, speed and speed-torque envelope, and the encoder resolution.
-Each check is ``{name, value, limit, margin, ok}``; a failing check is a result, not an error.
+motor's RMS and peak torque, speed and speed-torque envelope, the encoder resolution, the
+winding temperature over the cycle repeated with its dwell (:mod:`armlab.dynamics.thermal`) and,
+when the user sets a rule, the load-to-motor inertia ratio, and, with an amplifier, its currents
+and the braking energy (:mod:`armlab.dynamics.regeneration`). Each check is
+``{name, value, limit, margin, ok}``; a failing check is a result, not an error.
 """
 
 from __future__ import annotations
@@ -31,7 +34,9 @@ from armlab.dynamics.inverse import (
     inverse_dynamics,
     require_drives,
 )
+from armlab.dynamics.thermal import AMBIENT_DEGC, with_dwell
 from armlab.errors import InputError
+from armlab.robot import rigid_body
 from armlab.robot.controller import ControllerProfile, load_profile
 from armlab.robot.drives import Drive
 from armlab.robot.drivetrain import DriveTrain
@@ -39,7 +44,7 @@ from armlab.robot.drivetrain import DriveTrain
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
 
-__all__ = ["JointSizing", "SizingReport", "size", "lever_arms_m"]
+__all__ = ["JointSizing", "SizingReport", "size", "lever_arms_m", "joint_inertias_kg_m2"]
 
 
 def lever_arms_m(robot: Robot) -> np.ndarray:
@@ -58,6 +63,15 @@ def lever_arms_m(robot: Robot) -> np.ndarray:
     return tail + tool
 
 
+def joint_inertias_kg_m2(robot: Robot, q) -> np.ndarray:
+    """The arm's inertia at each joint, the diagonal ``M_jj(q)`` of the joint-space mass matrix
+    without armature (the rotor is counted on the motor side), ``(n_samples, n_joints)`` in
+    [kg m^2], payload included: the inertia the tuning's range spans (:mod:`armlab.control.plant`)
+    at the samples of a duty cycle (the inertia ratio of :func:`size`)."""
+    M = rigid_body.mass_matrix(robot, np.atleast_2d(q))
+    return np.diagonal(M, axis1=1, axis2=2) - robot.model.armature
+
+
 @dataclass
 class JointSizing(Checked):
     """The sizing of one joint: its signals' key figures and its checks."""
@@ -73,6 +87,12 @@ class JointSizing(Checked):
     motor_rms_torque_Nm: float
     available_torque_Nm: float
     counts_per_joint_rev: float
+    winding_peak_temperature_degC: float = float("nan")
+    housing_temperature_degC: float = float("nan")
+    inertia_ratio_min: float = float("nan")
+    inertia_ratio_max: float = float("nan")
+    braking_energy_J: float = float("nan")
+    peak_regenerated_power_W: float = float("nan")
 
     def check(self, name: str) -> Check:
         for c in self.checks:
@@ -90,6 +110,13 @@ class JointSizing(Checked):
             "motor_rms_torque_Nm": self.motor_rms_torque_Nm,
             "available_torque_Nm": self.available_torque_Nm,
             "encoder_counts_per_joint_rev": self.counts_per_joint_rev,
+            "winding_peak_temperature_degC": self.winding_peak_temperature_degC,
+            "housing_temperature_degC": self.housing_temperature_degC,
+            "inertia_ratio_min": self.inertia_ratio_min,
+            "inertia_ratio_max": self.inertia_ratio_max,
+            "braking_energy_J": self.braking_energy_J,
+            "peak_regenerated_power_W": self.peak_regenerated_power_W,
+            "amplifier": None if self.drive.amplifier is None else self.drive.amplifier.model,
             "motor": self.drive.motor.model,
             "reducer": self.drive.reducer.model,
             "ok": self.ok,
@@ -152,6 +179,10 @@ def size(
     tool_resolution_m: float = SizingOptions.tool_resolution_m,
     dt: float | None = None,
     threads: int = 1,
+    dwell_s: float = 0.0,
+    cycles: int | None = None,
+    ambient_degC: float = AMBIENT_DEGC,
+    max_inertia_ratio: float = float("inf"),
 ) -> SizingReport:
     """Check every joint's drive train along a trajectory or a duty cycle of trajectories.
 
@@ -173,6 +204,10 @@ def size(
         Resample every trajectory on this grid [s] first (catches peaks between knots).
     threads : int
         Threads of the batched RNEA.
+    dwell_s, cycles, ambient_degC, max_inertia_ratio
+        The duty cycle's rest at its last pose [s] (part of the cycle: RMS and thermal check),
+        the thermal check's cycles (None: periodic) and ambient [degC], and the inertia-ratio
+        rule (inf: reported, not checked): :class:`SizingOptions`.
 
     Returns
     -------
@@ -185,15 +220,32 @@ def size(
     RobotDescriptionError
         The robot has no drives and none are given.
     """
-    options = SizingOptions(load_profile(controller), tool_resolution_m)
+    options = SizingOptions(
+        load_profile(controller),
+        tool_resolution_m,
+        dwell_s=dwell_s,
+        cycles=cycles,
+        ambient_degC=ambient_degC,
+        max_inertia_ratio=max_inertia_ratio,
+    )
     drive_list = require_drives(robot, drives)
     trajs = as_trajectories(trajectory, robot)
     if dt is not None:
         trajs = [tr.sample(dt) for tr in trajs]
+    trajs = with_dwell(trajs, options.dwell_s)
     loads = inverse_dynamics(robot, trajs, drives=drive_list, threads=threads)
     arrays = DriveTrain.from_drives(drive_list)
+    figures: dict[str, np.ndarray] = {}
     results = evaluate_checks(
-        loads.torque_Nm, loads.qd, loads.qdd, loads.weights, arrays, lever_arms_m(robot), options
+        loads.torque_Nm,
+        loads.qd,
+        loads.qdd,
+        loads.weights,
+        arrays,
+        lever_arms_m(robot),
+        options,
+        joint_inertia_kg_m2=joint_inertias_kg_m2(robot, loads.q),
+        figures=figures,
     )
     counts_per_rev = counts_per_joint_rev_of(arrays, options.controller)
     peak_t, rms_t, peak_v = loads.peak_torque_Nm, loads.rms_torque_Nm, loads.peak_speed_rad_s
@@ -208,7 +260,7 @@ def size(
             JointSizing(
                 joint=name,
                 drive=d,
-                checks=checks_for_column(results, j),
+                checks=checks_for_column(results, j, drives=arrays),
                 peak_torque_Nm=float(peak_t[j]),
                 rms_torque_Nm=float(rms_t[j]),
                 peak_speed_rad_s=float(peak_v[j]),
@@ -217,6 +269,12 @@ def size(
                 motor_rms_torque_Nm=float(m_rms[j]),
                 available_torque_Nm=float(d.available_torque_Nm),
                 counts_per_joint_rev=float(counts_per_rev[j]),
+                winding_peak_temperature_degC=float(figures["winding_peak_temperature_degC"][j]),
+                housing_temperature_degC=float(figures["housing_temperature_degC"][j]),
+                inertia_ratio_min=float(figures["inertia_ratio_min"][j]),
+                inertia_ratio_max=float(figures["inertia_ratio_max"][j]),
+                braking_energy_J=float(figures["braking_energy_J"][j]),
+                peak_regenerated_power_W=float(figures["peak_regenerated_power_W"][j]),
             )
         )
     return SizingReport(

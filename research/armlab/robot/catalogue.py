@@ -1,11 +1,13 @@
 """The drive catalogue: motors and reducers that :func:`select_drives` combines.
 
 A TOML file (default: ``armlab/data/catalogue.toml``) with ``[[motor]]`` and ``[[reducer]]``
-entries whose fields are those of :class:`armlab.robot.Motor` / :class:`armlab.robot.Reducer`
-(``mass_kg`` and ``price`` required), plus ``derating`` on a motor (extra factor on its torque
-limits, default 1) and ``thesis_joints`` (joints of teachbot6 that use the part in thesis
-table 4.3). The file's header records where every number comes from, and every entry's
-``source`` names its data sheet (ASSUMED / ESTIMATED where a value is not from one).
+entries (and ``[[amplifier]]`` servo amplifiers, :class:`armlab.robot.drives.Amplifier`,
+named by drives files and studies) whose fields are those of :class:`armlab.robot.Motor` /
+:class:`armlab.robot.Reducer` (``mass_kg`` and ``price`` required), plus ``derating`` on a
+motor (extra factor on its torque limits, default 1) and ``thesis_joints`` (joints of
+teachbot6 that use the part in thesis table 4.3). The file's header records where every number
+comes from, and every entry's ``source`` names its data sheet (ASSUMED / ESTIMATED where a
+value is not from one).
 
 The shipped catalogue spans the thesis' small DC motors and harmonic reducers up to UR5 / Panda
 class parts: maxon EC flat / EC-i and Kollmorgen AKM motors (about 0.05-5 N m continuous),
@@ -23,7 +25,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from armlab.errors import RobotDescriptionError
-from armlab.robot.drives import Motor, Reducer, motor_from_dict, reducer_from_dict
+from armlab.robot.drives import (
+    Amplifier,
+    Motor,
+    Reducer,
+    amplifier_from_dict,
+    motor_from_dict,
+    reducer_from_dict,
+)
 from armlab.tomlfile import read_toml
 
 __all__ = ["Catalogue", "load_catalogue", "default_catalogue_path"]
@@ -52,6 +61,15 @@ class Catalogue:
     thesis_parts: dict[str, tuple[str | None, str | None]] = field(default_factory=dict)
     currency: str = ""
     path: str = ""
+    amplifiers: tuple[Amplifier, ...] = ()
+
+    def amplifier(self, model: str, where: str = "") -> Amplifier:
+        """The servo amplifier ``model`` of the ``[[amplifier]]`` entries (as :meth:`motor`);
+        amplifiers are named by drives files and studies, not combined by the selection."""
+        for a in self.amplifiers:
+            if a.model == model:
+                return a
+        raise _unknown("amplifier", model, [a.model for a in self.amplifiers], where or self.path)
 
     def motor(self, model: str, where: str = "") -> Motor:
         """The motor ``model`` (:class:`RobotDescriptionError` naming ``where``, the key that
@@ -122,6 +140,13 @@ def load_catalogue(path: str | os.PathLike | None = None) -> Catalogue:
 
     motors = parts("motor", motor_from_dict)
     reducers = parts("reducer", reducer_from_dict)
+    amplifiers: list[Amplifier] = []
+    for k, row in enumerate(data.get("amplifier", [])):
+        where = f"{path} amplifier {k + 1} ({dict(row).get('model', '?')})"
+        amp = amplifier_from_dict(dict(row), where)
+        if any(a.model == amp.model for a in amplifiers):
+            raise RobotDescriptionError(f"{where}: duplicate model {amp.model!r}")
+        amplifiers.append(amp)
     return Catalogue(
         motors=motors,
         reducers=reducers,
@@ -129,4 +154,5 @@ def load_catalogue(path: str | os.PathLike | None = None) -> Catalogue:
         thesis_parts={j: (m, r) for j, (m, r) in thesis.items()},
         currency=str(data.get("currency", "")),
         path=str(path),
+        amplifiers=tuple(amplifiers),
     )

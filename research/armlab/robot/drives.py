@@ -19,6 +19,7 @@ __all__ = [
     "Motor",
     "Reducer",
     "Encoder",
+    "Amplifier",
     "Drive",
     "read_drives",
     "drives_toml",
@@ -75,6 +76,14 @@ class Motor:
     peak_torque_Nm : float
         Peak (momentary) torque in [N m]; NaN when the data sheet gives none (sizing then
         limits the peak to the stall torque, conservatively).
+    thermal_resistance_winding_housing_K_W, thermal_resistance_housing_ambient_K_W : float
+        Thermal resistances winding-housing ``R_th1`` and housing-ambient ``R_th2`` in [K/W]
+        (maxon data sheets, "thermal data"); NaN: not given.
+    thermal_time_constant_winding_s, thermal_time_constant_motor_s : float
+        Thermal time constants of the winding and of the motor in [s]; NaN: not given.
+    max_winding_temperature_degC : float
+        Maximum permissible winding temperature in [degC]; NaN: not given. Without these five
+        the winding-temperature check (:mod:`armlab.dynamics.thermal`) is "not checked".
     """
 
     model: str
@@ -93,6 +102,11 @@ class Motor:
     mass_kg: float = math.nan
     price: float = math.nan
     source: str = ""
+    thermal_resistance_winding_housing_K_W: float = math.nan
+    thermal_resistance_housing_ambient_K_W: float = math.nan
+    thermal_time_constant_winding_s: float = math.nan
+    thermal_time_constant_motor_s: float = math.nan
+    max_winding_temperature_degC: float = math.nan
 
     @property
     def rated_speed_rad_s(self) -> float:
@@ -157,6 +171,59 @@ class Reducer:
 
 
 @dataclass(frozen=True)
+class Amplifier:
+    """A servo amplifier (drive electronics) feeding one motor from its DC bus.
+
+    Attributes
+    ----------
+    model : str
+    continuous_current_A, peak_current_A : float
+        Continuous and peak output current in [A] (the data sheet's; the peak for the
+        maker's stated time, typically a few seconds).
+    bus_voltage_V : float
+        DC bus (supply) voltage in [V]: the voltage the amplifier can apply to the motor
+        (the envelope's ``U``; the PWM's few per cent of loss are not counted).
+    regenerates : bool
+        True when the amplifier is four-quadrant: it brakes the motor by returning the
+        current to its bus (the braking quadrants may then use ``Kt (U + Ke |w|) / R``) and the
+        cycle's braking energy is sized against the bus capacitor and the brake resistor.
+    bus_capacitance_F : float
+        Capacitance on the bus in [F]; NaN: not given.
+    brake_resistor_ohm, brake_resistor_power_W : float
+        Brake (shunt) resistor in [ohm] and its continuous power rating in [W]; NaN: none.
+    brake_threshold_V : float
+        Bus voltage at which the brake chopper switches the resistor on (or, without one, the
+        highest bus voltage allowed) in [V]; NaN: not given.
+    source : str
+        The data sheet (document, page) the numbers come from.
+    """
+
+    model: str
+    continuous_current_A: float
+    peak_current_A: float
+    bus_voltage_V: float
+    regenerates: bool = False
+    bus_capacitance_F: float = math.nan
+    brake_resistor_ohm: float = math.nan
+    brake_resistor_power_W: float = math.nan
+    brake_threshold_V: float = math.nan
+    source: str = ""
+
+    @property
+    def bus_energy_J(self) -> float:
+        """Braking energy the bus capacitor takes from the bus voltage up to the brake
+        threshold, ``C (U_max^2 - U_bus^2) / 2`` in [J]; NaN when either is not given."""
+        c, u_max, u = self.bus_capacitance_F, self.brake_threshold_V, self.bus_voltage_V
+        return 0.5 * c * (u_max**2 - u**2)
+
+    @property
+    def brake_peak_power_W(self) -> float:
+        """The power the brake resistor sinks at the threshold voltage, ``U_max^2 / R`` in
+        [W]; NaN without a resistor or a threshold."""
+        return self.brake_threshold_V**2 / self.brake_resistor_ohm
+
+
+@dataclass(frozen=True)
 class Encoder:
     """An incremental encoder on the motor shaft (counts: :meth:`Drive.counts_per_rad`)."""
 
@@ -177,6 +244,10 @@ class Drive:
         ``[limits]`` gives them; the limit sources say which.
     derating : float
         Extra factor on the available torque (0.8 for the thesis' joint 2).
+    amplifier : Amplifier or None
+        The joint's servo amplifier; None: not described (the motor's ``supply_voltage_V``
+        stands for its bus, its current is not limited beyond the motor's peak torque, and
+        braking takes no regeneration credit).
     """
 
     joint: str
@@ -186,6 +257,7 @@ class Drive:
     acceleration_rad_s2: float = math.nan
     jerk_rad_s3: float = math.nan
     derating: float = 1.0
+    amplifier: Amplifier | None = None
 
     # ------------------------------------------------------------------ the one home
     # Every quantity of a joint's drive is answered here, with one rule each; the vectorised
@@ -221,15 +293,39 @@ class Drive:
         return self.derating * self.motor.stall_torque_Nm
 
     @property
+    def supply_voltage_V(self) -> float:
+        """The voltage the amplifier can apply to the motor, in [V]: the amplifier's bus
+        voltage when one is described, else the motor's ``supply_voltage_V`` (the drives
+        file's estimate of it). The envelope, the no-load speed, the current slew and the servo
+        plant use this one number."""
+        a = self.amplifier
+        return float(a.bus_voltage_V) if a is not None else float(self.motor.supply_voltage_V)
+
+    @property
+    def regenerates(self) -> bool:
+        """True when the amplifier is four-quadrant (brakes by regeneration, see
+        :class:`Amplifier`); False without an amplifier (no credit, conservative)."""
+        return self.amplifier is not None and bool(self.amplifier.regenerates)
+
+    @property
     def current_limit_A(self) -> float:
         """The amplifier's current limit in [A]: the current of the peak torque,
         ``peak_motor_torque_Nm / Kt``, at most the standstill current the supply can drive,
-        ``U / R`` (armature equation ``U = R i + Ke w``, HEU thesis ch. 5)."""
+        ``U / R`` (armature equation ``U = R i + Ke w``, HEU thesis ch. 5), and at most the
+        amplifier's peak current when one is described."""
         m = self.motor
+        amp = self.amplifier.peak_current_A if self.amplifier is not None else math.inf
         return min(
             self.peak_motor_torque_Nm / m.torque_constant_Nm_A,
-            m.supply_voltage_V / m.resistance_ohm,
+            self.supply_voltage_V / m.resistance_ohm,
+            amp,
         )
+
+    @property
+    def continuous_current_limit_A(self) -> float:
+        """The RMS current the amplifier may carry, in [A]: its continuous current (inf
+        without an amplifier: the motor's RMS check alone applies)."""
+        return math.inf if self.amplifier is None else float(self.amplifier.continuous_current_A)
 
     @property
     def available_torque_Nm(self) -> float:
@@ -281,9 +377,9 @@ class Drive:
     @property
     def max_motor_speed_rad_s(self) -> float:
         """The fastest the motor shaft can physically turn, in [rad/s]: the no-load speed
-        ``U / Ke`` and the reducer's maximum input speed, whichever is lower (the servo's speed
-        command saturates here)."""
-        return self._within_reducer_input(self.motor.no_load_speed_rad_s)
+        ``U / Ke`` (``U``: :attr:`supply_voltage_V`) and the reducer's maximum input speed,
+        whichever is lower (the servo's speed command saturates here)."""
+        return self._within_reducer_input(self.supply_voltage_V / self.motor.back_emf_V_s_rad)
 
     def _within_reducer_input(self, speed_rad_s: float) -> float:
         """``speed_rad_s`` at most the reducer's maximum input speed (where one is given)."""
@@ -327,6 +423,11 @@ _RULES: dict[str, dict[str, str]] = {
         "peak_torque_Nm": "pos",
         "mass_kg": "nonneg",
         "price": "nonneg",
+        "thermal_resistance_winding_housing_K_W": "pos",
+        "thermal_resistance_housing_ambient_K_W": "pos",
+        "thermal_time_constant_winding_s": "pos",
+        "thermal_time_constant_motor_s": "pos",
+        "max_winding_temperature_degC": "pos",
     },
     "Reducer": {
         "ratio": "pos",
@@ -343,8 +444,18 @@ _RULES: dict[str, dict[str, str]] = {
     },
     "Encoder": {"pulses_per_rev": "count", "decoding": "decoding"},
     "Drive": {"acceleration_rad_s2": "pos", "jerk_rad_s3": "pos", "derating": "unit"},
+    "Amplifier": {
+        "continuous_current_A": "pos",
+        "peak_current_A": "pos",
+        "bus_voltage_V": "pos",
+        "bus_capacitance_F": "pos",
+        "brake_resistor_ohm": "pos",
+        "brake_resistor_power_W": "pos",
+        "brake_threshold_V": "pos",
+    },
 }
 _TEXT_FIELDS = ("model", "source")
+_BOOL_FIELDS = ("regenerates",)
 _DECODINGS = (1, 2, 4)
 
 
@@ -377,6 +488,8 @@ def _check_values(rules: dict[str, str], data: dict, where: str, optional=()) ->
     """One :class:`RobotDescriptionError` for the first value of ``data`` breaking its rule:
     ``<where> <key>: <value> is not > 0``. Keys in ``optional`` may be None (not given)."""
     for key, value in data.items():
+        if key in _BOOL_FIELDS:
+            continue  # checked by its reader (amplifier_from_dict)
         if key in _TEXT_FIELDS:
             if not isinstance(value, str):
                 raise RobotDescriptionError(f"{where}{key}: {value!r} is not a string")
@@ -491,7 +604,12 @@ def read_drives(path: str | Path, joint_names: list[str] | tuple[str, ...]) -> d
             else reducer_from_dict(dict(row["reducer"]), where, "reducer")
         )
         encoder = _build(Encoder, dict(row["encoder"]), where, "encoder")
-        own = {k: v for k, v in row.items() if k not in ("name", "motor", "reducer", "encoder")}
+        amplifier = _amplifier_of(path, data, row.get("amplifier"), where)
+        own = {
+            k: v
+            for k, v in row.items()
+            if k not in ("name", "motor", "reducer", "encoder", "amplifier")
+        }
         unknown = sorted(set(own) - set(_RULES["Drive"]))
         if unknown:
             raise RobotDescriptionError(f"{where}: unknown key(s) {unknown}")
@@ -505,11 +623,51 @@ def read_drives(path: str | Path, joint_names: list[str] | tuple[str, ...]) -> d
             acceleration_rad_s2=float(row.get("acceleration_rad_s2", math.nan)),
             jerk_rad_s3=float(row.get("jerk_rad_s3", math.nan)),
             derating=float(row.get("derating", catalogue_derating)),
+            amplifier=amplifier,
         )
     missing = [n for n in joint_names if n not in drives]
     if missing:
         raise RobotDescriptionError(f"{path}: no drive for joint(s) {missing}")
     return drives
+
+
+def amplifier_from_dict(data: dict, where: str = "amplifier", part: str = "") -> Amplifier:
+    """An :class:`Amplifier` from a table, every value checked (as :func:`motor_from_dict`):
+    currents, voltages, capacitance and resistor > 0, ``regenerates`` true or false, the peak
+    current not below the continuous one and the brake threshold above the bus voltage."""
+    prefix = f"{where} {part}." if part else f"{where} "
+    regen = data.get("regenerates", False)
+    if not isinstance(regen, bool):
+        raise RobotDescriptionError(f"{prefix}regenerates: {regen!r} is not true or false")
+    amp = _build(Amplifier, data, where, part)
+    if amp.peak_current_A < amp.continuous_current_A:
+        raise RobotDescriptionError(
+            f"{prefix}peak_current_A: {amp.peak_current_A:g} A is below the continuous current "
+            f"({amp.continuous_current_A:g} A)"
+        )
+    if math.isfinite(amp.brake_threshold_V) and amp.brake_threshold_V <= amp.bus_voltage_V:
+        raise RobotDescriptionError(
+            f"{prefix}brake_threshold_V: {amp.brake_threshold_V:g} V is not above the bus "
+            f"voltage ({amp.bus_voltage_V:g} V)"
+        )
+    return amp
+
+
+def _amplifier_of(path: Path, data: dict, value: Any, where: str) -> Amplifier | None:
+    """The amplifier a drives file's joint names (a catalogue model or an inline table)."""
+    if value is None:
+        return None
+    if isinstance(value, str):
+        from armlab.robot.catalogue import load_catalogue
+
+        cat_key = data.get("catalogue")
+        if cat_key is not None and not isinstance(cat_key, str):
+            raise RobotDescriptionError(f"{path} catalogue: {cat_key!r} is not a path")
+        catalogue = load_catalogue(None if cat_key is None else path.parent / cat_key)
+        return catalogue.amplifier(value, f"{where} amplifier")
+    if isinstance(value, dict):
+        return amplifier_from_dict(dict(value), where, "amplifier")
+    raise RobotDescriptionError(f"{where} amplifier: {value!r} is not a model name or a table")
 
 
 def _catalogue_part(path: Path, data: dict, kind: str, model: str, where: str) -> tuple[Any, float]:
@@ -549,10 +707,13 @@ def drives_toml(drives: dict[str, Drive], header: str = "") -> str:
     for name, drive in drives.items():
         data = asdict(drive)
         lines += ["[[joint]]", f"name = {_toml_value(name)}"]
+        parts = ("motor", "reducer", "encoder", "amplifier")
         for key, value in data.items():
-            if key not in ("joint", "motor", "reducer", "encoder") and _given(value):
+            if key not in ("joint", *parts) and _given(value):
                 lines.append(f"{key} = {_toml_value(value)}")
-        for part in ("motor", "reducer", "encoder"):
+        for part in parts:
+            if data.get(part) is None:
+                continue  # no amplifier described
             lines += ["", f"[joint.{part}]"]
             lines += [f"{k} = {_toml_value(v)}" for k, v in data[part].items() if _given(v)]
         lines.append("")

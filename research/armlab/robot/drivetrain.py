@@ -50,10 +50,14 @@ amplifier's supply voltage ``U``::
     sqrt(mean over the cycle of T_m^2) <= derating x T_stall      (continuous rating, RMS)
 
 ``T_peak`` is the data sheet's peak torque, the stall torque when it gives none (conservative).
-**Regeneration**: the same voltage line bounds the back-driven (generating) quadrant. An
-amplifier that can sink the regenerated current (a brake chopper or a regenerative supply) could
-brake with up to ``Kt (U + Ke |w|) / R``; teachbot6's amplifier is not described in the thesis,
-so no credit is taken for it (ASSUMED, conservative): the envelope is symmetric in torque.
+**Regeneration**: without a described amplifier (teachbot6's is not in the thesis) the same
+voltage line bounds the braking quadrants (no credit, ASSUMED, conservative): the envelope is
+symmetric in torque. A drive whose amplifier regenerates (:class:`armlab.robot.drives.Amplifier`
+``regenerates = true``: four-quadrant, it sinks the braking current into its bus) brakes with up
+to ``Kt (U + Ke |w|) / R`` where ``T_m w_m < 0`` (:func:`envelope_torque` given the torque);
+``U`` is the amplifier's bus voltage when one is described
+(:attr:`armlab.robot.drives.Drive.supply_voltage_V`). The planners' CasADi rows keep the
+symmetric line (conservative); their fine-grid check and sizing use the four-quadrant one.
 The old four-quadrant rule of ``armlab.dynamics.checks.envelope_torque`` is replaced by this one.
 
 :func:`envelope_torque` gives the bound per sample, :func:`envelope_ratio` ``|T_m| / bound``
@@ -143,6 +147,7 @@ class DriveTrain:
     quadrant_band_rad_s : joint speed over which the reducer passes from motoring to
         back-driven efficiency through standstill [rad/s] (:func:`quadrant_share`)
     reflected_inertia_kg_m2 : ``(J_rotor + J_reducer) N^2`` seen at the joint [kg m^2]
+    regenerates : 1.0 where the amplifier is four-quadrant (brakes by regeneration), else 0.0
     drives : the :class:`~armlab.robot.drives.Drive` of each column, whose answers these are
     """
 
@@ -176,6 +181,7 @@ class DriveTrain:
     quadrant_band_rad_s: np.ndarray
     reflected_inertia_kg_m2: np.ndarray
     drives: tuple[Drive, ...]
+    regenerates: np.ndarray | None = None
 
     @classmethod
     def from_drives(cls, drives: list[Drive]) -> DriveTrain:
@@ -201,7 +207,7 @@ class DriveTrain:
             torque_constant_Nm_A=arr(lambda d: d.motor.torque_constant_Nm_A),
             back_emf_V_s_rad=arr(lambda d: d.motor.back_emf_V_s_rad),
             resistance_ohm=arr(lambda d: d.motor.resistance_ohm),
-            supply_voltage_V=arr(lambda d: d.motor.supply_voltage_V),
+            supply_voltage_V=arr(lambda d: d.supply_voltage_V),
             power_W=arr(lambda d: d.motor.power_W),
             reducer_rated_torque_Nm=arr(lambda d: d.reducer.rated_torque_Nm),
             reducer_peak_torque_Nm=arr(lambda d: d.reducer.peak_torque_Nm),
@@ -211,6 +217,7 @@ class DriveTrain:
             quadrant_band_rad_s=arr(lambda d: d.quadrant_band_rad_s),
             reflected_inertia_kg_m2=arr(lambda d: d.reflected_inertia_kg_m2),
             drives=tuple(drives),
+            regenerates=arr(lambda d: d.regenerates),
         )
 
     @property
@@ -451,18 +458,35 @@ def voltage_line_torque(w_m, dt: DriveTrain) -> np.ndarray:
     )
 
 
-def envelope_torque(w_m, dt: DriveTrain) -> np.ndarray:
+def envelope_torque(w_m, dt: DriveTrain, t_m=None) -> np.ndarray:
     """The motor torque bound at each speed, in [N m]:
     ``derating x min(T_peak, Kt (U - Ke |w_m|) / R)`` (negative beyond the no-load speed: no
-    torque left there)."""
-    return dt.derating * np.minimum(dt.peak_torque_Nm, voltage_line_torque(w_m, dt))
+    torque left there).
+
+    With the motor torque ``t_m`` given, the **braking** samples (``T_m w_m < 0``: quadrants II
+    and IV) of a drive whose amplifier regenerates (:attr:`DriveTrain.regenerates`) are bounded
+    by the four-quadrant line ``Kt (U + Ke |w_m|) / R`` instead: the back-EMF then drives the
+    braking current with the bus (armature equation ``U = R i + Ke w`` with ``i`` and ``w`` of
+    opposite signs). Without ``t_m``, or for an amplifier that does not regenerate, the
+    conservative symmetric bound (the planners' rows use it)."""
+    line = voltage_line_torque(w_m, dt)
+    if t_m is not None and dt.regenerates is not None and np.any(dt.regenerates):
+        braking = (np.asarray(t_m, float) * np.asarray(w_m, float) < 0.0) & (dt.regenerates > 0)
+        four_q = (
+            dt.torque_constant_Nm_A
+            * (dt.supply_voltage_V + dt.back_emf_V_s_rad * np.abs(np.asarray(w_m, float)))
+            / dt.resistance_ohm
+        )
+        line = np.where(braking, four_q, line)
+    return dt.derating * np.minimum(dt.peak_torque_Nm, line)
 
 
 def envelope_ratio(t_m, w_m, dt: DriveTrain) -> np.ndarray:
-    """``|T_m| / envelope_torque(w_m)`` per sample (> 1: outside the envelope; inf where the
-    speed leaves no torque and some is needed)."""
+    """``|T_m| / envelope_torque(w_m, t_m)`` per sample (> 1: outside the envelope; inf where
+    the speed leaves no torque and some is needed; four-quadrant where the amplifier
+    regenerates: :func:`envelope_torque`)."""
+    env = envelope_torque(w_m, dt, t_m)
     t_m = np.abs(np.asarray(t_m, float))
-    env = envelope_torque(w_m, dt)
     with np.errstate(divide="ignore", invalid="ignore"):
         r = np.where(env > _TINY, t_m / np.maximum(env, _TINY), np.where(t_m > 0, np.inf, 0.0))
     return r

@@ -487,7 +487,7 @@ def drive_train_limits(drives, names: Sequence[str], model) -> tuple[np.ndarray,
                 "file"
             )
         acc.append((peak - gravity[j]) / total)
-        slew = m.torque_constant_Nm_A * m.supply_voltage_V / m.inductance_H
+        slew = m.torque_constant_Nm_A * d.supply_voltage_V / m.inductance_H
         jerk.append(slew * gain / total)
     return np.array(acc), np.array(jerk)
 

@@ -129,6 +129,8 @@ def build_robot(spec: StudySpec) -> Robot:
                 new = replace(new, encoder=replace(new.encoder, **enc))
             if change.derating is not None:
                 new = replace(new, derating=change.derating)
+            if change.amplifier is not None:
+                new = replace(new, amplifier=_study_amplifier(spec, change.amplifier, where))
             drives[joint] = new
         robot.drives = drives
     _resolve_robot_limits(robot, spec)
@@ -197,8 +199,25 @@ def _drives_from_study(robot, spec: StudySpec) -> dict:
             acceleration_rad_s2=math.nan,
             jerk_rad_s3=math.nan,
             derating=cat.derating.get(motor.model, 1.0),
+            amplifier=None
+            if change.amplifier is None
+            else _study_amplifier(spec, change.amplifier, where),
         )
     return out
+
+
+def _study_amplifier(spec: StudySpec, value, where: str):
+    """The amplifier a study's ``[drives.<joint>] amplifier`` names: a catalogue model or a
+    table of :class:`~armlab.robot.drives.Amplifier` fields (checked as in a drives file)."""
+    from armlab.errors import RobotDescriptionError
+    from armlab.robot.drives import amplifier_from_dict
+
+    try:
+        if isinstance(value, dict):
+            return amplifier_from_dict(dict(value), where, "amplifier")
+        return _catalogue(spec).amplifier(str(value), f"{where}.amplifier")
+    except RobotDescriptionError as exc:
+        raise SpecError(str(exc)) from None
 
 
 def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:

@@ -20,6 +20,8 @@ __all__ = [
     "select_and_install",
     "selection_duty",
     "sizing_failures",
+    "sizing_options",
+    "sizing_keywords",
     "tuning_options",
     "tracking_options",
 ]
@@ -56,6 +58,41 @@ def _needs_drives(ctx: StudyContext) -> None:
         )
 
 
+def sizing_options(ctx: StudyContext, *, duty: bool = True) -> dict[str, Any]:
+    """The :func:`~armlab.dynamics.size` (and :func:`~armlab.dynamics.select_drives`) options
+    of the study's ``[sizing]`` table: the duty cycle's dwell (``duty``: the study's cycle;
+    False for the worst-case requirement moves, which have none), the thermal check's cycles
+    and ambient, the inertia-ratio rule (left out: reported only)."""
+    return sizing_keywords(ctx.spec.sizing, duty=duty)
+
+
+def sizing_keywords(s, *, duty: bool = True) -> dict[str, Any]:
+    """:func:`sizing_options` of a :class:`~armlab.study.spec.SizingSpec` (also what
+    ``armlab export`` re-checks a recorded design with)."""
+    opts: dict[str, Any] = {
+        "ambient_degC": s.ambient_degC,
+        "max_inertia_ratio": math.inf if s.max_inertia_ratio is None else s.max_inertia_ratio,
+    }
+    if duty:
+        opts.update(dwell_s=s.dwell_s, cycles=s.cycles)
+    return opts
+
+
+def _thermal_block(ctx: StudyContext) -> dict[str, Any]:
+    """What the thermal and inertia-ratio checks assumed (summary ``sizing.thermal``)."""
+    s = ctx.spec.sizing
+    return {
+        "ambient_degC": s.ambient_degC,
+        "ambient_source": "study"
+        if "ambient_degC" in ctx.spec.document.get("sizing", {})
+        else "ASSUMED 25 degC: the motor makers' rating condition",
+        "dwell_s": s.dwell_s,
+        "dwell_at": "the cycle's last pose, at rest, before the cycle repeats",
+        "cycles": "periodic" if s.cycles is None else s.cycles,
+        "max_inertia_ratio": s.max_inertia_ratio,
+    }
+
+
 def selection_duty(ctx: StudyContext) -> list:
     """The duty cycle a selection is made for: the planned motion plus a 1 s hold at each
     joint's worst static pose (:func:`armlab.dynamics.selection.hold_trajectories`; the static
@@ -89,6 +126,7 @@ def select_and_install(ctx: StudyContext) -> list:
         catalogue=_catalogue(ctx.spec),
         dt=ctx.spec.plan.check_dt_s,
         controller=ctx.controller,
+        **sizing_options(ctx),
     )
     ctx.selection = sel
     ctx.robot.drives = sel.require().drives(ctx.robot)
@@ -125,9 +163,16 @@ def stage_sizing(ctx: StudyContext) -> StageOutput:
     if ctx.robot.drives is None and ctx.spec.sizing.select:
         duty = select_and_install(ctx)
     _needs_drives(ctx)
-    res = size(ctx.robot, duty, dt=ctx.spec.plan.check_dt_s, controller=ctx.controller)
+    res = size(
+        ctx.robot,
+        duty,
+        dt=ctx.spec.plan.check_dt_s,
+        controller=ctx.controller,
+        **sizing_options(ctx),
+    )
     ctx.sizing = res
     block = jsonable_block(res)
+    block["thermal"] = _thermal_block(ctx)
     advisories = None
     if ctx.drives_selected:
         block["duty_cycle"] = (
@@ -138,7 +183,9 @@ def stage_sizing(ctx: StudyContext) -> StageOutput:
         # HEU thesis tables 4.2/4.3: the drives against each joint's worst case (full speed and
         # acceleration from its worst static pose), beside the planned cycle
         moves = requirement_moves(ctx.robot, ctx.static_load)
-        ctx.requirement_sizing = size(ctx.robot, moves, controller=ctx.controller)
+        ctx.requirement_sizing = size(
+            ctx.robot, moves, controller=ctx.controller, **sizing_options(ctx, duty=False)
+        )
         adv = [
             f.replace("sizing:", "worst-case move:", 1)
             for f in sizing_failures(ctx.requirement_sizing)
@@ -155,6 +202,7 @@ def stage_sizing(ctx: StudyContext) -> StageOutput:
             catalogue=_catalogue(ctx.spec),
             dt=ctx.spec.plan.check_dt_s,
             controller=ctx.controller,
+            **sizing_options(ctx),
         )
         ctx.selection = sel
         block["selection"] = {"status": "ok", **jsonable_block(sel)}

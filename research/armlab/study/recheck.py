@@ -171,5 +171,21 @@ def resized(traj, summary: dict, record: dict, robot: Robot, controller) -> list
         f"design.json plan.check_dt_s = {dt:g}",
         f"{traj.duration:.3g} s plan / {dt:g} s sizing grid",
     )
-    report = size(robot, traj, dt=float(dt), controller=controller)
+    report = size(robot, traj, dt=float(dt), controller=controller, **_sizing_keywords(record))
     return sizing_failures(report, None if sized else HARDWARE_CHECKS)
+
+
+def _sizing_keywords(record: dict) -> dict:
+    """The recorded study's ``[sizing]`` options of the checks (dwell, thermal cycles and
+    ambient, inertia-ratio rule: :func:`~armlab.study.drive_stages.sizing_keywords`); the
+    defaults where the record holds none or an unreadable table."""
+    from armlab.errors import SpecError
+    from armlab.study.drive_stages import sizing_keywords
+    from armlab.study.spec import SizingSpec, parse_sizing
+
+    table = ((record.get("study") or {}).get("document") or {}).get("sizing") or {}
+    try:
+        spec = parse_sizing(table)
+    except SpecError:
+        spec = SizingSpec()
+    return sizing_keywords(spec)

@@ -29,7 +29,13 @@ from armlab.deploy.provenance import armlab_version, file_sha256
 from armlab.errors import InputError
 from armlab.io.lock import FolderLock, is_lock_file
 from armlab.robot.controller import ControllerProfile
-from armlab.robot.drives import Drive, Encoder, motor_from_dict, reducer_from_dict
+from armlab.robot.drives import (
+    Drive,
+    Encoder,
+    amplifier_from_dict,
+    motor_from_dict,
+    reducer_from_dict,
+)
 
 if TYPE_CHECKING:
     from armlab.robot.limits import Limits
@@ -143,6 +149,9 @@ def _drive_from_dict(d: dict, where: str) -> Drive:
         acceleration_rad_s2=float(d["acceleration_rad_s2"]),
         jerk_rad_s3=float(d["jerk_rad_s3"]),
         derating=float(d.get("derating", 1.0)),
+        amplifier=None
+        if d.get("amplifier") is None
+        else amplifier_from_dict(_nan_for_null(d["amplifier"]), f"{where} amplifier"),
     )
 
 

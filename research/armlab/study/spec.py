@@ -13,12 +13,14 @@ A study file has these tables (every key optional unless marked; units in the ke
                  joint or a list (n_joints,) -- the robot's limits for the whole study
     [plan]       planner, profile, objective, duration_s, speed_scale, torque_limits,
                  jerk_limits, check_dt_s, speed_m_s, blend_radius_m
-    [drives.<joint>]  ratio, motor, reducer, efficiency, derating, pulses_per_rev, decoding
+    [drives.<joint>]  ratio, motor, reducer, efficiency, derating, pulses_per_rev, decoding,
+                 amplifier (catalogue name or table)
                  (catalogue names; a robot without drives: motor, reducer, pulses_per_rev
                  for every joint build its drive train)
     [kinematics] workspace_samples, accuracy_samples
     [sizing]     catalogue, select (true: choose motor + reducer per joint from the catalogue;
-                 a robot without a drive train then runs the later stages on the selection)
+                 a robot without a drive train then runs the later stages on the selection),
+                 dwell_s, cycles, ambient_degC (the thermal check), max_inertia_ratio
     [control]    position_bandwidth_rad_s | rise_time_s, phase_margin_deg, gain_margin_dB,
                  overshoot_pct, method, current_sample_time_s, n_inertia_samples
     [tracking]   feedforward, quantise, t_after_s, accuracy_m
@@ -301,6 +303,14 @@ class PlanSpec:
     blend_radius_m: float | None = _key(_float(0.0, lo_open=True), None, "blend: corner radius")
 
 
+def _amplifier(v, where):
+    """A catalogue amplifier name or an inline table (its fields are checked when the robot is
+    built, as in a drives file)."""
+    if isinstance(v, dict):
+        return dict(v)
+    return _str()(v, where)
+
+
 @dataclass(frozen=True)
 class DriveOverride:
     """``[drives.<joint>]``: change a joint's drive train (catalogue names or numbers).
@@ -323,6 +333,11 @@ class DriveOverride:
     decoding: int | None = _key(
         _drive_value("Encoder", "decoding"), None, "encoder decoding factor: 1, 2 or 4"
     )
+    amplifier: str | dict | None = _key(
+        _amplifier,
+        None,
+        "servo amplifier: catalogue model or a table of Amplifier fields (docs/drives.md)",
+    )
 
 
 @dataclass(frozen=True)
@@ -343,6 +358,26 @@ class SizingSpec:
         False,
         "choose motor + reducer per joint from the catalogue (a robot without a drive train: "
         "the selection becomes its drive train for tuning, tracking and export)",
+    )
+    dwell_s: float = _key(
+        _float(0.0, 3600.0),
+        0.0,
+        "rest at the cycle's last pose before it repeats, s (in the RMS and the thermal check)",
+    )
+    cycles: int | None = _key(
+        _int(1, 100000),
+        None,
+        "cycles of the thermal check from ambient (left out: the periodic state)",
+    )
+    ambient_degC: float = _key(
+        _float(-50.0, 150.0),
+        25.0,
+        "ambient of the thermal check, degC (25: ASSUMED, the makers' rating condition)",
+    )
+    max_inertia_ratio: float | None = _key(
+        _float(0.0, lo_open=True),
+        None,
+        "largest load-to-motor inertia ratio (check inertia_ratio; left out: reported only)",
     )
 
 
@@ -561,6 +596,12 @@ def parse_study(
         document=copy.deepcopy(document),
         hash=document_hash(document),
     )
+
+
+def parse_sizing(table: Any) -> SizingSpec:
+    """A ``[sizing]`` table on its own, validated (:class:`SpecError` naming the key): what
+    ``armlab export`` re-checks a recorded design's sizing with."""
+    return _build(SizingSpec, table, "sizing")
 
 
 def demo_study_path() -> Path:
