@@ -306,6 +306,7 @@ def select_drives(
     tool_resolution_m: float = SizingOptions.tool_resolution_m,
     dt: float | None = None,
     threads: int = 1,
+    allow_estimated: bool = False,
 ) -> Selection:
     """Choose each joint's lightest (or cheapest) catalogue motor + reducer passing every check.
 
@@ -326,6 +327,9 @@ def select_drives(
         Largest tool-point displacement of one encoder count [m] (:class:`SizingOptions`).
     dt : float, optional
         Resample the trajectories on this grid [s] first.
+    allow_estimated : bool
+        Also combine parts with values not read from a published source
+        (:meth:`Catalogue.combinations`; ``[sizing] allow_estimated``).
 
     Returns
     -------
@@ -343,7 +347,7 @@ def select_drives(
         trajs = [tr.sample(dt) for tr in trajs]
     loads = inverse_dynamics(robot, trajs, threads=threads)
     levers = lever_arms_m(robot)
-    combos = [(m, r) for m in catalogue.motors for r in catalogue.reducers]
+    combos = catalogue.combinations(allow_estimated)
 
     def key(c: Candidate):
         a, b = (c.mass_kg, c.price) if objective == "mass" else (c.price, c.mass_kg)

@@ -4,8 +4,11 @@ A TOML file (default: ``armlab/data/catalogue.toml``) with ``[[motor]]`` and ``[
 entries whose fields are those of :class:`armlab.robot.Motor` / :class:`armlab.robot.Reducer`
 (``mass_kg`` and ``price`` required), plus ``derating`` on a motor (extra factor on its torque
 limits, default 1) and ``thesis_joints`` (joints of teachbot6 that use the part in thesis
-table 4.3). The file's header records where every number comes from, and every entry's
-``source`` names its data sheet (ASSUMED / ESTIMATED where a value is not from one).
+table 4.3). Every entry's ``source`` names the document, table or page each value was read
+from; ``estimated`` lists the fields that were not read from a published source (the file's
+header states the rules). Selection combines only usable pairs (:meth:`Catalogue.combinations`):
+no estimated physical field unless the study opts in (``[sizing] allow_estimated = true``), and
+the two halves of an integrated smart servo (``integrated``) only with each other.
 
 The shipped catalogue spans the thesis' small DC motors and harmonic reducers up to UR5 / Panda
 class parts: maxon EC flat / EC-i and Kollmorgen AKM motors (about 0.05-5 N m continuous),
@@ -19,14 +22,51 @@ from __future__ import annotations
 import difflib
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from armlab.errors import RobotDescriptionError
 from armlab.robot.drives import Motor, Reducer, motor_from_dict, reducer_from_dict
 from armlab.tomlfile import read_toml
 
-__all__ = ["Catalogue", "load_catalogue", "default_catalogue_path"]
+__all__ = [
+    "Catalogue",
+    "load_catalogue",
+    "default_catalogue_path",
+    "MINOR_FIELDS",
+    "PENDING_FIELDS",
+]
+
+#: fields whose estimate does not make a part unusable: mass and price only rank candidates,
+#: and data sheets give no viscous friction (the small value assumed, about 0.4 % of a motor's
+#: nominal torque at its nominal speed, only damps the model)
+MINOR_FIELDS = ("mass_kg", "price", "viscous_friction_Nm_s_rad")
+
+#: data-sheet fields the thermal and compliance models read (helper brief, issue 25): a
+#: catalogue entry may give them before :class:`Motor` / :class:`Reducer` have them; the loader
+#: then keeps them in :attr:`Catalogue.pending` (shown in docs/catalogue.md) instead of refusing
+#: them, and passes them to the dataclass as soon as it has the field.
+PENDING_FIELDS = {
+    "motor": (
+        "thermal_resistance_winding_housing_K_W",
+        "thermal_resistance_housing_ambient_K_W",
+        "thermal_time_constant_winding_s",
+        "thermal_time_constant_motor_s",
+        "max_winding_temperature_degC",
+    ),
+    "reducer": (
+        "rated_input_speed_rpm",
+        "rated_life_h",
+        "momentary_torque_Nm",
+        "stiffness_Nm_rad",
+        "stiffness_torque_Nm",
+        "hysteresis_rad",
+        "bearing_dynamic_load_N",
+        "bearing_moment_rating_Nm",
+        "bearing_pitch_diameter_m",
+        "bearing_offset_m",
+    ),
+}
 
 
 def default_catalogue_path() -> Path:
@@ -44,6 +84,8 @@ class Catalogue:
     derating : dict of motor model to float
     thesis_parts : dict of joint name to (motor model, reducer model)
         The parts of thesis table 4.3, when the catalogue tags them.
+    pending : dict of model to dict
+        Data-sheet values of :data:`PENDING_FIELDS` the part's dataclass has no field for yet.
     """
 
     motors: tuple[Motor, ...]
@@ -52,6 +94,19 @@ class Catalogue:
     thesis_parts: dict[str, tuple[str | None, str | None]] = field(default_factory=dict)
     currency: str = ""
     path: str = ""
+    pending: dict[str, dict] = field(default_factory=dict)
+
+    def combinations(self, allow_estimated: bool = False) -> list[tuple[Motor, Reducer]]:
+        """Every motor x reducer pair selection may combine: both halves usable
+        (:func:`usable`) and of the same integrated servo, or both sold alone
+        (``integrated == ""``)."""
+        return [
+            (m, r)
+            for m in self.motors
+            if usable(m, allow_estimated)
+            for r in self.reducers
+            if usable(r, allow_estimated) and m.integrated == r.integrated
+        ]
 
     def motor(self, model: str, where: str = "") -> Motor:
         """The motor ``model`` (:class:`RobotDescriptionError` naming ``where``, the key that
@@ -67,6 +122,12 @@ class Catalogue:
             if r.model == model:
                 return r
         raise _unknown("reducer", model, [r.model for r in self.reducers], where or self.path)
+
+
+def usable(part: Motor | Reducer, allow_estimated: bool = False) -> bool:
+    """True when selection may use ``part``: no estimated field other than
+    :data:`MINOR_FIELDS`, or the study allows estimated values."""
+    return allow_estimated or not (set(part.estimated) - set(MINOR_FIELDS))
 
 
 def _unknown(kind: str, model: str, known: list[str], where: str) -> RobotDescriptionError:
@@ -88,6 +149,7 @@ def load_catalogue(path: str | os.PathLike | None = None) -> Catalogue:
     data = read_toml(path, "catalogue file")
     derating: dict[str, float] = {}
     thesis: dict[str, list[str | None]] = {}
+    pending: dict[str, dict] = {}
 
     def parts(kind: str, build):
         out: list = []
@@ -96,7 +158,10 @@ def load_catalogue(path: str | os.PathLike | None = None) -> Catalogue:
             where = f"{path} {kind} {k + 1} ({row.get('model', '?')})"
             extra_derating = row.pop("derating", 1.0)
             joints = row.pop("thesis_joints", [])
+            held = _hold_pending(row, kind)
             part = build(row, where)
+            if held:
+                pending[part.model] = held
             for key in ("mass_kg", "price"):
                 v = getattr(part, key)
                 if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
@@ -122,6 +187,7 @@ def load_catalogue(path: str | os.PathLike | None = None) -> Catalogue:
 
     motors = parts("motor", motor_from_dict)
     reducers = parts("reducer", reducer_from_dict)
+    _check_integrated(motors, reducers, path)
     return Catalogue(
         motors=motors,
         reducers=reducers,
@@ -129,4 +195,28 @@ def load_catalogue(path: str | os.PathLike | None = None) -> Catalogue:
         thesis_parts={j: (m, r) for j, (m, r) in thesis.items()},
         currency=str(data.get("currency", "")),
         path=str(path),
+        pending=pending,
     )
+
+
+def _hold_pending(row: dict, kind: str) -> dict:
+    """Take out of ``row`` the :data:`PENDING_FIELDS` its dataclass has no field for yet (and
+    their names from ``estimated``); return them."""
+    cls = Motor if kind == "motor" else Reducer
+    names = {f.name for f in fields(cls)}
+    held = {k: row.pop(k) for k in PENDING_FIELDS[kind] if k in row and k not in names}
+    if held and isinstance(row.get("estimated"), list):
+        row["estimated"] = [k for k in row["estimated"] if k not in held]
+    return held
+
+
+def _check_integrated(motors, reducers, path) -> None:
+    """Each integrated servo has exactly one motor and one reducer entry."""
+    for kind, mine, other in (("motor", motors, reducers), ("reducer", reducers, motors)):
+        for p in mine:
+            n = sum(q.integrated == p.integrated for q in other)
+            if p.integrated and n != 1:
+                raise RobotDescriptionError(
+                    f"{path} {kind} {p.model!r}: integrated {p.integrated!r} needs exactly one "
+                    f"{'reducer' if kind == 'motor' else 'motor'} of that servo ({n} found)"
+                )

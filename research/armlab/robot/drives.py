@@ -75,6 +75,13 @@ class Motor:
     peak_torque_Nm : float
         Peak (momentary) torque in [N m]; NaN when the data sheet gives none (sizing then
         limits the peak to the stall torque, conservatively).
+    integrated : str
+        Model of the integrated smart servo (motor + gear + controller in one) this motor is
+        part of, "" for a motor sold alone: it combines only with the reducer of that servo.
+    estimated : tuple of str
+        Fields whose value was not read from a published source (the entry's ``source`` says
+        why and how it was estimated); selection skips such parts unless the study sets
+        ``[sizing] allow_estimated = true``.
     """
 
     model: str
@@ -93,6 +100,8 @@ class Motor:
     mass_kg: float = math.nan
     price: float = math.nan
     source: str = ""
+    integrated: str = ""
+    estimated: tuple[str, ...] = ()
 
     @property
     def rated_speed_rad_s(self) -> float:
@@ -127,6 +136,8 @@ class Reducer:
     then **derived** equal to ``efficiency`` (:attr:`back_driven_efficiency` says so).
     ``coulomb_friction_Nm`` [N m] and ``viscous_friction_Nm_s_rad`` [N m s/rad] are friction at
     the **output** (joint side: reducer and joint bearings), default 0 (not given).
+    ``integrated`` and ``estimated``: as :class:`Motor` (the gear of a smart servo; fields not
+    read from a published source).
     """
 
     model: str
@@ -142,6 +153,8 @@ class Reducer:
     back_efficiency: float = math.nan
     coulomb_friction_Nm: float = 0.0
     viscous_friction_Nm_s_rad: float = 0.0
+    integrated: str = ""
+    estimated: tuple[str, ...] = ()
 
     @property
     def max_input_speed_rad_s(self) -> float:
@@ -344,7 +357,7 @@ _RULES: dict[str, dict[str, str]] = {
     "Encoder": {"pulses_per_rev": "count", "decoding": "decoding"},
     "Drive": {"acceleration_rad_s2": "pos", "jerk_rad_s3": "pos", "derating": "unit"},
 }
-_TEXT_FIELDS = ("model", "source")
+_TEXT_FIELDS = ("model", "source", "integrated")
 _DECODINGS = (1, 2, 4)
 
 
@@ -409,10 +422,22 @@ def _build(cls, data: dict, where: str, part: str = ""):
     ]
     prefix = f"{where} {part}." if part else f"{where} "
     _check_values(_RULES.get(cls.__name__, {}), data, prefix, optional=not_given)
+    if "estimated" in data:
+        data = {**data, "estimated": _estimated_fields(data["estimated"], names, prefix)}
     try:
         return cls(**data)
     except TypeError as exc:
         raise RobotDescriptionError(f"{head}: {exc}") from None
+
+
+def _estimated_fields(value: Any, names: set[str], prefix: str) -> tuple[str, ...]:
+    """``estimated`` as a tuple of field names (a list in TOML/JSON), each a field of the part."""
+    if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+        raise RobotDescriptionError(f"{prefix}estimated: {value!r} is not a list of field names")
+    unknown = sorted(set(value) - names)
+    if unknown:
+        raise RobotDescriptionError(f"{prefix}estimated: unknown field(s) {unknown}")
+    return tuple(value)
 
 
 def motor_from_dict(data: dict, where: str = "motor", part: str = "") -> Motor:
@@ -526,6 +551,8 @@ def _catalogue_part(path: Path, data: dict, kind: str, model: str, where: str) -
 
 # ----------------------------------------------------------------------------- writing
 def _toml_value(value: Any) -> str:
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, int):

@@ -89,6 +89,7 @@ def select_and_install(ctx: StudyContext) -> list:
         catalogue=_catalogue(ctx.spec),
         dt=ctx.spec.plan.check_dt_s,
         controller=ctx.controller,
+        allow_estimated=ctx.spec.sizing.allow_estimated,
     )
     ctx.selection = sel
     ctx.robot.drives = sel.require().drives(ctx.robot)
@@ -155,6 +156,7 @@ def stage_sizing(ctx: StudyContext) -> StageOutput:
             catalogue=_catalogue(ctx.spec),
             dt=ctx.spec.plan.check_dt_s,
             controller=ctx.controller,
+            allow_estimated=ctx.spec.sizing.allow_estimated,
         )
         ctx.selection = sel
         block["selection"] = {"status": "ok", **jsonable_block(sel)}

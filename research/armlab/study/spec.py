@@ -342,6 +342,12 @@ class SizingSpec:
         "choose motor + reducer per joint from the catalogue (a robot without a drive train: "
         "the selection becomes its drive train for tuning, tracking and export)",
     )
+    allow_estimated: bool = _key(
+        _bool,
+        False,
+        "let selection use catalogue parts with values not read from a published source "
+        "(each entry's `estimated` fields, docs/catalogue.md)",
+    )
 
 
 @dataclass(frozen=True)
