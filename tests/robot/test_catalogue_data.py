@@ -1,9 +1,9 @@
 """Issue 25, item 1: the drive catalogue checked against physics and its own sources.
 
 Each test names the item-1 error of the first catalogue (entered from memory) that it would
-have caught. The physics checks hold for every entry whose values were read from a data sheet
-(fields in an entry's ``estimated`` list are exempt where the check reads them); the data-sheet
-checks compare with values transcribed from the named documents.
+have caught, or says that it catches none of them and what it guards instead. The physics
+checks hold for every entry; the data-sheet checks compare with values transcribed from the
+documents the entries name.
 """
 
 from __future__ import annotations
@@ -53,15 +53,17 @@ def test_every_entry_names_its_source_and_lists_real_fields(cat):
 
 
 def test_kt_equals_ke_in_si(cat):
-    """Kt [N m/A] = Ke [V s/rad] for every motor (energy balance of the ideal machine). Would
-    have caught a Kollmorgen entry given in line-to-line V/krpm."""
+    """Kt [N m/A] = Ke [V s/rad] for every motor (power balance of the ideal machine). None of
+    item 1's errors breaks it; it catches a Ke copied in V/krpm or line-to-line (the AKM and
+    smart-servo entries state Ke = Kt as a rule)."""
     for m in cat.motors:
         assert m.torque_constant_Nm_A == pytest.approx(m.back_emf_V_s_rad, rel=0.01), m.model
 
 
 def test_listed_speed_within_the_voltage(cat):
-    """Rated speed <= no-load speed U / Ke. Would have caught the AKM42E (2400 rpm, above its
-    own rule 0.8 U / Ke = 2263 rpm -- see the next test -- and a winding mix-up in general)."""
+    """Rated speed <= no-load speed U / Ke. None of item 1's errors breaks it (the AKM42E's
+    2400 rpm stays below U / Ke = 2829 rpm; the next test catches it); it catches a speed
+    of another winding or voltage."""
     for m in cat.motors:
         assert m.rated_speed_rad_s <= m.supply_voltage_V / m.back_emf_V_s_rad * 1.0001, m.model
 
@@ -89,8 +91,10 @@ def test_continuous_torque_within_the_stall_torque_at_the_supply(cat):
 
 
 def test_mechanical_time_constant_is_plausible(cat):
-    """R J / Kt^2 in :data:`TAU_M_RANGE_S` for every motor. Would have caught the GP22C-style
-    exponent slips (an inertia 1e4 x off moves it out of any real motor's range)."""
+    """R J / Kt^2 in :data:`TAU_M_RANGE_S` for every motor. Item 1's RE 40 errors cancel in it
+    (0.316 ohm x 134 g cm^2 and 0.299 ohm x 142 g cm^2 both give 4.65 ms: the next tests pin
+    them); it catches an inertia exponent slip like the GP22C's 1e4 (the thesis OCR leaves the
+    joint-6 rotor's exponent uncertain)."""
     for m in cat.motors:
         tau = m.resistance_ohm * m.rotor_inertia_kg_m2 / m.torque_constant_Nm_A**2
         assert TAU_M_RANGE_S[0] <= tau <= TAU_M_RANGE_S[1], (m.model, tau)

@@ -24,8 +24,8 @@ fields in the *estimated* column were not read from a published source (recalled
 derived from an assumption: the source says which and why). Selection skips a part with an
 estimated physical field unless the study sets `[sizing] allow_estimated = true`; an estimated
 `mass_kg` only ranks candidates, and the small viscous friction assumed where data sheets give
-none (not shown in the table) only damps the model. Prices are estimates of one-piece list prices ({currency}),
-used only to rank.
+none (not shown in the table) only damps the model. Prices are estimates of one-piece list
+prices ({currency}), used only to rank.
 
 **Integrated smart servos** (Dynamixel, Feetech) are a motor and a reducer sharing
 `integrated = "<servo>"`, combined only with each other. Their data sheets give the stall
