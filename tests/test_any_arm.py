@@ -217,6 +217,8 @@ def _motor_table(**changes) -> str:
     for k, v in motor.items():
         if v is None or (isinstance(v, float) and math.isnan(v)):
             continue
+        if isinstance(v, tuple):  # e.g. `estimated`: a TOML list of literal strings
+            v = list(v)
         lines.append(f'{k} = "{v}"' if isinstance(v, str) else f"{k} = {v!r}")
     return "\n".join(lines) + "\n"
 
