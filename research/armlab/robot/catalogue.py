@@ -204,6 +204,9 @@ def _hold_pending(row: dict, kind: str) -> dict:
     their names from ``estimated``); return them."""
     cls = Motor if kind == "motor" else Reducer
     names = {f.name for f in fields(cls)}
+    for k in PENDING_FIELDS[kind]:  # a TOML list (stiffness K1, K2, K3) is a tuple field
+        if isinstance(row.get(k), list):
+            row[k] = tuple(row[k])
     held = {k: row.pop(k) for k in PENDING_FIELDS[kind] if k in row and k not in names}
     if held and isinstance(row.get("estimated"), list):
         row["estimated"] = [k for k in row["estimated"] if k not in held]
