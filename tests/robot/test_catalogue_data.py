@@ -100,29 +100,48 @@ def test_mechanical_time_constant_is_plausible(cat):
         assert TAU_M_RANGE_S[0] <= tau <= TAU_M_RANGE_S[1], (m.model, tau)
 
 
-def test_maxon_re65_agrees_with_its_own_sheet(cat):
-    """maxon part 353297 (source: its data sheet transcription): the sheet's derived lines
-    follow from the entry -- mechanical time constant 3.25 ms, stall current 131 A, stall
-    torque 16.1 N m, speed constant 77.8 rpm/V -- within the sheet's rounding (1 %)."""
-    m = cat.motor("maxon RE 65 250 W 48 V (353297)")
-    R, J, kt, U = m.resistance_ohm, m.rotor_inertia_kg_m2, m.torque_constant_Nm_A, 48.0
-    assert R * J / kt**2 == pytest.approx(3.25e-3, rel=0.01)
-    assert U / R == pytest.approx(131.0, rel=0.01)
-    assert kt * U / R == pytest.approx(16.1, rel=0.01)
-    assert 1 / (m.back_emf_V_s_rad * RPM_TO_RAD_S) == pytest.approx(77.8, rel=0.01)
-    assert cat.pending.get(m.model, {}).get("thermal_time_constant_winding_s", 123.0) == 123.0
+#: lines of the maxon product pages (the entries' sources) that follow from R, J and Kt:
+#: mechanical time constant [ms] and stall current [A] at the nominal voltage
+MAXON_SHEET = {
+    "maxon RE 40 150 W 24 V": (4.67, 80.2),
+    "maxon RE 50 200 W 24 V": (3.75, 232.0),
+    "maxon RE 65 250 W 48 V (353297)": (3.25, 131.0),
+    "maxon EC 45 flat 70 W 48 V": (7.24, 6.97),
+    "maxon EC-i 40 70 W 36 V": (0.641, 60.9),
+    "maxon EC-i 52 180 W 48 V": (0.58, 167.0),
+    "maxon EC 90 flat 260 W 48 V": (7.99, 56.9),
+    "maxon EC 90 flat 600 W 30 V (597974)": (7.72, 107.0),
+    "maxon EC-4pole 30 200 W 48 V (305015)": (1.69, 124.0),
+}
+
+
+def test_maxon_entries_agree_with_their_sheets_derived_lines(cat):
+    """The sheet's mechanical time constant R J / Kt^2 and stall current U / R follow from the
+    entry's R, J, Kt and U within the sheet's rounding (1.5 %). Would have caught the RE 40's
+    R (U / R = 75.9 A against the sheet's 80.2 A); its J error cancels in R J."""
+    for model, (tau_ms, stall_A) in MAXON_SHEET.items():
+        m = cat.motor(model)
+        R, J, kt = m.resistance_ohm, m.rotor_inertia_kg_m2, m.torque_constant_Nm_A
+        assert R * J / kt**2 * 1e3 == pytest.approx(tau_ms, rel=0.015), model
+        assert m.supply_voltage_V / R == pytest.approx(stall_A, rel=0.015), model
+        assert usable(m) and m.source.startswith("maxon product page of part"), model
+    thermal = cat.pending.get("maxon RE 65 250 W 48 V (353297)") or vars(
+        cat.motor("maxon RE 65 250 W 48 V (353297)")
+    )
+    assert thermal["thermal_time_constant_winding_s"] == 123.0
 
 
 def test_item1_values_corrected(cat):
-    """The item-1 values, against the data-sheet transcriptions checked in issue 25: maxon
-    RE 40 (part 148877) R 0.299 ohm and J 142 g cm^2; GP 42 C (part 203129) 9.1 g cm^2; the
-    GP22C's 0.4 g cm^2 at the input."""
+    """The item-1 values, against maxon's product pages: RE 40 (part 148867, 24 V) R 0.299 ohm
+    and J 142 g cm^2; GP 42 C (part 203129) 9.1 g cm^2; the GP 22 C 128:1 (part 143988)
+    0.4 g cm^2 at the input, as the thesis' GP22C."""
     re40 = cat.motor("maxon RE 40 150 W 24 V")
     assert re40.resistance_ohm == pytest.approx(0.299, rel=1e-9)
     assert re40.rotor_inertia_kg_m2 == pytest.approx(142e-7, rel=1e-9)
     assert usable(re40)
     assert cat.reducer("maxon GP 42 C 156:1").inertia_kg_m2 == pytest.approx(9.1e-7, rel=1e-9)
     assert cat.reducer("GP22C planetary 128:1").inertia_kg_m2 == pytest.approx(0.4e-7, rel=1e-9)
+    assert cat.reducer("maxon GP 22 C 128:1 (143988)").inertia_kg_m2 == pytest.approx(0.4e-7)
 
 
 def test_one_wave_generator_inertia_per_harmonic_drive_size(cat):

@@ -471,7 +471,7 @@ def read_drives(path: str | Path, joint_names: list[str] | tuple[str, ...]) -> d
     nowhere; the supply voltage above the back-EMF at the rated speed.
 
     ``motor`` and ``reducer`` may be a catalogue model name instead of a table
-    (``motor = "maxon EC-i 40 70 W 48 V"``): the part of the drive catalogue (the file's
+    (``motor = "maxon EC-i 40 70 W 36 V"``): the part of the drive catalogue (the file's
     top-level ``catalogue`` path, relative to the drives file, else armlab's), a motor with its
     derating. ``acceleration_rad_s2`` and ``jerk_rad_s3`` may be left out: they are then NaN
     here and derived from the drive train when the robot's limits are resolved
