@@ -107,6 +107,7 @@ MAXON_SHEET = {
     "maxon RE 50 200 W 24 V": (3.75, 232.0),
     "maxon RE 65 250 W 48 V (353297)": (3.25, 131.0),
     "maxon EC 45 flat 70 W 48 V": (7.24, 6.97),
+    "maxon EC 45 flat 70 W 24 V (397172)": (8.07, 39.5),
     "maxon EC-i 40 70 W 36 V": (0.641, 60.9),
     "maxon EC-i 52 180 W 48 V": (0.58, 167.0),
     "maxon EC 90 flat 260 W 48 V": (7.99, 56.9),
