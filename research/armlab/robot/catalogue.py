@@ -10,11 +10,14 @@ header states the rules). Selection combines only usable pairs (:meth:`Catalogue
 no estimated physical field unless the study opts in (``[sizing] allow_estimated = true``), and
 the two halves of an integrated smart servo (``integrated``) only with each other.
 
-The shipped catalogue spans the thesis' small DC motors and harmonic reducers up to UR5 / Panda
-class parts: maxon EC flat / EC-i and Kollmorgen AKM motors (about 0.05-5 N m continuous),
-Harmonic Drive CSF/CSG, Nabtesco RV-E cycloidal, Neugart PLE and maxon GP planetary reducers (up
-to a few hundred N m). Entries are usable by model name in a drives file (``motor = "..."``) and
-in a study's ``[drives.<joint>]`` (:meth:`Catalogue.motor`, :meth:`Catalogue.reducer`).
+The shipped catalogue (``docs/catalogue.md``, generated from it) spans integrated smart servos
+(Dynamixel XM430/XM540, Feetech STS3215), the thesis' small DC motors and harmonic reducers,
+maxon RE / EC flat / EC-i / EC-4pole motors (0.09-1.6 N m continuous, read from maxon's product
+pages) with maxon GP planetary gearheads, Beckhoff AG2400 planetary gearboxes up to 794 N m
+rated, and Harmonic Drive CSF/CSG, Nabtesco RV-E, Neugart PLE and Kollmorgen AKM entries whose
+rating values are still marked estimated. Entries are usable by model name in a drives file
+(``motor = "..."``) and in a study's ``[drives.<joint>]`` (:meth:`Catalogue.motor`,
+:meth:`Catalogue.reducer`), estimated or not.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ __all__ = [
     "default_catalogue_path",
     "MINOR_FIELDS",
     "PENDING_FIELDS",
+    "usable",
 ]
 
 #: fields whose estimate does not make a part unusable: mass and price only rank candidates,
