@@ -217,6 +217,8 @@ def _motor_table(**changes) -> str:
     for k, v in motor.items():
         if v is None or (isinstance(v, float) and math.isnan(v)):
             continue
+        if isinstance(v, tuple):  # e.g. `estimated`: a TOML list of literal strings
+            v = list(v)
         lines.append(f'{k} = "{v}"' if isinstance(v, str) else f"{k} = {v!r}")
     return "\n".join(lines) + "\n"
 
@@ -319,7 +321,9 @@ pulses_per_rev = 1000
     r = load_catalogue().reducer("Harmonic Drive CSG-32-100-2A")
     link = 0.05 + 2.0 * 0.3**2
     total = (m.rotor_inertia_kg_m2 + r.inertia_kg_m2) * r.ratio**2 + link
-    peak = min(m.peak_torque_Nm * r.ratio * r.efficiency, r.peak_torque_Nm)
+    # the data sheet gives no peak motor torque: the continuous one stands in (docs/drives.md)
+    t_motor = m.peak_torque_Nm if math.isfinite(m.peak_torque_Nm) else m.stall_torque_Nm
+    peak = min(t_motor * r.ratio * r.efficiency, r.peak_torque_Nm)
     lim = robot.limits
     assert lim.acceleration_rad_s2[0] == pytest.approx(peak / total, rel=1e-9)
     slew = m.torque_constant_Nm_A * m.supply_voltage_V / m.inductance_H

@@ -173,6 +173,10 @@ _FIELD_MEANING = {
     "max_input_speed_rpm": "maximum input (motor-side) speed in [rpm]",
     "peak_torque_Nm": "peak (momentary) output torque in [N m]",
     "inertia_kg_m2": "inertia at the input shaft in [kg m^2]",
+    "integrated": "model of the integrated smart servo this part belongs to (combines only with "
+    "the other half of that servo; docs/catalogue.md), empty for a part sold alone",
+    "estimated": "fields whose value was not read from a published source (selection skips "
+    "such parts unless `[sizing] allow_estimated = true`)",
     "pulses_per_rev": "encoder pulses per motor revolution",
     "decoding": "quadrature decoding factor (x1, x2, x4)",
 }
@@ -202,14 +206,16 @@ def drives_keys() -> str:
             if f.name in ("motor", "reducer", "encoder"):
                 continue
             name = "name" if f.name == "joint" else f.name
-            if f.name in ("model", "source", "joint"):
+            if f.name in (*drives._TEXT_FIELDS, "joint"):
                 accepts = "string"
             elif f.name == "amplifier":
                 accepts = "catalogue amplifier name, or the `[joint.amplifier]` table below"
             elif f.name == "regenerates":
                 accepts = "true or false"
-            else:
+            elif f.name in rules:
                 accepts = _RULE_WORDS[rules[f.name]]
+            else:  # a tuple field, e.g. `estimated`: a TOML list
+                accepts = "list of field names" if f.name == "estimated" else "list of numbers"
             default = f.default if f.default is not MISSING else MISSING
             meaning = docs.get(f.name) or _FIELD_MEANING.get(f.name, "")
             rows.append([f"`{name}`", accepts, _toml(default), _md(meaning)])

@@ -311,6 +311,7 @@ def select_drives(
     cycles: int | None = None,
     ambient_degC: float = AMBIENT_DEGC,
     max_inertia_ratio: float = math.inf,
+    allow_estimated: bool = False,
 ) -> Selection:
     """Choose each joint's lightest (or cheapest) catalogue motor + reducer passing every check.
 
@@ -333,6 +334,9 @@ def select_drives(
         Resample the trajectories on this grid [s] first.
     dwell_s, cycles, ambient_degC, max_inertia_ratio
         As :func:`~armlab.dynamics.size`: the winding-temperature and inertia-ratio checks.
+    allow_estimated : bool
+        Also combine parts with values not read from a published source
+        (:meth:`Catalogue.combinations`; ``[sizing] allow_estimated``).
 
     Returns
     -------
@@ -359,7 +363,7 @@ def select_drives(
     loads = inverse_dynamics(robot, trajs, threads=threads)
     inertias = joint_inertias_kg_m2(robot, loads.q)
     levers = lever_arms_m(robot)
-    combos = [(m, r) for m in catalogue.motors for r in catalogue.reducers]
+    combos = catalogue.combinations(allow_estimated)
 
     def key(c: Candidate):
         a, b = (c.mass_kg, c.price) if objective == "mass" else (c.price, c.mass_kg)

@@ -1,19 +1,24 @@
 """The drive catalogue: motors and reducers that :func:`select_drives` combines.
 
-A TOML file (default: ``armlab/data/catalogue.toml``) with ``[[motor]]`` and ``[[reducer]]``
-entries (and ``[[amplifier]]`` servo amplifiers, :class:`armlab.robot.drives.Amplifier`,
-named by drives files and studies) whose fields are those of :class:`armlab.robot.Motor` /
-:class:`armlab.robot.Reducer` (``mass_kg`` and ``price`` required), plus ``derating`` on a
-motor (extra factor on its torque limits, default 1) and ``thesis_joints`` (joints of
-teachbot6 that use the part in thesis table 4.3). The file's header records where every number
-comes from, and every entry's ``source`` names its data sheet (ASSUMED / ESTIMATED where a
-value is not from one).
+A TOML file (default: ``armlab/data/catalogue.toml``) with ``[[motor]]`` and ``[[reducer]]`` entries
+(and ``[[amplifier]]`` servo amplifiers, :class:`armlab.robot.drives.Amplifier`, named by drives
+files and studies) whose fields are those of :class:`armlab.robot.Motor` /
+:class:`armlab.robot.Reducer` (``mass_kg`` and ``price`` required), plus ``derating`` on a motor
+(extra factor on its torque limits, default 1) and ``thesis_joints`` (joints of teachbot6 that use
+the part in thesis table 4.3). Every entry's ``source`` names the document, table or page each value
+was read from; ``estimated`` lists the fields that were not read from a published source (the file's
+header states the rules). Selection combines only usable pairs (:meth:`Catalogue.combinations`): no
+estimated physical field unless the study opts in (``[sizing] allow_estimated = true``), and the two
+halves of an integrated smart servo (``integrated``) only with each other.
 
-The shipped catalogue spans the thesis' small DC motors and harmonic reducers up to UR5 / Panda
-class parts: maxon EC flat / EC-i and Kollmorgen AKM motors (about 0.05-5 N m continuous),
-Harmonic Drive CSF/CSG, Nabtesco RV-E cycloidal, Neugart PLE and maxon GP planetary reducers (up
-to a few hundred N m). Entries are usable by model name in a drives file (``motor = "..."``) and
-in a study's ``[drives.<joint>]`` (:meth:`Catalogue.motor`, :meth:`Catalogue.reducer`).
+The shipped catalogue (``docs/catalogue.md``, generated from it) spans integrated smart servos
+(Dynamixel XM430/XM540, Feetech STS3215), the thesis' small DC motors and harmonic reducers,
+maxon RE / EC flat / EC-i / EC-4pole motors (0.09-1.6 N m continuous, read from maxon's product
+pages) with maxon GP planetary gearheads, Beckhoff AG2400 planetary gearboxes up to 794 N m
+rated, and Harmonic Drive CSF/CSG, Nabtesco RV-E, Neugart PLE and Kollmorgen AKM entries whose
+rating values are still marked estimated. Entries are usable by model name in a drives file
+(``motor = "..."``) and in a study's ``[drives.<joint>]`` (:meth:`Catalogue.motor`,
+:meth:`Catalogue.reducer`), estimated or not.
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ from __future__ import annotations
 import difflib
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from armlab.errors import RobotDescriptionError
@@ -35,7 +40,45 @@ from armlab.robot.drives import (
 )
 from armlab.tomlfile import read_toml
 
-__all__ = ["Catalogue", "load_catalogue", "default_catalogue_path"]
+__all__ = [
+    "Catalogue",
+    "load_catalogue",
+    "default_catalogue_path",
+    "MINOR_FIELDS",
+    "PENDING_FIELDS",
+    "usable",
+]
+
+#: fields whose estimate does not make a part unusable: mass and price only rank candidates,
+#: and data sheets give no viscous friction (the small value assumed, about 0.4 % of a motor's
+#: nominal torque at its nominal speed, only damps the model)
+MINOR_FIELDS = ("mass_kg", "price", "viscous_friction_Nm_s_rad")
+
+#: data-sheet fields the thermal and compliance models read (helper brief, issue 25): a
+#: catalogue entry may give them before :class:`Motor` / :class:`Reducer` have them; the loader
+#: then keeps them in :attr:`Catalogue.pending` (shown in docs/catalogue.md) instead of refusing
+#: them, and passes them to the dataclass as soon as it has the field.
+PENDING_FIELDS = {
+    "motor": (
+        "thermal_resistance_winding_housing_K_W",
+        "thermal_resistance_housing_ambient_K_W",
+        "thermal_time_constant_winding_s",
+        "thermal_time_constant_motor_s",
+        "max_winding_temperature_degC",
+    ),
+    "reducer": (
+        "rated_input_speed_rpm",
+        "rated_life_h",
+        "momentary_torque_Nm",
+        "stiffness_Nm_rad",
+        "stiffness_torque_Nm",
+        "hysteresis_rad",
+        "bearing_dynamic_load_N",
+        "bearing_moment_rating_Nm",
+        "bearing_pitch_diameter_m",
+        "bearing_offset_m",
+    ),
+}
 
 
 def default_catalogue_path() -> Path:
@@ -53,6 +96,8 @@ class Catalogue:
     derating : dict of motor model to float
     thesis_parts : dict of joint name to (motor model, reducer model)
         The parts of thesis table 4.3, when the catalogue tags them.
+    pending : dict of model to dict
+        Data-sheet values of :data:`PENDING_FIELDS` the part's dataclass has no field for yet.
     """
 
     motors: tuple[Motor, ...]
@@ -71,6 +116,20 @@ class Catalogue:
                 return a
         raise _unknown("amplifier", model, [a.model for a in self.amplifiers], where or self.path)
 
+    pending: dict[str, dict] = field(default_factory=dict)
+
+    def combinations(self, allow_estimated: bool = False) -> list[tuple[Motor, Reducer]]:
+        """Every motor x reducer pair selection may combine: both halves usable
+        (:func:`usable`) and of the same integrated servo, or both sold alone
+        (``integrated == ""``)."""
+        return [
+            (m, r)
+            for m in self.motors
+            if usable(m, allow_estimated)
+            for r in self.reducers
+            if usable(r, allow_estimated) and m.integrated == r.integrated
+        ]
+
     def motor(self, model: str, where: str = "") -> Motor:
         """The motor ``model`` (:class:`RobotDescriptionError` naming ``where``, the key that
         asked, and the nearest names)."""
@@ -85,6 +144,12 @@ class Catalogue:
             if r.model == model:
                 return r
         raise _unknown("reducer", model, [r.model for r in self.reducers], where or self.path)
+
+
+def usable(part: Motor | Reducer, allow_estimated: bool = False) -> bool:
+    """True when selection may use ``part``: no estimated field other than
+    :data:`MINOR_FIELDS`, or the study allows estimated values."""
+    return allow_estimated or not (set(part.estimated) - set(MINOR_FIELDS))
 
 
 def _unknown(kind: str, model: str, known: list[str], where: str) -> RobotDescriptionError:
@@ -106,6 +171,7 @@ def load_catalogue(path: str | os.PathLike | None = None) -> Catalogue:
     data = read_toml(path, "catalogue file")
     derating: dict[str, float] = {}
     thesis: dict[str, list[str | None]] = {}
+    pending: dict[str, dict] = {}
 
     def parts(kind: str, build):
         out: list = []
@@ -114,7 +180,10 @@ def load_catalogue(path: str | os.PathLike | None = None) -> Catalogue:
             where = f"{path} {kind} {k + 1} ({row.get('model', '?')})"
             extra_derating = row.pop("derating", 1.0)
             joints = row.pop("thesis_joints", [])
+            held = _hold_pending(row, kind)
             part = build(row, where)
+            if held:
+                pending[part.model] = held
             for key in ("mass_kg", "price"):
                 v = getattr(part, key)
                 if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
@@ -147,6 +216,7 @@ def load_catalogue(path: str | os.PathLike | None = None) -> Catalogue:
         if any(a.model == amp.model for a in amplifiers):
             raise RobotDescriptionError(f"{where}: duplicate model {amp.model!r}")
         amplifiers.append(amp)
+    _check_integrated(motors, reducers, path)
     return Catalogue(
         motors=motors,
         reducers=reducers,
@@ -155,4 +225,31 @@ def load_catalogue(path: str | os.PathLike | None = None) -> Catalogue:
         currency=str(data.get("currency", "")),
         path=str(path),
         amplifiers=tuple(amplifiers),
+        pending=pending,
     )
+
+
+def _hold_pending(row: dict, kind: str) -> dict:
+    """Take out of ``row`` the :data:`PENDING_FIELDS` its dataclass has no field for yet (and
+    their names from ``estimated``); return them."""
+    cls = Motor if kind == "motor" else Reducer
+    names = {f.name for f in fields(cls)}
+    for k in PENDING_FIELDS[kind]:  # a TOML list (stiffness K1, K2, K3) is a tuple field
+        if isinstance(row.get(k), list):
+            row[k] = tuple(row[k])
+    held = {k: row.pop(k) for k in PENDING_FIELDS[kind] if k in row and k not in names}
+    if held and isinstance(row.get("estimated"), list):
+        row["estimated"] = [k for k in row["estimated"] if k not in held]
+    return held
+
+
+def _check_integrated(motors, reducers, path) -> None:
+    """Each integrated servo has exactly one motor and one reducer entry."""
+    for kind, mine, other in (("motor", motors, reducers), ("reducer", reducers, motors)):
+        for p in mine:
+            n = sum(q.integrated == p.integrated for q in other)
+            if p.integrated and n != 1:
+                raise RobotDescriptionError(
+                    f"{path} {kind} {p.model!r}: integrated {p.integrated!r} needs exactly one "
+                    f"{'reducer' if kind == 'motor' else 'motor'} of that servo ({n} found)"
+                )

@@ -84,6 +84,13 @@ class Motor:
     max_winding_temperature_degC : float
         Maximum permissible winding temperature in [degC]; NaN: not given. Without these five
         the winding-temperature check (:mod:`armlab.dynamics.thermal`) is "not checked".
+    integrated : str
+        Model of the integrated smart servo (motor + gear + controller in one) this motor is
+        part of, "" for a motor sold alone: it combines only with the reducer of that servo.
+    estimated : tuple of str
+        Fields whose value was not read from a published source (the entry's ``source`` says
+        why and how it was estimated); selection skips such parts unless the study sets
+        ``[sizing] allow_estimated = true``.
     """
 
     model: str
@@ -107,6 +114,8 @@ class Motor:
     thermal_time_constant_winding_s: float = math.nan
     thermal_time_constant_motor_s: float = math.nan
     max_winding_temperature_degC: float = math.nan
+    integrated: str = ""
+    estimated: tuple[str, ...] = ()
 
     @property
     def rated_speed_rad_s(self) -> float:
@@ -141,6 +150,8 @@ class Reducer:
     then **derived** equal to ``efficiency`` (:attr:`back_driven_efficiency` says so).
     ``coulomb_friction_Nm`` [N m] and ``viscous_friction_Nm_s_rad`` [N m s/rad] are friction at
     the **output** (joint side: reducer and joint bearings), default 0 (not given).
+    ``integrated`` and ``estimated``: as :class:`Motor` (the gear of a smart servo; fields not
+    read from a published source).
     """
 
     model: str
@@ -156,6 +167,8 @@ class Reducer:
     back_efficiency: float = math.nan
     coulomb_friction_Nm: float = 0.0
     viscous_friction_Nm_s_rad: float = 0.0
+    integrated: str = ""
+    estimated: tuple[str, ...] = ()
 
     @property
     def max_input_speed_rad_s(self) -> float:
@@ -454,8 +467,8 @@ _RULES: dict[str, dict[str, str]] = {
         "brake_threshold_V": "pos",
     },
 }
-_TEXT_FIELDS = ("model", "source")
 _BOOL_FIELDS = ("regenerates",)
+_TEXT_FIELDS = ("model", "source", "integrated")
 _DECODINGS = (1, 2, 4)
 
 
@@ -522,10 +535,22 @@ def _build(cls, data: dict, where: str, part: str = ""):
     ]
     prefix = f"{where} {part}." if part else f"{where} "
     _check_values(_RULES.get(cls.__name__, {}), data, prefix, optional=not_given)
+    if "estimated" in data:
+        data = {**data, "estimated": _estimated_fields(data["estimated"], names, prefix)}
     try:
         return cls(**data)
     except TypeError as exc:
         raise RobotDescriptionError(f"{head}: {exc}") from None
+
+
+def _estimated_fields(value: Any, names: set[str], prefix: str) -> tuple[str, ...]:
+    """``estimated`` as a tuple of field names (a list in TOML/JSON), each a field of the part."""
+    if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+        raise RobotDescriptionError(f"{prefix}estimated: {value!r} is not a list of field names")
+    unknown = sorted(set(value) - names)
+    if unknown:
+        raise RobotDescriptionError(f"{prefix}estimated: unknown field(s) {unknown}")
+    return tuple(value)
 
 
 def motor_from_dict(data: dict, where: str = "motor", part: str = "") -> Motor:
@@ -559,7 +584,7 @@ def read_drives(path: str | Path, joint_names: list[str] | tuple[str, ...]) -> d
     nowhere; the supply voltage above the back-EMF at the rated speed.
 
     ``motor`` and ``reducer`` may be a catalogue model name instead of a table
-    (``motor = "maxon EC-i 40 70 W 48 V"``): the part of the drive catalogue (the file's
+    (``motor = "maxon EC-i 40 70 W 36 V"``): the part of the drive catalogue (the file's
     top-level ``catalogue`` path, relative to the drives file, else armlab's), a motor with its
     derating. ``acceleration_rad_s2`` and ``jerk_rad_s3`` may be left out: they are then NaN
     here and derived from the drive train when the robot's limits are resolved
@@ -684,6 +709,8 @@ def _catalogue_part(path: Path, data: dict, kind: str, model: str, where: str) -
 
 # ----------------------------------------------------------------------------- writing
 def _toml_value(value: Any) -> str:
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, int):

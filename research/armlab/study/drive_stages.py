@@ -127,6 +127,7 @@ def select_and_install(ctx: StudyContext) -> list:
         dt=ctx.spec.plan.check_dt_s,
         controller=ctx.controller,
         **sizing_options(ctx),
+        allow_estimated=ctx.spec.sizing.allow_estimated,
     )
     ctx.selection = sel
     ctx.robot.drives = sel.require().drives(ctx.robot)
@@ -203,6 +204,7 @@ def stage_sizing(ctx: StudyContext) -> StageOutput:
             dt=ctx.spec.plan.check_dt_s,
             controller=ctx.controller,
             **sizing_options(ctx),
+            allow_estimated=ctx.spec.sizing.allow_estimated,
         )
         ctx.selection = sel
         block["selection"] = {"status": "ok", **jsonable_block(sel)}

@@ -379,6 +379,12 @@ class SizingSpec:
         None,
         "largest load-to-motor inertia ratio (check inertia_ratio; left out: reported only)",
     )
+    allow_estimated: bool = _key(
+        _bool,
+        False,
+        "let selection use catalogue parts with values not read from a published source "
+        "(each entry's `estimated` fields, docs/catalogue.md)",
+    )
 
 
 @dataclass(frozen=True)
