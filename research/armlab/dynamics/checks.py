@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from armlab.dynamics import reducer_life
 from armlab.errors import InputError
 from armlab.robot import drivetrain
 from armlab.robot.controller import ControllerProfile
@@ -48,6 +49,7 @@ CHECK_NAMES: dict[str, str] = {
     "motor_envelope": "N m",
     "encoder_resolution": "rad",
     "encoder_pulse_rate": "counts/cycle",
+    **reducer_life.REDUCER_CHECKS,
 }
 
 _TINY = 1e-12
@@ -78,16 +80,23 @@ class Check:
         """JSON-able dict; a margin that is not a number (no limit left) is None, with a note."""
         return {
             "name": self.name,
-            "value": float(self.value),
-            "limit": float(self.limit),
+            "value": float(self.value) if math.isfinite(self.value) else None,
+            "limit": float(self.limit) if math.isfinite(self.limit) else None,
             "margin": float(self.margin) if math.isfinite(self.margin) else None,
             "ok": bool(self.ok),
             "unit": self.unit,
             "note": self.note,
         }
 
+    @property
+    def checked(self) -> bool:
+        """False for a check the part has no rating for (``not checked: no rating``)."""
+        return math.isfinite(self.value) and math.isfinite(self.limit)
+
     def describe(self) -> str:
         """One line: ``motor_speed 2390 > 2200 rad/s (margin -8.6 %)`` or the check's note."""
+        if not self.checked:
+            return f"{self.name} ({self.note})"
         rel = ">" if not self.ok else "<="
         text = f"{self.name} {self.value:.4g} {rel} {self.limit:.4g} {self.unit}".rstrip()
         if self.note:
@@ -105,6 +114,9 @@ class SizingOptions:
         Largest tool-point displacement one encoder count of a joint may cause, in [m], at the
         joint's largest lever arm to the tool point (default 0.1 mm, a tenth of the ~1 mm
         accuracy of HEU thesis ch. 3). ASSUMED.
+    required_life_h : float
+        Life the reducers must reach over the duty cycle, [h] (``[sizing] required_life_h``;
+        default 7000 h, the CSF L_10 rating: ASSUMED; :mod:`armlab.dynamics.reducer_life`).
     controller : ControllerProfile
         The controller the set-point table is written for: its cycle, pulse limit per cycle,
         decoding and counts per revolution are what the encoder checks use (the same function,
@@ -114,6 +126,7 @@ class SizingOptions:
 
     controller: ControllerProfile
     tool_resolution_m: float = 1e-4
+    required_life_h: float = reducer_life.DEFAULT_REQUIRED_LIFE_H
 
     @property
     def cycle_s(self) -> float:
@@ -150,7 +163,7 @@ def _margin(value, limit):
 
 
 def evaluate_checks(
-    tau, qd, qdd, weights, drives: DriveTrain, lever_m, options: SizingOptions
+    tau, qd, qdd, weights, drives: DriveTrain, lever_m, options: SizingOptions, tilt_Nm=None
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Every sizing check for every column: ``{name: (value, limit)}``, arrays (n_columns,).
 
@@ -165,6 +178,9 @@ def evaluate_checks(
     lever_m : array (n_columns,)
         Largest distance from each joint's axis to the tool point, in [m].
     options : SizingOptions
+    tilt_Nm : array (n_columns,), optional
+        Peak tilting moment on each output bearing
+        (:func:`armlab.dynamics.reducer_life.tilting_moments_Nm`); None: not computed.
 
     Notes
     -----
@@ -187,6 +203,10 @@ def evaluate_checks(
       ``tool_resolution_m / lever_m``.
     * ``encoder_pulse_rate``: peak counts per controller cycle <= the controller's pulse limit
       (``options.controller``: cycle, decoding and limit of the profile the table is written for).
+    * ``reducer_life``, ``reducer_momentary_torque``, ``reducer_bearing_moment``: the
+      wave-generator bearing's life against ``options.required_life_h``, the plan's worst
+      sample against the momentary torque, the output bearing's tilting moment against its
+      rating (:mod:`armlab.dynamics.reducer_life`, which has the formulas and sources).
     """
     w = np.asarray(weights, float)[:, None]
     t_m, w_m, _ = drivetrain.motor_side(tau, qd, qdd, drives)
@@ -201,13 +221,8 @@ def evaluate_checks(
     power_limit = np.where(np.isfinite(drives.power_W), drives.power_W, np.inf)
     out["thesis_power_rule"] = (peak_tau * abs_qd.max(axis=0), power_limit)
     out["reducer_peak_torque"] = (peak_tau, drives.reducer_peak_torque_Nm)
-    wn = abs_qd * w
-    swn = wn.sum(axis=0)
-    cube = abs_tau**3
-    by_speed = (wn * cube).sum(axis=0) / np.where(swn > 0, swn, 1.0)
-    by_time = (w * cube).sum(axis=0) / max(float(w.sum()), _TINY)
     out["reducer_average_torque"] = (
-        np.cbrt(np.where(swn > 0, by_speed, by_time)),
+        reducer_life.average_torque_Nm(tau, qd, weights),
         drives.reducer_rated_torque_Nm,
     )
     peak_wm = np.abs(w_m).max(axis=0)
@@ -226,6 +241,9 @@ def evaluate_checks(
     out["encoder_resolution"] = (angle, options.tool_resolution_m / np.maximum(lever_m, _TINY))
     counts = abs_qd.max(axis=0) * counts_per_joint_rev / (2.0 * np.pi) * options.cycle_s
     out["encoder_pulse_rate"] = (counts, options.max_counts_per_cycle)
+    out.update(
+        reducer_life.reducer_checks(tau, qd, weights, drives, options.required_life_h, tilt_Nm)
+    )
     n_col = drives.ratio.size
     return {
         name: (
@@ -237,12 +255,31 @@ def evaluate_checks(
 
 
 def checks_for_column(
-    results: dict[str, tuple[np.ndarray, np.ndarray]], c: int, rtol: float = 1e-9
+    results: dict[str, tuple[np.ndarray, np.ndarray]],
+    c: int,
+    rtol: float = 1e-9,
+    drives: DriveTrain | None = None,
 ) -> list[Check]:
-    """The :class:`Check` list of column ``c`` of :func:`evaluate_checks`'s output."""
+    """The :class:`Check` list of column ``c`` of :func:`evaluate_checks`'s output.
+
+    A check of :data:`armlab.dynamics.reducer_life.REDUCER_CHECKS` whose rating is not given
+    stays in the list, passing, with the note ``not checked: no rating (<field>; <source>)``
+    (``drives``: the columns' drives, for the reducer's source); any other check without a
+    limit is left out (nothing to check)."""
     checks = []
     for name, (value, limit) in results.items():
         v, lim = float(value[c]), float(limit[c])
+        if name in reducer_life.REDUCER_CHECKS and not (math.isfinite(lim) and math.isfinite(v)):
+            if math.isinf(lim) and lim > 0 and math.isfinite(v):  # e.g. a reducer at rest
+                checks.append(Check(name, v, lim, 1.0, True, CHECK_NAMES[name]))
+                continue
+            if math.isfinite(lim):  # a rating, but no load computed (the tilting moment)
+                note = "not checked: the load was not computed"
+            else:
+                source = drives.drives[c].reducer.source if drives is not None else ""
+                note = reducer_life.not_checked_note(name, source)
+            checks.append(Check(name, v, lim, math.inf, True, CHECK_NAMES[name], note))
+            continue
         if not math.isfinite(lim):  # no such rating: nothing to check
             continue
         ok = bool(v <= lim * (1.0 + rtol) + _TINY)

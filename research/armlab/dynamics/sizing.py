@@ -24,6 +24,11 @@ from armlab.dynamics.checks import (
     counts_per_joint_rev_of,
     evaluate_checks,
 )
+from armlab.dynamics.reducer_life import (
+    DEFAULT_REQUIRED_LIFE_H,
+    reducer_life_h,
+    tilting_moments_Nm,
+)
 from armlab.dynamics.inverse import (
     RAD_S_TO_RPM,
     JointLoads,
@@ -58,6 +63,10 @@ def lever_arms_m(robot: Robot) -> np.ndarray:
     return tail + tool
 
 
+def _finite_or_none(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
 @dataclass
 class JointSizing(Checked):
     """The sizing of one joint: its signals' key figures and its checks."""
@@ -73,6 +82,8 @@ class JointSizing(Checked):
     motor_rms_torque_Nm: float
     available_torque_Nm: float
     counts_per_joint_rev: float
+    reducer_life_h: float = float("nan")
+    bearing_tilting_moment_Nm: float = float("nan")
 
     def check(self, name: str) -> Check:
         for c in self.checks:
@@ -90,6 +101,9 @@ class JointSizing(Checked):
             "motor_rms_torque_Nm": self.motor_rms_torque_Nm,
             "available_torque_Nm": self.available_torque_Nm,
             "encoder_counts_per_joint_rev": self.counts_per_joint_rev,
+            # NaN (no rating / not computed) -> None; inf (never turns) stays inf -> None too
+            "reducer_life_h": _finite_or_none(self.reducer_life_h),
+            "bearing_tilting_moment_Nm": _finite_or_none(self.bearing_tilting_moment_Nm),
             "motor": self.drive.motor.model,
             "reducer": self.drive.reducer.model,
             "ok": self.ok,
@@ -152,6 +166,7 @@ def size(
     tool_resolution_m: float = SizingOptions.tool_resolution_m,
     dt: float | None = None,
     threads: int = 1,
+    required_life_h: float = DEFAULT_REQUIRED_LIFE_H,
 ) -> SizingReport:
     """Check every joint's drive train along a trajectory or a duty cycle of trajectories.
 
@@ -173,6 +188,9 @@ def size(
         Resample every trajectory on this grid [s] first (catches peaks between knots).
     threads : int
         Threads of the batched RNEA.
+    required_life_h : float
+        Life the reducers must reach over the duty cycle, [h] (``[sizing] required_life_h``;
+        :mod:`armlab.dynamics.reducer_life`).
 
     Returns
     -------
@@ -185,16 +203,28 @@ def size(
     RobotDescriptionError
         The robot has no drives and none are given.
     """
-    options = SizingOptions(load_profile(controller), tool_resolution_m)
+    options = SizingOptions(load_profile(controller), tool_resolution_m, float(required_life_h))
     drive_list = require_drives(robot, drives)
     trajs = as_trajectories(trajectory, robot)
     if dt is not None:
         trajs = [tr.sample(dt) for tr in trajs]
     loads = inverse_dynamics(robot, trajs, drives=drive_list, threads=threads)
     arrays = DriveTrain.from_drives(drive_list)
+    # the tilting moments only where a reducer has a bearing rating (an RNEA pass per sample)
+    rated = any(np.isfinite(d.reducer.bearing_moment_rating_Nm) for d in drive_list)
+    offsets = [d.reducer.bearing_offset_m for d in drive_list]
+    tilt = tilting_moments_Nm(robot, loads, offsets) if rated else None
     results = evaluate_checks(
-        loads.torque_Nm, loads.qd, loads.qdd, loads.weights, arrays, lever_arms_m(robot), options
+        loads.torque_Nm,
+        loads.qd,
+        loads.qdd,
+        loads.weights,
+        arrays,
+        lever_arms_m(robot),
+        options,
+        tilt_Nm=tilt,
     )
+    life = reducer_life_h(loads.torque_Nm, loads.qd, loads.weights, arrays)
     counts_per_rev = counts_per_joint_rev_of(arrays, options.controller)
     peak_t, rms_t, peak_v = loads.peak_torque_Nm, loads.rms_torque_Nm, loads.peak_speed_rad_s
     m_peak, m_rms = loads.motor_peak_torque_Nm, loads.motor_rms_torque_Nm
@@ -208,7 +238,7 @@ def size(
             JointSizing(
                 joint=name,
                 drive=d,
-                checks=checks_for_column(results, j),
+                checks=checks_for_column(results, j, drives=arrays),
                 peak_torque_Nm=float(peak_t[j]),
                 rms_torque_Nm=float(rms_t[j]),
                 peak_speed_rad_s=float(peak_v[j]),
@@ -217,6 +247,8 @@ def size(
                 motor_rms_torque_Nm=float(m_rms[j]),
                 available_torque_Nm=float(d.available_torque_Nm),
                 counts_per_joint_rev=float(counts_per_rev[j]),
+                reducer_life_h=float(life[j]),
+                bearing_tilting_moment_Nm=float(tilt[j]) if tilt is not None else float("nan"),
             )
         )
     return SizingReport(

@@ -125,7 +125,13 @@ def stage_sizing(ctx: StudyContext) -> StageOutput:
     if ctx.robot.drives is None and ctx.spec.sizing.select:
         duty = select_and_install(ctx)
     _needs_drives(ctx)
-    res = size(ctx.robot, duty, dt=ctx.spec.plan.check_dt_s, controller=ctx.controller)
+    res = size(
+        ctx.robot,
+        duty,
+        dt=ctx.spec.plan.check_dt_s,
+        controller=ctx.controller,
+        required_life_h=ctx.spec.sizing.required_life_h,
+    )
     ctx.sizing = res
     block = jsonable_block(res)
     advisories = None
@@ -138,7 +144,10 @@ def stage_sizing(ctx: StudyContext) -> StageOutput:
         # HEU thesis tables 4.2/4.3: the drives against each joint's worst case (full speed and
         # acceleration from its worst static pose), beside the planned cycle
         moves = requirement_moves(ctx.robot, ctx.static_load)
-        ctx.requirement_sizing = size(ctx.robot, moves, controller=ctx.controller)
+        # life is a figure of the repeated duty cycle: the worst-case moves ask none (0 h)
+        ctx.requirement_sizing = size(
+            ctx.robot, moves, controller=ctx.controller, required_life_h=0.0
+        )
         adv = [
             f.replace("sizing:", "worst-case move:", 1)
             for f in sizing_failures(ctx.requirement_sizing)

@@ -24,7 +24,7 @@ import numpy as np
 
 from armlab.errors import InputError
 from armlab.study.budget import check_samples
-from armlab.study.spec import STAGES, PlanSpec
+from armlab.study.spec import STAGES, PlanSpec, SizingSpec
 from armlab.study.verdict import FAIL, PASS, DesignVerdict, StageRecord, design_verdict
 
 if TYPE_CHECKING:
@@ -171,5 +171,9 @@ def resized(traj, summary: dict, record: dict, robot: Robot, controller) -> list
         f"design.json plan.check_dt_s = {dt:g}",
         f"{traj.duration:.3g} s plan / {dt:g} s sizing grid",
     )
-    report = size(robot, traj, dt=float(dt), controller=controller)
+    sizing = ((record.get("study") or {}).get("document") or {}).get("sizing") or {}
+    life = sizing.get("required_life_h", SizingSpec().required_life_h)
+    if not isinstance(life, (int, float)) or not life > 0:
+        life = SizingSpec().required_life_h
+    report = size(robot, traj, dt=float(dt), controller=controller, required_life_h=float(life))
     return sizing_failures(report, None if sized else HARDWARE_CHECKS)

@@ -342,6 +342,11 @@ class SizingSpec:
         "choose motor + reducer per joint from the catalogue (a robot without a drive train: "
         "the selection becomes its drive train for tuning, tracking and export)",
     )
+    required_life_h: float = _key(
+        _float(0.0, lo_open=True),
+        7000.0,
+        "life the reducers must reach over the duty cycle, h (default: the CSF L_10 rating)",
+    )
 
 
 @dataclass(frozen=True)
