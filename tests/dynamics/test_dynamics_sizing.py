@@ -108,9 +108,14 @@ def test_sizing_report_contract(report, teachbot6):
             "checks",
         } <= set(row)
         names = [c["name"] for c in row["checks"]]
-        assert names == list(CHECK_NAMES)  # every rating is known for teachbot6
+        assert names == list(CHECK_NAMES)  # every check is listed for teachbot6
         for c in row["checks"]:
             assert {"name", "value", "limit", "margin", "ok"} <= set(c)
+            if c["value"] is None or c["limit"] is None:
+                # a rating the reducer has none of (teachbot6's bearings, joint 6's life):
+                # passes, saying so
+                assert c["ok"] and c["note"].startswith("not checked")
+                continue
             assert c["ok"] == (c["value"] <= c["limit"] * (1 + 1e-9) + 1e-12)
             if c["limit"] == 0:  # nothing left (joint 3's voltage line at its speed limit)
                 # margin -inf, written as JSON null

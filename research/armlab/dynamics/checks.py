@@ -117,6 +117,10 @@ class SizingOptions:
     required_life_h : float
         Life the reducers must reach over the duty cycle, [h] (``[sizing] required_life_h``;
         default 7000 h, the CSF L_10 rating: ASSUMED; :mod:`armlab.dynamics.reducer_life`).
+    momentary_load : str
+        Load case of the momentary-torque check: ``"plan"`` (the plan's worst sample, default)
+        or ``"stop"`` (also an emergency stop at the current limit) (``[sizing]
+        momentary_load``).
     controller : ControllerProfile
         The controller the set-point table is written for: its cycle, pulse limit per cycle,
         decoding and counts per revolution are what the encoder checks use (the same function,
@@ -127,6 +131,7 @@ class SizingOptions:
     controller: ControllerProfile
     tool_resolution_m: float = 1e-4
     required_life_h: float = reducer_life.DEFAULT_REQUIRED_LIFE_H
+    momentary_load: str = "plan"
 
     @property
     def cycle_s(self) -> float:
@@ -242,7 +247,15 @@ def evaluate_checks(
     counts = abs_qd.max(axis=0) * counts_per_joint_rev / (2.0 * np.pi) * options.cycle_s
     out["encoder_pulse_rate"] = (counts, options.max_counts_per_cycle)
     out.update(
-        reducer_life.reducer_checks(tau, qd, weights, drives, options.required_life_h, tilt_Nm)
+        reducer_life.reducer_checks(
+            tau,
+            qd,
+            weights,
+            drives,
+            options.required_life_h,
+            tilt_Nm,
+            options.momentary_load,
+        )
     )
     n_col = drives.ratio.size
     return {

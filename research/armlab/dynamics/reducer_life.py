@@ -24,10 +24,17 @@ dimensioning", equations of load limits 1-3 and the operating life):
   required life (``[sizing] required_life_h``, default 7000 h: the CSF's own L_10 rating, i.e.
   a reducer at its rated torque and rated speed just passes; ASSUMED) against it.
 * **Momentary torque** (load limit 3, ``T_k <= T_M``): the catalogue's momentary torque is the
-  limit for an emergency stop or a collision. Load case (decided for issue 28): the **plan's
-  worst sample**, the largest ``|T|`` of the duty cycle -- a collision's torque depends on a
-  contact stiffness the study does not know; the check says the planned motion leaves the
-  momentary limit untouched (it is a floor for the collision margin, not a collision check).
+  limit for an emergency stop or a collision. Load case (``[sizing] momentary_load``, decided
+  for issue 28): ``"plan"`` (default, as the issue asks) the **plan's worst sample**, the
+  cycle's largest ``|T|``; ``"stop"`` an **emergency stop at the current limit**: the larger of
+  that and the torque the drive puts through the reducer when it brakes at its current limit,
+  :attr:`armlab.robot.drives.Drive.stop_torque_Nm` ``= N T_m,peak / eta_b`` (back-driven: the
+  reducer's losses add to the braking torque at the output; an upper bound, since the rotor's
+  own deceleration takes part of the motor torque). A collision's torque depends on a contact
+  stiffness the study does not know: this is the floor of the collision case, not all of it.
+  With ``"plan"`` the check passes whenever ``reducer_peak_torque`` does (the repeated peak
+  limit is below the momentary one): it matters for a reducer rated without a repeated peak
+  margin; ``"stop"`` catches a motor too strong for its reducer.
 * **Output bearing tilting moment** (cross-roller bearing "permissible moment load" M_c):
   the link loads at the reducer output are the spatial force pinocchio's RNEA transmits
   through the joint (``data.f[i]``, in the joint frame: moment about the joint origin, the
@@ -57,6 +64,7 @@ if TYPE_CHECKING:
 __all__ = [
     "DEFAULT_REQUIRED_LIFE_H",
     "REDUCER_CHECKS",
+    "MOMENTARY_LOADS",
     "average_torque_Nm",
     "average_input_speed_rpm",
     "reducer_life_h",
@@ -67,6 +75,9 @@ __all__ = [
 
 #: required reducer life when the study sets none, [h]: the CSF L_10 rating (ASSUMED)
 DEFAULT_REQUIRED_LIFE_H = 7000.0
+
+#: the load cases of the momentary-torque check (``[sizing] momentary_load``)
+MOMENTARY_LOADS = ("plan", "stop")
 
 #: the checks of this module, with their units (``value <= limit`` each)
 REDUCER_CHECKS: dict[str, str] = {
@@ -123,12 +134,19 @@ def reducer_life_h(tau, qd, weights, drives: DriveTrain) -> np.ndarray:
 
 
 def reducer_checks(
-    tau, qd, weights, drives: DriveTrain, required_life_h: float, tilt_Nm=None
+    tau,
+    qd,
+    weights,
+    drives: DriveTrain,
+    required_life_h: float,
+    tilt_Nm=None,
+    momentary_load: str = "plan",
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """``{name: (value, limit)}`` of the checks of :data:`REDUCER_CHECKS`, (n_columns,) each.
 
     ``reducer_life``: value the required life, limit the computed life (so ``value <= limit``
-    reads "required <= expected"); ``reducer_momentary_torque``: the largest ``|tau|`` against
+    reads "required <= expected"); ``reducer_momentary_torque``: the largest ``|tau|`` (with
+    ``momentary_load="stop"``: at least the drive's stop torque) against
     ``momentary_torque_Nm``; ``reducer_bearing_moment``: ``tilt_Nm`` (the peak tilting moment
     of each column, :func:`tilting_moments_Nm`; NaN when not computed) against
     ``bearing_moment_rating_Nm``. A limit is NaN where the reducer has no rating.
@@ -140,6 +158,8 @@ def reducer_checks(
         return np.array([float(f(d.reducer)) for d in drives.drives])
 
     peak = np.broadcast_to(np.abs(np.asarray(tau, float)).max(axis=0), n)
+    if momentary_load == "stop":
+        peak = np.maximum(peak, [d.stop_torque_Nm for d in drives.drives])
     tilt = np.full(n, math.nan) if tilt_Nm is None else np.broadcast_to(tilt_Nm, n)
     return {
         "reducer_life": (np.full(n, float(required_life_h)), life),

@@ -26,6 +26,7 @@ from armlab.dynamics.checks import (
 )
 from armlab.dynamics.reducer_life import (
     DEFAULT_REQUIRED_LIFE_H,
+    MOMENTARY_LOADS,
     reducer_life_h,
     tilting_moments_Nm,
 )
@@ -167,6 +168,7 @@ def size(
     dt: float | None = None,
     threads: int = 1,
     required_life_h: float = DEFAULT_REQUIRED_LIFE_H,
+    momentary_load: str = "plan",
 ) -> SizingReport:
     """Check every joint's drive train along a trajectory or a duty cycle of trajectories.
 
@@ -191,6 +193,8 @@ def size(
     required_life_h : float
         Life the reducers must reach over the duty cycle, [h] (``[sizing] required_life_h``;
         :mod:`armlab.dynamics.reducer_life`).
+    momentary_load : {"plan", "stop"}
+        Load case of the momentary-torque check (:class:`SizingOptions`).
 
     Returns
     -------
@@ -203,7 +207,13 @@ def size(
     RobotDescriptionError
         The robot has no drives and none are given.
     """
-    options = SizingOptions(load_profile(controller), tool_resolution_m, float(required_life_h))
+    if momentary_load not in MOMENTARY_LOADS:
+        raise InputError(
+            f"momentary_load must be one of {', '.join(MOMENTARY_LOADS)}, not {momentary_load!r}"
+        )
+    options = SizingOptions(
+        load_profile(controller), tool_resolution_m, float(required_life_h), momentary_load
+    )
     drive_list = require_drives(robot, drives)
     trajs = as_trajectories(trajectory, robot)
     if dt is not None:

@@ -354,6 +354,16 @@ class Drive:
         )
 
     @property
+    def stop_torque_Nm(self) -> float:
+        """Output torque of an emergency stop at the current limit, in [N m]: the peak motor
+        torque braking through the back-driven reducer, ``N T_m,peak / eta_b`` (drive-train
+        model: input torque = output torque x eta_b / N). An upper bound: the rotor's own
+        deceleration takes part of the motor torque. The load case of the momentary-torque
+        check (:mod:`armlab.dynamics.reducer_life`)."""
+        r = self.reducer
+        return self.peak_motor_torque_Nm * r.ratio / r.back_driven_efficiency
+
+    @property
     def motor_side_inertia_kg_m2(self) -> float:
         """Rotor + reducer input inertia, on the motor shaft, in [kg m^2]."""
         return self.motor.rotor_inertia_kg_m2 + self.reducer.inertia_kg_m2

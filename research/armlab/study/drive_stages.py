@@ -131,6 +131,7 @@ def stage_sizing(ctx: StudyContext) -> StageOutput:
         dt=ctx.spec.plan.check_dt_s,
         controller=ctx.controller,
         required_life_h=ctx.spec.sizing.required_life_h,
+        momentary_load=ctx.spec.sizing.momentary_load,
     )
     ctx.sizing = res
     block = jsonable_block(res)

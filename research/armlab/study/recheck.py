@@ -175,5 +175,15 @@ def resized(traj, summary: dict, record: dict, robot: Robot, controller) -> list
     life = sizing.get("required_life_h", SizingSpec().required_life_h)
     if not isinstance(life, (int, float)) or not life > 0:
         life = SizingSpec().required_life_h
-    report = size(robot, traj, dt=float(dt), controller=controller, required_life_h=float(life))
+    load = sizing.get("momentary_load", SizingSpec().momentary_load)
+    if load not in ("plan", "stop"):
+        load = SizingSpec().momentary_load
+    report = size(
+        robot,
+        traj,
+        dt=float(dt),
+        controller=controller,
+        required_life_h=float(life),
+        momentary_load=load,
+    )
     return sizing_failures(report, None if sized else HARDWARE_CHECKS)

@@ -347,6 +347,12 @@ class SizingSpec:
         7000.0,
         "life the reducers must reach over the duty cycle, h (default: the CSF L_10 rating)",
     )
+    momentary_load: str = _key(
+        _str(("plan", "stop")),
+        "plan",
+        "load case of the reducers' momentary-torque check: the plan's worst sample, or also "
+        "an emergency stop at the current limit",
+    )
 
 
 @dataclass(frozen=True)

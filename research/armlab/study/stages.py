@@ -88,6 +88,7 @@ def selection_for_study(spec: StudySpec) -> StudyContext:
         dt=spec.plan.check_dt_s,
         controller=ctx.controller,
         required_life_h=spec.sizing.required_life_h,
+        momentary_load=spec.sizing.momentary_load,
     )
     return ctx
 
