@@ -213,7 +213,6 @@ def evaluate_checks(
       sample against the momentary torque, the output bearing's tilting moment against its
       rating (:mod:`armlab.dynamics.reducer_life`, which has the formulas and sources).
     """
-    w = np.asarray(weights, float)[:, None]
     t_m, w_m, _ = drivetrain.motor_side(tau, qd, qdd, drives)
     abs_tau, abs_qd = np.abs(tau), np.abs(qd)
     peak_tau = abs_tau.max(axis=0)

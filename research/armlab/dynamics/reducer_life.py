@@ -235,7 +235,8 @@ def _axes(model, data) -> np.ndarray:
     out = np.zeros((model.njoints - 1, 3))
     for i in range(1, model.njoints):
         jac = pin.getJointJacobian(model, data, i, pin.ReferenceFrame.LOCAL)
-        w = np.asarray(jac[3:, model.joints[i].idx_v])
+        jac = np.asarray(jac).reshape(6, model.nv)  # one joint: eigenpy returns a vector
+        w = jac[3:, model.joints[i].idx_v]
         norm = np.linalg.norm(w)
         out[i - 1] = w / norm if norm > _TINY else 0.0
     return out

@@ -24,18 +24,18 @@ from armlab.dynamics.checks import (
     counts_per_joint_rev_of,
     evaluate_checks,
 )
-from armlab.dynamics.reducer_life import (
-    DEFAULT_REQUIRED_LIFE_H,
-    MOMENTARY_LOADS,
-    reducer_life_h,
-    tilting_moments_Nm,
-)
 from armlab.dynamics.inverse import (
     RAD_S_TO_RPM,
     JointLoads,
     as_trajectories,
     inverse_dynamics,
     require_drives,
+)
+from armlab.dynamics.reducer_life import (
+    DEFAULT_REQUIRED_LIFE_H,
+    MOMENTARY_LOADS,
+    reducer_life_h,
+    tilting_moments_Nm,
 )
 from armlab.errors import InputError
 from armlab.robot.controller import ControllerProfile, load_profile
