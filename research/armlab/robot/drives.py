@@ -129,6 +129,38 @@ class Reducer:
     then **derived** equal to ``efficiency`` (:attr:`back_driven_efficiency` says so).
     ``coulomb_friction_Nm`` [N m] and ``viscous_friction_Nm_s_rad`` [N m s/rad] are friction at
     the **output** (joint side: reducer and joint bearings), default 0 (not given).
+
+    Attributes
+    ----------
+    rated_input_speed_rpm : float
+        n_r of the life rating: the input speed the rated torque is rated at, in [rpm]
+        (Harmonic Drive: 2000); not given: the life is not checked.
+    rated_life_h : float
+        L_n: life of the wave-generator bearing at the rated torque and n_r, in [h] (L_10:
+        7000 h CSF, 10000 h CSG); with ``rated_input_speed_rpm`` the ``reducer_life`` check.
+    momentary_torque_Nm : float
+        Limit for momentary (emergency stop, collision) output torque, in [N m]: the
+        ``reducer_momentary_torque`` check.
+    stiffness_Nm_rad : list of float
+        Torsional stiffness K1, K2, K3 of the piecewise-linear torque-windup curve at the
+        output, in [N m/rad] (Harmonic Drive "Torsional stiffness" table); K1 is the two-mass
+        plant's spring. Not given: the joint is rigid.
+    stiffness_torque_Nm : list of float
+        Breakpoints T1, T2 of that curve (one fewer than ``stiffness_Nm_rad``), in [N m].
+    hysteresis_rad : float
+        Hysteresis loss: width of the torque-windup loop at zero torque, in [rad] (the compliant
+        simulation's hysteresis element).
+    bearing_dynamic_load_N : float
+        Output (cross-roller) bearing's basic dynamic load rating C, in [N] (recorded; not
+        checked yet).
+    bearing_moment_rating_Nm : float
+        Output bearing's permissible tilting moment M_c, in [N m]: the
+        ``reducer_bearing_moment`` check.
+    bearing_pitch_diameter_m : float
+        Pitch-circle diameter d_p of the output bearing's rolling elements, in [m] (recorded).
+    bearing_offset_m : float
+        Offset R from the bearing's centre plane to the output flange (the joint frame), in
+        [m]: the radial force's lever in the tilting moment (0 when not given).
     """
 
     model: str

@@ -207,6 +207,8 @@ def tuning_options(ctx: StudyContext) -> dict[str, Any]:
         "current_sample_time_s": c.current_sample_time_s,
         "n_inertia_samples": c.n_inertia_samples,
         "seed": ctx.spec.study.seed,
+        # [tracking] compliant: the loops are tuned on the two-mass joint they will drive
+        "compliant": True if ctx.spec.tracking.compliant else None,
     }
     return {k: v for k, v in options.items() if v is not None}
 
@@ -260,10 +262,20 @@ def stage_tracking(ctx: StudyContext) -> StageOutput:
         f"tracking.t_after_s = {t_after:g}, controller.servo_period_s = {period:g}",
         f"({ctx.trajectory.duration:.3g} s plan + {t_after:g} s after) / {period:g} s servo period",
     )
-    res = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, **opts)
+    compliant = bool(ctx.spec.tracking.compliant)
+    res = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, **opts, compliant=compliant)
+    # the diagnosis' and the report's drive-model variants are of the rigid joint
     ctx.tracking, ctx.tracking_options, ctx.tracking_variants = res, opts, {}
     failed = []
     block: dict[str, Any] = {}
+    if compliant:  # the rigid joint beside it, same gains and options
+        rigid = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, **opts)
+        block["rigid_joint"] = {
+            "tcp_max_error_m": rigid.tcp_max_error_m,
+            "max_error_rad": {
+                n: float(e) for n, e in zip(rigid.joint_names, rigid.max_error_rad, strict=True)
+            },
+        }
     if not res.within_accuracy:
         from armlab.control.diagnosis import diagnose_tracking
 

@@ -401,6 +401,12 @@ class TrackingSpec:
     quantise: bool = _key(_bool, True, "12-bit D/A and encoder quantisation")
     t_after_s: float | None = _key(_float(0.0), None, "time simulated after the end, s")
     accuracy_m: float | None = _key(_float(0.0, lo_open=True), None, "TCP tolerance, m")
+    compliant: bool = _key(
+        _bool,
+        False,
+        "the compliant joint: reducer spring (and hysteresis) between motor and link in the "
+        "simulation, the two-mass plant in the tuning (default false: the rigid joint)",
+    )
 
 
 @dataclass(frozen=True)
