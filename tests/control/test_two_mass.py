@@ -110,3 +110,34 @@ def test_compliant_tuning_keeps_its_margins_on_the_two_mass_plant(teachbot6):
         for discrete in (False, True):
             for m in model.margins(loop, discrete):
                 assert m.phase_margin_deg >= 50.0 - 0.5 and m.gain_margin_dB >= 6.0 - 0.2
+
+
+def test_compliant_hold_sags_by_the_windup_of_gravity(teachbot6, arm_gains):
+    """Holding a pose, the motor encoder keeps the motor on the set-point: the link sags by the
+    reducer's windup under its gravity torque (hand rule: q - q_d = -windup(g)), within the
+    hysteresis element's half loop; the rigid joint holds the set-point."""
+    from armlab.control import simulate_tracking
+    from armlab.robot import rigid_body
+    from armlab.trajectory import Trajectory
+
+    pose = np.array([0.3, 0.6, -0.4, 0.2, 0.5, 0.0])
+    t = np.array([0.0, 0.4])
+    z = np.zeros((2, 6))
+    hold = Trajectory(t, np.tile(pose, (2, 1)), z, z, joint_names=teachbot6.joint_names)
+    ff = ("velocity", "acceleration", "gravity", "friction", "efficiency")
+    opts = {"controller": "reference_dda", "feedforward": ff, "t_after_s": 0.0, "tcp": False}
+    soft = simulate_tracking(teachbot6, hold, arm_gains, compliant=True, **opts)
+    rigid = simulate_tracking(teachbot6, hold, arm_gains, **opts)
+    assert soft.model["compliant"] and not rigid.model["compliant"]
+    g = rigid_body.gravity_torques(teachbot6, pose)
+    for j, name in enumerate(teachbot6.joint_names):
+        red = teachbot6.drives[name].reducer
+        err = soft.q[-1, j] - pose[j]
+        if not red.stiffness_given:  # joint 6's planetary gearhead: rigid
+            assert abs(err) < 1e-4
+            continue
+        half_loop = 0.5 * red.hysteresis_rad  # the element: +-K1 h/2 of torque, h/2 of windup
+        sag = red.windup_rad(g[j])
+        assert err == pytest.approx(-sag, abs=half_loop + 0.05 * abs(sag) + 1e-5)
+        # the rigid joint holds the set-point far closer than the windup
+        assert abs(rigid.q[-1, j] - pose[j]) < 0.2 * abs(sag) + 3e-5  # + an encoder count

@@ -207,8 +207,10 @@ def tuning_options(ctx: StudyContext) -> dict[str, Any]:
         "current_sample_time_s": c.current_sample_time_s,
         "n_inertia_samples": c.n_inertia_samples,
         "seed": ctx.spec.study.seed,
-        # [tracking] compliant: the loops are tuned on the two-mass joint they will drive
-        "compliant": True if ctx.spec.tracking.compliant else None,
+        # the two-mass joint: [control] compliant, else as [tracking] compliant
+        "compliant": (
+            (c.compliant if c.compliant is not None else ctx.spec.tracking.compliant) or None
+        ),
     }
     return {k: v for k, v in options.items() if v is not None}
 

@@ -381,6 +381,12 @@ class ControlSpec:
     n_inertia_samples: int | None = _key(
         _int(1, MAX_INERTIA_SAMPLES), None, "workspace samples of the inertia range"
     )
+    compliant: bool | None = _key(
+        _bool,
+        None,
+        "tune on the two-mass joint (reducer stiffness K1) where the drive gives one (default: "
+        "as [tracking] compliant)",
+    )
 
 
 def _feedforward(v, where):
