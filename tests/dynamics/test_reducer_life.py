@@ -123,3 +123,45 @@ def test_each_new_check_fails_with_one_line(teachbot6, cycle):
         and b.value == pytest.approx(tilt.joint("joint1").bearing_tilting_moment_Nm)
     )
     assert [c for _, c in tilt.failures()] == ["reducer_bearing_moment"]
+
+
+def _quick(tmp_path, extra: str):
+    from cases import quick_study
+
+    from armlab.study import load_study
+
+    path = tmp_path / "s.toml"
+    text = quick_study(stages=("kinematics", "plan", "static_load", "sizing"))
+    path.write_text(text + extra)
+    return load_study(path)
+
+
+def test_a_study_value_fails_the_life_with_one_line(tmp_path):
+    from armlab.study import run_spec
+
+    spec = _quick(tmp_path, "[sizing]\nrequired_life_h = 1e12\n")
+    assert spec.sizing.required_life_h == pytest.approx(1e12)
+    summary = run_spec(spec).summary
+    design = summary["design"]
+    assert design["verdict"] == "fail"
+    # one line per joint that turns and has a life rating (joint 6's gearhead has none)
+    sizing = {j: r for j, r in summary["sizing"].items() if isinstance(r, dict) and "checks" in r}
+    rated = [j for j, row in sizing.items() if row["reducer_life_h"] is not None]
+    lines = design["failed_checks"]
+    assert rated and lines == [
+        line
+        for line in lines
+        if line.startswith("sizing: joint") and " reducer_life 1e+12 > " in line
+    ]
+    assert sorted(line.split()[1] for line in lines) == sorted(rated)
+
+
+def test_bad_sizing_keys_name_the_key(tmp_path):
+    from armlab.errors import SpecError
+
+    with pytest.raises(SpecError) as err:
+        _quick(tmp_path, '[sizing]\nmomentary_load = "collision"\n')
+    assert str(err.value).startswith("sizing.momentary_load") and "\n" not in str(err.value)
+    with pytest.raises(SpecError) as err:
+        _quick(tmp_path, "[sizing]\nrequired_life_h = -1\n")
+    assert str(err.value).startswith("sizing.required_life_h")
