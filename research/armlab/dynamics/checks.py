@@ -282,8 +282,9 @@ def checks_for_column(
     for name, (value, limit) in results.items():
         v, lim = float(value[c]), float(limit[c])
         if name in reducer_life.REDUCER_CHECKS and not (math.isfinite(lim) and math.isfinite(v)):
-            if math.isinf(lim) and lim > 0 and math.isfinite(v):  # e.g. a reducer at rest
-                checks.append(Check(name, v, lim, 1.0, True, CHECK_NAMES[name]))
+            if math.isinf(lim) and lim > 0 and math.isfinite(v):  # a reducer at rest
+                note = "no wear: the reducer does not turn or carries no torque"
+                checks.append(Check(name, v, lim, 1.0, True, CHECK_NAMES[name], note))
                 continue
             if math.isfinite(lim):  # a rating, but no load computed (the tilting moment)
                 note = "not checked: the load was not computed"
