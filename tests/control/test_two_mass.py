@@ -141,3 +141,37 @@ def test_compliant_hold_sags_by_the_windup_of_gravity(teachbot6, arm_gains):
         assert err == pytest.approx(-sag, abs=half_loop + 0.05 * abs(sag) + 1e-5)
         # the rigid joint holds the set-point far closer than the windup
         assert abs(rigid.q[-1, j] - pose[j]) < 0.2 * abs(sag) + 3e-5  # + an encoder count
+
+
+@pytest.mark.parametrize(
+    "bad, message",
+    [
+        ({"stiffness_Nm_rad": [1e4, 2e4]}, "reducer.stiffness_torque_Nm: 0 breakpoint(s) for 2"),
+        (
+            {"stiffness_Nm_rad": [1e4, -2e4], "stiffness_torque_Nm": [3.0]},
+            "reducer.stiffness_Nm_rad: -20000.0 is not > 0",
+        ),
+        (
+            {"stiffness_Nm_rad": [1e4, 2e4, 3e4], "stiffness_torque_Nm": [5.0, 3.0]},
+            "reducer.stiffness_torque_Nm: [5.0, 3.0] is not increasing",
+        ),
+        ({"stiffness_Nm_rad": 1e4}, "reducer.stiffness_Nm_rad: 10000.0 is not a list"),
+    ],
+)
+def test_bad_stiffness_is_one_line_naming_the_key(bad, message):
+    from armlab.errors import RobotDescriptionError
+    from armlab.robot.drives import reducer_from_dict
+
+    data = {
+        "model": "x",
+        "ratio": 100,
+        "efficiency": 0.8,
+        "rated_torque_Nm": 10,
+        "peak_torque_Nm": 20,
+        "max_input_speed_rpm": 3000,
+        **bad,
+    }
+    with pytest.raises(RobotDescriptionError) as err:
+        reducer_from_dict(data, "drives.toml joint 'j'", "reducer")
+    assert str(err.value).startswith(f"drives.toml joint 'j' {message}")
+    assert "\n" not in str(err.value)

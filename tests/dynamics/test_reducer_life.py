@@ -25,7 +25,7 @@ from armlab.dynamics.reducer_life import (
 )
 from armlab.robot.drives import RPM_TO_RAD_S, Reducer
 from armlab.study.drive_stages import sizing_failures
-from cases import cosine_motion
+from cases import cosine_motion, quick_study
 
 # the maker's cycle: (output torque N m, time s, output speed rpm) per phase
 PHASES = [(150.0, 0.2, 10.0), (82.0, 3.0, 20.0), (130.0, 0.3, 10.0), (0.0, 0.2, 0.0)]
@@ -126,8 +126,6 @@ def test_each_new_check_fails_with_one_line(teachbot6, cycle):
 
 
 def _quick(tmp_path, extra: str):
-    from cases import quick_study
-
     from armlab.study import load_study
 
     path = tmp_path / "s.toml"
