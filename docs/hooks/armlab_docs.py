@@ -138,6 +138,7 @@ _RULE_WORDS = {
     "unit": "number in (0, 1]",
     "count": "integer > 0",
     "decoding": "1, 2 or 4",
+    "pos_list": "list of numbers > 0",
 }
 
 

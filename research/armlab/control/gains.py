@@ -405,6 +405,11 @@ class PlantSummary:
         Motor constants used.
     estimated : bool
         True when the motor constants are ESTIMATED (drives.toml), not measured.
+    compliant : bool
+        Tuned on the two-mass joint (:mod:`armlab.control.plant`).
+    anti_resonance_rad_s, first_resonance_rad_s : dict
+        The joint's anti-resonance ``sqrt(K1/J_L)`` and first resonance
+        ``sqrt(K1 (J_M + J_L)/(J_M J_L))`` in [rad/s] per inertia case (NaN: no stiffness data).
     """
 
     ratio: float
@@ -416,16 +421,19 @@ class PlantSummary:
     resistance_ohm: float = math.nan
     inductance_H: float = math.nan
     estimated: bool = False
+    compliant: bool = False
+    anti_resonance_rad_s: dict = field(default_factory=dict)
+    first_resonance_rad_s: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        return {
-            f.name: (
-                _num(getattr(self, f.name))
-                if isinstance(getattr(self, f.name), float)
-                else getattr(self, f.name)
-            )
-            for f in fields(self)
-        }
+        def value(v):
+            if isinstance(v, float):
+                return _num(v)
+            if isinstance(v, dict):  # per inertia case; NaN (no stiffness) -> null
+                return {k: _num(x) if isinstance(x, float) else x for k, x in v.items()}
+            return v
+
+        return {f.name: value(getattr(self, f.name)) for f in fields(self)}
 
     @classmethod
     def from_dict(cls, d: dict) -> PlantSummary:
@@ -480,8 +488,19 @@ class CascadeGains:
         }
 
     def summary(self) -> dict:
-        """The summary.json "control" block of the joint: per loop gains and checked figures."""
-        return {name: getattr(self, name).summary() for name in LOOPS}
+        """The summary.json "control" block of the joint: per loop gains and checked figures,
+        and ``resonance``: the joint's first resonance and anti-resonance in [rad/s] per
+        inertia case beside them (null without reducer stiffness data) and whether the loops
+        were tuned on the two-mass joint (``compliant``)."""
+        out = {name: getattr(self, name).summary() for name in LOOPS}
+        if self.plant is not None:
+            p = self.plant.to_dict()
+            out["resonance"] = {
+                "compliant": bool(p["compliant"]),
+                "first_rad_s": p["first_resonance_rad_s"],
+                "anti_rad_s": p["anti_resonance_rad_s"],
+            }
+        return out
 
     @classmethod
     def from_dict(cls, d: dict) -> CascadeGains:

@@ -136,8 +136,9 @@ def _current_plant_ss(p: JointPlant, J: float) -> SS:
 
 
 def _mech_ss(p: JointPlant, J: float) -> SS:
-    """i [A] -> w [rad/s]: ``Kt / (J s + B)``."""
-    return np.array([[-p.B / J]]), np.ones((1, 1)), np.array([[p.Kt / J]]), np.zeros((1, 1))
+    """i [A] -> w [rad/s]: ``Kt / (J s + B)``, or the two-mass joint
+    (:meth:`JointPlant.mechanics_ss`)."""
+    return p.mechanics_ss(J)
 
 
 def _encoder_drive(GA, GB, GC, GD, dt: float) -> SS:
@@ -233,8 +234,7 @@ class CascadeModel:
             dt = self.dt("speed")
             return (1.0 - np.exp(-1j * w * dt)) / dt * self.theta_response(w)
         Li = pid_response(self._g("current"), w, False) * self.current_plant_response(w, False)
-        s = 1j * w[None, :]
-        return Li / (1.0 + Li) * self.plant.Kt / (self.J[:, None] * s + self.plant.B)
+        return Li / (1.0 + Li) * self.plant.mechanics_response(w, self.J)
 
     def position_plant_response(self, w: np.ndarray, discrete: bool) -> np.ndarray:
         """w* -> motor angle (speed loop closed), (k, n)."""

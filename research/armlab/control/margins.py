@@ -5,8 +5,14 @@ discrete loop, ``z = e^{jwT}``):
 
 * gain crossovers: the grid intervals where ``log|L|`` changes sign; the crossing is located by
   linear interpolation in ``log|L|`` against ``log w``, the phase interpolated the same way;
-  phase margin ``PM = 180 deg + arg L(jw_c)`` (wrapped to (-180, 180]), the smallest over all
-  gain crossovers; the bandwidth figure is the highest crossover;
+  phase margin ``PM = 180 deg - |arg L(jw_c)|``, the angle from the crossing to the nearest
+  ``-1`` along the unwrapped phase, the smallest over all gain crossovers; the bandwidth figure
+  is the highest crossover. The unwrapped phase is taken absolute by placing its value at the
+  lowest grid frequency in (-270, 90] deg (a cascade loop starts at 0, -90 or -180 deg: current,
+  position, speed). For a phase in (-360, 0] -- every rigid loop -- this is the textbook
+  ``180 deg + arg L``; a crossover in a phase-lead region (the compliant joint's
+  anti-resonance, ``arg L`` in (0, 180) deg) is ``180 deg - arg L`` from ``-1`` the other way
+  round, where the textbook formula, blind to the lead, would report a negative margin;
 * phase crossovers: the intervals where the unwrapped phase passes ``-180 deg (mod 360)``;
   gain margin ``GM = -20 log10 |L(jw_pc)|`` over the crossings with ``|L| < 1``, the smallest
   (the gain increase the loop tolerates);
@@ -93,14 +99,16 @@ def margins_from_log(logw: np.ndarray, lm: np.ndarray, ph: np.ndarray) -> tuple[
     """
     rows = lm.shape[0]
     lo, hi = logw[:-1], logw[1:]
+    # absolute phase: the first sample in (-270, 90] deg (module docstring)
+    turns = np.ceil((ph[:, :1] - 0.5 * math.pi) / (2 * math.pi))
+    ph = ph - 2 * math.pi * turns
     # gain crossovers
     s = np.sign(lm)
     r, k = np.divmod(np.flatnonzero(s[:, :-1] * s[:, 1:] < 0), lm.shape[1] - 1)
     with np.errstate(divide="ignore", invalid="ignore"):
         f = lm[r, k] / (lm[r, k] - lm[r, k + 1])
     p = ph[r, k] + f * (ph[r, k + 1] - ph[r, k])
-    m = np.degrees(p) + 180.0
-    m = (m + 180.0) % 360.0 - 180.0
+    m = 180.0 - np.abs(np.degrees(p))
     pm = np.full(rows, np.inf)
     np.minimum.at(pm, r, m)
     wc = np.full(rows, -np.inf)

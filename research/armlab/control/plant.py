@@ -32,6 +32,27 @@ gear, ``k = 1``.
 Every other drive number of the plant (current limit, speed limit) is the joint's
 :class:`~armlab.robot.drives.Drive`'s answer: the tuning and the simulation see the motor sizing
 sized.
+
+The compliant joint (two-mass plant, issue 28)
+----------------------------------------------
+With ``compliant=True`` and a reducer with stiffness data, the mechanics between the motor
+current and the motor speed is the two-mass joint: the motor side ``J_M`` (rotor + reducer
+input) and the arm ``J_L' = J - J_M`` (at the motor) coupled by the reducer's small-signal
+stiffness ``K' = K1 / N^2`` (K1 at the output, the catalogue's first segment) and a damping
+``c' = 2 zeta sqrt(K' J_M J_L' / (J_M + J_L'))``, ``zeta`` = :data:`RESONANCE_DAMPING_RATIO`
+(ASSUMED 0.05: the catalogues give the hysteresis loss, not a damping)::
+
+    J_M dw_M/dt = Kt i - B w_M - K' phi - c' (w_M - w_L)
+    J_L' dw_L/dt = K' phi + c' (w_M - w_L),     dphi/dt = w_M - w_L
+
+    w_M / i = Kt / (J_M s + B + Z J_L' s / (J_L' s + Z)),    Z = K' / s + c'
+
+Undamped, its zeros are the anti-resonance ``sqrt(K1 / J_L)`` and its poles the resonance
+``sqrt(K1 (J_M + J_L) / (J_M J_L))`` (joint-side inertias; Ellis, "Control System Design Guide",
+ch. 16): :meth:`~armlab.robot.drives.Drive.anti_resonance_rad_s`,
+:meth:`~armlab.robot.drives.Drive.first_resonance_rad_s`. The encoder is on the motor: the speed
+and position loops close on ``w_M``; the current loop's back-EMF sees the total inertia (rigid:
+the resonance enters the cascade through the speed loop).
 """
 
 from __future__ import annotations
@@ -65,6 +86,9 @@ __all__ = [
 ]
 
 INERTIA_CASES = ("min", "nominal", "max")
+
+#: damping ratio of the two-mass joint's resonance (ASSUMED: catalogues give none)
+RESONANCE_DAMPING_RATIO = 0.05
 
 
 @dataclass(frozen=True)
@@ -196,6 +220,9 @@ class JointPlant:
     payload_kg : float
     estimated : bool
         Motor constants ESTIMATED in drives.toml (not from the maker).
+    compliant : bool
+        The mechanics is the two-mass joint (module docstring) where the reducer gives its
+        stiffness; False: the rigid joint.
     """
 
     joint: str
@@ -214,6 +241,7 @@ class JointPlant:
     payload_kg: float = 0.0
     estimated: bool = False
     extra: dict = field(default_factory=dict)
+    compliant: bool = False
 
     @classmethod
     def of_drive(
@@ -275,6 +303,68 @@ class JointPlant:
         from dataclasses import replace
 
         return replace(self, inertia=inertia)
+
+    # ------------------------------------------------------------------ two-mass joint
+    @property
+    def two_mass(self) -> bool:
+        """True when the plant is the two-mass joint: ``compliant`` and a reducer stiffness."""
+        return self.compliant and math.isfinite(self.drive.small_signal_stiffness_Nm_rad)
+
+    def two_mass_parameters(self, J: float) -> tuple[float, float, float, float]:
+        """``(J_M, J_L', K', c')`` at the motor shaft for a total motor inertia ``J``."""
+        jm = self.drive.motor_side_inertia_kg_m2
+        jl = max(float(J) - jm, 1e-12 * jm)
+        k = self.drive.small_signal_stiffness_Nm_rad / self.ratio**2
+        c = 2.0 * RESONANCE_DAMPING_RATIO * math.sqrt(k * jm * jl / (jm + jl))
+        return jm, jl, k, c
+
+    def mechanics_response(self, w: np.ndarray, J) -> np.ndarray:
+        """Motor current [A] -> motor speed [rad/s] at ``w`` [rad/s] for total motor inertias
+        ``J`` (k,): ``Kt / (J s + B)`` rigid, the two-mass response (module docstring) when
+        :attr:`two_mass`; (k, n)."""
+        s = 1j * np.asarray(w, float)[None, :]
+        Jc = np.asarray(J, float)[:, None]
+        if not self.two_mass:
+            return self.Kt / (Jc * s + self.B)
+        rows = []
+        for Jk in np.asarray(J, float):
+            jm, jl, k, c = self.two_mass_parameters(Jk)
+            z = k / s[0] + c
+            rows.append(self.Kt / (jm * s[0] + self.B + z * jl * s[0] / (jl * s[0] + z)))
+        return np.stack(rows)
+
+    def mechanics_ss(self, J: float):
+        """Motor current [A] -> motor speed [rad/s] as ``(A, B, C, D)``: one state ``w`` rigid,
+        ``(w_M, phi, w_L)`` for the two-mass joint."""
+        if not self.two_mass:
+            return (
+                np.array([[-self.B / J]]),
+                np.ones((1, 1)),
+                np.array([[self.Kt / J]]),
+                np.zeros((1, 1)),
+            )
+        jm, jl, k, c = self.two_mass_parameters(J)
+        A = np.array(
+            [
+                [-(self.B + c) / jm, -k / jm, c / jm],
+                [1.0, 0.0, -1.0],
+                [c / jl, k / jl, -c / jl],
+            ]
+        )
+        B = np.array([[self.Kt / jm], [0.0], [0.0]])
+        return A, B, np.array([[1.0, 0.0, 0.0]]), np.zeros((1, 1))
+
+    def resonances_rad_s(self) -> dict[str, dict[str, float]]:
+        """The joint's anti-resonance and first resonance in [rad/s] per inertia case
+        (:meth:`~armlab.robot.drives.Drive.first_resonance_rad_s` of the arm inertia the case
+        puts at the joint, ``J_L' N^2``); NaN without stiffness data."""
+        out: dict[str, dict[str, float]] = {"anti": {}, "first": {}}
+        for case in INERTIA_CASES:
+            jl_joint = (self.J_motor(case) - self.drive.motor_side_inertia_kg_m2) * self.ratio**2
+            jl_joint = max(jl_joint, 1e-12)
+            out["anti"][case] = self.drive.anti_resonance_rad_s(jl_joint)
+            out["first"][case] = self.drive.first_resonance_rad_s(jl_joint)
+        return out
 
     # ------------------------------------------------------------------ time constants
     @property
@@ -352,6 +442,8 @@ class JointPlant:
             "resistance_ohm": self.R,
             "inductance_H": self.L,
             "estimated": self.estimated,
+            "compliant": self.two_mass,
+            **{f"{k}_resonance_rad_s": v for k, v in self.resonances_rad_s().items()},
         }
 
 

@@ -125,6 +125,7 @@ def simulate_tracking(
     controller: ControllerProfile | str,
     voltage_limit: bool = True,
     losses: bool = True,
+    compliant: bool = False,
 ) -> TrackingResult:
     """Simulate every joint's cascade tracking ``trajectory`` on the nonlinear arm.
 
@@ -153,6 +154,10 @@ def simulate_tracking(
         Limit the amplifier's output to the supply voltage (with the back-EMF).
     losses : bool
         Reducer efficiency and friction of the drive-train model.
+    compliant : bool
+        The compliant joint: motor and link coupled by the reducer's spring (and hysteresis)
+        where the reducer gives its stiffness (:mod:`armlab.control.compliant`); default False,
+        the rigid joint.
 
     Returns
     -------
@@ -175,6 +180,7 @@ def simulate_tracking(
         accuracy_m=accuracy_m,
         tcp=tcp,
         controller=controller,
+        compliant=compliant,
     )[0]
 
 
@@ -189,6 +195,7 @@ def _simulate_many(
     accuracy_m: float | None = None,
     tcp: bool = True,
     controller: ControllerProfile | str,
+    compliant: bool = False,
 ) -> list[TrackingResult]:
     """:func:`simulate_tracking` of one motion under several ``(feedforward, voltage_limit,
     losses)`` variants, simulated together (:func:`_run_variants`): each result is the one
@@ -230,6 +237,7 @@ def _simulate_many(
                 t_after_s=t_after_s,
                 n_sub=n_sub,
                 d_cur=d_cur,
+                compliant=compliant,
             )
             raws.update(zip(group, runs, strict=True))
     p_ref = None  # the set-points' tool positions: one for every variant
@@ -285,12 +293,13 @@ def _result(robot, raw: dict, prof, controller, quantise, p_ref, accuracy_m) -> 
             "current_sample_time_s": raw["current_sample_time_s"],
             "dac_bits": int(prof.dac_bits),
             "dac_range_V": float(prof.dac_range_V),
+            "compliant": raw["compliant"],
         },
     )
 
 
 def _run_variants(
-    robot, trajectory, cas, prof, variants, *, quantise, t_after_s, n_sub, d_cur
+    robot, trajectory, cas, prof, variants, *, quantise, t_after_s, n_sub, d_cur, compliant=False
 ) -> list[dict]:
     """Simulate the same motion under several ``(feedforward, voltage_limit, losses)``
     variants in one time loop (module docstring); each variant's numbers are those it gets
@@ -370,6 +379,7 @@ def _run_variants(
                 t_after_s=t_after_s,
                 n_sub=n_sub,
                 d_cur=d_cur,
+                compliant=compliant,
             )[0]
             for v in variants
         ]
@@ -412,8 +422,14 @@ def _run_variants(
         u0=R * i + Ke * w0,  # the current PI's output that holds i
     )
     joints = _Joints(robot, dt, flat, nv, loss, T)
+    soft = None
+    if compliant:  # motor and link apart where the reducer is a spring (armlab.control.compliant)
+        from armlab.control.compliant import CompliantJoints
+
+        soft = CompliantJoints(robot, dt, flat, nv, loss, T, n_sub, q, g0)
     spd.reset(u0=i - i_ff[0])
-    th_prev = N * (q - v * T)  # the reading one period before: the start speed is measured
+    x0 = q if soft is None else soft.motor_angle(q)
+    th_prev = N * (x0 - v * T)  # the reading one period before: the start speed is measured
     if quantise:
         th_prev = np.floor(th_prev * cpr) / cpr
     Nq_d = np.tile(N_j * q_d, (1, nv))
@@ -439,7 +455,7 @@ def _run_variants(
     for k in range(n):
         out_q[k] = q
         out_v[k] = v
-        th = N * q
+        th = N * (q if soft is None else soft.motor_angle(q))
         if quantise:
             th = floor(th * cpr) * inv_cpr
         w_meas = (th - th_prev) * inv_T
@@ -453,13 +469,16 @@ def _run_variants(
         out_da[k] = volts
         # current loop at its own rate over the period, with the previous command
         # (computation delay of the speed loop); the back-EMF of the period's speed
-        emf = Ke * (N * v)
+        emf = Ke * (N * (v if soft is None else soft.motor_speed(v)))
         i_sum, u_sum, sat_n = amps.period(i_cmd, emf)
         i_mean = i_sum * inv_sub
         out_i[k] = i_mean
         out_u[k] = u_sum * inv_sub
         out_sat[k] = sat_n * inv_sub
         i_cmd = volts * per_volt
+        if soft is not None:
+            q, v = soft.period(i_mean, q, v)
+            continue
         a = joints.acceleration(i_mean, q, v, a_prev)
         a_prev = a
         q = q + v * T + hT2 * a
@@ -483,6 +502,7 @@ def _run_variants(
             "losses": variants[k][2],
             "wall_time_s": wall,
             "current_sample_time_s": Ti,
+            "compliant": bool(compliant),
         }
         for k in range(nv)
     ]

@@ -45,6 +45,9 @@ class TuningSpec:
         D/A of the card (+-10 V, 12 bit).
     n_inertia_samples, seed : int
         Workspace samples for the inertia range.
+    compliant : bool
+        Tune on the two-mass joint (reducer stiffness K1, :mod:`armlab.control.plant`) where
+        the drive gives one; default False (the rigid joint of the thesis).
     """
 
     position_bandwidth_rad_s: float | None = None
@@ -64,6 +67,7 @@ class TuningSpec:
     da_bits: int = 12
     n_inertia_samples: int = 400
     seed: int = 0
+    compliant: bool = False
 
     def validate(self, joint: str = "") -> TuningSpec:
         """Raise :class:`SpecError` naming the joint and the spec if anything is impossible."""

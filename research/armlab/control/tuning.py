@@ -11,6 +11,7 @@ inertia-range computation.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -69,6 +70,8 @@ def tune_cascade(
     if inertias is None:
         inertias = tuning_inertias(robot, sp)
     base = joint_plant(robot, name, inertias=inertias)  # the drive: current limit, inertias
+    if sp.compliant:  # the two-mass joint where the reducer gives its stiffness
+        base = replace(base, compliant=True)
     try:
         cur, spd, pos = tune_loops(base, sp, n_grid)
     except ArmlabError:

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from armlab.dynamics import reducer_life
 from armlab.dynamics.regeneration import regeneration
 from armlab.dynamics.thermal import AMBIENT_DEGC, ThermalModel, winding_temperature
 from armlab.errors import InputError
@@ -59,6 +60,7 @@ CHECK_NAMES: dict[str, str] = {
     "bus_capacitor_energy": "J",
     "brake_resistor_power": "W",
     "brake_resistor_peak_power": "W",
+    **reducer_life.REDUCER_CHECKS,
 }
 
 _TINY = 1e-12
@@ -112,8 +114,8 @@ class Check:
             }
         return {
             "name": self.name,
-            "value": float(self.value),
-            "limit": float(self.limit),
+            "value": float(self.value) if math.isfinite(self.value) else None,
+            "limit": float(self.limit) if math.isfinite(self.limit) else None,
             "margin": float(self.margin) if math.isfinite(self.margin) else None,
             "ok": bool(self.ok),
             "unit": self.unit,
@@ -141,6 +143,13 @@ class SizingOptions:
         Largest tool-point displacement one encoder count of a joint may cause, in [m], at the
         joint's largest lever arm to the tool point (default 0.1 mm, a tenth of the ~1 mm
         accuracy of HEU thesis ch. 3). ASSUMED.
+    required_life_h : float
+        Life the reducers must reach over the duty cycle, [h] (``[sizing] required_life_h``;
+        default 7000 h, the CSF L_10 rating: ASSUMED; :mod:`armlab.dynamics.reducer_life`).
+    momentary_load : str
+        Load case of the momentary-torque check: ``"plan"`` (the plan's worst sample, default)
+        or ``"stop"`` (also an emergency stop at the current limit) (``[sizing]
+        momentary_load``).
     controller : ControllerProfile
         The controller the set-point table is written for: its cycle, pulse limit per cycle,
         decoding and counts per revolution are what the encoder checks use (the same function,
@@ -163,6 +172,8 @@ class SizingOptions:
 
     controller: ControllerProfile
     tool_resolution_m: float = 1e-4
+    required_life_h: float = reducer_life.DEFAULT_REQUIRED_LIFE_H
+    momentary_load: str = "plan"
     dwell_s: float = 0.0
     cycles: int | None = None
     ambient_degC: float = AMBIENT_DEGC
@@ -223,6 +234,7 @@ def evaluate_checks(
     *,
     joint_inertia_kg_m2=None,
     figures: dict[str, np.ndarray] | None = None,
+    tilt_Nm=None,
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Every sizing check for every column: ``{name: (value, limit)}``, arrays (n_columns,).
 
@@ -245,6 +257,9 @@ def evaluate_checks(
         ``winding_peak_temperature_degC``, ``housing_temperature_degC`` (end of the cycle),
         ``inertia_ratio_min`` and ``inertia_ratio_max`` (NaN where not computed),
         ``braking_energy_J``, ``peak_regenerated_power_W``, ``largest_braking_stretch_J``.
+    tilt_Nm : array (n_columns,), optional
+        Peak tilting moment on each output bearing
+        (:func:`armlab.dynamics.reducer_life.tilting_moments_Nm`); None: not computed.
 
     Notes
     -----
@@ -284,8 +299,11 @@ def evaluate_checks(
       that regenerates (:mod:`armlab.dynamics.regeneration`).
     * ``motor_envelope`` is four-quadrant for an amplifier that regenerates: braking samples
       are bounded by ``Kt (U + Ke |w_m|) / R`` (:func:`armlab.robot.drivetrain.envelope_torque`).
+    * ``reducer_life``, ``reducer_momentary_torque``, ``reducer_bearing_moment``: the
+      wave-generator bearing's life against ``options.required_life_h``, the plan's worst
+      sample against the momentary torque, the output bearing's tilting moment against its
+      rating (:mod:`armlab.dynamics.reducer_life`, which has the formulas and sources).
     """
-    w = np.asarray(weights, float)[:, None]
     t_m, w_m, _ = drivetrain.motor_side(tau, qd, qdd, drives)
     abs_tau, abs_qd = np.abs(tau), np.abs(qd)
     peak_tau = abs_tau.max(axis=0)
@@ -298,13 +316,8 @@ def evaluate_checks(
     power_limit = np.where(np.isfinite(drives.power_W), drives.power_W, np.inf)
     out["thesis_power_rule"] = (peak_tau * abs_qd.max(axis=0), power_limit)
     out["reducer_peak_torque"] = (peak_tau, drives.reducer_peak_torque_Nm)
-    wn = abs_qd * w
-    swn = wn.sum(axis=0)
-    cube = abs_tau**3
-    by_speed = (wn * cube).sum(axis=0) / np.where(swn > 0, swn, 1.0)
-    by_time = (w * cube).sum(axis=0) / max(float(w.sum()), _TINY)
     out["reducer_average_torque"] = (
-        np.cbrt(np.where(swn > 0, by_speed, by_time)),
+        reducer_life.average_torque_Nm(tau, qd, weights),
         drives.reducer_rated_torque_Nm,
     )
     peak_wm = np.abs(w_m).max(axis=0)
@@ -323,6 +336,17 @@ def evaluate_checks(
     out["encoder_resolution"] = (angle, options.tool_resolution_m / np.maximum(lever_m, _TINY))
     counts = abs_qd.max(axis=0) * counts_per_joint_rev / (2.0 * np.pi) * options.cycle_s
     out["encoder_pulse_rate"] = (counts, options.max_counts_per_cycle)
+    out.update(
+        reducer_life.reducer_checks(
+            tau,
+            qd,
+            weights,
+            drives,
+            options.required_life_h,
+            tilt_Nm,
+            options.momentary_load,
+        )
+    )
     n_col = drives.ratio.size
     figs = _thermal_and_inertia(t_m, weights, drives, options, joint_inertia_kg_m2, out)
     figs.update(_amplifier_checks(t_m, w_m, weights, drives, out))
@@ -439,11 +463,26 @@ def checks_for_column(
     """The :class:`Check` list of column ``c`` of :func:`evaluate_checks`'s output.
 
     A check without a rating (limit inf) is left out; one the part lacks the data for (limit
-    NaN, :data:`_NOT_CHECKED`) is kept as "not checked" with the reason (and the motor's source,
-    when ``drives`` is given), neither passing nor failing."""
+    NaN: :data:`_NOT_CHECKED`, and the reducer checks of
+    :data:`armlab.dynamics.reducer_life.REDUCER_CHECKS` without a rating) is kept as "not
+    checked" with the reason (and the part's source, when ``drives`` is given), neither passing
+    nor failing. A reducer that never turns or carries no torque passes its life check (``no
+    wear``)."""
     checks = []
     for name, (value, limit) in results.items():
         v, lim = float(value[c]), float(limit[c])
+        if name in reducer_life.REDUCER_CHECKS and not (math.isfinite(lim) and math.isfinite(v)):
+            if math.isinf(lim) and lim > 0 and math.isfinite(v):  # a reducer at rest
+                note = "no wear: the reducer does not turn or carries no torque"
+                checks.append(Check(name, v, lim, 1.0, True, CHECK_NAMES[name], note))
+                continue
+            if math.isfinite(lim):  # a rating, but no load computed (the tilting moment)
+                note = "not checked: the load was not computed"
+            else:
+                source = drives.drives[c].reducer.source if drives is not None else ""
+                note = reducer_life.not_checked_note(name, source)
+            checks.append(Check(name, v, lim, math.nan, True, CHECK_NAMES[name], note, False))
+            continue
         if math.isnan(lim) and name in _NOT_CHECKED:
             note, part = _NOT_CHECKED[name]
             src = getattr(getattr(drives.drives[c], part), "source", "") if drives else ""

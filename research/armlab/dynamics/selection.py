@@ -33,6 +33,7 @@ from armlab.dynamics.checks import (
     evaluate_checks,
 )
 from armlab.dynamics.inverse import as_trajectories, inverse_dynamics
+from armlab.dynamics.reducer_life import DEFAULT_REQUIRED_LIFE_H
 from armlab.dynamics.sizing import joint_inertias_kg_m2, lever_arms_m
 from armlab.dynamics.thermal import AMBIENT_DEGC, with_dwell
 from armlab.errors import InfeasibleError, InputError
@@ -312,6 +313,8 @@ def select_drives(
     ambient_degC: float = AMBIENT_DEGC,
     max_inertia_ratio: float = math.inf,
     allow_estimated: bool = False,
+    required_life_h: float = DEFAULT_REQUIRED_LIFE_H,
+    momentary_load: str = "plan",
 ) -> Selection:
     """Choose each joint's lightest (or cheapest) catalogue motor + reducer passing every check.
 
@@ -334,6 +337,8 @@ def select_drives(
         Resample the trajectories on this grid [s] first.
     dwell_s, cycles, ambient_degC, max_inertia_ratio
         As :func:`~armlab.dynamics.size`: the winding-temperature and inertia-ratio checks.
+    required_life_h, momentary_load
+        As :func:`~armlab.dynamics.size`: the reducer life and momentary-torque checks.
     allow_estimated : bool
         Also combine parts with values not read from a published source
         (:meth:`Catalogue.combinations`; ``[sizing] allow_estimated``).
@@ -355,6 +360,8 @@ def select_drives(
         cycles=cycles,
         ambient_degC=ambient_degC,
         max_inertia_ratio=max_inertia_ratio,
+        required_life_h=float(required_life_h),
+        momentary_load=momentary_load,
     )
     trajs = as_trajectories(trajectories, robot)
     if dt is not None:

@@ -34,6 +34,12 @@ from armlab.dynamics.inverse import (
     inverse_dynamics,
     require_drives,
 )
+from armlab.dynamics.reducer_life import (
+    DEFAULT_REQUIRED_LIFE_H,
+    MOMENTARY_LOADS,
+    reducer_life_h,
+    tilting_moments_Nm,
+)
 from armlab.dynamics.thermal import AMBIENT_DEGC, with_dwell
 from armlab.errors import InputError
 from armlab.robot import rigid_body
@@ -72,6 +78,10 @@ def joint_inertias_kg_m2(robot: Robot, q) -> np.ndarray:
     return np.diagonal(M, axis1=1, axis2=2) - robot.model.armature
 
 
+def _finite_or_none(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
 @dataclass
 class JointSizing(Checked):
     """The sizing of one joint: its signals' key figures and its checks."""
@@ -93,6 +103,8 @@ class JointSizing(Checked):
     inertia_ratio_max: float = float("nan")
     braking_energy_J: float = float("nan")
     peak_regenerated_power_W: float = float("nan")
+    reducer_life_h: float = float("nan")
+    bearing_tilting_moment_Nm: float = float("nan")
 
     def check(self, name: str) -> Check:
         for c in self.checks:
@@ -117,6 +129,9 @@ class JointSizing(Checked):
             "braking_energy_J": self.braking_energy_J,
             "peak_regenerated_power_W": self.peak_regenerated_power_W,
             "amplifier": None if self.drive.amplifier is None else self.drive.amplifier.model,
+            # NaN (no rating / not computed) -> None; inf (never turns) stays inf -> None too
+            "reducer_life_h": _finite_or_none(self.reducer_life_h),
+            "bearing_tilting_moment_Nm": _finite_or_none(self.bearing_tilting_moment_Nm),
             "motor": self.drive.motor.model,
             "reducer": self.drive.reducer.model,
             "ok": self.ok,
@@ -183,6 +198,8 @@ def size(
     cycles: int | None = None,
     ambient_degC: float = AMBIENT_DEGC,
     max_inertia_ratio: float = float("inf"),
+    required_life_h: float = DEFAULT_REQUIRED_LIFE_H,
+    momentary_load: str = "plan",
 ) -> SizingReport:
     """Check every joint's drive train along a trajectory or a duty cycle of trajectories.
 
@@ -208,6 +225,11 @@ def size(
         The duty cycle's rest at its last pose [s] (part of the cycle: RMS and thermal check),
         the thermal check's cycles (None: periodic) and ambient [degC], and the inertia-ratio
         rule (inf: reported, not checked): :class:`SizingOptions`.
+    required_life_h : float
+        Life the reducers must reach over the duty cycle, [h] (``[sizing] required_life_h``;
+        :mod:`armlab.dynamics.reducer_life`).
+    momentary_load : {"plan", "stop"}
+        Load case of the momentary-torque check (:class:`SizingOptions`).
 
     Returns
     -------
@@ -220,9 +242,15 @@ def size(
     RobotDescriptionError
         The robot has no drives and none are given.
     """
+    if momentary_load not in MOMENTARY_LOADS:
+        raise InputError(
+            f"momentary_load must be one of {', '.join(MOMENTARY_LOADS)}, not {momentary_load!r}"
+        )
     options = SizingOptions(
         load_profile(controller),
         tool_resolution_m,
+        required_life_h=float(required_life_h),
+        momentary_load=momentary_load,
         dwell_s=dwell_s,
         cycles=cycles,
         ambient_degC=ambient_degC,
@@ -236,6 +264,10 @@ def size(
     loads = inverse_dynamics(robot, trajs, drives=drive_list, threads=threads)
     arrays = DriveTrain.from_drives(drive_list)
     figures: dict[str, np.ndarray] = {}
+    # the tilting moments only where a reducer has a bearing rating (an RNEA pass per sample)
+    rated = any(np.isfinite(d.reducer.bearing_moment_rating_Nm) for d in drive_list)
+    offsets = [d.reducer.bearing_offset_m for d in drive_list]
+    tilt = tilting_moments_Nm(robot, loads, offsets) if rated else None
     results = evaluate_checks(
         loads.torque_Nm,
         loads.qd,
@@ -246,7 +278,9 @@ def size(
         options,
         joint_inertia_kg_m2=joint_inertias_kg_m2(robot, loads.q),
         figures=figures,
+        tilt_Nm=tilt,
     )
+    life = reducer_life_h(loads.torque_Nm, loads.qd, loads.weights, arrays)
     counts_per_rev = counts_per_joint_rev_of(arrays, options.controller)
     peak_t, rms_t, peak_v = loads.peak_torque_Nm, loads.rms_torque_Nm, loads.peak_speed_rad_s
     m_peak, m_rms = loads.motor_peak_torque_Nm, loads.motor_rms_torque_Nm
@@ -275,6 +309,8 @@ def size(
                 inertia_ratio_max=float(figures["inertia_ratio_max"][j]),
                 braking_energy_J=float(figures["braking_energy_J"][j]),
                 peak_regenerated_power_W=float(figures["peak_regenerated_power_W"][j]),
+                reducer_life_h=float(life[j]),
+                bearing_tilting_moment_Nm=float(tilt[j]) if tilt is not None else float("nan"),
             )
         )
     return SizingReport(

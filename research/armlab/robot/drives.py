@@ -11,6 +11,8 @@ from dataclasses import MISSING, asdict, dataclass, fields
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from armlab.errors import RobotDescriptionError
 from armlab.names import check_name
 from armlab.tomlfile import read_toml
@@ -152,6 +154,38 @@ class Reducer:
     the **output** (joint side: reducer and joint bearings), default 0 (not given).
     ``integrated`` and ``estimated``: as :class:`Motor` (the gear of a smart servo; fields not
     read from a published source).
+
+    Attributes
+    ----------
+    rated_input_speed_rpm : float
+        n_r of the life rating: the input speed the rated torque is rated at, in [rpm]
+        (Harmonic Drive: 2000); not given: the life is not checked.
+    rated_life_h : float
+        L_n: life of the wave-generator bearing at the rated torque and n_r, in [h] (L_10:
+        7000 h CSF, 10000 h CSG); with ``rated_input_speed_rpm`` the ``reducer_life`` check.
+    momentary_torque_Nm : float
+        Limit for momentary (emergency stop, collision) output torque, in [N m]: the
+        ``reducer_momentary_torque`` check.
+    stiffness_Nm_rad : list of float
+        Torsional stiffness K1, K2, K3 of the piecewise-linear torque-windup curve at the
+        output, in [N m/rad] (Harmonic Drive "Torsional stiffness" table); K1 is the two-mass
+        plant's spring. Not given: the joint is rigid.
+    stiffness_torque_Nm : list of float
+        Breakpoints T1, T2 of that curve (one fewer than ``stiffness_Nm_rad``), in [N m].
+    hysteresis_rad : float
+        Hysteresis loss: width of the torque-windup loop at zero torque, in [rad] (the compliant
+        simulation's hysteresis element).
+    bearing_dynamic_load_N : float
+        Output (cross-roller) bearing's basic dynamic load rating C, in [N] (recorded; not
+        checked yet).
+    bearing_moment_rating_Nm : float
+        Output bearing's permissible tilting moment M_c, in [N m]: the
+        ``reducer_bearing_moment`` check.
+    bearing_pitch_diameter_m : float
+        Pitch-circle diameter d_p of the output bearing's rolling elements, in [m] (recorded).
+    bearing_offset_m : float
+        Offset R from the bearing's centre plane to the output flange (the joint frame), in
+        [m]: the radial force's lever in the tilting moment (0 when not given).
     """
 
     model: str
@@ -169,11 +203,122 @@ class Reducer:
     viscous_friction_Nm_s_rad: float = 0.0
     integrated: str = ""
     estimated: tuple[str, ...] = ()
+    # --- life, momentary torque, output bearing, torsional stiffness (issue 28; Harmonic Drive
+    # CSF/CSG catalogue: rating table, "Life of a wave generator", "Torsional stiffness",
+    # cross-roller bearing specifications). NaN / () = not given: the check says "not checked".
+    #: n_r of the life rating: the input speed the rated torque is rated at, [rpm] (HD: 2000)
+    rated_input_speed_rpm: float = math.nan
+    #: L_n: life of the wave-generator bearing at rated torque and n_r, [h] (L_10: 7000 h CSF,
+    #: 10000 h CSG)
+    rated_life_h: float = math.nan
+    #: limit for momentary torque (emergency stop, collision) at the output, [N m]
+    momentary_torque_Nm: float = math.nan
+    #: torsional stiffness K1, K2, K3 of the piecewise-linear curve at the output, [N m/rad]
+    stiffness_Nm_rad: tuple[float, ...] = ()
+    #: breakpoints T1, T2 of the stiffness curve (one fewer than stiffness_Nm_rad), [N m]
+    stiffness_torque_Nm: tuple[float, ...] = ()
+    #: hysteresis loss (width of the torque-windup loop at the output), [rad]
+    hysteresis_rad: float = math.nan
+    #: output (cross-roller) bearing's basic dynamic load rating C, [N]
+    bearing_dynamic_load_N: float = math.nan
+    #: output bearing's permissible tilting (moment) load M_c, [N m]
+    bearing_moment_rating_Nm: float = math.nan
+    #: pitch-circle diameter d_p of the output bearing's rolling elements, [m]
+    bearing_pitch_diameter_m: float = math.nan
+    #: offset R from the bearing's centre plane to the output flange (the joint frame), [m]
+    bearing_offset_m: float = math.nan
 
     @property
     def max_input_speed_rad_s(self) -> float:
         """Maximum input (motor-side) speed in [rad/s]."""
         return self.max_input_speed_rpm * RPM_TO_RAD_S
+
+    # ------------------------------------------------------------- life and stiffness
+    @property
+    def life_rated(self) -> bool:
+        """True when the catalogue gives the life rating (``rated_life_h``,
+        ``rated_input_speed_rpm``) and the rated torque it is rated at."""
+        return all(
+            math.isfinite(x) and x > 0
+            for x in (self.rated_life_h, self.rated_input_speed_rpm, self.rated_torque_Nm)
+        )
+
+    def life_h(self, average_torque_Nm: float, average_input_speed_rpm: float) -> float:
+        """Life of the wave-generator bearing in [h] (L_10 when ``rated_life_h`` is L_10).
+
+        Harmonic Drive's rule (CSF/CSG catalogue, "Life of a wave generator", equation 8, and
+        the selection procedure's "operating life")::
+
+            L_h = L_n (T_r / T_av)^3 (n_r / n_av)
+
+        with ``L_n`` = ``rated_life_h``, ``T_r`` = ``rated_torque_Nm`` (rated at ``n_r`` =
+        ``rated_input_speed_rpm``), ``T_av`` the cubic-mean output torque weighted by output
+        speed x time over the duty cycle and ``n_av`` the mean input speed (pauses included).
+        NaN without the rating (:attr:`life_rated`); inf for a reducer that never turns or
+        carries no torque."""
+        if not self.life_rated:
+            return math.nan
+        if average_torque_Nm <= 0 or average_input_speed_rpm <= 0:
+            return math.inf
+        return (
+            self.rated_life_h
+            * (self.rated_torque_Nm / average_torque_Nm) ** 3
+            * (self.rated_input_speed_rpm / average_input_speed_rpm)
+        )
+
+    @property
+    def stiffness_given(self) -> bool:
+        """True when the catalogue gives the torsional stiffness curve (K1 at least)."""
+        return len(self.stiffness_Nm_rad) > 0
+
+    def _segments(self):
+        """(breakpoints T_0 = 0, T1, T2, ..., stiffnesses K1, K2, ..., windups at T_i)."""
+        t = np.concatenate([[0.0], np.asarray(self.stiffness_torque_Nm, float)])
+        k = np.asarray(self.stiffness_Nm_rad, float)
+        theta = np.concatenate([[0.0], np.cumsum(np.diff(t) / k[:-1])])
+        return t, k, theta
+
+    def torsional_stiffness_Nm_rad(self, torque_Nm) -> Any:
+        """Tangent torsional stiffness at the output at a load torque, in [N m/rad]: K1 for
+        ``|T| <= T1``, K2 for ``T1 < |T| <= T2``, K3 above (Harmonic Drive catalogue,
+        "Torsional stiffness": the torque-windup curve approximated by three straight lines).
+        NaN without stiffness data. Scalars or arrays."""
+        tq = np.abs(np.asarray(torque_Nm, float))
+        if not self.stiffness_given:
+            return np.full_like(tq, math.nan) if tq.ndim else math.nan
+        t, k, _ = self._segments()
+        out = k[np.searchsorted(t[1:], tq, side="left")]
+        return out if tq.ndim else float(out)
+
+    def windup_rad(self, torque_Nm) -> Any:
+        """Windup (torsion angle) at the output under a load torque, in [rad], odd in the
+        torque (Harmonic Drive catalogue, "Torsional stiffness")::
+
+            theta = T / K1                                  |T| <= T1
+            theta = T1 / K1 + (|T| - T1) / K2               T1 < |T| <= T2
+            theta = T1 / K1 + (T2 - T1) / K2 + (|T| - T2) / K3   |T| > T2
+
+        NaN without stiffness data. Scalars or arrays."""
+        tq = np.asarray(torque_Nm, float)
+        if not self.stiffness_given:
+            return np.full_like(tq, math.nan) if tq.ndim else math.nan
+        t, k, theta = self._segments()
+        a = np.abs(tq)
+        i = np.searchsorted(t[1:], a, side="left")
+        out = np.sign(tq) * (theta[i] + (a - t[i]) / k[i])
+        return out if tq.ndim else float(out)
+
+    def spring_torque_Nm(self, windup_rad) -> Any:
+        """The inverse of :meth:`windup_rad`: the output torque of a windup, in [N m] (the
+        piecewise-linear spring of the compliant joint in the simulation)."""
+        th = np.asarray(windup_rad, float)
+        if not self.stiffness_given:
+            return np.full_like(th, math.nan) if th.ndim else math.nan
+        t, k, theta = self._segments()
+        a = np.abs(th)
+        i = np.searchsorted(theta[1:], a, side="left")
+        out = np.sign(th) * (t[i] + (a - theta[i]) * k[i])
+        return out if th.ndim else float(out)
 
     @property
     def back_driven_efficiency(self) -> float:
@@ -350,6 +495,16 @@ class Drive:
         )
 
     @property
+    def stop_torque_Nm(self) -> float:
+        """Output torque of an emergency stop at the current limit, in [N m]: the peak motor
+        torque braking through the back-driven reducer, ``N T_m,peak / eta_b`` (drive-train
+        model: input torque = output torque x eta_b / N). An upper bound: the rotor's own
+        deceleration takes part of the motor torque. The load case of the momentary-torque
+        check (:mod:`armlab.dynamics.reducer_life`)."""
+        r = self.reducer
+        return self.peak_motor_torque_Nm * r.ratio / r.back_driven_efficiency
+
+    @property
     def motor_side_inertia_kg_m2(self) -> float:
         """Rotor + reducer input inertia, on the motor shaft, in [kg m^2]."""
         return self.motor.rotor_inertia_kg_m2 + self.reducer.inertia_kg_m2
@@ -368,6 +523,38 @@ class Drive:
         r = self.reducer
         k = 1.0 / r.efficiency if motoring else r.back_driven_efficiency
         return joint_inertia_kg_m2 * k / r.ratio**2
+
+    # ------------------------------------------------------------------ compliant joint
+    @property
+    def small_signal_stiffness_Nm_rad(self) -> float:
+        """The reducer's stiffness about zero load, K1, in [N m/rad] at the output (the
+        spring of the two-mass servo plant); NaN without stiffness data."""
+        r = self.reducer
+        return float(r.stiffness_Nm_rad[0]) if r.stiffness_given else math.nan
+
+    def torsional_stiffness_Nm_rad(self, torque_Nm) -> Any:
+        """The reducer's tangent stiffness at a load torque, [N m/rad]
+        (:meth:`Reducer.torsional_stiffness_Nm_rad`)."""
+        return self.reducer.torsional_stiffness_Nm_rad(torque_Nm)
+
+    def anti_resonance_rad_s(self, load_inertia_kg_m2: float) -> float:
+        """Anti-resonance of the two-mass joint, ``sqrt(K1 / J_L)`` in [rad/s]: the link
+        (inertia ``J_L`` at the joint) swinging on the reducer's spring with the motor held
+        (Ellis, "Control System Design Guide", ch. 16, two-mass resonance). NaN without
+        stiffness data."""
+        return math.sqrt(self.small_signal_stiffness_Nm_rad / load_inertia_kg_m2)
+
+    def first_resonance_rad_s(self, load_inertia_kg_m2: float) -> float:
+        """First (locked-rotor free) resonance of the two-mass joint in [rad/s]::
+
+            w_r = sqrt(K1 (J_M + J_L) / (J_M J_L))
+
+        with ``J_M`` the motor-side inertia reflected to the joint
+        (:attr:`reflected_inertia_kg_m2`), ``J_L`` the link inertia at the joint and ``K1``
+        the reducer's small-signal stiffness at the output (Ellis, "Control System Design
+        Guide", ch. 16). NaN without stiffness data."""
+        jm, jl = self.reflected_inertia_kg_m2, float(load_inertia_kg_m2)
+        return math.sqrt(self.small_signal_stiffness_Nm_rad * (jm + jl) / (jm * jl))
 
     def counts_per_motor_rev(self, decoding: int | None = None) -> float:
         """Encoder counts per motor revolution: ``pulses_per_rev x decoding``, with the
@@ -454,6 +641,16 @@ _RULES: dict[str, dict[str, str]] = {
         "back_efficiency": "unit",
         "coulomb_friction_Nm": "nonneg",
         "viscous_friction_Nm_s_rad": "nonneg",
+        "rated_input_speed_rpm": "pos",
+        "rated_life_h": "pos",
+        "momentary_torque_Nm": "pos",
+        "stiffness_Nm_rad": "pos_list",
+        "stiffness_torque_Nm": "pos_list",
+        "hysteresis_rad": "nonneg",
+        "bearing_dynamic_load_N": "pos",
+        "bearing_moment_rating_Nm": "pos",
+        "bearing_pitch_diameter_m": "pos",
+        "bearing_offset_m": "nonneg",
     },
     "Encoder": {"pulses_per_rev": "count", "decoding": "decoding"},
     "Drive": {"acceleration_rad_s2": "pos", "jerk_rad_s3": "pos", "derating": "unit"},
@@ -510,6 +707,14 @@ def _check_values(rules: dict[str, str], data: dict, where: str, optional=()) ->
         rule = rules.get(key)
         if rule is None or (value is None and key in optional):
             continue
+        if rule == "pos_list":  # a list of numbers > 0 (the reducer's stiffness curve)
+            if not isinstance(value, (list, tuple)):
+                raise RobotDescriptionError(f"{where}{key}: {value!r} is not a list of numbers")
+            for v in value:
+                problem = value_problem(v, "pos")
+                if problem is not None:
+                    raise RobotDescriptionError(f"{where}{key}: {v!r} {problem}")
+            continue
         problem = value_problem(value, rule)
         if problem is not None:
             raise RobotDescriptionError(f"{where}{key}: {value!r} {problem}")
@@ -537,6 +742,8 @@ def _build(cls, data: dict, where: str, part: str = ""):
     _check_values(_RULES.get(cls.__name__, {}), data, prefix, optional=not_given)
     if "estimated" in data:
         data = {**data, "estimated": _estimated_fields(data["estimated"], names, prefix)}
+    # lists (TOML arrays, JSON) become the tuples of the frozen dataclass
+    data = {k: tuple(float(x) for x in v) if isinstance(v, list) else v for k, v in data.items()}
     try:
         return cls(**data)
     except TypeError as exc:
@@ -569,8 +776,21 @@ def motor_from_dict(data: dict, where: str = "motor", part: str = "") -> Motor:
 
 
 def reducer_from_dict(data: dict, where: str = "reducer", part: str = "") -> Reducer:
-    """A :class:`Reducer` from a table, every value checked (as :func:`motor_from_dict`)."""
-    return _build(Reducer, data, where, part)
+    """A :class:`Reducer` from a table, every value checked (as :func:`motor_from_dict`), and
+    its stiffness curve whole: ``stiffness_Nm_rad`` K1..Kn with ``stiffness_torque_Nm`` the n-1
+    breakpoints T1 < T2 < ... (Harmonic Drive's three segments: K1, K2, K3 and T1, T2)."""
+    reducer = _build(Reducer, data, where, part)
+    k, t = reducer.stiffness_Nm_rad, reducer.stiffness_torque_Nm
+    prefix = f"{where} {part}." if part else f"{where} "
+    if (k or t) and len(t) != len(k) - 1:
+        raise RobotDescriptionError(
+            f"{prefix}stiffness_torque_Nm: {len(t)} breakpoint(s) for {len(k)} stiffness "
+            "segment(s) in stiffness_Nm_rad (one fewer breakpoint than segments: T1, T2 for "
+            "K1, K2, K3)"
+        )
+    if any(b <= a for a, b in zip(t, t[1:], strict=False)):
+        raise RobotDescriptionError(f"{prefix}stiffness_torque_Nm: {list(t)} is not increasing")
+    return reducer
 
 
 def read_drives(path: str | Path, joint_names: list[str] | tuple[str, ...]) -> dict[str, Drive]:
@@ -717,11 +937,16 @@ def _toml_value(value: Any) -> str:
         return str(value)
     if isinstance(value, float):
         return repr(value)  # shortest text that reads back to the same float
+    if isinstance(value, tuple):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
     return json.dumps(str(value), ensure_ascii=False)  # a TOML basic string
 
 
 def _given(value: Any) -> bool:
-    """False for a number that is "not given" (NaN) or not a limit (inf): left out."""
+    """False for a number that is "not given" (NaN) or not a limit (inf), or an empty list:
+    left out."""
+    if isinstance(value, tuple):
+        return len(value) > 0
     return not (isinstance(value, float) and not math.isfinite(value))
 
 

@@ -62,7 +62,8 @@ def sizing_options(ctx: StudyContext, *, duty: bool = True) -> dict[str, Any]:
     """The :func:`~armlab.dynamics.size` (and :func:`~armlab.dynamics.select_drives`) options
     of the study's ``[sizing]`` table: the duty cycle's dwell (``duty``: the study's cycle;
     False for the worst-case requirement moves, which have none), the thermal check's cycles
-    and ambient, the inertia-ratio rule (left out: reported only)."""
+    and ambient, the inertia-ratio rule (left out: reported only), the reducers' required life
+    (none for the requirement moves) and momentary load case."""
     return sizing_keywords(ctx.spec.sizing, duty=duty)
 
 
@@ -72,6 +73,9 @@ def sizing_keywords(s, *, duty: bool = True) -> dict[str, Any]:
     opts: dict[str, Any] = {
         "ambient_degC": s.ambient_degC,
         "max_inertia_ratio": math.inf if s.max_inertia_ratio is None else s.max_inertia_ratio,
+        "momentary_load": s.momentary_load,
+        # life is a figure of the repeated duty cycle: the worst-case moves ask none (0 h)
+        "required_life_h": s.required_life_h if duty else 0.0,
     }
     if duty:
         opts.update(dwell_s=s.dwell_s, cycles=s.cycles)
@@ -247,6 +251,10 @@ def tuning_options(ctx: StudyContext) -> dict[str, Any]:
         "current_sample_time_s": c.current_sample_time_s,
         "n_inertia_samples": c.n_inertia_samples,
         "seed": ctx.spec.study.seed,
+        # the two-mass joint: [control] compliant, else as [tracking] compliant
+        "compliant": (
+            (c.compliant if c.compliant is not None else ctx.spec.tracking.compliant) or None
+        ),
     }
     return {k: v for k, v in options.items() if v is not None}
 
@@ -300,11 +308,30 @@ def stage_tracking(ctx: StudyContext) -> StageOutput:
         f"tracking.t_after_s = {t_after:g}, controller.servo_period_s = {period:g}",
         f"({ctx.trajectory.duration:.3g} s plan + {t_after:g} s after) / {period:g} s servo period",
     )
-    res = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, **opts)
+    compliant = bool(ctx.spec.tracking.compliant)
+    res = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, **opts, compliant=compliant)
+    # the diagnosis' and the report's drive-model variants are of the rigid joint
     ctx.tracking, ctx.tracking_options, ctx.tracking_variants = res, opts, {}
     failed = []
     block: dict[str, Any] = {}
-    if not res.within_accuracy:
+    if compliant:  # the rigid joint beside it, same gains and options
+        rigid = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, **opts)
+        block["rigid_joint"] = {
+            "tcp_max_error_m": rigid.tcp_max_error_m,
+            "max_error_rad": {
+                n: float(e) for n, e in zip(rigid.joint_names, rigid.max_error_rad, strict=True)
+            },
+        }
+    if not res.within_accuracy and compliant:
+        # the diagnosis' variants are of the rigid joint: name the compliance instead
+        rigid_mm = block["rigid_joint"]["tcp_max_error_m"] * 1e3
+        failed.append(
+            f"tracking: TCP error {res.tcp_max_error_m * 1e3:.4g} mm > budget "
+            f"{res.accuracy_m * 1e3:.4g} mm with the compliant joint (tracking.compliant; the "
+            f"rigid joint with the same gains: {rigid_mm:.4g} mm): the reducers' windup between "
+            "the motor encoder and the link"
+        )
+    elif not res.within_accuracy:
         from armlab.control.diagnosis import diagnose_tracking
 
         diag = diagnose_tracking(

@@ -24,7 +24,7 @@ import numpy as np
 
 from armlab.errors import InputError
 from armlab.study.budget import check_samples
-from armlab.study.spec import STAGES, PlanSpec
+from armlab.study.spec import STAGES, PlanSpec, SizingSpec
 from armlab.study.verdict import FAIL, PASS, DesignVerdict, StageRecord, design_verdict
 
 if TYPE_CHECKING:
@@ -181,7 +181,7 @@ def _sizing_keywords(record: dict) -> dict:
     defaults where the record holds none or an unreadable table."""
     from armlab.errors import SpecError
     from armlab.study.drive_stages import sizing_keywords
-    from armlab.study.spec import SizingSpec, parse_sizing
+    from armlab.study.spec import parse_sizing
 
     table = ((record.get("study") or {}).get("document") or {}).get("sizing") or {}
     try:

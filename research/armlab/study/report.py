@@ -553,7 +553,50 @@ def _control_lines(gains: ArmGains) -> list[str]:
             "T [s]",
         ],
         rows,
-    )
+    ) + _resonance_lines(gains)
+
+
+def _resonance_lines(gains: ArmGains) -> list[str]:
+    """Each joint's first resonance and anti-resonance (reducer stiffness K1, per inertia case
+    min / nominal / max) beside its speed and position crossovers."""
+
+    def cases(d: dict) -> str:
+        vals = [d.get(c) for c in ("min", "nominal", "max")]
+        return " / ".join("-" if v is None else f"{v:.4g}" for v in vals)
+
+    rows = []
+    for cascade in gains:
+        res = cascade.summary().get("resonance")
+        if not isinstance(res, dict):
+            continue
+        rows.append(
+            [
+                cascade.joint,
+                cases(res["first_rad_s"]),
+                cases(res["anti_rad_s"]),
+                cascade.speed.crossover_rad_s,
+                cascade.position.crossover_rad_s,
+                "two-mass" if res["compliant"] else "rigid",
+            ]
+        )
+    if not rows:
+        return []
+    return [
+        "Joint resonances (reducer stiffness K1; min / nominal / max inertia; - : no stiffness "
+        "data):",
+        "",
+        *_table(
+            [
+                "joint",
+                "first resonance [rad/s]",
+                "anti-resonance [rad/s]",
+                "speed crossover [rad/s]",
+                "position crossover [rad/s]",
+                "tuned on",
+            ],
+            rows,
+        ),
+    ]
 
 
 def _export_lines(ctx: StudyContext) -> list[str]:

@@ -385,6 +385,17 @@ class SizingSpec:
         "let selection use catalogue parts with values not read from a published source "
         "(each entry's `estimated` fields, docs/catalogue.md)",
     )
+    required_life_h: float = _key(
+        _float(0.0, lo_open=True),
+        7000.0,
+        "life the reducers must reach over the duty cycle, h (default: the CSF L_10 rating)",
+    )
+    momentary_load: str = _key(
+        _str(("plan", "stop")),
+        "plan",
+        "load case of the reducers' momentary-torque check: the plan's worst sample, or also "
+        "an emergency stop at the current limit",
+    )
 
 
 @dataclass(frozen=True)
@@ -413,6 +424,12 @@ class ControlSpec:
     n_inertia_samples: int | None = _key(
         _int(1, MAX_INERTIA_SAMPLES), None, "workspace samples of the inertia range"
     )
+    compliant: bool | None = _key(
+        _bool,
+        None,
+        "tune on the two-mass joint (reducer stiffness K1) where the drive gives one (default: "
+        "as [tracking] compliant)",
+    )
 
 
 def _feedforward(v, where):
@@ -433,6 +450,12 @@ class TrackingSpec:
     quantise: bool = _key(_bool, True, "12-bit D/A and encoder quantisation")
     t_after_s: float | None = _key(_float(0.0), None, "time simulated after the end, s")
     accuracy_m: float | None = _key(_float(0.0, lo_open=True), None, "TCP tolerance, m")
+    compliant: bool = _key(
+        _bool,
+        False,
+        "the compliant joint: reducer spring (and hysteresis) between motor and link in the "
+        "simulation, the two-mass plant in the tuning (default false: the rigid joint)",
+    )
 
 
 @dataclass(frozen=True)

@@ -83,7 +83,14 @@ def selection_for_study(spec: StudySpec) -> StudyContext:
     for stage in ("kinematics", "plan", "static_load"):
         STAGE_FUNCTIONS[stage](ctx)
     duty = select_and_install(ctx)
-    ctx.sizing = size(ctx.robot, duty, dt=spec.plan.check_dt_s, controller=ctx.controller)
+    ctx.sizing = size(
+        ctx.robot,
+        duty,
+        dt=spec.plan.check_dt_s,
+        controller=ctx.controller,
+        required_life_h=spec.sizing.required_life_h,
+        momentary_load=spec.sizing.momentary_load,
+    )
     return ctx
 
 
