@@ -112,7 +112,8 @@ def test_sizing_report_contract(report, teachbot6):
         # inertia-ratio rule is off by default (reported, not checked) and its amplifiers are
         # not described (the thesis has none: no amplifier checks)
         off = ("inertia_ratio", "amplifier_", "bus_capacitor_", "brake_resistor_")
-        assert names == [n for n in CHECK_NAMES if not n.startswith(off)]
+        assert len(set(names)) == len(names)
+        assert set(names) == {n for n in CHECK_NAMES if not n.startswith(off)}
         assert row["inertia_ratio_max"] >= row["inertia_ratio_min"] > 0
         for c in row["checks"]:
             assert {"name", "value", "limit", "margin", "ok"} <= set(c)
