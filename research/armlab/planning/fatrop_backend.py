@@ -263,6 +263,9 @@ def _fatrop(prob: OptimalProblem, hessian: str, limits: Limits, x0: np.ndarray):
     with _LOCK:
         inst = _instance(lib, library_key(prob.robot), b, data, gmask, rest, exact)
         ret, X, U, stats = inst.solve(cap, budget, 3 * n + 1, n + 1)
+        if ret != 0 or stats[13] or not np.all(np.isfinite(X)):
+            # a failed or aborted instance is not reused (its state may hold NaN)
+            _POOL.pop((library_key(prob.robot), tuple(b.tolist())), None)
     wall = time.perf_counter() - t0
     iters = int(stats[0])
     why = ""
