@@ -164,9 +164,10 @@ the integration equations, and an inconsistent start measurably slowed IPOPT dow
 is fatrop on stage functions compiled once per robot kinematics where it applies (jerk mode,
 the time objectives; :mod:`armlab.planning.fatrop_backend`, ``stats["solver"]`` and
 ``stats["fallback"]``), else IPOPT (CasADi SX) with the exact Hessian, by default without
-the curvature of the torque-limit rows (``hessian="partial"``, :data:`armlab.planning.transcription.HESSIANS`; where the time
-goes and what was measured: ``transcription`` module docstring, "Solve time"); the inverse
-dynamics take the inertial parameters
+the curvature of the torque-limit rows (``hessian="partial"``,
+:data:`armlab.planning.transcription.HESSIANS`; where the time goes and what was measured:
+``transcription`` module docstring, "Solve time"); the inverse dynamics take the inertial
+parameters
 as an input, so one compiled problem serves every payload of a robot (cached per kinematics,
 sizes and flags).
 
