@@ -146,7 +146,7 @@ def test_watchdog_hands_the_solve_to_ipopt(compiled, robot, monkeypatch):
     assert again.stats["duration_s"] == pytest.approx(slow.stats["duration_s"], rel=1e-6)
 
 
-def test_cache_key_follows_the_kinematics(robot, monkeypatch):
+def test_cache_key_follows_the_kinematics(compiled, robot, monkeypatch):
     """Same kinematics, same key (payload included); another tree or casadi, another key."""
     key = fatrop_stages.library_key(robot)
     assert fatrop_stages.library_key(robot.with_payload(2.0)) == key

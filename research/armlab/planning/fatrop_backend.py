@@ -84,15 +84,15 @@ def not_covered(prob: OptimalProblem, hessian: str) -> str:
 
 
 # ----------------------------------------------------------------------------- library
-def _library(robot) -> Any:
-    """The loaded stage library of ``robot`` (compiled on first use); raises
+def _library(robot) -> tuple[Any, str]:
+    """The loaded stage library of ``robot`` (compiled on first use) and its key; raises
     :class:`FatropUnavailable` with the reason (remembered for the process)."""
     key = library_key(robot)
     got = _LIBS.get(key)
     if isinstance(got, str):
         raise FatropUnavailable(got)
     if got is not None:
-        return got
+        return got, key
     try:
         so, _ = compiled_library(robot)
         lib = ctypes.CDLL(str(so))
@@ -118,7 +118,7 @@ def _library(robot) -> Any:
     lib.fp_solve.argtypes = [vp, dp, dp, dp]
     lib.fp_free.argtypes = [vp]
     _LIBS[key] = lib
-    return lib
+    return lib, key
 
 
 # ----------------------------------------------------------------------------- layout
@@ -252,7 +252,7 @@ def _instance(lib, key: str, b, data, gmask, rest, exact: bool) -> _Instance:
 def _fatrop(prob: OptimalProblem, hessian: str, limits: Limits, x0: np.ndarray):
     """One fatrop solve: the optimiser's ``_attempt`` tuple, and a failure reason ("" if
     none)."""
-    lib = _library(prob.robot)
+    lib, key = _library(prob.robot)
     st = layout_structure(prob, limits.torque_Nm is not None)
     b, data, gmask, rest, arm, sv = _stage_data(prob, st, limits, x0)
     n, N = prob.n, prob.N
@@ -261,11 +261,11 @@ def _fatrop(prob: OptimalProblem, hessian: str, limits: Limits, x0: np.ndarray):
     budget = watchdog_budget_s(N)
     t0 = time.perf_counter()
     with _LOCK:
-        inst = _instance(lib, library_key(prob.robot), b, data, gmask, rest, exact)
+        inst = _instance(lib, key, b, data, gmask, rest, exact)
         ret, X, U, stats = inst.solve(cap, budget, 3 * n + 1, n + 1)
         if ret != 0 or stats[13] or not np.all(np.isfinite(X)):
             # a failed or aborted instance is not reused (its state may hold NaN)
-            _POOL.pop((library_key(prob.robot), tuple(b.tolist())), None)
+            _POOL.pop((key, tuple(b.tolist())), None)
     wall = time.perf_counter() - t0
     iters = int(stats[0])
     why = ""

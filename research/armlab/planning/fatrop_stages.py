@@ -40,6 +40,7 @@ compile prints one line on stderr before and one after (how long). Generic ``-O2
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import shutil
@@ -137,6 +138,7 @@ def check_library() -> Path:
     return d
 
 
+@functools.lru_cache(maxsize=1)
 def _glue_source() -> str:
     return resources.files("armlab.planning").joinpath("fatrop_glue.c").read_text()
 
