@@ -11,6 +11,10 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 # one BLAS thread: small matrices (python-control, 10x10 expm) are 10-50x faster on 2 cores
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
+# optimal() solves with IPOPT in the suite (the reference; no per-robot compile in every test
+# that plans): tests/planning/test_fatrop.py runs the compiled fatrop path against it, once
+# compiled into a temporary cache. ARMLAB_SOLVER=fatrop make test runs every plan on fatrop.
+os.environ.setdefault("ARMLAB_SOLVER", "ipopt")
 
 import pytest  # noqa: E402
 from hypothesis import settings  # noqa: E402

@@ -152,7 +152,11 @@ def drive_bounds(prob: OptimalProblem, st: Structure, lbg, ubg, drive_scale) -> 
     lbg[r], ubg[r] = -np.inf, 1.0
 
 
-def params(prob: OptimalProblem, limits: Limits, drive_scale=None) -> np.ndarray:
+def params(
+    prob: OptimalProblem, limits: Limits, drive_scale=None, st: Structure | None = None
+) -> np.ndarray:
+    """The parameter vector of the compiled problem; ``st`` its layout (default the IPOPT
+    problem's, :meth:`OptimalProblem._structure`; the fatrop backend passes its own)."""
     n = prob.n
     tau = limits.torque_Nm if limits.torque_Nm is not None else np.ones(n)
     if prob.objective == "time":
@@ -166,7 +170,7 @@ def params(prob: OptimalProblem, limits: Limits, drive_scale=None) -> np.ndarray
         ref = np.ones(n)
     ew, _ = _energy_weights(prob.robot)
     sc = prob.scales
-    st = prob._structure(limits)
+    st = st if st is not None else prob._structure(limits)
     pi = dynamic_parameters(prob.robot) if st.n_pi else np.zeros(0)
     drive: list[np.ndarray] = []
     if st.drive_rows:

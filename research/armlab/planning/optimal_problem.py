@@ -14,7 +14,7 @@ import numpy as np
 
 from armlab._lazy import lazy_import
 from armlab.errors import ArmlabError, InfeasibleError
-from armlab.planning import optimal_bounds, optimal_warmstart
+from armlab.planning import fatrop_backend, optimal_bounds, optimal_warmstart
 from armlab.planning.optimal_bounds import (
     H_MIN_S,
     TIME_REGULARISATION,
@@ -298,6 +298,12 @@ class OptimalProblem:
         return out
 
     def _attempt(self, hessian: str, limits: Limits, x0, drive_scale, lam):
+        """One solve: fatrop where it applies, else IPOPT (:mod:`.fatrop_backend`)."""
+        return fatrop_backend.attempt(
+            self, hessian, limits, x0, drive_scale, lam, self._ipopt_attempt
+        )
+
+    def _ipopt_attempt(self, hessian: str, limits: Limits, x0, drive_scale, lam):
         st = self._structure(limits, hessian)
         lbx, ubx, lbg, ubg = self._bounds(st, limits, drive_scale)
         p = self._params(limits, drive_scale)
@@ -411,8 +417,11 @@ class OptimalProblem:
         drive_ok = all(float(np.max(r)) <= 1 + 1e-9 for r in drive_ratios.values())
         q, v, a, u, h = self._unpack(st, x)
         stats = {
-            # casadi's stubs omit the module's __version__
-            "solver": f"ipopt (casadi {ca.__version__})",  # type: ignore[attr-defined]
+            # the solver of the last solve ("fatrop" or "ipopt") and why not fatrop
+            # (fatrop_backend.attempt); casadi's stubs omit the module's __version__
+            "solver": info.get("solver", "ipopt"),
+            "fallback": info.get("fallback", ""),
+            "casadi_version": ca.__version__,  # type: ignore[attr-defined]
             "hessian": self.hessian,
             "hessian_fallback": self._exact_after_fallback,
             "iterations": total_iter,

@@ -161,10 +161,13 @@ too), refitted to be an exact piecewise polynomial on the node grid
 (:mod:`armlab.planning.warmstart`) and slowed down uniformly until its torques fit.
 (``armlab.trajectory.ptp_sync`` is not used: sampled on our grid its profile does not satisfy
 the integration equations, and an inconsistent start measurably slowed IPOPT down.) The solver
-is IPOPT (CasADi SX) with the exact Hessian, by default without the curvature of the torque-limit
-rows (``hessian="partial"``, :data:`armlab.planning.transcription.HESSIANS`; where the time
-goes and what was measured: ``transcription`` module docstring, "Solve time"); the inverse
-dynamics take the inertial parameters
+is fatrop on stage functions compiled once per robot kinematics where it applies (jerk mode,
+the time objectives; :mod:`armlab.planning.fatrop_backend`, ``stats["solver"]`` and
+``stats["fallback"]``), else IPOPT (CasADi SX) with the exact Hessian, by default without
+the curvature of the torque-limit rows (``hessian="partial"``,
+:data:`armlab.planning.transcription.HESSIANS`; where the time goes and what was measured:
+``transcription`` module docstring, "Solve time"); the inverse dynamics take the inertial
+parameters
 as an input, so one compiled problem serves every payload of a robot (cached per kinematics,
 sizes and flags).
 
@@ -475,7 +478,9 @@ def optimal(
     -------
     Trajectory
         With ``.report`` (fine-grid :class:`LimitReport` against the request's limits),
-        ``.stats`` (solver, iterations, solve_time_s, n_intervals, success, duration_s,
+        ``.stats`` (solver -- ``"fatrop"`` or ``"ipopt"`` -- and ``fallback``, why not fatrop,
+        :mod:`~armlab.planning.fatrop_backend`; iterations, solve_time_s, n_intervals, success,
+        duration_s,
         binding limits ``[(kind, joint, ratio)]``, energy; with ``drive_limits`` the fine-grid
         ``drive_ratios``; ``n_intervals_raised`` when IPOPT did not converge on the requested
         grid, or its back-off left the plan over a limit between the knots, and the plan was

@@ -1,0 +1,315 @@
+r"""The optimiser's solver: fatrop on compiled stage functions, IPOPT where fatrop does not apply.
+
+:meth:`armlab.planning.optimal_problem.OptimalProblem._attempt` asks :func:`attempt` for each
+solve. The problem (bounds, parameters, warm start, back-off, checks) is the optimiser's own
+(:mod:`armlab.planning.optimal_bounds`); only its variables and rows are reordered stage by
+stage (:mod:`armlab.planning.fatrop_stages`) and handed to fatrop (Vanroye et al., "FATROP: A
+Fast Constrained Optimal Control Problem Solver for Robot Trajectory Optimization and Control",
+IROS 2023; the library shipped in the casadi wheel) through its C OCP interface, whose Riccati
+recursion costs time linear in the number of intervals. A solver instance is made per grid
+shape (intervals and segment ends) in milliseconds and reused with new data.
+
+Where fatrop is used: jerk mode (a jerk limit) with the ``"time"`` or ``"time+smooth"``
+objective, with or without torque limits, via tolerances and moving start or goal states,
+Hessian ``"partial"`` or ``"exact"``. Everything else is solved by IPOPT and ``stats["fallback"]``
+says why: acceleration mode, ``drive_limits``, the fixed-duration objectives (their duration row
+couples every stage), ``hessian="limited-memory"``, no C compiler or no fatrop in the casadi
+wheel (:class:`~armlab.planning.fatrop_stages.FatropUnavailable`), ``ARMLAB_SOLVER=ipopt`` in the
+environment, and a fatrop solve that fails (not converged within its iteration cap, NaN, or
+over its wall-time budget :func:`watchdog_budget_s`, the watchdog): that solve is repeated by
+IPOPT from the same start, so every verdict (a plan, or an error naming the limit) is IPOPT's
+wherever fatrop does not converge.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import threading
+import time
+from typing import TYPE_CHECKING, Any, cast
+
+import numpy as np
+
+from armlab.planning import optimal_bounds
+from armlab.planning.fatrop_stages import FatropUnavailable, compiled_library, library_key
+from armlab.planning.transcription import PARTIAL_MAX_ITER, TORQUE_INTERIOR_POINTS, Structure
+from armlab.robot.limits import Limits
+from armlab.robot.symbolic import dynamic_parameters
+
+if TYPE_CHECKING:
+    from armlab.planning.optimal_problem import OptimalProblem
+
+__all__ = ["attempt", "not_covered", "watchdog_budget_s", "SOLVER_ENV", "FATROP_OPTIONS"]
+
+#: environment variable choosing the solver: ``"ipopt"`` forces IPOPT, anything else (or unset)
+#: uses fatrop where it applies
+SOLVER_ENV = "ARMLAB_SOLVER"
+#: fatrop's options (its tolerance on the scaled KKT error, as IPOPT's 1e-9 gives durations
+#: within 1e-8 of IPOPT's, measured)
+FATROP_OPTIONS = {"print_level": 0, "tol": 1e-8, "constr_viol_tol": 1e-9}
+#: iteration cap of a fatrop solve (exact Hessian; "partial" takes PARTIAL_MAX_ITER as IPOPT)
+FATROP_MAX_ITER = 300
+#: the watchdog's wall-time budget: this plus WATCHDOG_PER_INTERVAL_S per interval, in [s]
+#: (measured solves take 0.15-1.2 ms per interval; a mis-posed one ran > 2 min uncapped)
+WATCHDOG_BASE_S = 2.0
+WATCHDOG_PER_INTERVAL_S = 0.02
+
+_LOCK = threading.Lock()
+_LIBS: dict[str, Any] = {}  # library key -> ctypes.CDLL, or the FatropUnavailable reason
+_POOL: dict[tuple, _Instance] = {}
+_POOL_MAX = 16
+
+
+def watchdog_budget_s(n_intervals: int) -> float:
+    """Wall-time budget of one fatrop solve on ``n_intervals`` intervals, in [s]."""
+    return WATCHDOG_BASE_S + WATCHDOG_PER_INTERVAL_S * n_intervals
+
+
+def not_covered(prob: OptimalProblem, hessian: str) -> str:
+    """Why fatrop does not solve this problem ("" when it does)."""
+    if os.environ.get(SOLVER_ENV, "").strip().lower() == "ipopt":
+        return f"{SOLVER_ENV}=ipopt"
+    if prob.mode != "jerk":
+        return "acceleration mode (no jerk limit) is solved by IPOPT"
+    if prob.drive_limits:
+        return "drive_limits (motor-envelope rows) are solved by IPOPT"
+    if prob.duration is not None:
+        return f"the fixed-duration objective {prob.objective!r} is solved by IPOPT"
+    if hessian not in ("exact", "partial"):
+        return f"hessian={hessian!r} is solved by IPOPT"
+    if TORQUE_INTERIOR_POINTS:
+        return "interior torque points are solved by IPOPT"
+    return ""
+
+
+# ----------------------------------------------------------------------------- library
+def _library(robot) -> tuple[Any, str]:
+    """The loaded stage library of ``robot`` (compiled on first use) and its key; raises
+    :class:`FatropUnavailable` with the reason (remembered for the process)."""
+    key = library_key(robot)
+    got = _LIBS.get(key)
+    if isinstance(got, str):
+        raise FatropUnavailable(got)
+    if got is not None:
+        return got, key
+    try:
+        so, _ = compiled_library(robot)
+        lib = ctypes.CDLL(str(so))
+    except FatropUnavailable as exc:
+        _LIBS[key] = str(exc)
+        raise
+    except OSError as exc:
+        _LIBS[key] = f"the fatrop stage library could not be loaded: {exc}"
+        raise FatropUnavailable(_LIBS[key]) from None
+    if lib.fp_nj() != robot.n_joints:
+        raise FatropUnavailable(f"{so} is built for {lib.fp_nj()} joints, not {robot.n_joints}")
+    dp = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
+    ip = np.ctypeslib.ndpointer(dtype=np.int32, flags="C_CONTIGUOUS")
+    vp, ci, cd = ctypes.c_void_p, ctypes.c_int, ctypes.c_double
+    lib.fp_create.restype = vp
+    lib.fp_create.argtypes = [ci, ip, ci, dp, dp, dp, dp, dp, dp, ip, dp, dp, dp, dp, ci]
+    lib.fp_update.restype = ci
+    lib.fp_update.argtypes = [vp, dp, dp, dp, dp, dp, dp, ip, dp, dp, dp, dp, ci]
+    lib.fp_set_option.restype = ci
+    lib.fp_set_option.argtypes = [vp, ctypes.c_char_p, cd]
+    lib.fp_set_deadline.argtypes = [vp, cd]
+    lib.fp_solve.restype = ci
+    lib.fp_solve.argtypes = [vp, dp, dp, dp]
+    lib.fp_free.argtypes = [vp]
+    _LIBS[key] = lib
+    return lib, key
+
+
+# ----------------------------------------------------------------------------- layout
+def layout_structure(prob: OptimalProblem, torque_rows: bool) -> Structure:
+    """The optimiser's variable and row layout in jerk mode (the ``slices``, ``g_kind`` and
+    ``g_joint`` of :func:`armlab.planning.transcription.build_structure`, whose order this
+    repeats) without building IPOPT's problem: the bounds and parameters of
+    :mod:`~armlab.planning.optimal_bounds` read only these."""
+    n, N, nseg = prob.n, prob.N, len(prob.segment_intervals)
+    sizes = [("q", n * (N + 1)), ("v", n * (N + 1)), ("a", n * (N + 1)), ("u", n * N)]
+    slices, start = {}, 0
+    for name, size in [*sizes, ("T", nseg)]:
+        slices[name] = slice(start, start + size)
+        start += size
+    blocks = [("dynamics", 3 * N), ("velocity", N), ("position", 2 * N)]
+    if torque_rows:
+        blocks.append(("torque", N + 1))
+    kinds = np.concatenate([np.full(cols * n, kind) for kind, cols in blocks])
+    joints = np.tile(np.arange(n), sum(cols for _, cols in blocks))
+    light = Structure(
+        solver=None,  # type: ignore[arg-type]  # no IPOPT problem: fatrop solves this one
+        g_fun=None,  # type: ignore[arg-type]
+        n=n,
+        seg_n=prob.segment_intervals,
+        mode="jerk",
+        torque_rows=torque_rows,
+        g_kind=kinds,
+        g_joint=joints,
+        n_pi=dynamic_parameters(prob.robot).size,
+        nx=start,
+        slices=slices,
+        build_time_s=0.0,
+    )
+    return light
+
+
+def _stage_data(prob: OptimalProblem, st: Structure, limits: Limits, x0: np.ndarray):
+    """The fatrop arrays of one solve (glue order) and the optimiser's own scaled data."""
+    n, N = prob.n, prob.N
+    lbx, ubx, lbg, ubg = optimal_bounds.bounds(prob, st, limits, None)
+    p = optimal_bounds.params(prob, limits, None, st=st)
+    sv = prob._scale_vector()
+    lbx, ubx = lbx / sv, ubx / sv
+    xs0 = np.clip(x0 / sv, lbx, ubx)
+    seg = prob.segment_of_interval
+    nseg = len(prob.segment_intervals)
+    last = np.cumsum(prob.segment_intervals) - 1
+    b = np.zeros(N, np.int32)
+    b[last[:-1]] = 1
+    o = 0
+    tau = p[o : o + n]
+    w = p[o + n]
+    uref = p[o + n + 1 : o + 2 * n + 1]
+    o = 3 * n + 1  # after tau, w, uref, energy weights
+    s_v, s_a, s_u = p[o : o + n], p[o + n : o + 2 * n], p[o + 2 * n : o + 3 * n]
+    o += 3 * n
+    s_T, frac, pi = p[o : o + nseg], p[o + nseg : o + nseg + N], p[o + nseg + N :]
+    Pk = np.column_stack([s_T[seg] * frac, b]).astype(float)
+    pg = np.concatenate([s_v, s_a, s_u, tau, uref, [w], pi])
+    S = st.slices
+
+    def stage(arr):
+        blk = [arr[S[k]].reshape(-1, n) for k in ("q", "v", "a", "u")]
+        T = arr[S["T"]]
+        X = np.hstack([*blk[:3], np.append(T[seg], T[-1])[:, None]])
+        nxt = np.zeros(N)
+        nxt[last[:-1]] = T[1:]
+        return X, np.hstack([blk[3], nxt[:, None]])
+
+    (lX, lU), (hX, hU), (X0, U0) = stage(lbx), stage(ubx), stage(xs0)
+    lX[N, -1], hX[N, -1] = -np.inf, np.inf  # the last node's copy of T is free
+    kind = st.g_kind
+
+    def rows(arr, off):  # off: the bound of a row that is not there
+        G = np.full((N + 1, 4 * n), off)
+        if st.torque_rows:
+            G[:, :n] = arr[kind == "torque"].reshape(N + 1, n)
+        G[:N, n : 2 * n] = arr[kind == "velocity"].reshape(N, n)
+        pos = arr[kind == "position"].reshape(2, N, n)
+        G[:N, 2 * n : 3 * n], G[:N, 3 * n :] = pos[0], pos[1]
+        return np.concatenate([G[:N].ravel(), G[N, :n]])
+
+    arrays = [lX, hX, lU, hU, rows(lbg, -np.inf), rows(ubg, np.inf)]
+    gmask = np.ones(N * 4 * n + n, np.int32)
+    data = [np.ascontiguousarray(a, float) for a in arrays]
+    rest = [np.ascontiguousarray(a, float) for a in (Pk, pg, X0, U0)]
+    return b, data, gmask, rest, (lbx, ubx, lbg, ubg, p, xs0), sv
+
+
+class _Instance:
+    """One fatrop solver for one grid shape; new data for the same shape is copied in."""
+
+    def __init__(self, lib, b, data, gmask, rest, exact: bool):
+        self.lib, self.N = lib, b.size
+        self._keep = (b, data, gmask, rest)
+        self.ptr = lib.fp_create(self.N, b, rest[1].size, *data, gmask, *rest, int(exact))
+        for name, value in FATROP_OPTIONS.items():
+            lib.fp_set_option(self.ptr, name.encode(), float(value))
+
+    def update(self, data, gmask, rest, exact: bool) -> bool:
+        """False if the rows changed in number (a new instance is then needed)."""
+        self._keep = (self._keep[0], data, gmask, rest)
+        return self.lib.fp_update(self.ptr, *data, gmask, *rest, int(exact)) == 0
+
+    def solve(self, max_iter: int, budget_s: float, nx: int, nu: int):
+        self.lib.fp_set_option(self.ptr, b"max_iter", float(max_iter))
+        self.lib.fp_set_deadline(self.ptr, budget_s)
+        X, U, stats = np.zeros((self.N + 1, nx)), np.zeros((self.N, nu)), np.zeros(14)
+        ret = self.lib.fp_solve(self.ptr, X, U, stats)
+        return ret, X, U, stats
+
+    def __del__(self):
+        if getattr(self, "ptr", None):
+            self.lib.fp_free(self.ptr)
+            self.ptr = None
+
+
+def _instance(lib, key: str, b, data, gmask, rest, exact: bool) -> _Instance:
+    pkey = (key, tuple(b.tolist()))
+    inst = _POOL.get(pkey)
+    if inst is not None and inst.update(data, gmask, rest, exact):
+        return inst
+    inst = _Instance(lib, b, data, gmask, rest, exact)
+    if pkey not in _POOL and len(_POOL) >= _POOL_MAX:
+        _POOL.pop(next(iter(_POOL)))
+    _POOL[pkey] = inst
+    return inst
+
+
+# ----------------------------------------------------------------------------- solve
+def _fatrop(prob: OptimalProblem, hessian: str, limits: Limits, x0: np.ndarray):
+    """One fatrop solve: the optimiser's ``_attempt`` tuple, and a failure reason ("" if
+    none)."""
+    lib, key = _library(prob.robot)
+    st = layout_structure(prob, limits.torque_Nm is not None)
+    b, data, gmask, rest, arm, sv = _stage_data(prob, st, limits, x0)
+    n, N = prob.n, prob.N
+    exact = hessian == "exact" or not st.torque_rows
+    cap = min(prob.max_iter, FATROP_MAX_ITER if exact else PARTIAL_MAX_ITER)
+    budget = watchdog_budget_s(N)
+    t0 = time.perf_counter()
+    with _LOCK:
+        inst = _instance(lib, key, b, data, gmask, rest, exact)
+        ret, X, U, stats = inst.solve(cap, budget, 3 * n + 1, n + 1)
+        if ret != 0 or stats[13] or not np.all(np.isfinite(X)):
+            # a failed or aborted instance is not reused (its state may hold NaN)
+            _POOL.pop((key, tuple(b.tolist())), None)
+    wall = time.perf_counter() - t0
+    iters = int(stats[0])
+    why = ""
+    if stats[13]:
+        why = f"fatrop exceeded its {budget:.3g} s budget (watchdog) after {iters} iterations"
+    elif not (np.all(np.isfinite(X)) and np.all(np.isfinite(U))):
+        why = "fatrop returned NaN"
+    elif ret != 0:
+        capped = iters >= cap
+        why = f"fatrop did not converge ({'iteration cap ' + str(cap) if capped else ret})"
+    xs = np.zeros(st.nx)
+    S = st.slices
+    xs[S["q"]], xs[S["v"]], xs[S["a"]] = (X[:, i * n : (i + 1) * n].ravel() for i in range(3))
+    xs[S["u"]] = U[:, :n].ravel()
+    xs[S["T"]] = X[prob.waypoint_nodes[:-1], -1]
+    info = {
+        "return_status": "Solve_Succeeded" if not why else why,
+        "success": not why,
+        "iterations": iters,
+        "solve_time_s": wall,
+        "build_time_s": 0.0,
+        "solver": "fatrop",
+        "fallback": "",
+    }
+    return (st, xs * sv, info, arm, None), why
+
+
+def attempt(prob: OptimalProblem, hessian: str, limits: Limits, x0, drive_scale, lam, ipopt):
+    """One solve of the optimiser: fatrop where it applies (module docstring), else
+    ``ipopt(hessian, limits, x0, drive_scale, lam)``; ``info["solver"]`` names the one that
+    gave the result and ``info["fallback"]`` why it is not fatrop ("" when it is)."""
+    why = not_covered(prob, hessian)
+    fatrop_time = 0.0
+    if not why:
+        try:
+            out, why = _fatrop(prob, hessian, limits, x0)
+        except FatropUnavailable as exc:
+            why = str(exc)
+        else:
+            if not why:
+                return out
+            fatrop_time = out[2]["solve_time_s"]
+    out = ipopt(hessian, limits, x0, drive_scale, lam)
+    info = cast(dict, out[2])
+    info["solve_time_s"] += fatrop_time
+    info["solver"], info["fallback"] = "ipopt", why
+    return out
