@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from armlab.errors import RobotDescriptionError
-from armlab.robot.catalogue import MINOR_FIELDS, PENDING_FIELDS, load_catalogue, usable
+from armlab.robot.catalogue import MINOR_FIELDS, load_catalogue, usable
 from armlab.robot.catalogue_doc import catalogue_markdown
 from armlab.robot.drives import RPM_TO_RAD_S, Motor, Reducer, read_drives
 
@@ -38,11 +38,11 @@ def _read(part, *names: str) -> bool:
 
 
 def test_every_entry_names_its_source_and_lists_real_fields(cat):
-    """Every entry has a source; every estimated name is a field (or a pending data-sheet
-    field); mass and price are never what makes a part unusable. Would have caught: "most
-    entries could not be checked against any source" (no entry said what was not read)."""
-    motor_fields = set(Motor.__dataclass_fields__) | set(PENDING_FIELDS["motor"])
-    reducer_fields = set(Reducer.__dataclass_fields__) | set(PENDING_FIELDS["reducer"])
+    """Every entry has a source; every estimated name is a field; mass and price are never what
+    makes a part unusable. Would have caught: "most entries could not be checked against any
+    source" (no entry said what was not read)."""
+    motor_fields = set(Motor.__dataclass_fields__)
+    reducer_fields = set(Reducer.__dataclass_fields__)
     for parts, names in ((cat.motors, motor_fields), (cat.reducers, reducer_fields)):
         for p in parts:
             assert len(p.source) > 40, p.model
@@ -126,10 +126,8 @@ def test_maxon_entries_agree_with_their_sheets_derived_lines(cat):
         assert R * J / kt**2 * 1e3 == pytest.approx(tau_ms, rel=0.015), model
         assert m.supply_voltage_V / R == pytest.approx(stall_A, rel=0.015), model
         assert usable(m) and m.source.startswith("maxon product page of part"), model
-    thermal = cat.pending.get("maxon RE 65 250 W 48 V (353297)") or vars(
-        cat.motor("maxon RE 65 250 W 48 V (353297)")
-    )
-    assert thermal["thermal_time_constant_winding_s"] == 123.0
+    re65 = cat.motor("maxon RE 65 250 W 48 V (353297)")
+    assert re65.thermal_time_constant_winding_s == pytest.approx(123.0)
 
 
 def test_item1_values_corrected(cat):

@@ -41,7 +41,8 @@ copper loss grows with temperature faster than the motor sheds it (the fixed poi
 attract: an eigenvalue of ``Phi`` >= 1) the temperature runs away: infinite.
 
 Integration: the trapezoidal rule (Crank-Nicolson, A-stable, second order) on steps of about
-``tau_w / 50`` (the shortest winding time constant of the motors checked together): longer
+``tau_w / 50`` (each motor's own winding time constant, so a motor's figure does not depend on
+the motors checked with it): longer
 sample intervals (a dwell) split into equal steps, shorter ones merged with the time-weighted
 mean of ``I^2`` (the winding cannot follow faster; the copper energy is kept exactly). The peak
 is taken at the step ends.
@@ -269,8 +270,20 @@ def winding_temperature(
     housing = np.full(n_col, np.nan)
     if not ok.any():
         return ThermalResult(peak, housing, float(ambient_degC), cycles)
-    sub = ThermalModel(**{k: np.asarray(v)[ok] for k, v in vars(model).items()})
-    i2 = (t_m[:, ok] / sub.torque_constant_Nm_A) ** 2
+    # one step grid per winding time constant: a motor's temperature does not depend on which
+    # other motors are checked with it (a selection's batch, a study's six drives)
+    taus = np.asarray(model.tau_w_s, float)
+    for tau in np.unique(taus[ok]):
+        cols = ok & (taus == tau)
+        peak[cols], housing[cols] = _periodic(t_m[:, cols], w, model, cols, ambient_degC, cycles)
+    return ThermalResult(peak, housing, float(ambient_degC), cycles)
+
+
+def _periodic(t_m, w, model: ThermalModel, cols, ambient_degC: float, cycles: int | None):
+    """(peak winding, end housing) temperatures [degC] of the columns ``cols`` of ``model``,
+    which share one winding time constant (:func:`winding_temperature`)."""
+    sub = ThermalModel(**{k: np.asarray(v)[cols] for k, v in vars(model).items()})
+    i2 = (t_m / sub.torque_constant_Nm_A) ** 2
     h, i2s = _steps(w, i2, _STEP_SHARE * float(sub.tau_w_s.min()))
     # one pass from three starts (0, e_w, e_h) gives the affine cycle map x -> Phi x + c
     x_w = np.zeros((3, sub.tau_w_s.size))
@@ -295,6 +308,7 @@ def winding_temperature(
         stable = np.ones(c_w.size, bool)
     # the (last) cycle from its start state, its peak winding temperature
     x_w, x_h, top = _cycle(s_w[None, :], s_h[None, :], h, i2s, sub, ambient_degC)
-    peak[ok] = np.where(stable, ambient_degC + top, np.inf)
-    housing[ok] = np.where(stable, ambient_degC + x_h[0], np.inf)
-    return ThermalResult(peak, housing, float(ambient_degC), cycles)
+    return (
+        np.where(stable, ambient_degC + top, np.inf),
+        np.where(stable, ambient_degC + x_h[0], np.inf),
+    )

@@ -26,7 +26,7 @@ from __future__ import annotations
 import difflib
 import math
 import os
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from armlab.errors import RobotDescriptionError
@@ -45,7 +45,6 @@ __all__ = [
     "load_catalogue",
     "default_catalogue_path",
     "MINOR_FIELDS",
-    "PENDING_FIELDS",
     "usable",
 ]
 
@@ -53,32 +52,6 @@ __all__ = [
 #: and data sheets give no viscous friction (the small value assumed, about 0.4 % of a motor's
 #: nominal torque at its nominal speed, only damps the model)
 MINOR_FIELDS = ("mass_kg", "price", "viscous_friction_Nm_s_rad")
-
-#: data-sheet fields the thermal and compliance models read (helper brief, issue 25): a
-#: catalogue entry may give them before :class:`Motor` / :class:`Reducer` have them; the loader
-#: then keeps them in :attr:`Catalogue.pending` (shown in docs/catalogue.md) instead of refusing
-#: them, and passes them to the dataclass as soon as it has the field.
-PENDING_FIELDS = {
-    "motor": (
-        "thermal_resistance_winding_housing_K_W",
-        "thermal_resistance_housing_ambient_K_W",
-        "thermal_time_constant_winding_s",
-        "thermal_time_constant_motor_s",
-        "max_winding_temperature_degC",
-    ),
-    "reducer": (
-        "rated_input_speed_rpm",
-        "rated_life_h",
-        "momentary_torque_Nm",
-        "stiffness_Nm_rad",
-        "stiffness_torque_Nm",
-        "hysteresis_rad",
-        "bearing_dynamic_load_N",
-        "bearing_moment_rating_Nm",
-        "bearing_pitch_diameter_m",
-        "bearing_offset_m",
-    ),
-}
 
 
 def default_catalogue_path() -> Path:
@@ -96,8 +69,6 @@ class Catalogue:
     derating : dict of motor model to float
     thesis_parts : dict of joint name to (motor model, reducer model)
         The parts of thesis table 4.3, when the catalogue tags them.
-    pending : dict of model to dict
-        Data-sheet values of :data:`PENDING_FIELDS` the part's dataclass has no field for yet.
     """
 
     motors: tuple[Motor, ...]
@@ -115,8 +86,6 @@ class Catalogue:
             if a.model == model:
                 return a
         raise _unknown("amplifier", model, [a.model for a in self.amplifiers], where or self.path)
-
-    pending: dict[str, dict] = field(default_factory=dict)
 
     def combinations(self, allow_estimated: bool = False) -> list[tuple[Motor, Reducer]]:
         """Every motor x reducer pair selection may combine: both halves usable
@@ -171,7 +140,6 @@ def load_catalogue(path: str | os.PathLike | None = None) -> Catalogue:
     data = read_toml(path, "catalogue file")
     derating: dict[str, float] = {}
     thesis: dict[str, list[str | None]] = {}
-    pending: dict[str, dict] = {}
 
     def parts(kind: str, build):
         out: list = []
@@ -180,10 +148,7 @@ def load_catalogue(path: str | os.PathLike | None = None) -> Catalogue:
             where = f"{path} {kind} {k + 1} ({row.get('model', '?')})"
             extra_derating = row.pop("derating", 1.0)
             joints = row.pop("thesis_joints", [])
-            held = _hold_pending(row, kind)
             part = build(row, where)
-            if held:
-                pending[part.model] = held
             for key in ("mass_kg", "price"):
                 v = getattr(part, key)
                 if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
@@ -225,22 +190,7 @@ def load_catalogue(path: str | os.PathLike | None = None) -> Catalogue:
         currency=str(data.get("currency", "")),
         path=str(path),
         amplifiers=tuple(amplifiers),
-        pending=pending,
     )
-
-
-def _hold_pending(row: dict, kind: str) -> dict:
-    """Take out of ``row`` the :data:`PENDING_FIELDS` its dataclass has no field for yet (and
-    their names from ``estimated``); return them."""
-    cls = Motor if kind == "motor" else Reducer
-    names = {f.name for f in fields(cls)}
-    for k in PENDING_FIELDS[kind]:  # a TOML list (stiffness K1, K2, K3) is a tuple field
-        if isinstance(row.get(k), list):
-            row[k] = tuple(row[k])
-    held = {k: row.pop(k) for k in PENDING_FIELDS[kind] if k in row and k not in names}
-    if held and isinstance(row.get("estimated"), list):
-        row["estimated"] = [k for k in row["estimated"] if k not in held]
-    return held
 
 
 def _check_integrated(motors, reducers, path) -> None:

@@ -74,8 +74,7 @@ def catalogue_markdown(catalogue: Catalogue | None = None) -> str:
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for m in cat.motors:
-        extra = cat.pending.get(m.model, {})
-        src = m.source + (f" (thermal data: {extra})" if extra else "")
+        src = m.source
         lines.append(
             f"| {_cell(m.model)} | {_g(m.stall_torque_Nm)} / {_g(m.peak_torque_Nm)} "
             f"| {_g(m.torque_constant_Nm_A)} | {_g(m.resistance_ohm)} "
@@ -91,8 +90,7 @@ def catalogue_markdown(catalogue: Catalogue | None = None) -> str:
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in cat.reducers:
-        extra = cat.pending.get(r.model, {})
-        src = r.source + (f" (rating data: {extra})" if extra else "")
+        src = r.source
         lines.append(
             f"| {_cell(r.model)} | {_g(r.ratio)} | {_g(r.efficiency)} "
             f"| {_g(r.rated_torque_Nm)} / {_g(r.peak_torque_Nm)} | {_g(r.max_input_speed_rpm)} "
