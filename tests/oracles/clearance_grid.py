@@ -28,13 +28,14 @@ def config_distances(scene, q) -> np.ndarray:
     pin.forwardKinematics(model, data, np.asarray(q, float))
     objs = scene.geometry.geometryObjects
 
-    def pose(obj) -> coal.Transform3s:
+    poses = []
+    for obj in objs:
         M = data.oMi[obj.parentJoint] * obj.placement
-        return coal.Transform3s(M.rotation, M.translation)
-
+        poses.append(coal.Transform3s(M.rotation, M.translation))
     out = []
+    req = coal.DistanceRequest()
     for cp in scene.geometry.collisionPairs:
-        a, b = objs[cp.first], objs[cp.second]
-        req, res = coal.DistanceRequest(), coal.DistanceResult()
-        out.append(coal.distance(a.geometry, pose(a), b.geometry, pose(b), req, res))
+        i, j = cp.first, cp.second
+        res = coal.DistanceResult()
+        out.append(coal.distance(objs[i].geometry, poses[i], objs[j].geometry, poses[j], req, res))
     return np.array(out)
