@@ -44,7 +44,7 @@ if TYPE_CHECKING:
     from armlab.robot.model import Robot
     from armlab.study.spec import StudySpec
 
-__all__ = ["CollisionError", "CollisionScene", "Distances", "FLOOR_NAME"]
+__all__ = ["CollisionError", "CollisionScene", "Distances", "FLOOR_NAME", "collision_summary"]
 
 #: The name of the floor in pair names and messages.
 FLOOR_NAME = "floor"
@@ -340,3 +340,23 @@ class CollisionScene:
                 point_jac(jb, dist.point_b_m[k]) - point_jac(ja, dist.point_a_m[k])
             )
         return dist.distance_m, grad
+
+
+def collision_summary(robot: Robot) -> str:
+    """One line on a robot's collision model (``armlab info``): how many shapes, from which
+    URDF elements, how many pairs are checked and which disabled-pair file says why not the
+    others. A geometry that cannot be built is reported on the line, not raised."""
+    from armlab.errors import ArmlabError
+
+    try:
+        scene = CollisionScene.from_robot(robot)
+    except ArmlabError as exc:
+        return f"none: {exc}"
+    n = len(scene.geometry.geometryObjects)
+    counts = scene.disabled.counts()
+    where = scene.disabled.path or scene.disabled.origin
+    return (
+        f"{n} shapes from the URDF's <{scene.source}> elements; {scene.n_pairs} pairs checked, "
+        f"link pairs disabled: {counts['adjacent']} adjacent, {counts['always']} always, "
+        f"{counts['never']} never in contact ({where})"
+    )
