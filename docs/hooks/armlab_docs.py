@@ -64,6 +64,8 @@ def _allowed(check: Callable) -> str:
         return "a name: letters, digits, `_ . -`, <= 64"
     if kind == "_drive_value":
         return _RULE_WORDS[nl["rule"]] + " (as in drives.toml)"
+    if kind == "_raw":
+        return "a shape key: see *Obstacles and collisions*"
     if kind == "_feedforward":
         return 'list of strings, or `"none"`'
     if kind == "_str":

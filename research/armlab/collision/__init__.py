@@ -50,8 +50,17 @@ Units: metres, radians, seconds; the world frame is the study's (the base mounte
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from armlab.collision.geometry import RobotGeometry, robot_geometry
+from armlab.collision.motion import ClearanceReport, PairClearance, check_motion
+from armlab.collision.pairs import (
+    DisabledPairs,
+    analyse_pairs,
+    disabled_pairs,
+    read_pairs,
+    write_pairs,
+)
+from armlab.collision.scene import CollisionError, CollisionScene, Distances, collision_summary
+from armlab.collision.shapes import Shape, shape_from_table
 
 __all__ = [
     "ClearanceReport",
@@ -71,32 +80,3 @@ __all__ = [
     "shape_from_table",
     "write_pairs",
 ]
-
-_HOME = {
-    "ClearanceReport": "motion",
-    "PairClearance": "motion",
-    "check_motion": "motion",
-    "CollisionError": "scene",
-    "CollisionScene": "scene",
-    "Distances": "scene",
-    "collision_summary": "scene",
-    "DisabledPairs": "pairs",
-    "analyse_pairs": "pairs",
-    "disabled_pairs": "pairs",
-    "read_pairs": "pairs",
-    "write_pairs": "pairs",
-    "RobotGeometry": "geometry",
-    "robot_geometry": "geometry",
-    "Shape": "shapes",
-    "shape_from_table": "shapes",
-}
-
-
-def __getattr__(name: str) -> Any:
-    """The public names, imported on first use (the study file reader needs only
-    :mod:`.shapes`, which imports neither Pinocchio nor coal)."""
-    if name in _HOME:
-        value = getattr(importlib.import_module(f"armlab.collision.{_HOME[name]}"), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'armlab.collision' has no attribute {name!r}")
