@@ -140,3 +140,46 @@ def test_duplicate_shape_names_are_refused(bot):
     ball = Shape("link2_0", "sphere", (0.05,), (1.0, 0.0, 0.0))
     with pytest.raises(InputError, match="link2_0"):
         CollisionScene.from_robot(bot, [ball])
+
+
+def _cube_stl(path, side: float) -> None:
+    """An ASCII STL of a cube of ``side`` centred on its origin (12 triangles)."""
+    h = side / 2
+    v = [(x, y, z) for x in (-h, h) for y in (-h, h) for z in (-h, h)]
+    faces = [
+        (0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
+        (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3),
+    ]  # fmt: skip
+    lines = ["solid cube"]
+    for f in faces:
+        lines += ["facet normal 0 0 0", "outer loop"]
+        lines += [f"vertex {v[k][0]} {v[k][1]} {v[k][2]}" for k in f]
+        lines += ["endloop", "endfacet"]
+    lines.append("endsolid cube")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_mesh_obstacle_matches_the_same_box(tmp_path, bot):
+    """A 0.1 m cube as an STL mesh (in mm, mesh_scale 0.001) 0.2 m below the tool point: the
+    payload sphere is 0.2 - 0.05 - 0.03 m from it, as from the box primitive of that size."""
+    _cube_stl(tmp_path / "cube.stl", 100.0)
+    tool = fk(bot, Q)[:3, 3]
+    below = tuple(tool - [0.0, 0.0, 0.2])
+    mesh = Shape(
+        "o", "mesh", xyz_m=below, mesh_path=str(tmp_path / "cube.stl"), mesh_scale=(1e-3,) * 3
+    )
+    payload = Shape("payload", "sphere", (0.03,))
+    scene = CollisionScene.from_robot(bot, [mesh], payload=payload)
+    dist = scene.distances(Q)
+    assert dist.distance_m[_pair(dist, "payload", "o")] == pytest.approx(0.12, abs=1e-6)
+
+
+def test_payload_is_checked_against_every_link_but_the_one_before_its_body(bot):
+    """The payload was not part of the sampled analysis: it is checked against link4 (a
+    'never' pair of the tool's own shape) but not against link5 (joined to the tool's body by
+    joint 6) nor the shapes on its own body (link6, tool0)."""
+    scene = CollisionScene.from_robot(bot, payload=Shape("payload", "box", (0.1, 0.1, 0.2)))
+    partners = {scene.link_of[b if a == "payload" else a] for a, b in scene.pair_names()
+                if "payload" in (a, b)}  # fmt: skip
+    assert {"link4", "link3", "link2", "base_link"} <= partners
+    assert not partners & {"link5", "link6", "tool0"}

@@ -13,9 +13,9 @@ Pairs checked:
   obstacle and the floor. Geometry fixed to the base (joint 0: a base plate) is not checked
   against the environment: neither moves, the distance is a fact of the setup (the arm stands on
   its table) and no plan changes it;
-* payload: attached to the tool frame's body; checked against the environment and against the
-  links the disabled pairs do not exclude for the tool's link (adjacent ones are skipped, as for
-  the link itself).
+* payload: attached to the tool frame's body; checked against the environment and against
+  every link of another body except those adjacent to the tool's (the sampled analysis knows
+  the description's shapes, not the study's payload, so its "never" pairs do not apply).
 
 The floor ``[robot] floor_z_m`` is the plane ``z = floor_z_m`` of the world, below which
 everything is solid: a box 100 m x 100 m x 10 m whose top face is that plane (a half-space
@@ -232,8 +232,8 @@ class CollisionScene:
         gm = self.geometry
         objs = gm.geometryObjects
         model = self.robot.model
-        tool_link = model.frames[self.robot.tool_frame_id].name
         env_set = set(env)
+        c = self.clearance_m
         for i in range(len(objs)):
             for j in range(i + 1, len(objs)):
                 if i in env_set and j in env_set:
@@ -247,9 +247,13 @@ class CollisionScene:
                 a, b = objs[i], objs[j]
                 if a.parentJoint == b.parentJoint:
                     continue  # one rigid body
-                la = tool_link if i == payload_id else self.link_of[a.name]
-                lb = tool_link if j == payload_id else self.link_of[b.name]
-                if self.disabled.skipped(la, lb, self.clearance_m):
+                if payload_id in (i, j):
+                    # the payload was not in the sampled analysis: only the body before the
+                    # tool's (joined to it by one joint) is skipped
+                    other = b if i == payload_id else a
+                    if other.parentJoint == model.parents[objs[payload_id].parentJoint]:
+                        continue
+                elif self.disabled.skipped(self.link_of[a.name], self.link_of[b.name], c):
                     continue
                 gm.addCollisionPair(pin.CollisionPair(i, j))
         self._data = self.robot.model.createData()
