@@ -102,12 +102,19 @@ def test_box_and_cylinder_sizes_follow_the_documented_convention(bot):
         assert dist.distance_m[_pair(dist, "payload", "o")] == pytest.approx(d, abs=1e-6), shape
 
 
-def test_distance_gradient_matches_finite_differences(bot):
+@pytest.mark.parametrize("mounted", [False, True])
+def test_distance_gradient_matches_finite_differences(bot, mounted):
     """d(d)/dq from the witness points and joint Jacobians equals a central difference
     (step 1e-3 rad) to 5e-4 m/rad for every pair with a sphere (the distance of a point to a
     convex set is smooth; two cylinders have kinks where their axes turn parallel). The step
-    is large next to GJK's 1e-6 m tolerance, small for the curvature (error ~ h^2)."""
-    tool = fk(bot, Q)[:3, 3]
+    is large next to GJK's 1e-6 m tolerance, small for the curvature (error ~ h^2). Also with
+    the base mounted tilted and moved (witness points and normals in the world frame)."""
+    T = np.eye(4)
+    if mounted:
+        T[:3, :3] = rpy_matrix(0.3, -0.2, 1.0)
+        T[:3, 3] = [0.2, -0.1, 0.5]
+        bot = load_robot("teachbot6", transform_base_to_world=T)
+    tool = T[:3, :3] @ fk(load_robot("teachbot6"), Q)[:3, 3] + T[:3, 3]
     ball = Shape("ball", "sphere", (0.05,), tuple(tool + [0.15, -0.1, 0.08]))
     scene = CollisionScene.from_robot(bot, [ball], payload=Shape("payload", "sphere", (0.03,)))
     d, grad = scene.distance_jacobian(Q)

@@ -46,7 +46,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pinocchio as pin
 
-from armlab.collision.scene import CollisionError, CollisionScene
+from armlab.collision.scene import CollisionError, CollisionScene, pair_label
 
 if TYPE_CHECKING:
     from armlab.trajectory import Trajectory
@@ -270,7 +270,7 @@ def check_motion(
     link_of = scene.link_of
     per = [
         PairClearance(
-            _pair_name(names[p], link_of),
+            pair_label(*names[p], link_of),
             (link_of[names[p][0]], link_of[names[p][1]]),
             float(D[k_t[p], p]),
             float(times[k_t[p]] - t0),
@@ -283,10 +283,3 @@ def check_motion(
     return ClearanceReport(
         c, ok, low.min_distance_m, low.time_s, low.pair, per, len(times), tol_m, scene.source
     )
-
-
-def _pair_name(pair: tuple[str, str], link_of: dict[str, str]) -> str:
-    a, b = pair
-    sa = a if link_of[a] == a else f"{a} ({link_of[a]})"
-    sb = b if link_of[b] == b else f"{b} ({link_of[b]})"
-    return f"{sa} and {sb}"

@@ -88,9 +88,15 @@ class Distances:
     def pair_name(self, k: int) -> str:
         """``"link2_0 (link2) and table"``: the pair ``k`` for a message."""
         (a, b), (la, lb) = self.pairs[k], self.links[k]
-        sa = a if a == la else f"{a} ({la})"
-        sb = b if b == lb else f"{b} ({lb})"
-        return f"{sa} and {sb}"
+        return pair_label(a, b, {a: la, b: lb})
+
+
+def pair_label(a: str, b: str, link_of: dict[str, str]) -> str:
+    """``"link2_0 (link2) and table"``: a pair of shapes for a message (a robot shape with its
+    link, an obstacle, the floor or the payload by its name)."""
+    sa = a if link_of[a] == a else f"{a} ({link_of[a]})"
+    sb = b if link_of[b] == b else f"{b} ({link_of[b]})"
+    return f"{sa} and {sb}"
 
 
 @dataclass
