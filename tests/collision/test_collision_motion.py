@@ -105,3 +105,15 @@ def test_report_lists_every_pair_closest_first(bot):
     assert d == sorted(d)
     assert rep.min_distance_m == pytest.approx(d[0], abs=0.0)
     assert 0.0 <= rep.time_s <= traj.duration
+
+
+def test_speeds_from_the_limit_report_give_the_same_certificate(bot):
+    """The plan stage hands check_motion the limit report's velocity peaks (ratio x limit):
+    the same evaluations and minimum as the trajectory's own speeds."""
+    scene, traj = _random_case(bot, np.random.default_rng(5))
+    report = traj.check_limits(bot)
+    peaks = report.ratios["velocity"] * bot.limits.velocity_rad_s
+    a = check_motion(scene, traj)
+    b = check_motion(scene, traj, qd_max=peaks)
+    assert b.n_evaluations == a.n_evaluations
+    assert b.min_distance_m == pytest.approx(a.min_distance_m, abs=1e-12)

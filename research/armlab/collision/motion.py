@@ -208,6 +208,7 @@ def check_motion(
     *,
     tol_m: float = TOL_M,
     initial_step_s: float = INITIAL_STEP_S,
+    qd_max: np.ndarray | None = None,
 ) -> ClearanceReport:
     """The certified clearance of ``trajectory`` in ``scene`` (module docstring).
 
@@ -221,6 +222,11 @@ def check_motion(
         Tolerance of the certificate in [m].
     initial_step_s : float
         Longest interval of the starting grid in [s].
+    qd_max : array (n_joints,), optional
+        Largest joint speeds of the trajectory in [rad/s] (or [m/s]) where the caller knows
+        them (the plan stage: its limit report's velocity peaks, found at the same interior
+        extremes); default: computed from the trajectory. A value below the trajectory's
+        speeds voids the certificate.
 
     Returns
     -------
@@ -232,7 +238,7 @@ def check_motion(
     t0, t1 = float(trajectory.t[0]), float(trajectory.t[-1])
     if n == 0:
         return ClearanceReport(c, True, math.inf, t0, "", [], 0, tol_m, scene.source)
-    s = speed_bounds(scene, _max_speeds(trajectory))
+    s = speed_bounds(scene, _max_speeds(trajectory) if qd_max is None else np.asarray(qd_max))
     V = np.array([s[p.first] + s[p.second] for p in pairs])
     v_top = float(V.max())
     h_min = 2.0 * tol_m / v_top if v_top > 0 else math.inf

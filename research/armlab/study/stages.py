@@ -410,7 +410,9 @@ def stage_plan(ctx: StudyContext) -> StageOutput:
                 failed.append(f"plan: {k} of {robot.joint_names[j]} is {r[j]:.4g} x its limit")
     from armlab.collision import check_motion
 
-    ctx.clearance = clearance = check_motion(scene, traj)
+    peak = report.ratios.get("velocity")  # exact peaks (knots and interior extremes)
+    qd_max = None if peak is None else peak * robot.limits.velocity_rad_s * (1 + 1e-9)
+    ctx.clearance = clearance = check_motion(scene, traj, qd_max=qd_max)
     clearance.raise_if_failed(f"the {traj.method or spec.plan.planner} plan")
     kind, joint, ratio = report.worst()
     block = {
