@@ -129,9 +129,18 @@ class CollisionScene:
     payload: Shape | None = None
     clearance_m: float = 0.0
     link_of: dict[str, str] = field(default_factory=dict)
-    _data: Any = None
-    _gdata: Any = None
-    _results: list[Any] = field(default_factory=list)
+    _data: Any = field(default=None, repr=False, compare=False)
+    _gdata: Any = field(default=None, repr=False, compare=False)
+    _results: list[Any] = field(default_factory=list, repr=False, compare=False)
+
+    def __repr__(self) -> str:
+        return (
+            f"CollisionScene({self.robot.name!r}, {len(self.geometry.geometryObjects)} shapes, "
+            f"{self.n_pairs} pairs, geometry={self.source!r}, "
+            f"obstacles={[o.name for o in self.obstacles]}, floor_z_m={self.floor_z_m}, "
+            f"payload={None if self.payload is None else self.payload.kind!r}, "
+            f"clearance_m={self.clearance_m:g})"
+        )
 
     # ------------------------------------------------------------------ construction
     @classmethod
