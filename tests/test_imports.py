@@ -70,6 +70,7 @@ def test_package_import_alone_loads_no_heavy_dependency(module):
 
 
 PACKAGES = (
+    "collision",
     "control",
     "deploy",
     "dynamics",

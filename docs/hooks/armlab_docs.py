@@ -66,6 +66,8 @@ def _allowed(check: Callable) -> str:
         return _RULE_WORDS[nl["rule"]] + " (as in drives.toml)"
     if kind == "_amplifier":
         return "catalogue amplifier name, or a table of `[joint.amplifier]` keys (drives.toml)"
+    if kind == "_raw":
+        return "a shape key: see *Obstacles and collisions*"
     if kind == "_feedforward":
         return 'list of strings, or `"none"`'
     if kind == "_str":
