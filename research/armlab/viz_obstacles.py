@@ -4,12 +4,14 @@ The drawing takes **plain descriptions**, not the collision package's objects, s
 not depend on how distances are computed:
 
 * :class:`ObstacleShape` -- one obstacle: a name, a kind (``"box"``, ``"sphere"``,
-  ``"cylinder"``, ``"mesh"``), its size and its pose in the world. :func:`obstacle_shape` reads
-  one from a study's ``[[obstacle]]`` table (``box_m = [x, y, z]`` full edge lengths,
-  ``sphere_m = r``, ``cylinder_m = [r, length]`` along the local z axis, or ``mesh = "file"``
-  with ``mesh_scale``; ``xyz_m`` the centre and ``rpy_deg`` roll-pitch-yaw in the world frame,
-  the URDF convention ``R = Rz(yaw) Ry(pitch) Rx(roll)``), from a mapping of the same keys or
-  from any object with those attributes.
+  ``"cylinder"``, ``"capsule"``, ``"mesh"``), its size and its pose in the world.
+  :func:`obstacle_shape` reads one from a study's ``[[obstacle]]`` table (``box_m = [x, y, z]``
+  full edge lengths, ``sphere_m = r``, ``cylinder_m = [r, length]`` along the local z axis,
+  ``capsule_m`` the same with hemispherical ends, or ``mesh = "file"`` with ``mesh_scale``;
+  ``xyz_m`` the centre and ``rpy_deg`` roll-pitch-yaw in the world frame, the URDF convention
+  ``R = Rz(yaw) Ry(pitch) Rx(roll)``), from a mapping of the same keys, any object with those
+  attributes, or a shape object with ``kind``, ``size_m``, ``transform()`` (or ``xyz_m``,
+  ``rpy_deg``) and ``mesh_path`` (the collision package's).
 * :class:`ClosestPair` -- the two witness points (world frame, [m]) of the pair that came
   closest, its signed distance [m] and the time [s] of that instant.
 
@@ -47,8 +49,14 @@ __all__ = [
 ]
 
 #: the study keys of an obstacle's shape, one per kind
-SHAPE_KEYS = {"box_m": "box", "sphere_m": "sphere", "cylinder_m": "cylinder", "mesh": "mesh"}
-_SIZES = {"box": 3, "sphere": 1, "cylinder": 2, "mesh": 0}
+SHAPE_KEYS = {
+    "box_m": "box",
+    "sphere_m": "sphere",
+    "cylinder_m": "cylinder",
+    "capsule_m": "capsule",
+    "mesh": "mesh",
+}
+_SIZES = {"box": 3, "sphere": 1, "cylinder": 2, "capsule": 2, "mesh": 0}
 
 _OBSTACLE_RGBA = (0.95, 0.55, 0.15, 0.55)
 _FLOOR_RGBA = (0.55, 0.55, 0.55, 0.35)
@@ -159,6 +167,21 @@ def obstacle_shape(src, index: int = 0) -> ObstacleShape:
         return src
     name = str(_get(src, "name", "") or f"obstacle{index}")
     where = f"obstacle {name!r}"
+    kind = _get(src, "kind")
+    if kind in _SIZES and not isinstance(src, Mapping):  # a shape object (kind, size_m, pose)
+        pose = _get(src, "transform")
+        pose = pose() if callable(pose) else _get(src, "pose")
+        if pose is None:
+            pose = pose_matrix(_get(src, "xyz_m", (0, 0, 0)), _get(src, "rpy_deg", (0, 0, 0)))
+        scale = np.broadcast_to(np.asarray(_get(src, "mesh_scale", 1.0), float), (3,))
+        return ObstacleShape(
+            name,
+            str(kind),
+            tuple(float(v) for v in _get(src, "size_m", ())),
+            np.asarray(pose, float),
+            str(_get(src, "mesh_path", "") or _get(src, "mesh", "") or ""),
+            (float(scale[0]), float(scale[1]), float(scale[2])),
+        )
     given = [k for k in SHAPE_KEYS if _get(src, k) not in (None, "", ())]
     if len(given) != 1:
         raise InputError(
@@ -199,7 +222,7 @@ def _geometry(shape: ObstacleShape, meshcat_g):
         return meshcat_g.Box(list(shape.size_m)), fix
     if shape.kind == "sphere":
         return meshcat_g.Sphere(shape.size_m[0]), fix
-    if shape.kind == "cylinder":
+    if shape.kind in ("cylinder", "capsule"):  # a capsule drawn as its cylinder (+ end caps)
         fix[:3, :3] = [[1, 0, 0], [0, 0, -1], [0, 1, 0]]  # +90 deg about x: y -> z
         return meshcat_g.Cylinder(shape.size_m[1], shape.size_m[0]), fix
     path = Path(shape.mesh)
@@ -254,6 +277,13 @@ def draw_environment(
         path = f"environment/{_node(shape.name)}"
         viewer[path].set_object(geom, _material(_OBSTACLE_RGBA, g))
         viewer[path].set_transform(shape.pose @ fix)
+        if shape.kind == "capsule":  # the hemispherical ends as spheres
+            r, length = shape.size_m
+            for end, sign in (("cap_a", 1.0), ("cap_b", -1.0)):
+                viewer[f"{path}_{end}"].set_object(g.Sphere(r), _material(_OBSTACLE_RGBA, g))
+                viewer[f"{path}_{end}"].set_transform(
+                    shape.pose @ pose_matrix((0.0, 0.0, sign * length / 2))
+                )
         drawn.append(
             {
                 "name": shape.name,
