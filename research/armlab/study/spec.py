@@ -5,14 +5,20 @@ A study file has these tables (every key optional unless marked; units in the ke
     [study]      name, seed, stages (subset of STAGES, in chain order), report (bool)
     [robot]      name (required: built-in name, URDF path or erd:<path in example-robot-data>),
                  drives (drives file path), tool_frame, lock_joints,
-                 base_xyz_m, base_rpy_deg (mounting of the base in the world)
-    [payload]    mass_kg, com_m (centre of mass in the tool frame)
+                 base_xyz_m, base_rpy_deg (mounting of the base in the world),
+                 floor_z_m (the floor's height in the world; default none),
+                 collision_pairs (a disabled-pairs TOML, armlab.collision.pairs)
+    [payload]    mass_kg, com_m (centre of mass in the tool frame); its shape for the collision
+                 check: one of box_m, sphere_m, cylinder_m, capsule_m, mesh (+ mesh_scale),
+                 placed by shape_xyz_m, shape_rpy_deg in the tool frame (armlab.collision.shapes)
+    [[obstacle]] name, one of box_m, sphere_m, cylinder_m, capsule_m, mesh (+ mesh_scale),
+                 xyz_m (centre in the world), rpy_deg: the environment of the collision check
     [waypoints]  unit ("deg" | "rad"), joint (n x n_joints) OR cartesian (n x 6: x, y, z in m,
                  roll, pitch, yaw in `unit`), ik_seed (n_joints, in `unit`)
     [limits]     velocity_rad_s, acceleration_rad_s2, jerk_rad_s3, effort_Nm: a number for every
                  joint or a list (n_joints,) -- the robot's limits for the whole study
     [plan]       planner, profile, objective, duration_s, speed_scale, torque_limits,
-                 jerk_limits, check_dt_s, speed_m_s, blend_radius_m
+                 jerk_limits, check_dt_s, speed_m_s, blend_radius_m, clearance_m
     [drives.<joint>]  ratio, motor, reducer, efficiency, derating, pulses_per_rev, decoding
                  (catalogue names; a robot without drives: motor, reducer, pulses_per_rev
                  for every joint build its drive train)
@@ -45,6 +51,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from armlab.collision.shapes import SHAPE_KEYS, Shape, shape_from_table
 from armlab.errors import SpecError
 from armlab.names import check_name, check_title
 from armlab.robot.drives import drive_value_rule, value_problem
@@ -202,6 +209,11 @@ def _str_list(choices: tuple[str, ...] | None = None):
     return check
 
 
+def _raw(v, where):
+    """A value checked with the other keys of its table (the payload's shape)."""
+    return v
+
+
 def _key(check, default=MISSING, doc: str = ""):
     """A dataclass field that carries its value check and documentation."""
     if default is MISSING:
@@ -239,6 +251,15 @@ class RobotSpec:
     base_rpy_deg: tuple[float, ...] | None = _key(
         _vector(3), None, "roll, pitch, yaw of the base in the world, deg (e.g. 90 0 0: wall)"
     )
+    floor_z_m: float | None = _key(
+        _float(), None, "height of the floor in the world, m (default: no floor)"
+    )
+    collision_pairs: str | None = _key(
+        _str(),
+        None,
+        "disabled collision pairs TOML (armlab.collision.pairs), relative to the study file "
+        "(default: the description's or the cached sampled analysis)",
+    )
 
 
 @dataclass(frozen=True)
@@ -247,6 +268,15 @@ class PayloadSpec:
 
     mass_kg: float | None = _key(_float(0.0), None, "payload mass in kg (default: description's)")
     com_m: tuple[float, ...] | None = _key(_vector(3), None, "centre of mass in the tool frame, m")
+    # the payload's shape (armlab.collision.shapes): checked together in parse_study
+    box_m: Any = _key(_raw, None, "payload shape: box full sides x, y, z, m")
+    sphere_m: Any = _key(_raw, None, "payload shape: sphere radius, m")
+    cylinder_m: Any = _key(_raw, None, "payload shape: cylinder radius, length (along z), m")
+    capsule_m: Any = _key(_raw, None, "payload shape: capsule radius, length (along z), m")
+    mesh: Any = _key(_raw, None, "payload shape: mesh file, relative to the study file")
+    mesh_scale: Any = _key(_raw, None, "payload shape: mesh scale factors x, y, z")
+    shape_xyz_m: Any = _key(_raw, None, "payload shape: centre in the tool frame, m")
+    shape_rpy_deg: Any = _key(_raw, None, "payload shape: roll, pitch, yaw in the tool frame")
 
 
 @dataclass(frozen=True)
@@ -297,6 +327,12 @@ class PlanSpec:
     check_dt_s: float = _key(_float(0.0, 1.0, lo_open=True), 0.001, "limit-check grid")
     speed_m_s: float | None = _key(_float(0.0, lo_open=True), None, "Cartesian planners: speed")
     blend_radius_m: float | None = _key(_float(0.0, lo_open=True), None, "blend: corner radius")
+    clearance_m: float = _key(
+        _float(0.0),
+        0.0,
+        "smallest distance the plan keeps between the arm, its payload, the floor and the "
+        "obstacles, m (0: no contact)",
+    )
 
 
 @dataclass(frozen=True)
@@ -444,6 +480,9 @@ class StudySpec:
     source: str
     document: dict[str, Any]
     hash: str
+    #: the ``[[obstacle]]`` tables and the payload's shape (armlab.collision.shapes)
+    obstacles: tuple[Shape, ...] = ()
+    payload_shape: Shape | None = None
 
     def resolve(self, name_or_path: str) -> str:
         """A path relative to the study file made absolute; a bare name stays as it is."""
@@ -460,6 +499,7 @@ class StudySpec:
         """The normalised spec as JSON-able data."""
         out = {name: _jsonable(asdict(getattr(self, name))) for name in _SECTIONS}
         out["drives"] = {j: _jsonable(asdict(d)) for j, d in self.drives.items()}
+        out["obstacle"] = [_jsonable(asdict(o)) for o in self.obstacles]
         out["source"] = self.source
         out["hash"] = self.hash
         return out
@@ -508,7 +548,7 @@ def parse_study(
     """
     if not isinstance(document, dict):
         raise SpecError(f"{source}: a study must be a TOML table")
-    allowed = set(_SECTIONS) | {"drives"}
+    allowed = set(_SECTIONS) | {"drives", "obstacle"}
     unknown = sorted(set(document) - allowed)
     if unknown:
         raise SpecError(f"{unknown[0]}: unknown table (known: {', '.join(sorted(allowed))})")
@@ -543,6 +583,7 @@ def parse_study(
             f"plan.drive_limits: only the 'optimal' and 'path' planners plan inside the motor "
             f"envelope, not {plan.planner!r}"
         )
+    obstacles, payload_shape = _shapes(document, Path(base_dir))
     stages = parts["study"].stages
     order = [s for s in STAGES if s in stages]
     if list(stages) != order or len(set(stages)) != len(stages):
@@ -554,7 +595,54 @@ def parse_study(
         source=source,
         document=copy.deepcopy(document),
         hash=document_hash(document),
+        obstacles=obstacles,
+        payload_shape=payload_shape,
     )
+
+
+#: The name of the payload's shape in the collision check.
+PAYLOAD_SHAPE_NAME = "payload"
+_RESERVED_SHAPE_NAMES = (PAYLOAD_SHAPE_NAME, "floor")
+
+
+def _shapes(document: dict[str, Any], base_dir: Path) -> tuple[tuple[Shape, ...], Shape | None]:
+    """The ``[[obstacle]]`` tables and the ``[payload]`` shape (armlab.collision.shapes)."""
+    raw = document.get("obstacle", [])
+    if not isinstance(raw, list):
+        raise SpecError("obstacle: expected [[obstacle]] tables (an array of tables)")
+    known = {"name", "xyz_m", "rpy_deg", "mesh_scale", *SHAPE_KEYS}
+    obstacles: list[Shape] = []
+    for i, table in enumerate(raw):
+        where = f"obstacle[{i}]"
+        if not isinstance(table, dict):
+            raise SpecError(f"{where}: expected a table, not {table!r}")
+        unknown = sorted(set(table) - known)
+        if unknown:
+            raise SpecError(
+                f"{where}.{unknown[0]}: unknown key (known: {', '.join(sorted(known))})"
+            )
+        if "name" not in table:
+            raise SpecError(f"{where}.name: missing (required)")
+        shape = shape_from_table(table, table["name"], f"{where}.name", base_dir)
+        if shape.name in _RESERVED_SHAPE_NAMES or shape.name in [o.name for o in obstacles]:
+            raise SpecError(
+                f"{where}.name: {shape.name!r} is taken (names must be distinct, not "
+                f"{' or '.join(_RESERVED_SHAPE_NAMES)})"
+            )
+        obstacles.append(shape)
+    payload = document.get("payload", {})
+    keys = (*SHAPE_KEYS, "mesh_scale", "shape_xyz_m", "shape_rpy_deg")
+    given = {k: payload[k] for k in keys if isinstance(payload, dict) and k in payload}
+    shape = None
+    if given:
+        shape = shape_from_table(
+            given,
+            PAYLOAD_SHAPE_NAME,
+            "payload",
+            base_dir,
+            pose_keys=("shape_xyz_m", "shape_rpy_deg"),
+        )
+    return tuple(obstacles), shape
 
 
 def demo_study_path() -> Path:

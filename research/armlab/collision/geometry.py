@@ -1,0 +1,131 @@
+"""A robot's collision geometry, read from its URDF.
+
+Each link's ``<collision>`` elements are its collision geometry; a URDF without any
+``<collision>`` element falls back to its ``<visual>`` elements, and the result says which
+(:attr:`RobotGeometry.source`, ``"collision"`` or ``"visual"``; ``armlab info`` and the plan
+block state it). A mesh ``package://PKG/path`` is looked up as the 3D view does
+(:func:`armlab.viz.visual_model`: the URDF's folders, example-robot-data, ``$ROS_PACKAGE_PATH``);
+a collision mesh that is not found is an error (a check that skips a part of the arm would
+pass plans that hit it). Joints the :class:`~armlab.robot.model.Robot` locked are locked at 0
+in the geometry too.
+
+Pinocchio names each geometry ``<link>_<k>`` (the k-th collision element of the link).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import pinocchio as pin
+
+from armlab.errors import RobotDescriptionError
+
+if TYPE_CHECKING:
+    from armlab.robot.model import Robot
+
+__all__ = ["RobotGeometry", "robot_geometry", "urdf_sha256"]
+
+
+@dataclass
+class RobotGeometry:
+    """The collision geometry of a robot.
+
+    Attributes
+    ----------
+    geometry : pinocchio.GeometryModel
+        One object per collision (or visual) element, attached to the robot's joints (the
+        joint indices of ``robot.model``).
+    source : str
+        ``"collision"`` (the URDF's ``<collision>`` elements) or ``"visual"`` (none: its
+        ``<visual>`` elements stand in).
+    urdf_sha256 : str
+        sha256 of the URDF text: the key of the disabled-pair analysis
+        (:mod:`armlab.collision.pairs`).
+    link_of : dict of str to str
+        Each geometry's link name.
+    """
+
+    geometry: pin.GeometryModel
+    source: str
+    urdf_sha256: str
+    link_of: dict[str, str]
+
+
+def urdf_sha256(path: str | Path) -> str:
+    """sha256 (hex) of a URDF file's bytes."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _with_found_meshes(urdf: Path, element: str) -> tuple[str, list[str]]:
+    """The URDF text with every ``element`` mesh made an absolute path: (text, missing)."""
+    from armlab.viz import _mesh_search_dirs, _resolve_mesh
+
+    dirs = _mesh_search_dirs(urdf, ())
+    root = ET.parse(urdf).getroot()
+    missing = []
+    for link in root.iter("link"):
+        for el in link.findall(element):
+            mesh = el.find("geometry/mesh")
+            if mesh is None:
+                continue
+            found = _resolve_mesh(mesh.get("filename", ""), urdf, dirs)
+            if found is None:
+                missing.append(f"{link.get('name')}: {mesh.get('filename', '?')}")
+            else:
+                mesh.set("filename", str(found.resolve()))
+    return ET.tostring(root, encoding="unicode"), missing
+
+
+def robot_geometry(robot: Robot) -> RobotGeometry:
+    """The collision geometry of ``robot`` (module docstring: ``<collision>``, else ``<visual>``).
+
+    Raises
+    ------
+    RobotDescriptionError
+        The URDF has neither collision nor visual elements, a collision mesh is missing, or the
+        geometry cannot be built (one line naming the URDF).
+    """
+    urdf = Path(robot.urdf_path)
+    try:
+        root = ET.parse(urdf).getroot()
+    except (OSError, ET.ParseError) as exc:
+        raise RobotDescriptionError(f"{urdf}: cannot read the URDF ({exc})") from None
+    if root.find("link/collision") is not None:
+        source, kind = "collision", pin.GeometryType.COLLISION
+    elif root.find("link/visual") is not None:
+        source, kind = "visual", pin.GeometryType.VISUAL
+    else:
+        raise RobotDescriptionError(
+            f"{urdf}: no <collision> or <visual> elements: nothing to check collisions with"
+        )
+    text, missing = _with_found_meshes(urdf, source)
+    if missing:
+        raise RobotDescriptionError(
+            f"{urdf}: {len(missing)} {source} mesh(es) not found (first: {missing[0]})"
+        )
+    try:
+        full = pin.buildModelFromXML(text)
+        geom = pin.buildGeomFromUrdfString(full, text, kind)
+    except Exception as exc:  # pinocchio: ValueError/RuntimeError with XML details
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise RobotDescriptionError(
+            f"{urdf}: cannot build its {source} geometry ({first})"
+        ) from None
+    wanted = list(robot.model.names)
+    locked = [j for j in range(1, full.njoints) if full.names[j] not in wanted]
+    model = full
+    if locked:
+        model, geoms = pin.buildReducedModel(full, [geom], locked, pin.neutral(full))
+        geom = geoms[0]
+    if list(model.names) != wanted:
+        raise RobotDescriptionError(
+            f"{urdf}: its joints {list(model.names[1:])} are not the robot's {wanted[1:]}"
+        )
+    link_of = {}
+    for obj in geom.geometryObjects:
+        link_of[obj.name] = model.frames[obj.parentFrame].name
+    return RobotGeometry(geom, source, urdf_sha256(urdf), link_of)
