@@ -13,7 +13,8 @@ order, by
 
 ``J_x(p)`` the linear Jacobian of the point ``p`` fixed to the body's joint (zero for an
 obstacle; ``J(p) = J_v - [p - o]_\times J_\omega`` from the joint's Jacobian at its origin ``o``,
-Pinocchio's ``LOCAL_WORLD_ALIGNED``). The clearance row of a knot ``k`` and a pair, linearised
+Pinocchio's ``LOCAL_WORLD_ALIGNED``; both from the collision package,
+:meth:`armlab.collision.CollisionScene.distance_jacobian`). The clearance row of a knot ``k`` and a pair, linearised
 at the last solution's ``\bar q_k``, is linear in the knot's positions:
 
 .. math::
@@ -29,8 +30,8 @@ keeps it, re-linearised each round). The rows enter the optimiser's compiled pro
 Rounds
 ------
 Round 0 is the plain plan (no rows). Each round then checks the whole motion between the knots
-with the collision package's motion check (every pair, on its fine grid); if every pair keeps
-``c`` the plan is returned. Otherwise the rows are (re)linearised at the current knots, a pair
+with the collision package's certified motion check (:func:`armlab.collision.check_motion`:
+every checked pair, between the samples); if every pair keeps ``c`` the plan is returned. Otherwise the rows are (re)linearised at the current knots, a pair
 that came closer than ``c`` between the knots has its back-off raised by its shortfall plus
 :data:`BACKOFF_M` (as the torque back-off lowers a bound the knots alone do not see), and the
 problem is solved again from the last solution. After :data:`MAX_ROUNDS` rounds, or a solve
@@ -46,13 +47,11 @@ points' Jacobians, in sequential convex rounds); Ericson, *Real-Time Collision D
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pinocchio as pin
 
 from armlab._lazy import lazy_import
 from armlab.errors import ArmlabError, InfeasibleError
@@ -60,6 +59,7 @@ from armlab.errors import ArmlabError, InfeasibleError
 if TYPE_CHECKING:
     import casadi as ca
 
+    from armlab.collision import ClearanceReport, CollisionScene
     from armlab.planning.optimal_problem import OptimalProblem
     from armlab.planning.transcription import Structure
     from armlab.trajectory.core import Trajectory
@@ -71,11 +71,8 @@ __all__ = [
     "BACKOFF_M",
     "MAX_ROUNDS",
     "SLOTS",
-    "ClearanceModel",
     "ClearanceRows",
-    "MotionClearance",
-    "Witness",
-    "distance_gradient",
+    "extended_structure",
     "plan_clear",
 ]
 
@@ -87,106 +84,6 @@ BACKOFF_M = 1e-3
 MAX_ROUNDS = 6
 #: rows per knot the compiled problems offer (the fewest that hold the knot with most rows)
 SLOTS = (1, 2, 4, 8)
-
-
-@dataclass(frozen=True)
-class Witness:
-    """The signed distance of one pair at one pose, with what its gradient needs.
-
-    Attributes
-    ----------
-    a, b : str
-        The bodies' names (``a`` a link's geometry; ``b`` another link's, an obstacle or
-        ``floor``).
-    distance_m : float
-        Signed distance [m] (negative: penetration depth).
-    point_a_m, point_b_m : ndarray (3,)
-        Witness points in the world frame [m].
-    normal : ndarray (3,)
-        Unit vector from a to b (world frame).
-    joint_a, joint_b : int
-        The joints (indices of ``robot.model``) the bodies move with; 0: fixed in the world.
-    """
-
-    a: str
-    b: str
-    distance_m: float
-    point_a_m: np.ndarray
-    point_b_m: np.ndarray
-    normal: np.ndarray
-    joint_a: int
-    joint_b: int = 0
-
-    @property
-    def pair(self) -> tuple[str, str]:
-        return (self.a, self.b)
-
-
-@dataclass(frozen=True)
-class MotionClearance:
-    """The closest approach of each pair along a motion (the motion check's answer).
-
-    Attributes
-    ----------
-    min_distance_m : dict of (str, str) to float
-        Each checked pair's smallest signed distance [m] along the motion.
-    time_s : dict of (str, str) to float
-        The plan time [s] of that smallest distance.
-    """
-
-    min_distance_m: dict[tuple[str, str], float]
-    time_s: dict[tuple[str, str], float]
-
-    def closest(self) -> tuple[tuple[str, str], float, float]:
-        """The pair that came closest, its distance [m] and time [s]."""
-        pair = min(self.min_distance_m, key=self.min_distance_m.__getitem__)
-        return pair, self.min_distance_m[pair], self.time_s[pair]
-
-
-class ClearanceModel(Protocol):
-    """What the rounds ask of the collision package (an adapter to its API)."""
-
-    robot: Any
-    clearance_m: float
-
-    def witnesses(self, q: np.ndarray, within_m: float) -> list[Witness]:
-        """Every checked pair closer than ``within_m`` [m] at the pose ``q`` [rad]."""
-        ...
-
-    def motion(self, trajectory: Trajectory) -> MotionClearance:
-        """Every checked pair's closest approach along the motion (between the samples)."""
-        ...
-
-
-# ---------------------------------------------------------------------------- gradient
-def _point_jacobian(model, data, joint: int, point: np.ndarray) -> np.ndarray:
-    """(3, nv) linear Jacobian of a point [m] (base frame) fixed to ``joint``; 0 for joint 0."""
-    if joint <= 0:
-        return np.zeros((3, model.nv))
-    J = pin.getJointJacobian(model, data, joint, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-    r = point - data.oMi[joint].translation
-    return J[:3] - pin.skew(r) @ J[3:]
-
-
-def distance_gradient(robot, q: np.ndarray, witness: Witness, data=None) -> np.ndarray:
-    r"""``\nabla_q d = n^T (J_b(p_b) - J_a(p_a))`` (n_joints,) of one pair at ``q`` (module
-    docstring), the witness points and normal given in the world frame
-    (``robot.transform_base_to_world`` maps the model's base frame to it).
-
-    ``data`` may hold ``robot.model``'s joint Jacobians at ``q`` already
-    (``pin.computeJointJacobians``); otherwise they are computed here.
-    """
-    model = robot.model
-    if data is None:
-        data = model.createData()
-        pin.computeJointJacobians(model, data, np.asarray(q, float))
-    T = np.asarray(robot.transform_base_to_world, float)
-    R, o = T[:3, :3], T[:3, 3]
-    pa, pb = R.T @ (witness.point_a_m - o), R.T @ (witness.point_b_m - o)
-    n = R.T @ witness.normal
-    Ja = _point_jacobian(model, data, witness.joint_a, pa)
-    Jb = _point_jacobian(model, data, witness.joint_b, pb)
-    return n @ (Jb - Ja)
 
 
 # ---------------------------------------------------------------------------- rows
@@ -299,56 +196,52 @@ def _knot_q(traj: Trajectory) -> np.ndarray:
 
 
 def _relinearise(
-    model: ClearanceModel, q_knots: np.ndarray, rows: ClearanceRows, active: set, backoff: dict
+    scene: CollisionScene,
+    q_knots: np.ndarray,
+    rows: ClearanceRows,
+    active: set[tuple[int, int]],
+    backoff: np.ndarray,
 ) -> None:
-    """Rows at every knot where a pair comes within ``c + ACTIVATION_M`` (and at the knots
-    that had one), linearised at ``q_knots``."""
-    c = model.clearance_m
-    robot = model.robot
-    data = robot.model.createData()
-    reach = c + ACTIVATION_M + max(backoff.values(), default=0.0)
+    """Rows at every knot where a pair comes within ``c + backoff + ACTIVATION_M`` (and at
+    the knots that had one), linearised at ``q_knots`` (``scene.distance_jacobian``)."""
+    c = scene.clearance_m
     rows.rows.clear()
     for k, qk in enumerate(q_knots):
-        near = {w.pair: w for w in model.witnesses(qk, reach)}
-        keep = {pair for kk, pair in active if kk == k}
-        if not near and not keep:
-            continue
-        pin.computeJointJacobians(robot.model, data, qk)
-        for pair, w in near.items():
-            if w.distance_m < c + ACTIVATION_M + backoff.get(pair, 0.0) or pair in keep:
-                active.add((k, pair))
-                grad = distance_gradient(robot, qk, w, data)
-                bound = c + backoff.get(pair, 0.0) - w.distance_m + float(grad @ qk)
-                rows.rows[(k, pair)] = (grad, bound)
+        d, grad = scene.distance_jacobian(qk)
+        near = set(np.flatnonzero(d < c + backoff + ACTIVATION_M).tolist())
+        near |= {pair for kk, pair in active if kk == k}
+        for pair in sorted(near):
+            active.add((k, pair))
+            g = grad[pair]
+            rows.rows[(k, pair)] = (g, c + backoff[pair] - d[pair] + float(g @ qk))
 
 
-def _refusal(pair, d: float, t: float, c: float, why: str) -> InfeasibleError:
-    a, b = pair
-    what = f"penetrates {-d * 1e3:.1f} mm deep" if d < 0 else f"comes within {d * 1e3:.1f} mm"
+def _refusal(report: ClearanceReport, why: str) -> InfeasibleError:
     return InfeasibleError(
-        f"clearance: {a} and {b} cannot be kept {c * 1e3:g} mm apart: the plan {what} "
-        f"at t = {t:.3f} s ({why})"
+        f"clearance: optimal cannot keep {report.clearance_m * 1e3:g} mm: "
+        f"{report.message('its plan')} ({why})"
     )
 
 
 def plan_clear(
     first: Callable[[], Trajectory],
     build: Callable[[Sequence[int] | None], OptimalProblem],
-    model: ClearanceModel,
+    scene: CollisionScene,
     *,
     max_rounds: int = MAX_ROUNDS,
 ) -> Trajectory:
-    """Plan with :func:`optimal` and keep every pair ``model.clearance_m`` apart (module
-    docstring).
+    """Plan with :func:`optimal` and keep every checked pair of ``scene`` at least
+    ``scene.clearance_m`` apart (module docstring).
 
     Parameters
     ----------
     first : callable
         The plain plan (round 0: ``optimal`` without clearance rows).
     build : callable ``(n_intervals) -> OptimalProblem``
-        A fresh problem of the same request on the given grid.
-    model : ClearanceModel
-        Distances, witness points and the motion check (the collision package).
+        A fresh problem of the same request on the given grid (None: the requested one).
+    scene : armlab.collision.CollisionScene
+        Distances and their gradients, and the motion check
+        (:func:`armlab.collision.check_motion`).
     max_rounds : int
         Re-solves with rows before refusing.
 
@@ -356,57 +249,54 @@ def plan_clear(
     -------
     Trajectory
         The first plan whose motion keeps the clearance; ``stats["clearance_rounds"]``,
-        ``stats["clearance_rows"]`` and ``meta["clearance"]`` (its motion check) say how.
+        ``stats["clearance_rows"]``, ``stats["min_clearance_m"]`` and ``meta["clearance"]``
+        (the motion check, :meth:`ClearanceReport.to_dict`).
 
     Raises
     ------
     InfeasibleError
         One line naming the pair, the time and the distance (or depth) reached.
     """
-    c = model.clearance_m
+    from armlab.collision import check_motion
+
     traj = first()
-    check = model.motion(traj)
-    pair, d, t = check.closest()
-    if d >= c:
-        return _stamp(traj, check, 0, 0)
+    report = check_motion(scene, traj)
+    if report.ok:
+        return _stamp(traj, report, 0, 0)
     raised = traj.stats.get("n_intervals_raised")
-    grid = tuple(raised["to"]) if raised else None
-    prob = build(grid)
+    prob = build(tuple(raised["to"]) if raised else None)
     rows = ClearanceRows(prob.n, prob.N)
     prob.clearance_rows = rows
-    active: set = set()
-    backoff: dict[tuple[str, str], float] = {}
+    names = _pair_index(scene, traj)
+    active: set[tuple[int, int]] = set()
+    backoff = np.zeros(scene.n_pairs)
     for rnd in range(1, max_rounds + 1):
-        _relinearise(model, _knot_q(traj), rows, active, backoff)
+        _relinearise(scene, _knot_q(traj), rows, active, backoff)
         try:
             traj = prob.solve()
         except ArmlabError as exc:
             why = (str(exc).splitlines() or [type(exc).__name__])[0]
-            raise _refusal(pair, d, t, c, f"round {rnd}: {why}") from None
+            raise _refusal(report, f"round {rnd} with clearance rows: {why}") from None
         prob.x0 = prob.solution_x
-        check = model.motion(traj)
-        pair, d, t = check.closest()
-        if d >= c:
-            return _stamp(traj, check, rnd, len(rows.rows))
-        for pr, dm in check.min_distance_m.items():
-            if dm < c:
-                backoff[pr] = backoff.get(pr, 0.0) + (c - dm) + BACKOFF_M
-    raise _refusal(pair, d, t, c, f"still too close after {max_rounds} rounds of clearance rows")
+        report = check_motion(scene, traj)
+        if report.ok:
+            return _stamp(traj, report, rnd, len(rows.rows))
+        for pc in report.pairs:
+            if pc.min_distance_m < report.clearance_m:
+                k = names[pc.pair]
+                backoff[k] += report.clearance_m - pc.min_distance_m + BACKOFF_M
+    raise _refusal(report, f"still too close after {max_rounds} rounds of clearance rows")
 
 
-def _stamp(traj: Trajectory, check: MotionClearance, rounds: int, n_rows: int) -> Trajectory:
-    pair, d, t = check.closest()
+def _pair_index(scene: CollisionScene, traj: Trajectory) -> dict[str, int]:
+    """The report's pair names (``"link2_0 (link2) and table"``) to pair indices."""
+    dist = scene.distances(np.asarray(traj.q[0]))
+    return {dist.pair_name(k): k for k in range(scene.n_pairs)}
+
+
+def _stamp(traj: Trajectory, report: ClearanceReport, rounds: int, n_rows: int) -> Trajectory:
     traj.stats["clearance_rounds"] = rounds
     traj.stats["clearance_rows"] = n_rows
-    traj.stats["min_clearance_m"] = d
-    traj.meta["clearance"] = {
-        "closest_pair": list(pair),
-        "min_distance_m": d,
-        "time_s": t,
-        "per_pair_m": {f"{a}|{b}": v for (a, b), v in check.min_distance_m.items()},
-    }
+    traj.stats["min_clearance_m"] = report.min_distance_m
+    traj.meta["clearance"] = report.to_dict()
     return traj
-
-
-def _finite(x: float) -> bool:
-    return math.isfinite(x)
