@@ -54,7 +54,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from armlab._lazy import lazy_import
-from armlab.errors import ArmlabError, InfeasibleError
+from armlab.errors import ArmlabError, InfeasibleError, InputError
 
 if TYPE_CHECKING:
     import casadi as ca
@@ -259,6 +259,7 @@ def plan_clear(
     """
     from armlab.collision import check_motion
 
+    _check_waypoints(scene, build)
     traj = first()
     report = check_motion(scene, traj)
     if report.ok:
@@ -274,9 +275,8 @@ def plan_clear(
         _relinearise(scene, _knot_q(traj), rows, active, backoff)
         try:
             traj = prob.solve()
-        except ArmlabError as exc:
-            why = (str(exc).splitlines() or [type(exc).__name__])[0]
-            raise _refusal(report, f"round {rnd} with clearance rows: {why}") from None
+        except ArmlabError:  # the diagnosis names a limit; what failed are the rows
+            raise _refusal(report, f"no plan meets the clearance rows of round {rnd}") from None
         prob.x0 = prob.solution_x
         report = check_motion(scene, traj)
         if report.ok:
@@ -286,6 +286,22 @@ def plan_clear(
                 k = names[pc.pair]
                 backoff[k] += report.clearance_m - pc.min_distance_m + BACKOFF_M
     raise _refusal(report, f"still too close after {max_rounds} rounds of clearance rows")
+
+
+def _check_waypoints(scene: CollisionScene, build) -> None:
+    """InputError naming the waypoint and the pair if a waypoint is closer than the clearance
+    (a waypoint in collision is bad input: no plan through it can keep clear)."""
+    c = scene.clearance_m
+    for k, w in enumerate(build(None).waypoints):
+        dist = scene.distances(w)
+        i = dist.closest()
+        if i >= 0 and dist.distance_m[i] < c:
+            d = float(dist.distance_m[i])
+            how = f"penetrate {-d * 1e3:.3g} mm" if d < 0 else f"are {d * 1e3:.3g} mm apart"
+            raise InputError(
+                f"waypoint {k}: {dist.pair_name(i)} {how}, closer than the clearance of "
+                f"{c * 1e3:g} mm"
+            )
 
 
 def _pair_index(scene: CollisionScene, traj: Trajectory) -> dict[str, int]:
