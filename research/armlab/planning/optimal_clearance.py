@@ -12,10 +12,10 @@ order, by
     \nabla_q d = n^T \left(J_b(p_b) - J_a(p_a)\right),
 
 ``J_x(p)`` the linear Jacobian of the point ``p`` fixed to the body's joint (zero for an
-obstacle; ``J(p) = J_v - [p - o]_\times J_\omega`` from the joint's Jacobian at its origin ``o``,
-Pinocchio's ``LOCAL_WORLD_ALIGNED``; both from the collision package,
-:meth:`armlab.collision.CollisionScene.distance_jacobian`). The clearance row of a knot ``k`` and a pair, linearised
-at the last solution's ``\bar q_k``, is linear in the knot's positions:
+obstacle; ``J(p) = J_v - [p - o]_\times J_\omega`` from the joint's Jacobian at its origin
+``o``, Pinocchio's ``LOCAL_WORLD_ALIGNED``; both from the collision package,
+:meth:`armlab.collision.CollisionScene.distance_jacobian`). The clearance row of a knot ``k``
+and a pair, linearised at the last solution's ``\bar q_k``, is linear in the knot's positions:
 
 .. math::
     d(\bar q_k) + \nabla_q d(\bar q_k)^T (q_k - \bar q_k) \ge c + \delta_{ab},
@@ -31,12 +31,14 @@ Rounds
 ------
 Round 0 is the plain plan (no rows). Each round then checks the whole motion between the knots
 with the collision package's certified motion check (:func:`armlab.collision.check_motion`:
-every checked pair, between the samples); if every pair keeps ``c`` the plan is returned. Otherwise the rows are (re)linearised at the current knots, a pair
-that came closer than ``c`` between the knots has its back-off raised by its shortfall plus
-:data:`BACKOFF_M` (as the torque back-off lowers a bound the knots alone do not see), and the
-problem is solved again from the last solution. After :data:`MAX_ROUNDS` rounds, or a solve
-that fails with the rows, the plan is refused with one line naming the pair, the time and the
-clearance (or depth) reached.
+every checked pair, between the samples); if every pair keeps ``c`` the plan is returned.
+Otherwise the rows are (re)linearised at the current knots, a pair that came closer than ``c``
+between the knots has its back-off raised by its shortfall plus :data:`BACKOFF_M` (as the
+torque back-off lowers a bound the knots alone do not see), and the problem is solved again
+from the last solution. After :data:`MAX_ROUNDS` rounds, or a solve that fails with the rows,
+the plan is refused with one line naming the pair, the time and the clearance (or depth)
+reached. A waypoint closer than ``c`` is bad input (:class:`~armlab.errors.InputError` naming
+the waypoint and the pair).
 
 References: Schulman et al., "Motion planning with sequential convex optimization and convex
 collision checking", IJRR 33(9) 2014 (TrajOpt: signed distances linearised with the witness
