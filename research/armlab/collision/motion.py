@@ -20,10 +20,11 @@ signed distance of a pair whose shapes move at most at ``v_a`` and ``v_b`` chang
     d(t) >= (d(t_a) + d(t_b) - V h) / 2.
 
 :func:`check_motion` runs branch and bound on these intervals: it starts from a grid of at most
-``initial_step_s``, always splits the interval with the smallest bound at its midpoint, and stops
-when no interval's bound lies below ``min(clearance, smallest sampled distance) - tol_m``. An
-interval shorter than ``2 tol_m / V`` is never split (its bound is then within ``tol_m`` of its
-ends'). The result is **certified**: the smallest distance over the whole motion is at least
+``initial_step_s``, splits every interval whose bound is inconclusive at its midpoint (all of a
+round's midpoints in one batch), and stops when no interval's bound lies below
+``min(clearance, smallest sampled distance) - tol_m``. An interval shorter than
+``2 tol_m / V`` is never split (its bound is then within ``tol_m`` of its ends'). The result is
+**certified**: the smallest distance over the whole motion is at least
 ``min_distance_m - tol_m``, and a motion reported clear keeps ``clearance_m - tol_m`` at every
 instant, not only at samples; a motion reported colliding has a sample that does (its time and
 pair are the deepest found, to ``tol_m``).
@@ -38,7 +39,6 @@ T-RO 21(3), 2005, "adaptive dynamic collision checking"). The bound here is that
 
 from __future__ import annotations
 
-import heapq
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -236,35 +236,35 @@ def check_motion(
     V = np.array([s[p.first] + s[p.second] for p in pairs])
     v_top = float(V.max())
     h_min = 2.0 * tol_m / v_top if v_top > 0 else math.inf
-    values: dict[float, np.ndarray] = {}
+    seen_t: list[np.ndarray] = []
+    seen_d: list[np.ndarray] = []
 
-    def at(t: float) -> np.ndarray:
-        if t not in values:
-            q = trajectory.at(np.array([t]))[0][0]
-            values[t] = scene.distance_values(q)
-        return values[t]
-
-    def bound(a: float, b: float) -> float:
-        return float(np.min(0.5 * (at(a) + at(b) - V * (b - a))))
+    def evaluate(times: np.ndarray) -> np.ndarray:
+        q = trajectory.at(times)[0]  # one batched evaluation per round
+        D = np.array([scene.distance_values(row) for row in q]).reshape(len(times), n)
+        seen_t.append(times)
+        seen_d.append(D)
+        return D
 
     m = max(1, math.ceil((t1 - t0) / initial_step_s))
     grid = np.linspace(t0, t1, m + 1)
-    heap = [(bound(float(a), float(b)), float(a), float(b)) for a, b in zip(grid[:-1], grid[1:])]
-    heapq.heapify(heap)
-    best = min(float(v.min()) for v in values.values())
-    while heap:
-        lb, a, b = heap[0]
-        if lb >= min(c, best) - tol_m:
+    Dg = evaluate(grid)
+    best = float(Dg.min())
+    a, b, Da, Db = grid[:-1], grid[1:], Dg[:-1], Dg[1:]
+    while len(a):  # breadth-first branch and bound: split every inconclusive interval
+        h = b - a
+        lb = np.min(0.5 * (Da + Db - V[None, :] * h[:, None]), axis=1)
+        split = (lb < min(c, best) - tol_m) & (h > h_min)
+        if not split.any():
             break
-        heapq.heappop(heap)
-        if b - a <= h_min:
-            continue
+        a, b, Da, Db = a[split], b[split], Da[split], Db[split]
         mid = 0.5 * (a + b)
-        best = min(best, float(at(mid).min()))
-        heapq.heappush(heap, (bound(a, mid), a, mid))
-        heapq.heappush(heap, (bound(mid, b), mid, b))
-    times = np.array(sorted(values))
-    D = np.array([values[t] for t in times])  # (n_times, n_pairs)
+        Dm = evaluate(mid)
+        best = min(best, float(Dm.min()))
+        a, b = np.concatenate([a, mid]), np.concatenate([mid, b])
+        Da, Db = np.concatenate([Da, Dm]), np.concatenate([Dm, Db])
+    times = np.concatenate(seen_t)
+    D = np.concatenate(seen_d)  # (n_times, n_pairs)
     k_t = np.argmin(D, axis=0)
     names = scene.pair_names()
     link_of = scene.link_of
@@ -281,7 +281,7 @@ def check_motion(
     low = per[0]
     ok = low.min_distance_m >= c
     return ClearanceReport(
-        c, ok, low.min_distance_m, low.time_s, low.pair, per, len(values), tol_m, scene.source
+        c, ok, low.min_distance_m, low.time_s, low.pair, per, len(times), tol_m, scene.source
     )
 
 

@@ -210,7 +210,7 @@ def shape_from_table(
         if not path.is_file():
             raise SpecError(f"{where}.mesh: no such file {str(path)!r}")
         mesh_path = str(path.resolve())
-    scale = (1.0, 1.0, 1.0)
+    scale: tuple[float, ...] = (1.0, 1.0, 1.0)
     if "mesh_scale" in table:
         if kind != "mesh":
             raise SpecError(f"{where}.mesh_scale: only a mesh has a scale")

@@ -32,6 +32,7 @@ __all__ = [
     "DHTable",
     "LumpedMass",
     "VISUAL_MATERIALS",
+    "dh_collisions",
     "dh_visuals",
     "mdh_transforms",
     "read_dh_table",
@@ -464,6 +465,20 @@ def dh_visuals(table: DHTable, tool_frame: str = "tool0") -> dict[str, list[str]
     return {k: v for k, v in out.items() if v}
 
 
+def dh_collisions(visual_lines: dict[str, list[str]]) -> dict[str, list[str]]:
+    """URDF ``<collision>`` lines of the same primitives as :func:`dh_visuals`' (same names,
+    origins and geometry, no material): the collision geometry of a generated arm is its drawn
+    geometry, so what the 3D view shows is what :mod:`armlab.collision` checks."""
+    out: dict[str, list[str]] = {}
+    for link, lines in visual_lines.items():
+        out[link] = [
+            line.replace("<visual ", "<collision ").replace("</visual>", "</collision>")
+            for line in lines
+            if "<material " not in line
+        ]
+    return out
+
+
 def urdf_from_dh(
     table: DHTable,
     *,
@@ -489,7 +504,8 @@ def urdf_from_dh(
         Name of the tool point's fixed frame.
     visuals : bool
         Give the links ``<visual>`` primitives drawn from the table (:func:`dh_visuals`: joint
-        housings, links, tool). They change neither the kinematics nor the ``<inertial>``
+        housings, links, tool) and the same primitives as ``<collision>`` elements
+        (:func:`dh_collisions`). They change neither the kinematics nor the ``<inertial>``
         elements.
 
     Returns
@@ -510,6 +526,7 @@ def urdf_from_dh(
         f'<robot name="{escape(table.name)}">',
     ]
     shapes = dh_visuals(table, tool_frame) if visuals else {}
+    collisions = dh_collisions(shapes)
     if visuals:
         for name, rgba in VISUAL_MATERIALS.items():
             out.append(f'  <material name="{name}">')
@@ -522,6 +539,7 @@ def urdf_from_dh(
         if inertial:
             out.append(inertial.rstrip("\n"))
         out += shapes.get(link, [])
+        out += collisions.get(link, [])
         out.append("  </link>")
     for i in range(n):
         T = (
@@ -541,7 +559,7 @@ def urdf_from_dh(
         ]
     fixed = [("flange", table.transform_flange_to_last), (tool_frame, table.transform_tool_to_last)]
     for name, T in fixed:
-        lines = shapes.get(name, [])
+        lines = shapes.get(name, []) + collisions.get(name, [])
         out += (
             [f'  <link name="{name}">', *lines, "  </link>"]
             if lines

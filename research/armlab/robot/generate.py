@@ -2,7 +2,9 @@
 
 ``python -m armlab.robot.generate teachbot6`` rewrites ``robot_desc/teachbot6/teachbot6.urdf``
 from ``mdh.toml`` (geometry, ranges, speeds, masses, the visual primitives drawn from the table)
-and ``drives.toml`` (effort = available output torque, thesis table 4.3 rule).
+and ``drives.toml`` (effort = available output torque, thesis table 4.3 rule), then the
+description's ``collision_pairs.toml`` (the disabled-pair analysis of the new URDF's collision
+geometry, :mod:`armlab.collision.pairs`, keyed by its sha256).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from armlab.robot.dh import read_dh_table, urdf_from_dh
 from armlab.robot.drives import read_drives
 from armlab.robot.model import robot_desc_dir
 
-__all__ = ["description_urdf", "write_description_urdf"]
+__all__ = ["description_urdf", "write_collision_pairs", "write_description_urdf"]
 
 
 def description_urdf(folder: str | Path) -> str:
@@ -39,7 +41,22 @@ def write_description_urdf(folder: str | Path) -> Path:
     return path
 
 
+def write_collision_pairs(folder: str | Path) -> Path:
+    """Write ``<folder>/collision_pairs.toml``: the sampled disabled-pair analysis of the
+    folder's URDF (:func:`armlab.collision.pairs.analyse_pairs`, default samples, seed 0)."""
+    from armlab.collision.geometry import robot_geometry
+    from armlab.collision.pairs import analyse_pairs, write_pairs
+    from armlab.robot.model import load_robot
+
+    folder = Path(folder)
+    robot = load_robot(folder)
+    geom = robot_geometry(robot)
+    path = folder / "collision_pairs.toml"
+    return write_pairs(path, analyse_pairs(robot, geom), robot.name, geom.source)
+
+
 if __name__ == "__main__":  # pragma: no cover - a maintenance command
     for arg in sys.argv[1:] or ["teachbot6"]:
         folder = Path(arg) if Path(arg).is_dir() else robot_desc_dir() / arg
         print(write_description_urdf(folder))
+        print(write_collision_pairs(folder))

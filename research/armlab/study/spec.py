@@ -633,16 +633,16 @@ def _shapes(document: dict[str, Any], base_dir: Path) -> tuple[tuple[Shape, ...]
     payload = document.get("payload", {})
     keys = (*SHAPE_KEYS, "mesh_scale", "shape_xyz_m", "shape_rpy_deg")
     given = {k: payload[k] for k in keys if isinstance(payload, dict) and k in payload}
-    shape = None
+    payload_shape: Shape | None = None
     if given:
-        shape = shape_from_table(
+        payload_shape = shape_from_table(
             given,
             PAYLOAD_SHAPE_NAME,
             "payload",
             base_dir,
             pose_keys=("shape_xyz_m", "shape_rpy_deg"),
         )
-    return tuple(obstacles), shape
+    return tuple(obstacles), payload_shape
 
 
 def demo_study_path() -> Path:
