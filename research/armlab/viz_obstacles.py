@@ -190,7 +190,7 @@ def obstacle_shape(src, index: int = 0) -> ObstacleShape:
     key = given[0]
     kind = SHAPE_KEYS[key]
     value = _get(src, key)
-    mesh, size = "", ()
+    mesh, size = "", tuple[float, ...]()
     if kind == "mesh":
         mesh = str(value)
     else:
@@ -206,8 +206,8 @@ def obstacle_shape(src, index: int = 0) -> ObstacleShape:
     if pose is None:
         pose = pose_matrix(_get(src, "xyz_m", (0, 0, 0)), _get(src, "rpy_deg", (0, 0, 0)))
     pose = np.asarray(getattr(pose, "homogeneous", pose), dtype=float)
-    scale = np.broadcast_to(np.asarray(_get(src, "mesh_scale", 1.0), float), (3,))
-    return ObstacleShape(name, kind, size, pose, mesh, tuple(float(s) for s in scale))
+    sx, sy, sz = np.broadcast_to(np.asarray(_get(src, "mesh_scale", 1.0), float), (3,))
+    return ObstacleShape(name, kind, size, pose, mesh, (float(sx), float(sy), float(sz)))
 
 
 def _material(rgba, meshcat_g):

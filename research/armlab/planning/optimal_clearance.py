@@ -49,7 +49,7 @@ points' Jacobians, in sequential convex rounds); Ericson, *Real-Time Collision D
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -76,6 +76,7 @@ __all__ = [
     "ClearanceRows",
     "extended_structure",
     "plan_clear",
+    "stamp_clearance",
 ]
 
 #: a pair within the clearance plus this distance [m] at a knot gets a row there
@@ -99,7 +100,7 @@ class ClearanceRows:
 
     n: int
     N: int
-    rows: dict[tuple[int, tuple[str, str]], tuple[np.ndarray, float]] = field(default_factory=dict)
+    rows: dict[tuple[int, Any], tuple[np.ndarray, float]] = field(default_factory=dict)
 
     def slots(self) -> int:
         per_knot = np.zeros(self.N + 1, int)
@@ -154,7 +155,7 @@ def extended_structure(st: Structure, M: int) -> Structure:
     f, g = fg(x, p0)
     Q = ca.reshape(x[st.slices["q"]], n, N + 1)
     C = ca.reshape(p[np_old:], n, (N + 1) * M)
-    cols = list(np.repeat(np.arange(N + 1), M))
+    cols = [int(k) for k in np.repeat(np.arange(N + 1), M)]
     rows = ca.sum1(C * Q[:, cols]).T
     g_ext = ca.vertcat(g, rows)
     opts = {k: v for k, v in st.options.items() if k != "hess_lag"}
@@ -227,7 +228,7 @@ def _refusal(report: ClearanceReport, why: str) -> InfeasibleError:
 
 def plan_clear(
     first: Callable[[], Trajectory],
-    build: Callable[[Sequence[int] | None], OptimalProblem],
+    build: Callable[[tuple[int, ...] | None], OptimalProblem],
     scene: CollisionScene,
     *,
     max_rounds: int = MAX_ROUNDS,
@@ -312,9 +313,16 @@ def _pair_index(scene: CollisionScene, traj: Trajectory) -> dict[str, int]:
     return {dist.pair_name(k): k for k in range(scene.n_pairs)}
 
 
-def _stamp(traj: Trajectory, report: ClearanceReport, rounds: int, n_rows: int) -> Trajectory:
-    traj.stats["clearance_rounds"] = rounds
-    traj.stats["clearance_rows"] = n_rows
+def stamp_clearance(traj: Trajectory, report: ClearanceReport) -> Trajectory:
+    """Put a motion check on the plan: ``stats["min_clearance_m"]`` [m] and
+    ``meta["clearance"]`` (:meth:`~armlab.collision.ClearanceReport.to_dict`)."""
     traj.stats["min_clearance_m"] = report.min_distance_m
     traj.meta["clearance"] = report.to_dict()
+    return traj
+
+
+def _stamp(traj: Trajectory, report: ClearanceReport, rounds: int, n_rows: int) -> Trajectory:
+    stamp_clearance(traj, report)
+    traj.stats["clearance_rounds"] = rounds
+    traj.stats["clearance_rows"] = n_rows
     return traj
