@@ -61,8 +61,8 @@ def last_transforms(cmds: list[dict]) -> dict[str, np.ndarray]:
 
 # ---------------------------------------------------------------------------- the URDF
 def test_generated_visuals_add_geometry_only():
-    """The committed URDF is the generator's output, and removing its <visual>s and
-    <material>s gives exactly the URDF without visuals: inertial and kinematic content
+    """The committed URDF is the generator's output, and removing its <visual>s, <collision>s
+    and <material>s gives exactly the URDF without visuals: inertial and kinematic content
     unchanged."""
     text = (DESC / "teachbot6.urdf").read_text()
     assert text == description_urdf(DESC)
@@ -72,7 +72,7 @@ def test_generated_visuals_add_geometry_only():
     assert sum(1 for _ in without.iter("visual")) == 0
     for parent in [with_v, *with_v.iter("link")]:
         for child in list(parent):
-            if child.tag in ("visual", "material"):
+            if child.tag in ("visual", "collision", "material"):
                 parent.remove(child)
 
     def canonical(root: ET.Element) -> str:

@@ -9,6 +9,13 @@ a collision mesh that is not found is an error (a check that skips a part of the
 pass plans that hit it). Joints the :class:`~armlab.robot.model.Robot` locked are locked at 0
 in the geometry too.
 
+A mesh of the robot is replaced by its **convex hull** (coal's ``buildConvexRepresentation``):
+the hull contains the mesh, so a distance to it is never larger than to the mesh (the check
+stays on the safe side, by at most the depth of the mesh's concavities), and GJK on convex
+shapes takes microseconds where a mesh-to-mesh distance takes milliseconds (UR10: 48 us for the
+27 pairs of a configuration with hulls, 36 ms with its meshes; SO-101's detailed meshes 1.3 ms
+with hulls, about 1 s without). Obstacle meshes of a study stay exact (armlab.collision.shapes).
+
 Pinocchio names each geometry ``<link>_<k>`` (the k-th collision element of the link).
 """
 
@@ -80,6 +87,16 @@ def _with_found_meshes(urdf: Path, element: str) -> tuple[str, list[str]]:
     return ET.tostring(root, encoding="unicode"), missing
 
 
+def _to_convex_hull(obj: pin.GeometryObject) -> None:
+    """Replace a mesh geometry by its convex hull (module docstring)."""
+    import coal
+
+    geo = obj.geometry
+    if isinstance(geo, coal.BVHModelBase):
+        geo.buildConvexRepresentation(False)
+        obj.geometry = geo.convex
+
+
 def robot_geometry(robot: Robot) -> RobotGeometry:
     """The collision geometry of ``robot`` (module docstring: ``<collision>``, else ``<visual>``).
 
@@ -128,4 +145,5 @@ def robot_geometry(robot: Robot) -> RobotGeometry:
     link_of = {}
     for obj in geom.geometryObjects:
         link_of[obj.name] = model.frames[obj.parentFrame].name
+        _to_convex_hull(obj)
     return RobotGeometry(geom, source, urdf_sha256(urdf), link_of)

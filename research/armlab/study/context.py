@@ -14,6 +14,8 @@ from armlab.robot.controller import ControllerProfile
 from armlab.study.spec import StudySpec
 
 if TYPE_CHECKING:
+    from armlab.collision.motion import ClearanceReport
+    from armlab.collision.scene import CollisionScene
     from armlab.control.gains import ArmGains
     from armlab.control.result import TrackingResult
     from armlab.deploy.table import SetpointTable
@@ -61,6 +63,11 @@ class StudyContext:
     trajectory: Trajectory | None = None
     limit_report: LimitReport | None = None
     jerk_limited: bool = True
+    #: plan: the collision scene (robot, payload shape, floor, obstacles; built before the
+    #: planner runs) and the plan's certified clearance (:func:`armlab.collision.check_motion`;
+    #: set also when the plan is refused for it)
+    collision_scene: CollisionScene | None = None
+    clearance: ClearanceReport | None = None
     #: static load
     static_load: StaticLoadReport | None = None
     #: sizing: the planned duty cycle's, the worst-case requirement moves', the selection

@@ -28,6 +28,7 @@ KEY_FIGURES = (
     "peak_acceleration_ratio",
     "peak_jerk_ratio",
     "peak_torque_ratio",
+    "min_clearance_m",
     "max_static_torque_Nm",
     "sizing_ok",
     "sizing_min_margin",
@@ -49,7 +50,10 @@ def key_figures(
     and the design's verdict.
 
     ``max_reach_m``; ``duration_s``; ``peak_<kind>_ratio`` (max over joints of the plan's ratio
-    to each limit, :class:`~armlab.trajectory.sampling.LimitReport`); ``max_static_torque_Nm``;
+    to each limit, :class:`~armlab.trajectory.sampling.LimitReport`); ``min_clearance_m`` (the
+    plan's smallest signed distance between the arm, payload, floor and obstacles,
+    :class:`~armlab.collision.ClearanceReport`: also for a plan refused for it; negative:
+    penetration; inf: nothing to collide with); ``max_static_torque_Nm``;
     ``sizing_ok`` and ``sizing_min_margin`` (smallest finite margin of every drive check) with
     ``sizing_binding`` (``joint:check``); ``min_phase_margin_deg``, ``min_gain_margin_dB``
     (every loop, continuous and discrete), ``position_crossover_min_rad_s``;
@@ -69,6 +73,8 @@ def key_figures(
     for kind in ("velocity", "acceleration", "jerk", "torque"):
         r = None if report is None else report.ratios.get(kind)
         out[f"peak_{kind}_ratio"] = nan if r is None else float(np.max(r))
+    clear = ctx.clearance if ctx is not None else None
+    out["min_clearance_m"] = nan if clear is None else float(clear.min_distance_m)
     static = ctx.static_load if ran("static_load") and ctx else None
     torques = [] if static is None else [float(x.torque_Nm) for x in static.joints]
     out["max_static_torque_Nm"] = max(torques) if torques else nan

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from armlab.errors import LimitViolation, SpecError, UnreachableError
+from armlab.errors import InputError, LimitViolation, SpecError, UnreachableError
 from armlab.study.build import (  # the robot and controller the stages share
     _per_joint,
     build_robot,
@@ -42,6 +42,7 @@ from armlab.study.spec import StudySpec
 from armlab.study.verdict import StageOutput
 
 if TYPE_CHECKING:
+    from armlab.collision import CollisionScene
     from armlab.robot.model import Robot
     from armlab.trajectory import Trajectory
 
@@ -330,17 +331,54 @@ def _plan_budget(ctx: StudyContext) -> None:
     )
 
 
+def collision_scene(ctx: StudyContext) -> CollisionScene:
+    """The study's collision scene (``ctx.collision_scene``, built once), with its waypoints
+    checked: a waypoint in collision or closer than ``plan.clearance_m`` is bad input
+    (:class:`~armlab.errors.InputError`, one line naming the waypoint, the pair and the depth).
+    """
+    from armlab.collision import CollisionScene
+
+    if ctx.collision_scene is None:
+        ctx.collision_scene = CollisionScene.from_study(ctx.spec, ctx.robot)
+    scene = ctx.collision_scene
+    assert ctx.waypoints_q is not None  # set by stage_kinematics
+    where = "waypoints.joint" if ctx.spec.waypoints.joint is not None else "waypoints.cartesian"
+    c = scene.clearance_m
+    for k, q in enumerate(ctx.waypoints_q):
+        dist = scene.distances(q)
+        i = dist.closest()
+        if i >= 0 and dist.distance_m[i] < c:
+            d = float(dist.distance_m[i])
+            how = (
+                f"in collision: {dist.pair_name(i)} penetrate {1e3 * -d:.3g} mm"
+                if d < 0
+                else f"{1e3 * d:.3g} mm from {dist.pair_name(i)}, inside plan.clearance_m = "
+                f"{1e3 * c:.3g} mm"
+            )
+            raise InputError(f"{where}[{k}]: {how}")
+    return scene
+
+
 def stage_plan(ctx: StudyContext) -> StageOutput:
-    """Plan, then check the plan on a fine grid against the robot's full limits.
+    """Plan, then check the plan on a fine grid against the robot's full limits and for
+    collisions.
 
     A plan that breaks a kinematic limit it was planned for (range, velocity, acceleration, and
     jerk where ``ctx.jerk_limited``) is refused with :class:`LimitViolation` naming the limit,
     joint and time: that is a planner error, not a design property. A torque ratio above 1 (with
     ``plan.torque_limits = false``) or a jerk ratio above 1 of a planner that does not limit jerk
     is a failed check of the design (verdict ``fail``).
+
+    Collisions (:mod:`armlab.collision`): the waypoints are checked first (one in collision or
+    closer than ``plan.clearance_m`` is bad input), the whole plan after it is made
+    (:func:`~armlab.collision.check_motion`, certified between samples); a plan that collides
+    or comes closer than ``plan.clearance_m`` is refused with
+    :class:`~armlab.collision.CollisionError` naming the pair, the time and the depth, so no
+    later stage runs and no table is written.
     """
     spec = ctx.spec
     _plan_budget(ctx)
+    scene = collision_scene(ctx)
     traj = plan_trajectory(ctx)
     assert ctx.waypoints_q is not None  # plan_trajectory needs them
     ctx.trajectory = traj
@@ -373,6 +411,10 @@ def stage_plan(ctx: StudyContext) -> StageOutput:
         for k, r in ratios.items():
             for j in np.flatnonzero(r > 1 + 1e-6):
                 failed.append(f"plan: {k} of {robot.joint_names[j]} is {r[j]:.4g} x its limit")
+    from armlab.collision import check_motion
+
+    ctx.clearance = clearance = check_motion(scene, traj)
+    clearance.raise_if_failed(f"the {traj.method or spec.plan.planner} plan")
     kind, joint, ratio = report.worst()
     block = {
         "planner": spec.plan.planner,
@@ -390,6 +432,14 @@ def stage_plan(ctx: StudyContext) -> StageOutput:
         "drive_ratios": drive,
         "worst": {"kind": kind, "joint": joint, "ratio": ratio},
         "stats": jsonable(getattr(traj, "stats", {})),
+        "clearance": jsonable(clearance.to_dict()),
+        "collision": {
+            "geometry": scene.source,
+            "n_pairs": scene.n_pairs,
+            "disabled_pairs": scene.disabled.path or scene.disabled.origin,
+            "obstacles": [o.name for o in scene.obstacles],
+            "floor_z_m": scene.floor_z_m,
+        },
     }
     return StageOutput(block, failed_checks=failed)
 
