@@ -17,6 +17,7 @@ from armlab.planning.optimal_clearance import ClearanceRows
 from armlab.planning.optimiser import build_optimal
 from armlab.study.build import build_robot
 from armlab.study.spec import load_study
+from oracles.clearance_grid import grid_distances
 from oracles.coal_env_clearance import env_clearance
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "teachbot6_obstacles_study.toml"
@@ -64,6 +65,9 @@ def test_optimal_plans_around_the_box(demo, plain, clear):
     d, link, obstacle, t = env_clearance(robot, clear, [_coal(s) for s in spec.obstacles])
     assert d >= c - 1e-4, (d, link, obstacle, t)
     assert clear.stats["min_clearance_m"] >= c - 1e-4
+    # every pair the scene checks (self pairs too), coal on the scene's shapes, 5 ms grid
+    _, D = grid_distances(scene, clear, 0.005)
+    assert D.min() >= c - 1e-4
     assert clear.meta["clearance"]["ok"]
     # still a plan of the request: every limit holds on the fine grid, the waypoints are
     # passed, and keeping clear costs time (within 10 % here)
