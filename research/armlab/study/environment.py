@@ -1,18 +1,12 @@
-"""The study's environment (issue 27): the collision scene the ``optimal`` planner keeps clear
-of (:func:`study_scene`), and what the 3D view (``motion.html``) draws besides the arm: the
-obstacles, the floor and the closest pair of the planned motion (:func:`environment`).
+"""What the study's 3D view (``motion.html``) draws besides the arm (issue 27): the obstacles,
+the floor and the closest pair of the planned motion.
 
-A study describes an environment when it has an ``[[obstacle]]``, a ``[robot] floor_z_m`` or a
-``[plan] clearance_m > 0``; without one, nothing here changes the study (the plan stage's own
-collision check still runs).
-
-For the view, the glue between the collision check (:mod:`armlab.collision`) and the drawing
+The glue between the collision check (:mod:`armlab.collision`) and the drawing
 (:mod:`armlab.viz_obstacles`, which takes plain descriptions): the obstacles are the study's
 ``[[obstacle]]`` shapes, the floor ``[robot] floor_z_m``, and the closest pair is the pair with
-the smallest signed distance along the motion (the plan's certified check,
-:func:`armlab.collision.check_motion`), its witness points evaluated at that instant
-(:meth:`armlab.collision.CollisionScene.distances`). A study with no obstacle, no floor and no
-clearance (``[plan] clearance_m = 0``) draws none of them.
+the smallest signed distance along the motion (the plan stage's certified check,
+``ctx.clearance``, :func:`armlab.collision.check_motion`), its witness points evaluated at that
+instant (:meth:`armlab.collision.CollisionScene.distances`).
 """
 
 from __future__ import annotations
@@ -25,23 +19,7 @@ if TYPE_CHECKING:
     from armlab.study.context import StudyContext
     from armlab.trajectory.core import Trajectory
 
-__all__ = ["closest_pair", "environment", "has_environment", "study_scene"]
-
-
-def has_environment(spec) -> bool:
-    """True when the study has obstacles, a floor or a clearance (module docstring)."""
-    return bool(spec.obstacles) or spec.robot.floor_z_m is not None or spec.plan.clearance_m > 0
-
-
-def study_scene(ctx: StudyContext, robot=None):
-    """The :class:`~armlab.collision.CollisionScene` of the study
-    (:meth:`~armlab.collision.CollisionScene.from_study`) for ``robot`` (default
-    ``ctx.robot``), or None when the study describes no environment."""
-    if not has_environment(ctx.spec):
-        return None
-    from armlab.collision import CollisionScene
-
-    return CollisionScene.from_study(ctx.spec, ctx.robot if robot is None else robot)
+__all__ = ["closest_pair", "environment"]
 
 
 def closest_pair(scene, trajectory: Trajectory, report=None):
@@ -67,14 +45,11 @@ def closest_pair(scene, trajectory: Trajectory, report=None):
 
 
 def environment(ctx: StudyContext) -> dict[str, Any]:
-    """Keyword arguments of :func:`armlab.viz.animate` for the study's environment:
-    ``obstacles``, ``floor_z_m`` and ``closest`` (module docstring); empty when the study
-    describes none."""
+    """Keyword arguments of :func:`armlab.viz.animate` for the study: ``obstacles``,
+    ``floor_z_m`` and, once the plan stage has checked the plan, ``closest``."""
     spec = ctx.spec
-    if not has_environment(spec):
-        return {}
     out: dict[str, Any] = {"obstacles": tuple(spec.obstacles), "floor_z_m": spec.robot.floor_z_m}
-    scene = study_scene(ctx)
+    scene = ctx.collision_scene
     if ctx.trajectory is not None and scene is not None:
-        out["closest"] = closest_pair(scene, ctx.trajectory)
+        out["closest"] = closest_pair(scene, ctx.trajectory, ctx.clearance)
     return out

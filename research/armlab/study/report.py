@@ -380,10 +380,11 @@ def _motion_file(robot, trajectory, out_dir: Path, ctx=None) -> tuple[list[str],
     )
     if env.get("closest") is not None:
         cp = env["closest"]
+        shown = [f"{len(env['obstacles'])} obstacle(s)"] if env["obstacles"] else []
+        shown += [] if env["floor_z_m"] is None else ["the floor"]
         lines.append(
-            f"Drawn with {len(env['obstacles'])} obstacle(s)"
-            + ("" if env["floor_z_m"] is None else " and the floor")
-            + f"; the red line marks the closest pair, {cp.a} and {cp.b}, "
+            (f"Drawn with {' and '.join(shown)}; the" if shown else "The")
+            + f" red line marks the closest pair, {cp.a} and {cp.b}, "
             f"{cp.distance_m * 1e3:.1f} mm apart at t = {cp.time_s:.3f} s."
         )
     return lines + [""], True
