@@ -471,8 +471,8 @@ def optimal(
         (default: rest). Each within its limit (else :class:`InputError` naming the keyword and
         the joint); the first sample of the result is that state, the last the goal at
         ``qd_goal`` with zero acceleration. Not with ``drive_limits``.
-    clearance : ClearanceModel, optional
-        Keep every checked pair of collision bodies this model's ``clearance_m`` apart:
+    clearance : armlab.collision.CollisionScene, optional
+        Keep every pair the scene checks at least its ``clearance_m`` apart:
         clearance rows on the knots in sequential convex rounds, the motion checked between
         them (:func:`armlab.planning.optimal_clearance.plan_clear`; an
         :class:`InfeasibleError` naming the pair, the time and the depth when it cannot).
