@@ -51,12 +51,15 @@ def info_text(
     lock_joints: list[str] | tuple[str, ...] = (),
     drives: str | None = None,
 ) -> str:
-    """The text ``armlab info ROBOT`` prints: joints, ranges, limits, drives, reach, mass.
+    """The text ``armlab info ROBOT`` prints: joints, ranges, limits, drives, reach, mass, the
+    collision model (:func:`armlab.collision.collision_summary`: shapes from the URDF's
+    ``<collision>`` or ``<visual>`` elements, checked and disabled pairs).
 
     ``tool_frame``, ``lock_joints`` and ``drives`` (a drives file) are the study's ``[robot]``
     keys of the same names. Ranges of revolute joints are in [deg], of prismatic joints in [m];
     columns widen to the longest joint and part names.
     """
+    from armlab.collision import collision_summary
     from armlab.kinematics import max_reach_m
     from armlab.robot import load_robot
     from armlab.robot.drives import read_drives
@@ -78,6 +81,7 @@ def info_text(
         f"mass       {robot.total_mass_kg:.3f} kg moving (payload included)",
         f"reach      {max_reach_m(robot) * 1000:.1f} mm max radius of the tool point from the "
         "base axis",
+        f"collision  {collision_summary(robot)}",
         "",
         f"{'joint':<{w}}{'type':<6}{'range':>20}{'velocity':>13}{'acceleration':>14}"
         f"{'jerk':>14}{'effort':>10}",

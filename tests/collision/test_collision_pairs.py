@@ -136,3 +136,31 @@ def test_bad_pairs_file_is_one_line_naming_the_key(tmp_path, bot, geom, body, ke
         CollisionScene.from_robot(bot, pairs_file=str(path), geometry=geom)
     msg = str(err.value)
     assert key in msg and "\n" not in msg
+
+
+def test_a_urdf_without_collision_elements_falls_back_to_its_visuals(tmp_path, monkeypatch):
+    """teachbot6's URDF with its <collision> elements removed: the geometry is its <visual>
+    shapes, and the source says so (also on ``armlab info``'s collision line)."""
+    import re
+
+    from armlab.cli import main
+
+    monkeypatch.setenv("ARMLAB_CACHE_DIR", str(tmp_path / "cache"))
+    text = (DESC / "teachbot6.urdf").read_text()
+    stripped = re.sub(r"\s*<collision .*?</collision>", "", text, flags=re.S)
+    assert "<collision" not in stripped and "<visual" in stripped
+    urdf = tmp_path / "bare.urdf"
+    urdf.write_text(stripped)
+    geom = robot_geometry(load_robot(urdf))
+    assert geom.source == "visual" and len(geom.geometry.geometryObjects) == 13
+    assert main(["info", str(urdf)]) == 0
+
+
+def test_armlab_info_states_the_collision_model(capsys):
+    from armlab.cli import main
+
+    assert main(["info", "teachbot6"]) == 0
+    out = capsys.readouterr().out
+    line = next(x for x in out.splitlines() if x.startswith("collision"))
+    assert "13 shapes from the URDF's <collision> elements" in line
+    assert "7 adjacent" in line and "collision_pairs.toml" in line

@@ -33,6 +33,7 @@ pairs_file=, clearance_m=)``
 :class:`Shape`, :func:`shape_from_table`   obstacle and payload shapes (box, sphere, cylinder,
                                            capsule, mesh) and their study keys
 :func:`robot_geometry`                     the URDF's ``<collision>`` (else ``<visual>``) shapes
+:func:`collision_summary`                  one line for ``armlab info``
 :func:`disabled_pairs`, :func:`analyse_pairs`,  the sampled analysis of pairs that never need
 :func:`read_pairs`, :func:`write_pairs`    a check (adjacent, always, never in contact),
                                            cached per URDF sha256 as an editable TOML
@@ -63,6 +64,7 @@ __all__ = [
     "Shape",
     "analyse_pairs",
     "check_motion",
+    "collision_summary",
     "disabled_pairs",
     "read_pairs",
     "robot_geometry",
@@ -77,6 +79,7 @@ _HOME = {
     "CollisionError": "scene",
     "CollisionScene": "scene",
     "Distances": "scene",
+    "collision_summary": "scene",
     "DisabledPairs": "pairs",
     "analyse_pairs": "pairs",
     "disabled_pairs": "pairs",

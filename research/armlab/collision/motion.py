@@ -129,9 +129,9 @@ class ClearanceReport:
             how = f"collides: {self.pair} penetrate {1e3 * -self.min_distance_m:.3g} mm"
         else:
             how = (
-                f"comes {1e3 * self.min_distance_m:.3g} mm close, "
-                f"{1e3 * self.depth_m:.3g} mm inside the clearance of "
-                f"{1e3 * self.clearance_m:.3g} mm: {self.pair}"
+                f"comes within {1e3 * self.min_distance_m:.3g} mm "
+                f"({1e3 * self.depth_m:.3g} mm inside the clearance of "
+                f"{1e3 * self.clearance_m:.3g} mm) between {self.pair}"
             )
         return f"{what} {how} at t = {self.time_s:.4g} s"
 

@@ -44,7 +44,7 @@ if TYPE_CHECKING:
     from armlab.robot.model import Robot
     from armlab.study.spec import StudySpec
 
-__all__ = ["CollisionError", "CollisionScene", "Distances", "FLOOR_NAME"]
+__all__ = ["CollisionError", "CollisionScene", "Distances", "FLOOR_NAME", "collision_summary"]
 
 #: The name of the floor in pair names and messages.
 FLOOR_NAME = "floor"
@@ -125,6 +125,7 @@ class CollisionScene:
     link_of: dict[str, str] = field(default_factory=dict)
     _data: Any = None
     _gdata: Any = None
+    _results: list[Any] = field(default_factory=list)
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -253,6 +254,9 @@ class CollisionScene:
                 gm.addCollisionPair(pin.CollisionPair(i, j))
         self._data = self.robot.model.createData()
         self._gdata = pin.GeometryData(gm)
+        # references to the results, made once: the vector is never resized, and a fresh
+        # Python wrapper per result and call costs 4x the reads (1.6 us each)
+        self._results = list(self._gdata.distanceResults)
 
     # ------------------------------------------------------------------ queries
     @property
@@ -274,9 +278,7 @@ class CollisionScene:
         :meth:`distances`: no witness points copied)."""
         self._update(q)
         pin.computeDistances(self.geometry, self._gdata)
-        return np.fromiter(
-            (r.min_distance for r in self._gdata.distanceResults), float, self.n_pairs
-        )
+        return np.fromiter((r.min_distance for r in self._results), float, len(self._results))
 
     def distances(self, q) -> Distances:
         """Signed distances, witness points (world frame) and names of every checked pair."""
@@ -285,7 +287,7 @@ class CollisionScene:
         pa, pb, nrm = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
         T = np.asarray(self.robot.transform_base_to_world, float)
         R, p = T[:3, :3], T[:3, 3]
-        for k, r in enumerate(self._gdata.distanceResults):
+        for k, r in enumerate(self._results):
             pa[k] = R @ r.getNearestPoint1() + p
             pb[k] = R @ r.getNearestPoint2() + p
             nrm[k] = R @ r.normal
@@ -338,3 +340,23 @@ class CollisionScene:
                 point_jac(jb, dist.point_b_m[k]) - point_jac(ja, dist.point_a_m[k])
             )
         return dist.distance_m, grad
+
+
+def collision_summary(robot: Robot) -> str:
+    """One line on a robot's collision model (``armlab info``): how many shapes, from which
+    URDF elements, how many pairs are checked and which disabled-pair file says why not the
+    others. A geometry that cannot be built is reported on the line, not raised."""
+    from armlab.errors import ArmlabError
+
+    try:
+        scene = CollisionScene.from_robot(robot)
+    except ArmlabError as exc:
+        return f"none: {exc}"
+    n = len(scene.geometry.geometryObjects)
+    counts = scene.disabled.counts()
+    where = scene.disabled.path or scene.disabled.origin
+    return (
+        f"{n} shapes from the URDF's <{scene.source}> elements; {scene.n_pairs} pairs checked, "
+        f"link pairs disabled: {counts['adjacent']} adjacent, {counts['always']} always, "
+        f"{counts['never']} never in contact ({where})"
+    )

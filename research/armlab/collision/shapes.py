@@ -187,7 +187,7 @@ def shape_from_table(
         One line naming the key: no shape key or two, a size that is not a positive finite
         number, a pose that is not 3 finite numbers, a mesh file that does not exist.
     """
-    check_name(name, "shape name", where, SpecError)
+    check_name(name, "shape name", f"{where}.name", SpecError)
     given = [k for k in SHAPE_KEYS if k in table]
     if len(given) != 1:
         what = "none" if not given else " and ".join(given)

@@ -623,7 +623,7 @@ def _shapes(document: dict[str, Any], base_dir: Path) -> tuple[tuple[Shape, ...]
             )
         if "name" not in table:
             raise SpecError(f"{where}.name: missing (required)")
-        shape = shape_from_table(table, table["name"], f"{where}.name", base_dir)
+        shape = shape_from_table(table, table["name"], where, base_dir)
         if shape.name in _RESERVED_SHAPE_NAMES or shape.name in [o.name for o in obstacles]:
             raise SpecError(
                 f"{where}.name: {shape.name!r} is taken (names must be distinct, not "
