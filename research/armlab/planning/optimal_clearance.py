@@ -239,7 +239,8 @@ def plan_clear(
     Parameters
     ----------
     first : callable
-        The plain plan (round 0: ``optimal`` without clearance rows).
+        The plain plan as ``optimal`` makes it without clearance rows (its finer grids), for
+        a round 0 whose own solve fails.
     build : callable ``(n_intervals) -> OptimalProblem``
         A fresh problem of the same request on the given grid (None: the requested one).
     scene : armlab.collision.CollisionScene
@@ -262,13 +263,18 @@ def plan_clear(
     """
     from armlab.collision import check_motion
 
-    _check_waypoints(scene, build)
-    traj = first()
+    prob = build(None)
+    _check_waypoints(scene, prob.waypoints)
+    try:  # round 0: the plain plan, its solution the warm start of round 1
+        traj = prob.solve()
+        prob.x0 = prob.solution_x
+    except ArmlabError:  # as optimal() handles it (finer grids), then a cold round 1
+        traj = first()
+        raised = traj.stats.get("n_intervals_raised")
+        prob = build(tuple(raised["to"]) if raised else None)
     report = check_motion(scene, traj)
     if report.ok:
         return _stamp(traj, report, 0, 0)
-    raised = traj.stats.get("n_intervals_raised")
-    prob = build(tuple(raised["to"]) if raised else None)
     rows = ClearanceRows(prob.n, prob.N)
     prob.clearance_rows = rows
     names = _pair_index(scene, traj)
@@ -291,11 +297,11 @@ def plan_clear(
     raise _refusal(report, f"still too close after {max_rounds} rounds of clearance rows")
 
 
-def _check_waypoints(scene: CollisionScene, build) -> None:
+def _check_waypoints(scene: CollisionScene, waypoints: np.ndarray) -> None:
     """InputError naming the waypoint and the pair if a waypoint is closer than the clearance
     (a waypoint in collision is bad input: no plan through it can keep clear)."""
     c = scene.clearance_m
-    for k, w in enumerate(build(None).waypoints):
+    for k, w in enumerate(waypoints):
         dist = scene.distances(w)
         i = dist.closest()
         if i >= 0 and dist.distance_m[i] < c:
