@@ -3,7 +3,10 @@
 * :func:`show` -- the arm in one pose;
 * :func:`animate` -- a planned motion (a :class:`~armlab.trajectory.Trajectory`) as a meshcat
   animation;
-* :func:`build_scene` -- the :class:`Scene` both use; :func:`visual_model` -- the geometry.
+* :func:`build_scene` -- the :class:`Scene` both use; :func:`visual_model` -- the geometry;
+* :meth:`Scene.add_environment` (``obstacles``, ``floor_z_m``, ``closest`` of :func:`show` and
+  :func:`animate`) -- obstacles, the floor and the closest pair of a motion
+  (:mod:`armlab.viz_obstacles`).
 
 Where it is shown
 -----------------
@@ -482,6 +485,26 @@ class Scene:
         offset = [0.9 * L, 0.55 * L, 0.9 * L]
         self.viewer["/Cameras/default/rotated/<object>"].set_property("position", offset)
 
+    # ------------------------------------------------------------------ environment
+    def add_environment(
+        self, obstacles=(), *, floor_z_m: float | None = None, closest=None
+    ) -> dict[str, Any]:
+        """Draw obstacles, the floor and the closest pair
+        (:func:`armlab.viz_obstacles.draw_environment`; plain descriptions: a study's
+        ``[[obstacle]]`` tables, :class:`~armlab.viz_obstacles.ObstacleShape`,
+        :class:`~armlab.viz_obstacles.ClosestPair`); they enter the HTML file's manifest."""
+        from armlab.viz_obstacles import draw_environment
+
+        entries = draw_environment(
+            self.viewer,
+            obstacles,
+            floor_z_m=floor_z_m,
+            closest=closest,
+            extent_m=1.5 * _length_m(self.model),
+        )
+        self._window.manifest.update(entries)
+        return entries
+
     # ------------------------------------------------------------------ poses
     def display(self, q=None) -> None:
         """Show the arm at joint positions ``q`` (n_joints,) in [rad]; None: all zeros."""
@@ -604,6 +627,9 @@ def show(
     path: str | os.PathLike | None = None,
     open: bool = False,
     package_dirs: Sequence[str | os.PathLike] = (),
+    obstacles=(),
+    floor_z_m: float | None = None,
+    closest=None,
 ) -> Scene:
     """Show the arm at ``q``.
 
@@ -619,6 +645,8 @@ def show(
         Also open the live viewer in a browser (without ``path`` only).
     package_dirs : sequence of path
         Extra folders for ``package://`` meshes.
+    obstacles, floor_z_m, closest
+        The environment drawn with the arm (:meth:`Scene.add_environment`).
 
     Returns
     -------
@@ -626,6 +654,7 @@ def show(
     """
     scene = build_scene(robot, server=path is None, package_dirs=package_dirs)
     try:
+        scene.add_environment(obstacles, floor_z_m=floor_z_m, closest=closest)
         scene.display(q)
         if path is not None:
             scene.save(path)
@@ -645,6 +674,9 @@ def animate(
     fps: float = DEFAULT_FPS,
     open: bool = False,
     package_dirs: Sequence[str | os.PathLike] = (),
+    obstacles=(),
+    floor_z_m: float | None = None,
+    closest=None,
 ) -> Scene:
     """Animate a planned motion of the arm.
 
@@ -664,6 +696,9 @@ def animate(
         Also open the live viewer in a browser (without ``path`` only).
     package_dirs : sequence of path
         Extra folders for ``package://`` meshes.
+    obstacles, floor_z_m, closest
+        The environment drawn with the arm, and the closest pair of the motion marked
+        (:meth:`Scene.add_environment`).
 
     Returns
     -------
@@ -673,6 +708,7 @@ def animate(
     fps = _check_fps(fps)
     scene = build_scene(robot, server=path is None, package_dirs=package_dirs)
     try:
+        scene.add_environment(obstacles, floor_z_m=floor_z_m, closest=closest)
         scene.set_motion(trajectory, fps)
         if path is not None:
             scene.save(path)

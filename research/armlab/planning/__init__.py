@@ -14,12 +14,17 @@ module                 planners
 :mod:`.optimiser`      time-synchronised optimal trajectories (:func:`optimal`): the
                        problem (:mod:`.optimal_problem`), its bounds
                        (:mod:`.optimal_bounds`), transcription (:mod:`.transcription`)
-                       and warm start (:mod:`.optimal_warmstart`, :mod:`.warmstart`)
+                       and warm start (:mod:`.optimal_warmstart`, :mod:`.warmstart`);
+                       ``clearance=``: plans that keep clear of obstacles, the floor
+                       and the arm itself (:mod:`.optimal_clearance`, issue 27)
 :mod:`.topp`           time-optimal path parameterisation along a fixed joint path
                        (:func:`time_optimal_path`): the path (:mod:`.topp_path`), the
                        problem (:mod:`.topp_problem`), its first pass
                        :mod:`.reachability` (Pham & Pham 2018; :mod:`.topp_convex` with
-                       the motor envelope), the jerk pass (:mod:`.topp_jerk`)
+                       the motor envelope), the jerk pass (:mod:`.topp_jerk`);
+                       with the Cartesian planners it takes ``clearance=``: the
+                       plan's clearance reported, a plan too close refused
+                       (:mod:`.keep_clear`)
 :mod:`.timescale`      the back-offs: stretch a plan in time until every limit holds
                        (classical planners); re-solve with tightened limits
                        (``backoff_solve``: optimal, topp); the one rule of a held

@@ -30,6 +30,7 @@ import pinocchio as pin
 from armlab._keywords import renamed_keywords
 from armlab.errors import InputError, LimitViolation, UnreachableError
 from armlab.kinematics import fk, has_analytic_ik, ik, ik_nearest
+from armlab.planning.keep_clear import refuses_collision
 from armlab.planning.path_ik import MinNormFlow, path_derivatives, track_path, where_on
 from armlab.planning.paths import ArcPath, BlendPath, CartesianPath, LinePath
 from armlab.planning.timescale import finish, stretch_needed
@@ -352,6 +353,7 @@ def _start_rotation(robot, first, q_start, rotation):
     return None
 
 
+@refuses_collision("line")  # clearance=: issue 27, planning.keep_clear
 def line(
     robot: Robot,
     pose_start,
@@ -383,7 +385,9 @@ def line(
         Start configuration (IK branch).
     **kwargs
         ``accel``, ``jerk``, ``profile``, ``dt``, ``on_limit``, ``v_max``, ``a_max``, ``j_max``,
-        ``tau_max`` of :func:`follow_path`.
+        ``tau_max`` of :func:`follow_path`; ``clearance`` (a CollisionScene: the plan's
+        clearance is checked and a plan too close refused, :mod:`armlab.planning.keep_clear`;
+        also for :func:`arc3` and :func:`blend`).
 
     Returns
     -------
@@ -439,6 +443,7 @@ def line(
     return finish(traj, robot, lim, torque=lim.torque_Nm is not None, what="line")
 
 
+@refuses_collision("arc3")  # clearance=: issue 27, planning.keep_clear
 def arc3(
     robot: Robot,
     p1,
@@ -517,6 +522,7 @@ def arc3(
     return traj
 
 
+@refuses_collision("blend")  # clearance=: issue 27, planning.keep_clear
 def blend(
     robot: Robot,
     points,

@@ -130,6 +130,10 @@ class OptimalProblem:
     qd_start: np.ndarray | None = None
     qdd_start: np.ndarray | None = None
     qd_goal: np.ndarray | None = None
+    #: clearance rows on the knots (issue 27, :mod:`armlab.planning.optimal_clearance`), and
+    #: the last solution (physical variables), the warm start of its next round
+    clearance_rows: Any = None
+    solution_x: np.ndarray | None = None
     #: set when a "partial" solve failed: the back-off rounds after it use the exact Hessian
     _exact_after_fallback: bool = field(default=False, init=False, repr=False)
 
@@ -307,6 +311,8 @@ class OptimalProblem:
         st = self._structure(limits, hessian)
         lbx, ubx, lbg, ubg = self._bounds(st, limits, drive_scale)
         p = self._params(limits, drive_scale)
+        if self.clearance_rows is not None:  # issue 27: rows C q_k >= l (optimal_clearance)
+            st, p, lbg, ubg = self.clearance_rows.extend(st, p, lbg, ubg)
         sv = self._scale_vector()
         lbx, ubx = lbx / sv, ubx / sv
         x0 = np.clip(x0 / sv, lbx, ubx)
@@ -389,6 +395,7 @@ class OptimalProblem:
             )
             limits = out.limits[0]
         (st, x, _, _), info, rounds = out.result, out.info, out.rounds
+        self.solution_x = x
         total_iter, total_time = out.iterations, out.solve_time_s
         traj = self._trajectory(st, x)
         dt = self._check_dt(traj)

@@ -424,6 +424,7 @@ def optimal(
     qd_start=None,
     qdd_start=None,
     qd_goal=None,
+    clearance=None,
 ) -> Trajectory:
     """Time-synchronised optimal trajectory through joint waypoints.
 
@@ -473,6 +474,11 @@ def optimal(
         (default: rest). Each within its limit (else :class:`InputError` naming the keyword and
         the joint); the first sample of the result is that state, the last the goal at
         ``qd_goal`` with zero acceleration. Not with ``drive_limits``.
+    clearance : armlab.collision.CollisionScene, optional
+        Keep every pair the scene checks at least its ``clearance_m`` apart:
+        clearance rows on the knots in sequential convex rounds, the motion checked between
+        them (:func:`armlab.planning.optimal_clearance.plan_clear`; an
+        :class:`InfeasibleError` naming the pair, the time and the depth when it cannot).
 
     Returns
     -------
@@ -525,6 +531,14 @@ def optimal(
         qdd_start=qdd_start,
         qd_goal=qd_goal,
     )
+    if clearance is not None:  # issue 27: sequential convex rounds (optimal_clearance)
+        from armlab.planning.optimal_clearance import plan_clear
+
+        return plan_clear(
+            lambda: optimal(robot, waypoints, n_intervals=n_intervals, **kw),
+            lambda grid: build_optimal(robot, waypoints, n_intervals=grid or n_intervals, **kw),
+            clearance,
+        )
     prob = build_optimal(robot, waypoints, n_intervals=n_intervals, **kw)
     try:
         return prob.solve()

@@ -115,6 +115,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from armlab.errors import InfeasibleError, InputError
+from armlab.planning.keep_clear import keep_clear
 from armlab.planning.topp_convex import DRIVE_SCP_ITER, DRIVE_SCP_TOL
 from armlab.planning.topp_path import (
     END_REFINEMENT,
@@ -242,6 +243,7 @@ def time_optimal_path(
     max_iter: int = 3000,
     drive_limits: bool = False,
     method: str = "reachability",
+    clearance=None,
 ) -> Trajectory:
     """Fastest rest-to-rest motion along a fixed joint path (TOPP).
 
@@ -281,6 +283,11 @@ def time_optimal_path(
         slower than the convex pass in the benchmark, about 13 ms a call against about 1 s).
         ``"convex"``: the
         convex program of Verscheure et al. with IPOPT (globally optimal on its grid).
+    clearance : armlab.collision.CollisionScene, optional
+        Check the plan's clearance (the path is given: the TOPP does not plan around
+        obstacles): :class:`~armlab.collision.CollisionError` naming the pair, the time and the
+        depth if it comes closer than the scene's ``clearance_m``
+        (:func:`armlab.planning.keep_clear.keep_clear`).
 
     Returns
     -------
@@ -317,4 +324,4 @@ def time_optimal_path(
         drive_limits=drive_limits,
         method=method,
     )
-    return prob.solve()
+    return keep_clear(prob.solve(), clearance, "time_optimal_path")  # issue 27

@@ -342,7 +342,7 @@ def write_report(
         lines += [f"![{caption}]({name})", "", f"*{caption}*", ""]
     files += [_draw_one(name, make, out_dir) for name, _, make in jobs]
     if ctx.trajectory is not None:
-        motion_lines, written = _motion_file(ctx.robot, ctx.trajectory, out_dir)
+        motion_lines, written = _motion_file(ctx.robot, ctx.trajectory, out_dir, ctx)
         lines += motion_lines
         files += [out_dir / MOTION_FILE] if written else []
     report = out_dir / "report.md"
@@ -354,19 +354,22 @@ def write_report(
 MOTION_FILE = "motion.html"
 
 
-def _motion_file(robot, trajectory, out_dir: Path) -> tuple[list[str], bool]:
+def _motion_file(robot, trajectory, out_dir: Path, ctx=None) -> tuple[list[str], bool]:
     """Write the planned motion as a self-contained 3D animation (:data:`MOTION_FILE`, see
-    :func:`armlab.viz.animate`): the report's lines linking it, and whether it was written;
-    when meshcat is missing or fails, one line saying so (never an error)."""
+    :func:`armlab.viz.animate`) with the study's obstacles, floor and closest pair
+    (:func:`armlab.study.environment.environment`): the report's lines linking it, and whether
+    it was written; when meshcat is missing or fails, one line saying so (never an error)."""
     lines = ["## 3D motion", ""]
     try:
         import warnings
 
+        from armlab.study.environment import environment
         from armlab.viz import animate
 
+        env = environment(ctx) if ctx is not None else {}
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            scene = animate(robot, trajectory, out_dir / MOTION_FILE)
+            scene = animate(robot, trajectory, out_dir / MOTION_FILE, **env)
     except Exception as exc:  # the study never fails for its 3D view
         why = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
         return lines + [f"3D animation not written: {why}", ""], False
@@ -375,6 +378,15 @@ def _motion_file(robot, trajectory, out_dir: Path) -> tuple[list[str], bool]:
         f"[3D animation of the planned motion]({MOTION_FILE}) (open in a browser; "
         f"{scene.n_frames} frames at {scene.fps:g} fps)" + (f"; {notes}" if notes else ".")
     )
+    if env.get("closest") is not None:
+        cp = env["closest"]
+        shown = [f"{len(env['obstacles'])} obstacle(s)"] if env["obstacles"] else []
+        shown += [] if env["floor_z_m"] is None else ["the floor"]
+        lines.append(
+            (f"Drawn with {' and '.join(shown)}; the" if shown else "The")
+            + f" red line marks the closest pair, {cp.a} and {cp.b}, "
+            f"{cp.distance_m * 1e3:.1f} mm apart at t = {cp.time_s:.3f} s."
+        )
     return lines + [""], True
 
 

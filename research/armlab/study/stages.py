@@ -268,6 +268,8 @@ def plan_trajectory(ctx: StudyContext) -> Trajectory:
         opts: dict[str, Any] = {"objective": plan.objective}
         if plan.duration_s is not None:
             opts["duration"] = plan.duration_s
+        # issue 27: optimal plans around what the plan stage's collision check would refuse
+        opts["clearance"] = ctx.collision_scene
         return T.optimal(robot, Q, **opts, **limits)
     # classical planners sample at the check step (the controller cycle by default), so the
     # set-point table hits their samples and never interpolates across a profile corner
