@@ -182,6 +182,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from armlab.errors import ArmlabError, InfeasibleError, InputError
+from armlab.planning.optimal_closed import closed_form_applies, closed_form_optimal
 from armlab.planning.optimal_problem import (
     OBJECTIVES,
     OptimalProblem,
@@ -268,6 +269,13 @@ def _check_static_drive(robot, w: np.ndarray, ls: Limits, exact: np.ndarray, tra
             f"hold waypoint {idx[k]} against gravity, above the "
             f"{float(drivetrain.envelope_torque(0.0, train)[i]):.4g} N m it can give at rest"
         )
+
+
+def _transcribed(traj: Trajectory) -> Trajectory:
+    """``stats["method"]``: a plan of the transcription (the closed form says
+    ``"closed_form"``, :mod:`armlab.planning.optimal_closed`)."""
+    traj.stats.setdefault("method", "transcription")
+    return traj
 
 
 # ----------------------------------------------------------------------------- public
@@ -521,8 +529,12 @@ def optimal(
         qd_goal=qd_goal,
     )
     prob = build_optimal(robot, waypoints, n_intervals=n_intervals, **kw)
+    if closed_form_applies(prob):  # the exact optimum in closed form (optimal_closed)
+        traj = closed_form_optimal(prob)
+        if traj.stats["ok"]:
+            return traj
     try:
-        return prob.solve()
+        return _transcribed(prob.solve())
     except _NotConverged as first:
         # IPOPT stopped without converging and with no limit violated at its last iterate, or
         # the back-off left the plan over a limit between the knots: finer grids (twice, then
@@ -541,7 +553,7 @@ def optimal(
                 "to": list(finer),
                 "why": str(first),
             }
-            return traj
+            return _transcribed(traj)
         tried = " and ".join(str(tuple(f * n for n in prob.segment_intervals)) for f in FINER_GRIDS)
         if isinstance(last, _BackoffStalled):
             raise InfeasibleError(f"{last} (also with {tried} intervals per segment)") from None
