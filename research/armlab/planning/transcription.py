@@ -449,41 +449,35 @@ def _torque_jacobian(rnea_p, qq, vv, aa, p_pi, p_tau, s_v, s_a, cols, nx: int):
     column ``k + shift_a`` (column-major)."""
     n, m = qq.shape
     q0, v0, a0, shift, shift_a = cols
-    djac = _rnea_jacobian(rnea_p).map(m)(qq, vv, aa, ca.repmat(p_pi, 1, m))
-    vals, rr, cc = [], [], []
-    starts = ((q0, shift), (v0, shift), (a0, shift_a))
-    for block, (start, sh), scale in zip(djac, starts, (None, s_v, s_a), strict=True):
-        sp = block.sparsity()
-        r, c = (np.asarray(z, int) for z in sp.get_triplet())
-        k, j = c // n, c % n  # node, joint of the variable
-        nz = block.nz[:] if scale is None else block.nz[:] * scale[j.tolist()]
-        vals.append(nz / p_tau[r.tolist()])
-        rr.append(k * n + r)
-        cc.append(start + (k + sh) * n + j)
-    r, c = np.concatenate(rr), np.concatenate(cc)
+    block = _rnea_jacobian(rnea_p).map(m)(qq, vv, aa, ca.repmat(p_pi, 1, m))
+    r, c = (np.asarray(z, int) for z in block.sparsity().get_triplet())
+    k, kind, j = c // (3 * n), c % (3 * n) // n, c % n  # node, q/v/a, joint of the variable
+    scale = ca.vertcat(ca.DM.ones(n), s_v, s_a)  # d(physical)/d(scaled) of q, v, a
+    pick = [ca.vec(x) for x in (block.nz[:], scale[(kind * n + j).tolist()], p_tau[r.tolist()])]
+    vals = pick[0] * pick[1] / pick[2]
+    start = np.array([q0, v0, a0])[kind]
+    sh = np.where(kind == 2, shift_a, shift)
+    r, c = k * n + r, start + (k + sh) * n + j
     order = np.lexsort((r, c))  # casadi's column-major nonzero order
     sp = ca.Sparsity.triplet(n * m, nx, r[order].tolist(), c[order].tolist())
-    return ca.MX(sp, ca.vertcat(*vals)[order.tolist()])
+    return ca.MX(sp, ca.vec(vals[order.tolist()]))
 
 
 _RNEA_JACOBIANS: dict[int, tuple[Any, ca.Function]] = {}
 
 
 def _rnea_jacobian(rnea_p) -> ca.Function:
-    """``(q, qd, qdd, pi) -> (d tau/d q, d tau/d qd, d tau/d qdd)`` of the parametric inverse
-    dynamics (SX, sparse), made once per function."""
+    """``(q, qd, qdd, pi) -> d tau / d(q, qd, qdd)`` (n, 3 n) of the parametric inverse
+    dynamics (SX, sparse; casadi's common-subexpression elimination), made once per
+    function."""
     hit = _RNEA_JACOBIANS.get(id(rnea_p))
     if hit is not None and hit[0] is rnea_p:
         return hit[1]
     n = rnea_p.size1_in(0)
     q, v, a = (ca.SX.sym(s, n) for s in ("q", "v", "a"))
     pi = ca.SX.sym("pi", rnea_p.size1_in(3))
-    tau = rnea_p(q, v, a, pi)
-    fun = ca.Function(
-        "rnea_jacobian",
-        [q, v, a, pi],
-        [ca.jacobian(tau, q), ca.jacobian(tau, v), ca.jacobian(tau, a)],
-    )
+    jac = ca.jacobian(rnea_p(q, v, a, pi), ca.vertcat(q, v, a))  # one pass: shared terms
+    fun = ca.Function("rnea_jacobian", [q, v, a, pi], [jac], {"cse": True})
     _RNEA_JACOBIANS[id(rnea_p)] = (rnea_p, fun)
     return fun
 
