@@ -56,6 +56,20 @@ factorisations and back-solves; IPOPT's own ``LinearSystemFactorization`` timer 
 MUMPS) and 6.7 ms (40 %) function evaluations (5.6 ms the constraint Jacobian); 20 waypoints
 (304 intervals) median 31 iterations, 98 ms an iteration: 55 ms (56 %) linear algebra, 33 ms
 (34 %) evaluations (28 ms the Jacobian).
+
+Per-size build (issue 26): a first call on a waypoint count built the NLP (0.4 s at 2 waypoints
+to 3.7 s at 20, teachbot6 with torque rows): ~2/3 casadi's AD of the whole constraint graph for
+IPOPT's Jacobian, ~1/3 ``nlp_grad`` (the gradient of the Lagrangian in ``p``, which casadi
+makes for ``lam_p`` at every build and armlab does not read). Now the torque rows' Jacobian is
+the inverse dynamics' own Jacobian ``d tau / d(q, qd, qdd)`` (one SX function per robot,
+7.1 k instructions with casadi's common-subexpression elimination) mapped over the nodes in a
+thin MX shell (:func:`_jacobian_shell`; the rows without torque, a small polynomial graph, are
+differentiated by casadi as before), and ``nlp_grad`` is not made. The build at 5 waypoints
+fell from 0.74 to 0.15 s CPU, at 20 from 3.7 to 0.7 s (the rest: the SX graph itself and the
+``"partial"`` Hessian, 0.27 s at 20); the same nonzeros and values (tests), the same
+iterations and durations on the cases compared (within 1.6e-7 s of 90 s), a repeat solve no
+slower (10 waypoints: 0.85 s CPU against 0.90-0.98 s). Not yet on this path: the drive rows
+(``drive_limits``), the energy objective and ``TORQUE_INTERIOR_POINTS``.
 """
 
 from __future__ import annotations
