@@ -64,7 +64,7 @@ def closed_form_applies(prob: OptimalProblem) -> bool:
     )
 
 
-def _knots(batch, n: int) -> np.ndarray:
+def _knots(batch) -> np.ndarray:
     """Every joint's switching instants and the ends, sorted; instants closer than the
     rounding of the times merge (as :func:`~armlab.trajectory.sampling.sample_times`)."""
     T = float(batch.duration[0])
@@ -88,7 +88,7 @@ def closed_form_optimal(prob: OptimalProblem) -> Trajectory:
     batch = synchronised_scurves(
         np.diff(w, axis=0), ls.velocity_rad_s, ls.acceleration_rad_s2, ls.jerk_rad_s3
     )
-    t = _knots(batch, prob.n)
+    t = _knots(batch)
     q, qd, qdd = (x[:, 0] for x in batch.evaluate(t))
     # the jerk of each piece, from the acceleration at its two ends (linear in between: the
     # knots hold every joint's switching instants); exact zero where it does not step
