@@ -29,6 +29,13 @@
    refusal not proved, an unnamed error, a plan over a limit); median / p90 / max IPOPT time.
    Goal: 100 %. ``--success-only`` runs this table alone (~6 min for 1000 on one core: run it
    with ``nice -n 19``).
+7. The whole ``optimal()`` call (issue 26): at 2/5/10/20 waypoints (teachbot6, v/a/j/tau) the
+   median and p90 of the call and of the solve, the first call on a waypoint count over a
+   repeat, TOPP-RA (v/a/torque) on the same waypoints where installed; 2 waypoints v/a/j
+   (``optimal``'s closed form, ``ptp_sync``) per call against Ruckig; ``drive_limits=True``
+   over the torque box. Goals (issue 26): whole call <= 15x TOPP-RA at 5 waypoints, 20
+   waypoints <= 6x the 5-waypoint time, 2-waypoint v/a/j <= 10x Ruckig, first call <= 3x a
+   repeat, drive-limited <= 2x the torque box. ``--calls-only`` runs this table alone.
 
 Run:  ``MPLBACKEND=Agg .venv/bin/python benchmarks/bench_trajectory.py [--quick]``
 """
@@ -440,6 +447,145 @@ def bench_optimal_scaling(quick: bool = False) -> dict:
     return results
 
 
+# ----------------------------------------------------------------------------- 7. whole call
+CALLS_CASES = 5  # per waypoint count (2 with --quick)
+
+
+def _med_p90(x) -> str:
+    x = 1e3 * np.asarray(x, float)
+    return f"{np.median(x):.0f} / {np.percentile(x, 90):.0f}" if x.size else "-"
+
+
+def bench_optimal_calls(quick: bool = False) -> dict:
+    """The whole ``optimal()`` call by waypoint count (issue 26; module docstring, 7).
+
+    teachbot6, its own v/a/j/tau limits, the waypoints of section 5 (70 % of the ranges): wall
+    time of the whole call and the solve (median / p90, ms), the first call on a waypoint count
+    (the compiled problems of every size dropped before it; the per-robot inverse dynamics
+    kept: "after the per-robot build") over the median repeat; TOPP-RA (v/a/torque, its own
+    spline through the same waypoints) where installed; 2 waypoints v/a/j against Ruckig per
+    call (``optimal`` and ``ptp_sync(..., "scurve")``); ``drive_limits=True`` over the torque box
+    on the same 3-waypoint moves (v/torque, ``a_max=j_max=False`` as bench_drive_limits.py)."""
+    import importlib
+    from importlib.util import find_spec
+
+    from ruckig import InputParameter, Ruckig
+    from ruckig import Trajectory as RTrajectory
+
+    from armlab.planning import ptp_sync
+
+    transcription = importlib.import_module("armlab.planning.transcription")
+    robot = armlab.load_robot("teachbot6")
+    L = robot.limits
+    lo, hi = L.lower_rad, L.upper_rad
+    mid, half = (lo + hi) / 2, (hi - lo) / 2 * SCALING_RANGE
+    n_cases = 2 if quick else CALLS_CASES
+    have_toppra = find_spec("toppra") is not None
+    res: dict = {"n_cases": n_cases}
+    print()
+    print(f"optimal() whole call by waypoint count (teachbot6, v/a/j/tau, seed {SEED + 7:d})")
+    hdr = (
+        f"{'wp':>3}{'n':>3}  {'call [ms] med/p90':>18}  {'solve [ms] med/p90':>19}  "
+        f"{'first/repeat':>12}  {'TOPP-RA [ms] med':>16}  {'call/TOPP-RA':>12}"
+    )
+    print(hdr)
+    print("-" * len(hdr))
+    optimal(robot, mid + half * np.eye(2, robot.n_joints))  # per-robot functions, not timed
+    for nw in SCALING_WAYPOINTS:
+        rng = np.random.default_rng(SEED + 7 + nw)
+        cases = []
+        while len(cases) < n_cases:
+            w = mid + half * (2 * rng.random((nw, robot.n_joints)) - 1)
+            if all(statically_ok(robot, q) for q in w):
+                cases.append(w)
+        transcription._STRUCTURES.clear()  # a waypoint count this process has not seen
+        t0 = time.perf_counter()
+        optimal(robot, cases[0])
+        first = time.perf_counter() - t0
+        call, solve, peer = [], [], []
+        for w in cases:
+            t0 = time.perf_counter()
+            try:
+                tr = optimal(robot, w)
+            except ArmlabError:
+                continue
+            call.append(time.perf_counter() - t0)
+            solve.append(tr.stats["solve_time_s"])
+            if have_toppra:
+                _, dt = toppra_solve(robot, w, L.velocity_rad_s, L.acceleration_rad_s2, L.effort_Nm)
+                peer.append(dt)
+        ratio = first / np.median(call)
+        peer_med = f"{1e3 * np.median(peer):.1f}" if peer else "not installed"
+        vs = f"{np.median(call) / np.median(peer):.0f}x" if peer else "-"
+        print(
+            f"{nw:>3}{n_cases:>3}  {_med_p90(call):>18}  {_med_p90(solve):>19}  {ratio:>12.2f}  "
+            f"{peer_med:>16}  {vs:>12}",
+            flush=True,
+        )
+        res[nw] = (float(np.median(call)), float(np.median(solve)), ratio)
+    # 2 waypoints, v/a/j, no torque: the public calls against Ruckig, per call
+    v, a, j = L.velocity_rad_s, L.acceleration_rad_s2, L.jerk_rad_s3
+    rng = np.random.default_rng(SEED + 72)
+    ws = [mid + half * (2 * rng.random((2, robot.n_joints)) - 1) for _ in range(20 * n_cases)]
+    t_opt, t_ptp, t_rk = [], [], []
+    nj = robot.n_joints
+    for w in ws:
+        t0 = time.perf_counter()
+        tr = optimal(robot, w, tau_max=False)
+        t_opt.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        ptp_sync(robot, w[0], w[1], "scurve", tau_max=False)
+        t_ptp.append(time.perf_counter() - t0)
+        otg, inp, rt = Ruckig(nj), InputParameter(nj), RTrajectory(nj)
+        inp.current_position, inp.target_position = w[0].tolist(), w[1].tolist()
+        inp.max_velocity, inp.max_acceleration, inp.max_jerk = v.tolist(), a.tolist(), j.tolist()
+        t0 = time.perf_counter()
+        otg.calculate(inp, rt)
+        t_rk.append(time.perf_counter() - t0)
+    method = tr.stats.get("method", "transcription")
+    rk = float(np.median(t_rk))
+    res["ruckig"] = (float(np.median(t_opt)) / rk, float(np.median(t_ptp)) / rk, rk, method)
+    print(
+        f"2 wp v/a/j per call: optimal ({method}) {1e3 * np.median(t_opt):.2f} ms = "
+        f"{res['ruckig'][0]:.0f}x Ruckig, ptp_sync scurve {1e3 * np.median(t_ptp):.2f} ms = "
+        f"{res['ruckig'][1]:.0f}x Ruckig ({1e6 * rk:.1f} us)"
+    )
+    # drive-limited against the torque box, the same moves (repeats: sizes built first)
+    rng = np.random.default_rng(SEED + 73)
+    box, drive = [], []
+    kw = dict(a_max=False, j_max=False)
+    for i in range(n_cases):
+        w = mid + 0.5 * half * (2 * rng.random((3, robot.n_joints)) - 1)
+        if i == 0:
+            optimal(robot, w, **kw)
+            optimal(robot, w, drive_limits=True, **kw)
+        for out, dl in ((box, False), (drive, True)):
+            t0 = time.perf_counter()
+            optimal(robot, w, drive_limits=dl, **kw)
+            out.append(time.perf_counter() - t0)
+    res["drive"] = float(np.median(np.array(drive) / np.array(box)))
+    print(
+        f"3 wp v/torque: drive_limits=True {_med_p90(drive)} ms, torque box {_med_p90(box)} ms "
+        f"(med/p90): drive / box median {res['drive']:.1f}x"
+    )
+    return res
+
+
+def calls_row(res: dict) -> None:
+    """README row of section 7: the whole optimal() call (issue 26)."""
+    cells = ", ".join(f"{nw} wp {1e3 * res[nw][0]:.0f} ms" for nw in SCALING_WAYPOINTS)
+    first = max(res[nw][2] for nw in SCALING_WAYPOINTS)
+    r_opt, r_ptp, rk, method = res["ruckig"]
+    readme_row(
+        __file__,
+        "`optimal` whole call by waypoint count (teachbot6, v/a/j/tau, median; issue 26)",
+        f"{cells}; first call on a new waypoint count <= {first:.1f}x a repeat; 2 wp v/a/j "
+        f"({method}) {r_opt:.0f}x Ruckig, `ptp_sync` scurve {r_ptp:.0f}x; drive_limits "
+        f"{res['drive']:.1f}x the torque box",
+        f"Ruckig {1e6 * rk:.1f} us per case",
+    )
+
+
 # ----------------------------------------------------------------------------- 6. success
 SUCCESS_CASES = 1000  # planner tests (problems not proved infeasible) in a full run
 SUCCESS_QUICK = 20
@@ -582,6 +728,9 @@ def main() -> None:
     )
     ap.add_argument("--success-only", action="store_true", help="only the success table")
     ap.add_argument(
+        "--calls-only", action="store_true", help="only the whole-call table (issue 26)"
+    )
+    ap.add_argument(
         "--peers-only",
         action="store_true",
         help="only the side-by-side with Ruckig and (where installed) TOPP-RA: notebook 03",
@@ -596,6 +745,9 @@ def main() -> None:
         return
     if args.success_only:
         success_row(bench_success(n_success))
+        return
+    if args.calls_only:
+        calls_row(bench_optimal_calls(args.quick))
         return
     if args.scurves_only:
         scurve_row(bench_scurve_batch(args.quick))
@@ -667,6 +819,7 @@ def main() -> None:
         f" (< 1 s)"
     )
     scurves = bench_scurve_batch(args.quick)
+    calls = bench_optimal_calls(args.quick)  # first: sizes not yet built by section 5
     scaling = bench_optimal_scaling(args.quick)
     success = bench_success(n_success)
 
@@ -705,6 +858,7 @@ def main() -> None:
     scaling_row(scaling)
     scurve_row(scurves)
     success_row(success)
+    calls_row(calls)
 
 
 def peers_header(quick: bool) -> None:

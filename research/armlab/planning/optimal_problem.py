@@ -367,10 +367,16 @@ class OptimalProblem:
             st, x, info, data, lam_out = self._solve_once(limits, warm, scale, lam)
             return (st, x, data, lam_out), info
 
+        checked: dict[str, Any] = {}  # the last check's plan and samples, reused below
+
         def check(result) -> dict[str, np.ndarray]:
             traj = self._trajectory(result[0], result[1])
             dt = self._check_dt(traj)
-            ratios = traj.check_limits(self.robot, dt=dt, limits=jl, torque=torque_on).ratios
+            smp = traj.limit_samples(dt, robot=self.robot if torque_on else None)
+            checked.update(x=result[1], traj=traj, samples=smp)
+            ratios = traj.check_limits(
+                self.robot, dt=dt, limits=jl, torque=torque_on, samples=smp
+            ).ratios
             if train is not None:
                 ratios = {**ratios, **drive_check(traj, self.robot, train, dt)}
             return ratios
@@ -397,13 +403,21 @@ class OptimalProblem:
         (st, x, _, _), info, rounds = out.result, out.info, out.rounds
         self.solution_x = x
         total_iter, total_time = out.iterations, out.solve_time_s
-        traj = self._trajectory(st, x)
+        reuse = checked.get("x") is x  # the plan the last back-off check sampled
+        traj = checked["traj"] if reuse else self._trajectory(st, x)
         dt = self._check_dt(traj)
         # an excess within the solver's tolerance: a uniform stretch by k <= 1 + CHECK_TOL
         # (where the plan passes a pose whose gravity alone exceeds a torque limit, held there
         # by its dynamics, the report below is the verdict: issue 15, 1 of 250 random
         # 5-waypoint problems)
-        absorbed = absorb_tolerance(traj, self.robot, jl, torque=torque_on, dt=dt)
+        absorbed = absorb_tolerance(
+            traj,
+            self.robot,
+            jl,
+            torque=torque_on,
+            dt=dt,
+            samples=checked["samples"] if reuse else None,
+        )
         traj, k_tol, samples = absorbed.traj, absorbed.k, absorbed.samples
         stretch_skipped = absorbed.skipped
         drive_ratios: dict[str, np.ndarray] = {}

@@ -66,7 +66,7 @@ from armlab.trajectory.profiles import (
     double_s_profile,
     rest_profile,
     synchronised_from_state,
-    synchronised_profiles,
+    synchronised_scurves,
     trapezoid_blocked_from_state,
     trapezoid_from_state,
     trapezoid_min_time_from_state,
@@ -295,7 +295,10 @@ def ptp_sync(
         assert a is not None  # needed by the trapezoid and S-curve profiles
         # a trapezoid is the double S without a jerk limit
         jj = j if profile == "scurve" and j is not None else np.full(robot.n_joints, np.inf)
-        T, t_i, profs = synchronised_profiles(D, v, a, jj)  # Jiang 1987, eq. 3-4
+        # Jiang 1987, eq. 3-4, each joint's double S in closed form (one batch)
+        batch = synchronised_scurves(D[None], v, a, jj)
+        T, t_i = float(batch.duration[0]), batch.t_min[0]
+        profs = [batch.profile((0, i)) for i in range(robot.n_joints)]
         bj = int(np.argmax(t_i))
         bkind = double_s_binding(D[bj], v[bj], a[bj], jj[bj])
         if sync == "phase":
@@ -341,7 +344,9 @@ def ptp_sync(
     traj = build(profs, T)
     slowdown = None
     T0 = T
-    for _ in range(10):  # torque peaks move between samples when the grid changes: iterate
+    # without a torque limit the closed-form profiles are within every limit by construction
+    # (the check of finish() below says so): no stretch rounds
+    for _ in range(10 if torque else 0):  # torque peaks move between samples: iterate
         # on the evaluation's peaks (knots, left limits, interior extremes, refined torques)
         check = traj.limit_samples(robot=robot if torque else None)
         k, kind, joint = stretch_needed(check, robot, lim, torque=torque)
@@ -366,6 +371,7 @@ def ptp_sync(
         normalised_profile=profs[0].to_dict() if normalised else None,
         slowdown=slowdown,
     )
+    traj.stats.update(method="closed_form", duration_s=float(T), torque_stretch=T / T0)
     return finish(traj, robot, lim, torque=torque, what=method)
 
 

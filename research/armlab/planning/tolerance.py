@@ -59,7 +59,13 @@ class Absorbed:
 
 
 def absorb_tolerance(
-    traj: Trajectory, robot: Robot, limits: Limits, *, torque: bool, dt: float | None = None
+    traj: Trajectory,
+    robot: Robot,
+    limits: Limits,
+    *,
+    torque: bool,
+    dt: float | None = None,
+    samples: LimitSamples | None = None,
 ) -> Absorbed:
     """``traj`` stretched in time by the smallest ``k`` (times ``1 + STRETCH_MARGIN``) that
     brings every limit within ``limits`` if that ``k`` is at most ``1 + CHECK_TOL``, else
@@ -68,10 +74,14 @@ def absorb_tolerance(
     docstring).
 
     ``dt`` [s] adds a uniform grid to the limit samples (the optimisers' fine check step).
-    Times in ``meta`` are the caller's to scale by ``k``.
+    Times in ``meta`` are the caller's to scale by ``k``. ``samples``: ``traj``'s
+    :meth:`~armlab.trajectory.Trajectory.limit_samples` at ``dt`` (with the torques when
+    ``torque``) if the caller has them (the optimiser's last back-off check): not computed
+    again.
     """
     with_tau = robot if torque else None
-    samples = traj.limit_samples(dt, robot=with_tau)
+    if samples is None or (torque and samples.tau is None):
+        samples = traj.limit_samples(dt, robot=with_tau)
     skipped = None
     try:
         k, _, _ = stretch_needed(samples, robot, limits, torque=torque)

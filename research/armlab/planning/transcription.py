@@ -56,6 +56,20 @@ factorisations and back-solves; IPOPT's own ``LinearSystemFactorization`` timer 
 MUMPS) and 6.7 ms (40 %) function evaluations (5.6 ms the constraint Jacobian); 20 waypoints
 (304 intervals) median 31 iterations, 98 ms an iteration: 55 ms (56 %) linear algebra, 33 ms
 (34 %) evaluations (28 ms the Jacobian).
+
+Per-size build (issue 26): a first call on a waypoint count built the NLP (0.4 s at 2 waypoints
+to 3.7 s at 20, teachbot6 with torque rows): ~2/3 casadi's AD of the whole constraint graph for
+IPOPT's Jacobian, ~1/3 ``nlp_grad`` (the gradient of the Lagrangian in ``p``, which casadi
+makes for ``lam_p`` at every build and armlab does not read). Now the torque rows' Jacobian is
+the inverse dynamics' own Jacobian ``d tau / d(q, qd, qdd)`` (one SX function per robot,
+7.1 k instructions with casadi's common-subexpression elimination) mapped over the nodes in a
+thin MX shell (:func:`_jacobian_shell`; the rows without torque, a small polynomial graph, are
+differentiated by casadi as before), and ``nlp_grad`` is not made. The build at 5 waypoints
+fell from 0.74 to 0.15 s CPU, at 20 from 3.7 to 0.7 s (the rest: the SX graph itself and the
+``"partial"`` Hessian, 0.27 s at 20); the same nonzeros and values (tests), the same
+iterations and durations on the cases compared (within 1.6e-7 s of 90 s), a repeat solve no
+slower (10 waypoints: 0.85 s CPU against 0.90-0.98 s). Not yet on this path: the drive rows
+(``drive_limits``), the energy objective and ``TORQUE_INTERIOR_POINTS``.
 """
 
 from __future__ import annotations
@@ -286,6 +300,7 @@ def build_structure(
         rows.append((Qa + Va * Hr / 2, "position", True))
     need_tau = torque_rows or objective == "energy" or drive_rows
     tau_nodes: list[Any] = []
+    torque_at = len(rows)  # the torque rows start here (rows[torque_at:torque_end])
     if need_tau:
         if mode == "jerk":
             tau_nodes = [rnea(Q, V, A)]
@@ -306,6 +321,7 @@ def build_structure(
                 inner.append(rnea(qi, vi, ai))
             for tn in tau_nodes + inner:
                 rows.append((tn / ca.repmat(p_tau, 1, tn.shape[1]), "torque", True))
+    torque_end = len(rows)
     scalar_rows: list[tuple] = []
     if drive_rows:
         if mode == "jerk":
@@ -351,10 +367,34 @@ def build_structure(
             f = ca.dot(((ew[0] + ew[1]) / 2).T, H)
     nlp = {"x": x, "p": p, "f": f, "g": g}
     opts = ipopt_options(max_iter, hessian, drive_rows)
+    g_fun = ca.Function("g", [x, p], [g])
+    if (
+        torque_rows
+        and not drive_rows
+        and objective != "energy"
+        and not TORQUE_INTERIOR_POINTS
+        and X is ca.SX
+    ):
+        # the constraint Jacobian from the inverse dynamics' own Jacobian at each node (one
+        # small function per robot, mapped over the nodes in a thin MX shell) instead of
+        # casadi's AD over the whole graph: the per-size build falls from seconds to a
+        # fraction (issue 26); the same nonzeros and values
+        parts = [ca.vec(r[0]) for r in rows]
+        before = ca.vertcat(*parts[:torque_at])
+        after = ca.vertcat(*parts[torque_end:], *[e for e, _ in scalar_rows])
+        rest = ca.Function("jac_rest", [x, p], [ca.jacobian(before, x), ca.jacobian(after, x)])
+        sizes = [int(e.numel()) for e in (p_tau, p_w, p_uref, p_ew, s_v, s_a, s_u, s_T, frac)]
+        names = ("tau", "w", "uref", "ew", "sv", "sa", "su", "sT", "frac", "pi")
+        offsets = dict(zip(names, np.concatenate([[0], np.cumsum(sizes)]).tolist(), strict=True))
+        opts["jac_g"] = _jacobian_shell(
+            rnea_p, g_fun, rest, int(x.numel()), int(p.numel()), n, N, n_pi, mode, slices, offsets
+        )
+    # the gradient of the Lagrangian in p (casadi's lam_p, unused here) costs an AD pass over
+    # the whole graph at every build: not made
+    opts["no_nlp_grad"], opts["calc_lam_p"] = True, False
     if hessian == "partial":
         opts["hess_lag"] = _partial_hessian(x, p, f, g, np.array(kinds), X)
     solver = ca.nlpsol("armlab_optimal", "ipopt", nlp, opts)
-    g_fun = ca.Function("g", [x, p], [g])
     return Structure(
         solver=solver,
         g_fun=g_fun,
@@ -375,6 +415,85 @@ def build_structure(
         nlp=nlp,
         options=opts,
     )
+
+
+def _jacobian_shell(rnea_p, g_fun, rest, nx, n_p, n, N, n_pi, mode, slices, offsets):
+    """IPOPT's ``jac_g`` (``(x, p) -> (g, dg/dx)``) as a thin MX function: the rows without
+    torque differentiated by casadi (``rest``: a small polynomial graph), the torque rows from
+    :func:`_torque_jacobian` (the inverse dynamics' Jacobian mapped over the nodes)."""
+    xm, pm = ca.MX.sym("x", nx), ca.MX.sym("p", n_p)
+
+    def par(name, size):
+        return pm[offsets[name] : offsets[name] + size]
+
+    def var(name, cols):
+        return ca.reshape(xm[slices[name]], n, cols)
+
+    s_v, s_a, s_u = par("sv", n), par("sa", n), par("su", n)
+    p_tau, p_pi = par("tau", n), par("pi", n_pi)
+    Q = var("q", N + 1)
+    V = var("v", N + 1) * ca.repmat(s_v, 1, N + 1)
+    starts = slices["q"].start, slices["v"].start
+    if mode == "jerk":
+        A = var("a", N + 1) * ca.repmat(s_a, 1, N + 1)
+        args = [(Q, V, A, s_a, (*starts, slices["a"].start, 0, 0))]
+    else:
+        U = var("u", N) * ca.repmat(s_u, 1, N)
+        cols_u = slices["u"].start
+        args = [
+            (Q[:, :N], V[:, :N], U, s_u, (*starts, cols_u, 0, 0)),
+            (Q[:, 1:], V[:, 1:], U, s_u, (*starts, cols_u, 1, 0)),
+        ]
+    tau_jac = [
+        _torque_jacobian(rnea_p, qq, vv, aa, p_pi, p_tau, s_v, sa, cols, nx)
+        for qq, vv, aa, sa, cols in args
+    ]
+    jb, ja = rest(xm, pm)
+    jac = ca.vertcat(jb, *tau_jac, ja)
+    return ca.Function("armlab_jac_g", [xm, pm], [g_fun(xm, pm), jac])
+
+
+def _torque_jacobian(rnea_p, qq, vv, aa, p_pi, p_tau, s_v, s_a, cols, nx: int):
+    """The Jacobian of the torque rows ``rnea(q_k, v_k, a_k; pi) / tau_scale`` (``m`` nodes,
+    node-major rows) in the scaled variables ``x``: the inverse dynamics' Jacobian
+    ``d tau / d(q, qd, qdd)`` (:func:`_rnea_jacobian`, one function per robot) mapped over the
+    nodes, times the variables' scales, over ``tau_scale`` -- the same nonzeros casadi's AD of
+    the whole graph finds. ``cols = (q0, v0, a0, shift, shift_a)``: where the q, v and a (or u)
+    blocks start in ``x``; node ``k``'s q and v are column ``k + shift`` of theirs, its a (or u)
+    column ``k + shift_a`` (column-major)."""
+    n, m = qq.shape
+    q0, v0, a0, shift, shift_a = cols
+    block = _rnea_jacobian(rnea_p).map(m)(qq, vv, aa, ca.repmat(p_pi, 1, m))
+    r, c = (np.asarray(z, int) for z in block.sparsity().get_triplet())
+    k, kind, j = c // (3 * n), c % (3 * n) // n, c % n  # node, q/v/a, joint of the variable
+    scale = ca.vertcat(ca.DM.ones(n), s_v, s_a)  # d(physical)/d(scaled) of q, v, a
+    pick = [ca.vec(x) for x in (block.nz[:], scale[(kind * n + j).tolist()], p_tau[r.tolist()])]
+    vals = pick[0] * pick[1] / pick[2]
+    start = np.array([q0, v0, a0])[kind]
+    sh = np.where(kind == 2, shift_a, shift)
+    r, c = k * n + r, start + (k + sh) * n + j
+    order = np.lexsort((r, c))  # casadi's column-major nonzero order
+    sp = ca.Sparsity.triplet(n * m, nx, r[order].tolist(), c[order].tolist())
+    return ca.MX(sp, ca.vec(vals[order.tolist()]))
+
+
+_RNEA_JACOBIANS: dict[int, tuple[Any, ca.Function]] = {}
+
+
+def _rnea_jacobian(rnea_p) -> ca.Function:
+    """``(q, qd, qdd, pi) -> d tau / d(q, qd, qdd)`` (n, 3 n) of the parametric inverse
+    dynamics (SX, sparse; casadi's common-subexpression elimination), made once per
+    function."""
+    hit = _RNEA_JACOBIANS.get(id(rnea_p))
+    if hit is not None and hit[0] is rnea_p:
+        return hit[1]
+    n = rnea_p.size1_in(0)
+    q, v, a = (ca.SX.sym(s, n) for s in ("q", "v", "a"))
+    pi = ca.SX.sym("pi", rnea_p.size1_in(3))
+    jac = ca.jacobian(rnea_p(q, v, a, pi), ca.vertcat(q, v, a))  # one pass: shared terms
+    fun = ca.Function("rnea_jacobian", [q, v, a, pi], [jac], {"cse": True})
+    _RNEA_JACOBIANS[id(rnea_p)] = (rnea_p, fun)
+    return fun
 
 
 def _partial_hessian(x, p, f, g, kinds: np.ndarray, X) -> ca.Function:

@@ -1,0 +1,108 @@
+"""The closed form behind optimal() and ptp_sync() (armlab.planning.optimal_closed, issue 26):
+the same minimum duration as the transcription (IPOPT, build_optimal().solve()), every limit
+held, and stats that say which method planned."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from armlab.planning import optimal, ptp_sync
+from armlab.planning.optimiser import build_optimal
+
+#: the closed form against IPOPT's optimum on the same problem, in [s]: IPOPT meets its
+#: constraints to 1e-9 and its objective carries a 1e-7 smoothness term (measured 4e-8)
+SAME_S = 1e-6
+
+
+def _cases(robot, n_cases, seed):
+    lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
+    rng = np.random.default_rng(seed)
+    return [lo + (hi - lo) * (0.15 + 0.7 * rng.random((2, robot.n_joints))) for _ in range(n_cases)]
+
+
+def _within_limits(traj, lim, tol=1e-9):
+    """Every limit on a fine grid of the exact pieces, evaluated here from the knots (cubic
+    Taylor polynomials of the left knot), independently of check_limits."""
+    t = np.linspace(0.0, traj.duration, 3001)
+    k = np.clip(np.searchsorted(traj.t, t, side="right") - 1, 0, traj.t.size - 2)
+    h = (t - traj.t[k])[:, None]
+    q0, v0, a0, j0 = traj.q[k], traj.qd[k], traj.qdd[k], traj.qddd[k]
+    q = q0 + v0 * h + a0 * h**2 / 2 + j0 * h**3 / 6
+    v = v0 + a0 * h + j0 * h**2 / 2
+    a = a0 + j0 * h
+    assert np.all(np.abs(v) <= lim.velocity_rad_s * (1 + tol))
+    assert np.all(np.abs(a) <= lim.acceleration_rad_s2 * (1 + tol))
+    assert np.all(np.abs(traj.qddd) <= lim.jerk_rad_s3 * (1 + tol))
+    assert np.all(q >= lim.lower_rad - 1e-12) and np.all(q <= lim.upper_rad + 1e-12)
+    return q
+
+
+def test_closed_form_equals_the_transcription_optimum(teachbot6):
+    """Rest to rest between 2 waypoints, v/a/j, no torque: the closed form's duration is
+    IPOPT's on the same problem, and the motion is within every limit."""
+    for w in _cases(teachbot6, 3, 26):
+        fast = optimal(teachbot6, w, tau_max=False)
+        ref = build_optimal(teachbot6, w, tau_max=False).solve()  # the engine: transcription
+        assert fast.stats["method"] == "closed_form"
+        assert fast.stats["duration_s"] == pytest.approx(ref.stats["duration_s"], abs=SAME_S)
+        assert fast.duration == pytest.approx(fast.stats["duration_s"], abs=1e-12)
+        assert fast.report.ok(1e-9)
+        q = _within_limits(fast, teachbot6.limits)
+        np.testing.assert_allclose(q[0], w[0], atol=1e-12)
+        np.testing.assert_allclose(q[-1], w[1], atol=1e-9)
+        np.testing.assert_allclose(fast.qd[[0, -1]], 0.0, atol=1e-12)
+        # time-optimal: the slowest joint reaches a limit
+        assert fast.stats["binding"]
+
+
+#: one joint moves 1.5 rad with v 0.5, a 2, j 10 (the others stay): the 7-phase double S
+#: lasts D/v + v/a + a/j (Biagiotti & Melchiorri 2008, 3.4; v j >= a^2, D >= v (v/a + a/j))
+ONE_MOVE = dict(v_max=0.5, a_max=2.0, j_max=10.0)
+ONE_MOVE_S = 1.5 / 0.5 + 0.5 / 2.0 + 2.0 / 10.0
+
+
+def _one_move(robot):
+    w = np.zeros((2, robot.n_joints))
+    w[:, 0] = [-0.75, 0.75]
+    return w
+
+
+def test_closed_form_against_a_hand_calculation(teachbot6):
+    traj = optimal(teachbot6, _one_move(teachbot6), tau_max=False, **ONE_MOVE)
+    assert traj.stats["method"] == "closed_form"
+    assert traj.duration == pytest.approx(ONE_MOVE_S, abs=1e-12)
+    assert traj.q[-1, 0] == pytest.approx(0.75, abs=1e-12)
+    np.testing.assert_allclose(traj.q[:, 1:], 0.0, atol=1e-15)  # the others stay
+
+
+def test_problems_the_closed_form_does_not_solve_are_transcribed(teachbot6):
+    """A torque limit, a third waypoint or another objective: the transcription plans."""
+    w = _one_move(teachbot6)
+    w3 = np.vstack([w[:1], w.mean(axis=0) + 0.1, w[1:]])
+    torque = optimal(teachbot6, w, n_intervals=8, **ONE_MOVE)  # the robot's torque limits
+    three = optimal(teachbot6, w3, tau_max=False, n_intervals=8, **ONE_MOVE)
+    smooth = optimal(
+        teachbot6, w, tau_max=False, objective="time+smooth", n_intervals=8, **ONE_MOVE
+    )
+    for traj in (torque, three, smooth):
+        assert traj.stats["method"] == "transcription"
+        assert traj.report.ok(1e-6)
+    # the smoothness term costs time: the closed form is the minimum
+    assert smooth.duration > ONE_MOVE_S + 1e-3
+
+
+@pytest.mark.parametrize("profile", ["scurve", "trapezoid"])
+def test_ptp_sync_says_closed_form(teachbot6, profile):
+    """ptp_sync rest to rest without torque: the closed-form profiles, within every limit, the
+    duration the closed form of optimal() gives for the S-curve."""
+    w = _cases(teachbot6, 1, 7)[0]
+    traj = ptp_sync(teachbot6, w[0], w[1], profile, tau_max=False)
+    assert traj.stats["method"] == "closed_form"
+    assert traj.report.ok(1e-9)
+    if profile == "scurve":
+        best = optimal(teachbot6, w, tau_max=False)
+        assert traj.duration == pytest.approx(best.duration, abs=1e-9)
+    assert math.isclose(traj.stats["duration_s"], traj.duration, abs_tol=1e-12)
