@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from armlab.kinematics.accuracy import AccuracyResult
     from armlab.kinematics.workspace import WorkspaceResult
     from armlab.robot.model import Robot
-    from armlab.study.verdict import StageRecord
+    from armlab.study.verdict import StageOutput, StageRecord
     from armlab.trajectory import Trajectory
     from armlab.trajectory.sampling import LimitReport
 
@@ -68,6 +68,12 @@ class StudyContext:
     requirement_sizing: SizingReport | None = None
     selection: Selection | None = None
     drives_selected: bool = False
+    #: the plan stage's output again when the selection re-planned with the chosen drives'
+    #: limits (:func:`armlab.study.drive_choice.choose_drives`; the runner records it)
+    replanned: StageOutput | None = None
+    #: the gains and tracking result the selection verified, for the drives they were made
+    #: with (``{"drives", "gains", "tracking"}``): the tuning and tracking stages reuse them
+    verified: dict[str, Any] | None = None
     #: tuning
     gains: ArmGains | None = None
     #: tracking: the result, the diagnosis of a miss (:func:`~armlab.control.simulate.

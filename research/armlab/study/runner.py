@@ -277,6 +277,9 @@ def _run(
                     raise stopped(stage, t0, exc) from None
                 else:
                     record(stage, t0, output)
+                    if ctx.replanned is not None:  # the selection re-planned with its drives
+                        record("plan", t0, ctx.replanned)
+                        ctx.replanned = None
             bar.update()
         if ctx.drives_selected:  # the sizing stage gave the robot its drive train
             summary["robot"].update(robot_block(ctx))
