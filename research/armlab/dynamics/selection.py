@@ -427,8 +427,8 @@ def select_drives(
         passing = sorted((c for c in cands if c.ok), key=key)
         closest = max(cands, key=lambda c: c.binding.margin) if cands and not passing else None
         failed_by_all: tuple[str, ...] = ()
-        if cands and not passing:  # the checks no candidate passes (a check a part has no rating for:
-            # not failed)
+        if cands and not passing:  # the checks no candidate passes (a check a part has no
+            # rating for: not failed)
             failing = [{ch.name for ch in c.checks if not ch.ok} for c in cands]
             failed_by_all = tuple(n for n in CHECK_NAMES if all(n in f for f in failing))
         current = None

@@ -82,6 +82,8 @@ class StudyContext:
     diagnosis: dict[str, Any] | None = None
     tracking_options: dict[str, Any] = field(default_factory=dict)
     tracking_variants: dict[str, TrackingResult] = field(default_factory=dict)
+    #: remedies of a failing design, measured and ranked (:mod:`armlab.study.remedies`)
+    remedies: list[Any] = field(default_factory=list)
     #: export: the set-point table (None: it breaks a controller limit) and the sha256 of each
     #: file the stage wrote, by name
     setpoints: SetpointTable | None = None

@@ -51,7 +51,7 @@ if TYPE_CHECKING:
     from armlab.robot.drives import Drive
     from armlab.robot.model import Robot
 
-__all__ = ["MAX_ROUNDS", "MAX_TRACKING_TRIES", "choose_drives", "study_rules"]
+__all__ = ["MAX_ROUNDS", "MAX_TRACKING_TRIES", "choose_drives", "limiting_joint", "study_rules"]
 
 #: select -> limits -> plan rounds before a choice that does not settle is refused
 MAX_ROUNDS = 6
@@ -221,7 +221,7 @@ def _stable(ctx: StudyContext, base: Robot, catalogue, state: _Choice, inertias)
     )
 
 
-def _limiting_joint(robot: Robot, result) -> str:
+def limiting_joint(robot: Robot, result) -> str:
     """The joint with the largest share ``max |e_j| * lever_j`` [m] of the TCP error."""
     from armlab.dynamics.sizing import lever_arms_m
 
@@ -256,8 +256,8 @@ def choose_drives(ctx: StudyContext) -> Selection:
         A joint without a passing catalogue entry (naming the check every candidate fails), or
         a choice that does not settle (one line).
     """
-    from armlab.control.tuning import tuning_inertias
     from armlab.control.spec import TuningSpec
+    from armlab.control.tuning import tuning_inertias
 
     catalogue = _catalogue(ctx.spec)
     base = ctx.robot.copy()
@@ -274,8 +274,8 @@ def choose_drives(ctx: StudyContext) -> Selection:
         result = _verify_tracking(ctx)
         if result is None or result.within_accuracy:
             break
-        joint = _limiting_joint(ctx.robot, result)
-        drive = ctx.robot.drives[joint]
+        joint = limiting_joint(ctx.robot, result)
+        drive = ctx.robot.drive(joint)
         tried.append((result.tcp_max_error_m, state.copy(), f"{joint} {_pair(drive)}"))
         if attempt == MAX_TRACKING_TRIES:
             break

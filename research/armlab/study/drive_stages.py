@@ -8,7 +8,7 @@ import inspect
 import math
 from typing import Any
 
-from armlab.study.build import _catalogue, _resolve_robot_limits
+from armlab.study.build import _catalogue
 from armlab.study.context import NotApplicable, StudyContext, jsonable, jsonable_block
 from armlab.study.verdict import StageOutput
 
