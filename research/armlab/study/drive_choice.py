@@ -150,7 +150,7 @@ def _untunable(ctx: StudyContext, robot: Robot, joint: str, state: _Choice, iner
     """Why ``joint``'s drive on ``robot`` cannot be tuned to the study's spec ("" if it can)."""
     from armlab.control import tune_cascade
 
-    key = (joint, robot.drives[joint])
+    key = (joint, robot.drive(joint))
     if key not in state.tunable:
         try:
             tune_cascade(robot, joint, inertias=inertias, **_tuning_spec(ctx))
