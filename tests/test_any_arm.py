@@ -284,7 +284,11 @@ def test_drives_file_errors_name_the_key(tmp_path, capsys, ur5):
 def test_study_drives_for_a_joint_the_urdf_lacks(tmp_path):
     study = _study(tmp_path, '[drives.nosuch_joint]\nmotor = "maxon EC 90 flat 260 W 48 V"')
     spec = load_study(study)
-    with pytest.raises(ArmlabError, match=r"^drives\.shoulder_pan_joint: missing"):
+    with pytest.raises(ArmlabError, match=r"^drives\.nosuch_joint: no joint 'nosuch_joint'"):
+        build_robot(spec)
+    # without select = true, a robot without drives still needs every joint's table
+    spec = load_study(study, {"sizing.select": False, "drives.shoulder_pan_joint.ratio": 100})
+    with pytest.raises(ArmlabError, match=r"^drives\.nosuch_joint: no joint"):
         build_robot(spec)
 
 

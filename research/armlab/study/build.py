@@ -100,9 +100,11 @@ def build_robot(spec: StudySpec) -> Robot:
                 f"drives.{joint}: no joint {joint!r} in {robot.name} "
                 f"(joints: {', '.join(robot.joint_names)})"
             )
-    # with [sizing] select = true a robot without drives gets them from the selection, which
-    # honours the [drives.<joint>] given (armlab.study.drive_choice.study_rules)
-    if spec.drives and not (robot.drives is None and spec.sizing.select):
+    # with [sizing] select = true, a robot without drives and [drives.<joint>] tables for only
+    # some joints gets its drives from the selection, which honours the tables given
+    # (armlab.study.drive_choice.study_rules)
+    partial = any(j not in spec.drives for j in robot.joint_names)
+    if spec.drives and not (robot.drives is None and spec.sizing.select and partial):
         if robot.drives is None:
             robot.drives = _drives_from_study(robot, spec)
         drives = dict(robot.drives)

@@ -68,9 +68,10 @@ class StudyContext:
     requirement_sizing: SizingReport | None = None
     selection: Selection | None = None
     drives_selected: bool = False
-    #: the plan stage's output again when the selection re-planned with the chosen drives'
-    #: limits (:func:`armlab.study.drive_choice.choose_drives`; the runner records it)
-    replanned: StageOutput | None = None
+    #: the plan stage's output again and its time [s] when the selection re-planned with the
+    #: chosen drives' limits (:func:`armlab.study.drive_choice.choose_drives`; the runner
+    #: records it)
+    replanned: tuple[StageOutput, float] | None = None
     #: the gains and tracking result the selection verified, for the drives they were made
     #: with (``{"drives", "gains", "tracking"}``): the tuning and tracking stages reuse them
     verified: dict[str, Any] | None = None

@@ -36,6 +36,7 @@ before it is checked.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -215,7 +216,9 @@ def _stable(ctx: StudyContext, base: Robot, catalogue, state: _Choice, inertias)
             )
         seen.append(choice)
         ctx.robot = _installed(ctx, base, drives)
-        ctx.replanned = stage_plan(ctx)  # the plan with the chosen drives' limits
+        t0 = time.perf_counter()
+        output = stage_plan(ctx)  # the plan with the chosen drives' limits
+        ctx.replanned = (output, time.perf_counter() - t0)
     raise InfeasibleError(
         f"drive selection: no stable choice after {MAX_ROUNDS} select -> limits -> plan rounds"
     )

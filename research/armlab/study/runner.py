@@ -289,7 +289,8 @@ def _run(
                 else:
                     record(stage, t0, output)
                     if ctx.replanned is not None:  # the selection re-planned with its drives
-                        record("plan", t0, ctx.replanned)
+                        plan, plan_s = ctx.replanned
+                        record("plan", time.perf_counter() - plan_s, plan)
                         ctx.replanned = None
             bar.update()
         if ctx.drives_selected:  # the sizing stage gave the robot its drive train
