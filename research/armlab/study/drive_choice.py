@@ -100,6 +100,8 @@ class _Choice:
     skipped: dict[str, list[str]] = field(default_factory=dict)
     tunable: dict[tuple[str, Drive], str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    #: the cascade gains of each tunable (joint, drive), for the tracking check's tuning
+    gains: dict[tuple[str, Drive], Any] = field(default_factory=dict)
 
     def copy(self) -> _Choice:
         """A copy whose exclusions can change apart (the tuning verdicts are shared)."""
@@ -110,6 +112,7 @@ class _Choice:
             {j: list(v) for j, v in self.skipped.items()},
             self.tunable,
             list(self.notes),
+            self.gains,
         )
 
     def rule(self, joint: str) -> Rule:
@@ -154,8 +157,9 @@ def _untunable(ctx: StudyContext, robot: Robot, joint: str, state: _Choice, iner
     key = (joint, robot.drive(joint))
     if key not in state.tunable:
         try:
-            tune_cascade(robot, joint, inertias=inertias, **_tuning_spec(ctx))
+            gains = tune_cascade(robot, joint, inertias=inertias, **_tuning_spec(ctx))
             state.tunable[key] = ""
+            state.gains[key] = gains
         except ArmlabError as exc:
             state.tunable[key] = f"tuning: {exc}"
     return state.tunable[key]
@@ -232,14 +236,18 @@ def limiting_joint(robot: Robot, result) -> str:
     return robot.joint_names[int(np.argmax(share))]
 
 
-def _verify_tracking(ctx: StudyContext):
-    """Tune and simulate the installed drives as the tuning and tracking stages will; the
-    result is kept for those stages (``ctx.verified``). None when they cannot run."""
+def _verify_tracking(ctx: StudyContext, state: _Choice):
+    """Tune and simulate the installed drives as the tuning and tracking stages will (the
+    joints the selection tuned already are kept); the result is kept for those stages
+    (``ctx.verified``). None when they cannot run."""
     from armlab.control import simulate_tracking, tune_arm
     from armlab.study.drive_stages import tracking_options, tuning_options
 
+    robot = ctx.robot
+    assert robot.drives is not None  # installed by _stable
+    known = {j: state.gains[(j, d)] for j, d in robot.drives.items() if (j, d) in state.gains}
     try:
-        gains = tune_arm(ctx.robot, controller=ctx.controller, **tuning_options(ctx))
+        gains = tune_arm(robot, controller=ctx.controller, known=known, **tuning_options(ctx))
         result = simulate_tracking(ctx.robot, ctx.trajectory, gains, **tracking_options(ctx))
     except ArmlabError:
         return None  # the stages report it
@@ -274,7 +282,7 @@ def choose_drives(ctx: StudyContext) -> Selection:
         sel = _stable(ctx, base, catalogue, state, inertias)
         if "tracking" not in stages or inertias is None:
             break
-        result = _verify_tracking(ctx)
+        result = _verify_tracking(ctx, state)
         if result is None or result.within_accuracy:
             break
         joint = limiting_joint(ctx.robot, result)
@@ -294,7 +302,7 @@ def choose_drives(ctx: StudyContext) -> Selection:
         err, state, pair = min(tried, key=lambda t: t[0])
         later = [f"{p} ({e * 1e3:.3g} mm)" for e, _, p in tried if e > err]
         sel = _stable(ctx, base, catalogue, state, inertias)
-        _verify_tracking(ctx)
+        _verify_tracking(ctx, state)
         state.notes.append(
             f"no candidate tracked within the budget after {len(tried)} tries; kept the best "
             f"measured ({pair}: {err * 1e3:.3g} mm) over {', '.join(later)}"
