@@ -135,6 +135,15 @@ class _Choice:
         self.skipped.setdefault(joint, []).append(f"{_pair(d)}: {why}")
 
 
+def _passed(state: _Choice, joint: str) -> str:
+    """What a joint's pairs passed over by the later stages were (for the line of a joint
+    left without one)."""
+    lines = state.skipped.get(joint, [])
+    if not lines:
+        return ""
+    return f"; {len(lines)} pair(s) passed over by the later stages, the last: {lines[-1]}"
+
+
 def _installed(ctx: StudyContext, base: Robot, drives: dict) -> Robot:
     """``base`` with ``drives`` and its limits resolved again (as a drives file would give)."""
     robot = base.copy()
@@ -180,7 +189,10 @@ def _select(ctx: StudyContext, base: Robot, catalogue, state: _Choice, inertias)
             controller=ctx.controller,
             candidates={j: state.rule(j) for j in base.joint_names},
         )
-        drives = sel.require().drives(base)
+        for js in sel.joints:
+            if not js.ok:
+                raise InfeasibleError(f"drive selection: {js.why_none()}{_passed(state, js.joint)}")
+        drives = sel.drives(base)
         if inertias is None:
             return sel
         robot = _installed(ctx, base, drives)
@@ -255,6 +267,24 @@ def _verify_tracking(ctx: StudyContext, state: _Choice):
     return result
 
 
+def _keep_best(ctx: StudyContext, base: Robot, catalogue, inertias, tried, stopped: str):
+    """No choice tracked within the budget: the one with the smallest measured TCP error is
+    chosen again (its state before its bump) and installed; ``(selection, state)``."""
+    best = min(tried, key=lambda t: t[0])
+    err, state, pair = best
+    if best is tried[-1] and ctx.selection is not None:  # installed: the last one tried
+        sel = ctx.selection
+    else:
+        sel = _stable(ctx, base, catalogue, state, inertias)
+        _verify_tracking(ctx, state)
+    others = [f"{p} ({e * 1e3:.3g} mm)" for e, _, p in tried if p != pair]
+    state.notes.append(
+        f"no candidate tracked within the budget ({stopped}); kept the best measured "
+        f"({pair}: {err * 1e3:.3g} mm)" + (f" over {', '.join(others)}" if others else "")
+    )
+    return sel, state
+
+
 def choose_drives(ctx: StudyContext) -> Selection:
     """Select the study robot's drive train so that it passes the study's later stages (the
     module's steps 1-3) and install it: ``ctx.robot`` gets the drives and their limits,
@@ -278,8 +308,16 @@ def choose_drives(ctx: StudyContext) -> Selection:
     if "tuning" in stages:
         inertias = tuning_inertias(base, TuningSpec.from_kwargs("", **_tuning_spec(ctx)))
     tried: list[tuple[float, _Choice, str]] = []  # (TCP error, state before the bump, pairs)
+    stopped = ""  # why the bumps ended without a choice that tracks
     for attempt in range(MAX_TRACKING_TRIES + 1):
-        sel = _stable(ctx, base, catalogue, state, inertias)
+        try:
+            sel = ctx.selection = _stable(ctx, base, catalogue, state, inertias)
+        except InfeasibleError as exc:
+            if not tried:
+                raise
+            stopped = f"the next pair up could not be chosen ({exc})"
+            ctx.selection = None  # the state of the failed round: choose the best again
+            break
         if "tracking" not in stages or inertias is None:
             break
         result = _verify_tracking(ctx, state)
@@ -289,6 +327,7 @@ def choose_drives(ctx: StudyContext) -> Selection:
         drive = ctx.robot.drive(joint)
         tried.append((result.tcp_max_error_m, state.copy(), f"{joint} {_pair(drive)}"))
         if attempt == MAX_TRACKING_TRIES:
+            stopped = f"{len(tried)} tries"
             break
         state.floor_Nm[joint] = drive.available_torque_Nm
         state.pass_over(
@@ -298,15 +337,8 @@ def choose_drives(ctx: StudyContext) -> Selection:
             f"{result.accuracy_m * 1e3:.3g} mm, {joint} the largest share (next: the first by "
             f"the ranking key with more than {drive.available_torque_Nm:.4g} N m available)",
         )
-    if len(tried) > 1 and min(tried)[0] < tried[-1][0]:  # none passes: keep the best measured
-        err, state, pair = min(tried, key=lambda t: t[0])
-        later = [f"{p} ({e * 1e3:.3g} mm)" for e, _, p in tried if e > err]
-        sel = _stable(ctx, base, catalogue, state, inertias)
-        _verify_tracking(ctx, state)
-        state.notes.append(
-            f"no candidate tracked within the budget after {len(tried)} tries; kept the best "
-            f"measured ({pair}: {err * 1e3:.3g} mm) over {', '.join(later)}"
-        )
+    if stopped:
+        sel, state = _keep_best(ctx, base, catalogue, inertias, tried, stopped)
     sel.skipped = {j: list(v) for j, v in state.skipped.items()}
     sel.notes = tuple(state.notes)
     ctx.selection = sel
