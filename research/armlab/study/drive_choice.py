@@ -22,10 +22,12 @@ loop:
    stage will; when the TCP error misses the budget, the **limiting joint** -- the largest share
    ``max |e_j| * lever_j`` of the TCP error (joint error times its lever arm,
    :func:`armlab.dynamics.sizing.lever_arms_m`) -- gets its next candidate by the rule: *the
-   first by the ranking key among the pairs with more available torque than the one that
-   failed* (more torque at the joint: a stiffer, faster position loop), and steps 1-3 run again,
-   at most :data:`MAX_TRACKING_TRIES` times; the last choice stands and the tracking stage
-   reports its miss.
+   first by the ranking key among the pairs with more available torque, or a smaller
+   load-to-motor inertia ratio (more reflected inertia), than the one that failed*
+   (:func:`stronger`: more torque, or an inertia range the robust loops span more tightly, for a
+   faster position loop), and steps 1-3 run again, at most :data:`MAX_TRACKING_TRIES` times.
+   When none tracks within the budget, the choice with the smallest measured TCP error is kept
+   (:attr:`Selection.notes`) and the tracking stage reports its miss.
 
 A study's ``[drives.<joint>]`` tables work beside ``[sizing] select = true``
 (:func:`study_rules`): a motor or reducer named there is the only one that joint is selected
@@ -35,7 +37,6 @@ before it is checked.
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -52,7 +53,14 @@ if TYPE_CHECKING:
     from armlab.robot.drives import Drive
     from armlab.robot.model import Robot
 
-__all__ = ["MAX_ROUNDS", "MAX_TRACKING_TRIES", "choose_drives", "limiting_joint", "study_rules"]
+__all__ = [
+    "MAX_ROUNDS",
+    "MAX_TRACKING_TRIES",
+    "choose_drives",
+    "limiting_joint",
+    "stronger",
+    "study_rules",
+]
 
 #: select -> limits -> plan rounds before a choice that does not settle is refused
 MAX_ROUNDS = 6
@@ -89,14 +97,24 @@ def _pair(d: Drive) -> str:
     return f"{d.motor.model} + {d.reducer.model}"
 
 
+def stronger(d: Drive, torque_Nm: float, reflected_kg_m2: float) -> bool:
+    """The bump rule: more available torque, or a smaller load-to-motor inertia ratio (more
+    reflected inertia ``(J_rotor + J_reducer) N^2`` against the same arm) than a pair that
+    failed."""
+    return d.available_torque_Nm > torque_Nm * (
+        1 + 1e-9
+    ) or d.reflected_inertia_kg_m2 > reflected_kg_m2 * (1 + 1e-9)
+
+
 @dataclass
 class _Choice:
     """What the loop has learned: the study's rules, the pairs passed over (by joint) and the
-    available-torque floor a tracking miss set on a joint."""
+    floors a tracking miss set on a joint: (available torque [N m], reflected inertia
+    [kg m^2]) of each pair that failed -- a later pair must beat each in one of them."""
 
     rules: dict[str, Rule]
     passed_over: dict[str, set[tuple[str, str, float]]] = field(default_factory=dict)
-    floor_Nm: dict[str, float] = field(default_factory=dict)
+    floors: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
     skipped: dict[str, list[str]] = field(default_factory=dict)
     tunable: dict[tuple[str, Drive], str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
@@ -108,7 +126,7 @@ class _Choice:
         return _Choice(
             self.rules,
             {j: set(v) for j, v in self.passed_over.items()},
-            dict(self.floor_Nm),
+            {j: list(v) for j, v in self.floors.items()},
             {j: list(v) for j, v in self.skipped.items()},
             self.tunable,
             list(self.notes),
@@ -118,13 +136,13 @@ class _Choice:
     def rule(self, joint: str) -> Rule:
         base = self.rules.get(joint)
         out = self.passed_over.get(joint, set())
-        floor = self.floor_Nm.get(joint, -math.inf)
+        floors = list(self.floors.get(joint, []))
 
         def keep(d: Drive) -> Drive | None:
             d2 = d if base is None else base(d)
             if d2 is None or (d2.motor.model, d2.reducer.model, d2.reducer.ratio) in out:
                 return None
-            return d2 if d2.available_torque_Nm > floor * (1 + 1e-9) else None
+            return d2 if all(stronger(d2, *f) for f in floors) else None
 
         return keep
 
@@ -329,13 +347,16 @@ def choose_drives(ctx: StudyContext) -> Selection:
         if attempt == MAX_TRACKING_TRIES:
             stopped = f"{len(tried)} tries"
             break
-        state.floor_Nm[joint] = drive.available_torque_Nm
+        state.floors.setdefault(joint, []).append(
+            (drive.available_torque_Nm, drive.reflected_inertia_kg_m2)
+        )
         state.pass_over(
             joint,
             drive,
             f"tracking {result.tcp_max_error_m * 1e3:.3g} mm > budget "
             f"{result.accuracy_m * 1e3:.3g} mm, {joint} the largest share (next: the first by "
-            f"the ranking key with more than {drive.available_torque_Nm:.4g} N m available)",
+            f"the ranking key with more than {drive.available_torque_Nm:.4g} N m available or "
+            f"more than {drive.reflected_inertia_kg_m2:.4g} kg m^2 reflected inertia)",
         )
     if stopped:
         sel, state = _keep_best(ctx, base, catalogue, inertias, tried, stopped)

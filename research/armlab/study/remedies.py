@@ -118,16 +118,19 @@ def _tracking_failed(design: DesignVerdict) -> bool:
 
 
 def _next_drive_up(ctx: StudyContext, joint: str) -> dict[str, Any] | None:
-    """``[drives.<joint>]`` motor and reducer of the first catalogue pair by the ranking key with
-    more available torque than the joint's drive that passes sizing on the study's duty cycle
-    (the rule of :mod:`armlab.study.drive_choice`); None when there is none."""
+    """``[drives.<joint>]`` motor and reducer of the first catalogue pair by the ranking key that
+    passes sizing on the study's duty cycle with more available torque or a smaller inertia
+    ratio than the joint's drive (:func:`armlab.study.drive_choice.stronger`, the selection's
+    rule); None when there is none."""
     from armlab.dynamics import select_drives
     from armlab.study.build import _catalogue
+    from armlab.study.drive_choice import stronger
     from armlab.study.drive_stages import selection_duty
 
     if ctx.robot.drives is None or ctx.trajectory is None:
         return None
-    floor = ctx.robot.drives[joint].available_torque_Nm
+    now = ctx.robot.drives[joint]
+    floor = (now.available_torque_Nm, now.reflected_inertia_kg_m2)
     base = ctx.robot.copy()
     if ctx.drives_selected:
         base.drives = None
@@ -138,7 +141,7 @@ def _next_drive_up(ctx: StudyContext, joint: str) -> dict[str, Any] | None:
             catalogue=_catalogue(ctx.spec),
             dt=ctx.spec.plan.check_dt_s,
             controller=ctx.controller,
-            candidates={joint: lambda d: d if d.available_torque_Nm > floor * (1 + 1e-9) else None},
+            candidates={joint: lambda d: d if stronger(d, *floor) else None},
         )
     except ArmlabError:
         return None
