@@ -133,7 +133,9 @@ def test_drives_then_run_gives_the_same_verdict(ur10, ur10_run, tmp_path):
     np.testing.assert_allclose(again.trajectory.q, ur10_run.trajectory.q, rtol=0, atol=1e-12)
     assert again.summary["sizing"]["verdict"] == "pass"
     duty = selection_duty(again.context)
-    resized = size(again.robot, duty, dt=again.spec.plan.check_dt_s, controller="reference_dda")
+    resized = size(
+        again.robot, duty, dt=again.spec.plan.check_dt_s, controller=again.context.controller
+    )
     np.testing.assert_allclose(_values(resized), _values(ur10_run.context.sizing), rtol=1e-9)
     assert math.isclose(
         again.context.tracking.tcp_max_error_m,
