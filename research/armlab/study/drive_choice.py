@@ -101,9 +101,8 @@ def stronger(d: Drive, torque_Nm: float, reflected_kg_m2: float) -> bool:
     """The bump rule: more available torque, or a smaller load-to-motor inertia ratio (more
     reflected inertia ``(J_rotor + J_reducer) N^2`` against the same arm) than a pair that
     failed."""
-    return d.available_torque_Nm > torque_Nm * (
-        1 + 1e-9
-    ) or d.reflected_inertia_kg_m2 > reflected_kg_m2 * (1 + 1e-9)
+    more_torque = d.available_torque_Nm > torque_Nm * (1 + 1e-9)
+    return more_torque or d.reflected_inertia_kg_m2 > reflected_kg_m2 * (1 + 1e-9)
 
 
 @dataclass
