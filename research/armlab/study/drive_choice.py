@@ -22,10 +22,11 @@ loop:
    stage will; when the TCP error misses the budget, the **limiting joint** -- the largest share
    ``max |e_j| * lever_j`` of the TCP error (joint error times its lever arm,
    :func:`armlab.dynamics.sizing.lever_arms_m`) -- gets its next candidate by the rule: *the
-   first by the ranking key among the pairs with more available torque, or a smaller
-   load-to-motor inertia ratio (more reflected inertia), than the one that failed*
-   (:func:`stronger`: more torque, or an inertia range the robust loops span more tightly, for a
-   faster position loop), and steps 1-3 run again, at most :data:`MAX_TRACKING_TRIES` times.
+   first by the ranking key among the pairs with more available torque than the one that
+   failed; when none of them passes, among those with more available torque or a smaller
+   load-to-motor inertia ratio (more reflected inertia)* (:func:`stronger`: more torque, or an
+   inertia range the robust loops span more tightly, for a faster position loop), and steps
+   1-3 run again, at most :data:`MAX_TRACKING_TRIES` times.
    When none tracks within the budget, the choice with the smallest measured TCP error is kept
    (:attr:`Selection.notes`) and the tracking stage reports its miss.
 
@@ -97,23 +98,23 @@ def _pair(d: Drive) -> str:
     return f"{d.motor.model} + {d.reducer.model}"
 
 
-def stronger(d: Drive, torque_Nm: float, reflected_kg_m2: float) -> bool:
-    """The bump rule: more available torque, or a smaller load-to-motor inertia ratio (more
-    reflected inertia ``(J_rotor + J_reducer) N^2`` against the same arm) than a pair that
-    failed."""
+def stronger(d: Drive, torque_Nm: float, reflected_kg_m2: float, inertia: bool = True) -> bool:
+    """The bump rule: more available torque than a pair that failed, or (``inertia``) a smaller
+    load-to-motor inertia ratio: more reflected inertia ``(J_rotor + J_reducer) N^2`` against
+    the same arm."""
     more_torque = d.available_torque_Nm > torque_Nm * (1 + 1e-9)
-    return more_torque or d.reflected_inertia_kg_m2 > reflected_kg_m2 * (1 + 1e-9)
+    return more_torque or (inertia and d.reflected_inertia_kg_m2 > reflected_kg_m2 * (1 + 1e-9))
 
 
 @dataclass
 class _Choice:
     """What the loop has learned: the study's rules, the pairs passed over (by joint) and the
     floors a tracking miss set on a joint: (available torque [N m], reflected inertia
-    [kg m^2]) of each pair that failed -- a later pair must beat each in one of them."""
+    [kg m^2], whether the inertia counts) of each pair that failed (:func:`stronger`)."""
 
     rules: dict[str, Rule]
     passed_over: dict[str, set[tuple[str, str, float]]] = field(default_factory=dict)
-    floors: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
+    floors: dict[str, list[tuple[float, float, bool]]] = field(default_factory=dict)
     skipped: dict[str, list[str]] = field(default_factory=dict)
     tunable: dict[tuple[str, Drive], str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
@@ -144,6 +145,15 @@ class _Choice:
             return d2 if all(stronger(d2, *f) for f in floors) else None
 
         return keep
+
+    def widen(self, joint: str) -> bool:
+        """The bump rule's fallback on ``joint``: its last floor accepts a smaller inertia
+        ratio too. False when it already did."""
+        floors = self.floors.get(joint)
+        if not floors or floors[-1][2]:
+            return False
+        floors[-1] = (*floors[-1][:2], True)
+        return True
 
     def pass_over(self, joint: str, d: Drive, why: str) -> None:
         self.passed_over.setdefault(joint, set()).add(
@@ -326,12 +336,15 @@ def choose_drives(ctx: StudyContext) -> Selection:
         inertias = tuning_inertias(base, TuningSpec.from_kwargs("", **_tuning_spec(ctx)))
     tried: list[tuple[float, _Choice, str]] = []  # (TCP error, state before the bump, pairs)
     stopped = ""  # why the bumps ended without a choice that tracks
-    for attempt in range(MAX_TRACKING_TRIES + 1):
+    attempt, joint = 0, ""
+    while True:
         try:
             sel = ctx.selection = _stable(ctx, base, catalogue, state, inertias)
         except InfeasibleError as exc:
             if not tried:
                 raise
+            if state.widen(joint):  # no pair with more torque passes: the fallback
+                continue
             stopped = f"the next pair up could not be chosen ({exc})"
             ctx.selection = None  # the state of the failed round: choose the best again
             break
@@ -346,16 +359,18 @@ def choose_drives(ctx: StudyContext) -> Selection:
         if attempt == MAX_TRACKING_TRIES:
             stopped = f"{len(tried)} tries"
             break
+        attempt += 1
         state.floors.setdefault(joint, []).append(
-            (drive.available_torque_Nm, drive.reflected_inertia_kg_m2)
+            (drive.available_torque_Nm, drive.reflected_inertia_kg_m2, False)
         )
         state.pass_over(
             joint,
             drive,
             f"tracking {result.tcp_max_error_m * 1e3:.3g} mm > budget "
             f"{result.accuracy_m * 1e3:.3g} mm, {joint} the largest share (next: the first by "
-            f"the ranking key with more than {drive.available_torque_Nm:.4g} N m available or "
-            f"more than {drive.reflected_inertia_kg_m2:.4g} kg m^2 reflected inertia)",
+            f"the ranking key with more than {drive.available_torque_Nm:.4g} N m available; "
+            f"none passing: or more than {drive.reflected_inertia_kg_m2:.4g} kg m^2 reflected "
+            "inertia)",
         )
     if stopped:
         sel, state = _keep_best(ctx, base, catalogue, inertias, tried, stopped)
