@@ -152,7 +152,7 @@ FAILING_DEMO = {
 }
 
 
-@pytest.mark.slow  # 14 s (load ~5 on 2 cores): the failing study, 2 remedy runs, 1 again
+@pytest.mark.slow  # 7-14 s (2 shared cores): the failing study, 2 remedy runs, 1 again
 def test_a_failing_design_lists_remedies_that_were_measured():
     res = run_spec(load_study(None, FAILING_DEMO), remedies=2)
     assert res.verdict == "fail" and "tracking" in res.failed_checks[0]
@@ -177,7 +177,7 @@ def test_a_failing_design_lists_remedies_that_were_measured():
     assert "next:" not in " ".join(res.failed_checks)
 
 
-@pytest.mark.slow  # 28 s (load ~5 on 2 cores): four UR10 studies
+@pytest.mark.slow  # 20-28 s (2 shared cores): four UR10 studies
 def test_payload_by_speed_sweep_on_ur10_has_no_error_rows(ur10):
     sweep = parse_sweep(
         {
@@ -232,7 +232,6 @@ _ARMS = {
 }
 
 
-@pytest.mark.slow  # 5-6 s each (load ~5 on 2 cores)
 @pytest.mark.parametrize("arm", sorted(_ARMS))
 def test_other_arms_reach_a_verdict_from_a_short_study(arm, tmp_path):
     robot, payload, joints, profile = _ARMS[arm]
