@@ -34,8 +34,19 @@ FAST = {"study.report": False, "control.n_inertia_samples": 2}
 
 
 @pytest.fixture(scope="module")
-def ur5_run():
-    return run_spec(load_study(EXAMPLES / "ur5_study.toml", FAST))
+def ur5_fast(tmp_path_factory) -> Path:
+    """The UR5 example with 2 inertia samples (FAST) as a study file, for `armlab drives`: the
+    selection tunes its candidates with the study's own [control] (drive_choice)."""
+    text = (EXAMPLES / "ur5_study.toml").read_text()
+    assert "n_inertia_samples = 8" in text
+    path = tmp_path_factory.mktemp("ur5") / "ur5_fast.toml"
+    path.write_text(text.replace("n_inertia_samples = 8", "n_inertia_samples = 2"))
+    return path
+
+
+@pytest.fixture(scope="module")
+def ur5_run(ur5_fast):
+    return run_spec(load_study(ur5_fast, {"study.report": False}))
 
 
 @pytest.fixture(scope="module")
@@ -81,12 +92,12 @@ def test_panda_with_locked_fingers_reaches_every_stage(panda_run):
     assert panda_run.context.robot.tool_frame == "panda_hand"
 
 
-def test_drives_file_reproduces_the_selection_and_its_sizing(ur5_run, tmp_path):
+def test_drives_file_reproduces_the_selection_and_its_sizing(ur5_run, ur5_fast, tmp_path):
     """``armlab drives`` writes the run's selection; read back, the same drives size the same
     duty cycle to exactly the same numbers -- and to the selection's own (vectorised) checks."""
     ctx = ur5_run.context
     out = tmp_path / "drives.toml"
-    study = str(EXAMPLES / "ur5_study.toml")
+    study = str(ur5_fast)
     assert main(["drives", UR5, study, "--out", str(out)]) == 0
     back = read_drives(out, ctx.robot.joint_names)
     assert back == ctx.robot.drives  # every number exactly (dataclass equality)
@@ -275,7 +286,11 @@ def test_drives_file_errors_name_the_key(tmp_path, capsys, ur5):
 def test_study_drives_for_a_joint_the_urdf_lacks(tmp_path):
     study = _study(tmp_path, '[drives.nosuch_joint]\nmotor = "maxon EC 90 flat 260 W 48 V"')
     spec = load_study(study)
-    with pytest.raises(ArmlabError, match=r"^drives\.shoulder_pan_joint: missing"):
+    with pytest.raises(ArmlabError, match=r"^drives\.nosuch_joint: no joint 'nosuch_joint'"):
+        build_robot(spec)
+    # without select = true, a robot without drives still needs every joint's table
+    spec = load_study(study, {"sizing.select": False, "drives.shoulder_pan_joint.ratio": 100})
+    with pytest.raises(ArmlabError, match=r"^drives\.nosuch_joint: no joint"):
         build_robot(spec)
 
 

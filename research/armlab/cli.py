@@ -207,10 +207,16 @@ def _drives_header(ctx, study) -> str:
         f"Drive train of {ctx.robot.name} selected by armlab {armlab.__version__} "
         f"(armlab drives) from the catalogue {sel.catalogue_path}",
         f"against the study {study}: its planned motion plus a 1 s hold at each joint's worst",
-        "static pose; lightest passing motor + reducer per joint. Schema: docs/drives.md.",
+        "static pose; lightest motor + reducer per joint that passes sizing on the plan made "
+        "with their",
+        f"own limits ({sel.rounds} select -> limits -> plan rounds), tunes, and tracks "
+        "(docs/drives.md).",
         "Every value below is the catalogue's (see its sources); edit freely.",
         "",
     ]
+    for joint, why in sel.skipped.items():
+        lines += [f"{joint}: passed over {line}" for line in why]
+    lines += list(sel.notes)
     for js in sel.joints:
         c = js.chosen
         if c is None:
@@ -243,6 +249,8 @@ def _cmd_run(args) -> int:
             "run --workers: a study runs in one process; studies run in parallel with "
             "armlab sweep --workers N"
         )
+    if args.remedies < 0:
+        raise InputError(f"run --remedies: {args.remedies} (a count: 0 or more)")
     spec = load_study(args.study)
     result = run_spec(
         spec,
@@ -251,6 +259,7 @@ def _cmd_run(args) -> int:
         force=args.force,
         overwrite=args.overwrite,
         announce=print_decisions,
+        remedies=args.remedies,
     )
     print(summary_text(result))
     return _verdict_status(result.design)
@@ -337,6 +346,7 @@ def build_parser() -> argparse.ArgumentParser:
     from armlab import __version__
     from armlab.robot.controller import DEFAULT_PROFILE, list_profiles
     from armlab.robot.model import list_robots
+    from armlab.study.remedies import MAX_REMEDIES
 
     robots, profiles = _names(list_robots()), _names(list_profiles())
     fmt = _HelpFormatter
@@ -432,6 +442,14 @@ def build_parser() -> argparse.ArgumentParser:
         "--overwrite",
         action="store_true",
         help="clear an output folder that holds another study's outputs",
+    )
+    s.add_argument(
+        "--remedies",
+        type=int,
+        default=MAX_REMEDIES,
+        metavar="N",
+        help="for a failing design, measure up to N remedies, each a modified study run "
+        f"(default {MAX_REMEDIES}; 0: none)",
     )
     # refused with one line (a study runs in one process; sweeps run studies in parallel)
     s.add_argument("--workers", type=int, default=None, help=argparse.SUPPRESS)

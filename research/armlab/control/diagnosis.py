@@ -112,8 +112,9 @@ def diagnose_tracking(
     dict
         ``tcp_max_error_m`` per variant (``full``, ``no_voltage_limit``, ``no_losses``,
         ``with_loss_feedforward``), ``limiting_factor`` (a phrase naming the effect and the
-        joints), ``offer`` (the measured effect of the feed-forward, and what else would be
-        needed).
+        joints), ``offer`` (the measured effect of the feed-forward). Other remedies are offered
+        only once measured (:mod:`armlab.study.remedies`): advice that was not tried is not
+        given.
     """
     ff = tuple(result.feedforward)
     variants = tracking_variants(
@@ -162,18 +163,6 @@ def diagnose_tracking(
         )
     else:
         offer = "feed-forward of friction and efficiency is already on"
-    if "with_loss_feedforward" not in err or err["with_loss_feedforward"] > budget:
-        if feedback_limited:  # the drive is not what limits: the loops or the motion are
-            ct = "" if "computed_torque" in ff else ", computed-torque feed-forward"
-            offer += (
-                f"; next: a faster position loop (control.position_bandwidth_rad_s){ct} "
-                "or a slower motion (plan.speed_scale)"
-            )
-        else:
-            offer += (
-                "; next: retune within the saturation (lower position bandwidth) or plan "
-                "inside the motor envelope (plan.drive_limits = true)"
-            )
     return {
         "tcp_max_error_m": err,
         "accuracy_m": budget,

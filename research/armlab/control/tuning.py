@@ -11,6 +11,7 @@ inertia-range computation.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
@@ -113,7 +114,13 @@ def _assert_meets(g: CascadeGains, sp: TuningSpec) -> None:
                 )
 
 
-def tune_arm(robot: Robot, *, controller: ControllerProfile | str, **spec) -> ArmGains:
+def tune_arm(
+    robot: Robot,
+    *,
+    controller: ControllerProfile | str,
+    known: Mapping[str, CascadeGains] | None = None,
+    **spec,
+) -> ArmGains:
     """:func:`tune_cascade` for every joint (one inertia-range computation shared).
 
     Parameters
@@ -123,6 +130,10 @@ def tune_arm(robot: Robot, *, controller: ControllerProfile | str, **spec) -> Ar
         The joint controller (:func:`armlab.robot.load_profile`): its servo period is the speed
         and position loops' sample time and its D/A range and bits are the speed loop's output
         (:func:`controller_spec`).
+    known : mapping of joint name to CascadeGains, optional
+        Joints already tuned by :func:`tune_cascade` for this robot's drive, with this
+        controller's spec and the same inertia samples (a drive selection that tuned its
+        candidates): kept, not tuned again.
     **spec
         Fields of :class:`TuningSpec`.
 
@@ -134,7 +145,9 @@ def tune_arm(robot: Robot, *, controller: ControllerProfile | str, **spec) -> Ar
     spec = controller_spec(load_profile(controller), spec)
     sp = TuningSpec.from_kwargs("", **spec)
     inertias = tuning_inertias(robot, sp)
+    known = known or {}
     joints = {
-        name: tune_cascade(robot, name, inertias=inertias, **spec) for name in robot.joint_names
+        name: known[name] if name in known else tune_cascade(robot, name, inertias=inertias, **spec)
+        for name in robot.joint_names
     }
     return ArmGains(joints=joints, robot=robot.name, spec=sp.to_dict())

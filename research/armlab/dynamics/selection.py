@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -65,12 +66,14 @@ ASSUMED_ENCODER = Encoder(pulses_per_rev=1000, decoding=4)
 
 @dataclass
 class Candidate(Checked):
-    """One motor + reducer for one joint, with its checks."""
+    """One motor + reducer for one joint, with its checks (``drive``: the joint's drive they
+    make, the one installed when this candidate is chosen)."""
 
     motor: Motor
     reducer: Reducer
     derating: float
     checks: list[Check]
+    drive: Drive | None = None
 
     @property
     def mass_kg(self) -> float:
@@ -134,6 +137,9 @@ class JointSelection:
         if self.ok:
             return ""
         head = f"no catalogue entry passes for {self.joint}"
+        if not self.n_candidates:
+            return head + ": no motor + reducer pair is left to check (the study's "
+            f"[drives.{self.joint}] names, or every pair was passed over by a later stage)"
         if self.failed_by_all:
             head += f": all {self.n_candidates} motor + reducer pairs fail " + ", ".join(
                 self.failed_by_all
@@ -171,6 +177,13 @@ class Selection:
     currency: str = ""
     catalogue_path: str = ""
     assumptions: tuple[str, ...] = ()
+    #: select -> limits -> plan rounds until the choice was stable (1: one pass, no re-plan)
+    rounds: int = 1
+    #: per joint, the candidates passed over after the sizing checks and why (one line each:
+    #: a current loop that cannot be tuned, a tracking miss on the limiting joint)
+    skipped: dict[str, list[str]] = field(default_factory=dict)
+    #: what the later stages' loop decided besides (e.g. the best measured tracking kept)
+    notes: tuple[str, ...] = ()
 
     @property
     def ok(self) -> bool:
@@ -200,6 +213,8 @@ class Selection:
                 if robot.drives is None:
                     raise InfeasibleError(f"drive selection: {js.why_none()}")
                 out[js.joint] = robot.drive(js.joint)
+            elif js.chosen.drive is not None:
+                out[js.joint] = js.chosen.drive
             else:
                 out[js.joint] = _drive(
                     robot, j, js.chosen.motor, js.chosen.reducer, js.chosen.derating
@@ -213,6 +228,9 @@ class Selection:
             "currency": self.currency,
             "catalogue": self.catalogue_path,
             "assumptions": list(self.assumptions),
+            "rounds": self.rounds,
+            "skipped": {j: list(v) for j, v in self.skipped.items()},
+            "notes": list(self.notes),
             "ok": self.ok,
             "joints": {j.joint: j.to_dict() for j in self.joints},
         }
@@ -223,8 +241,8 @@ class Selection:
             f"### Drive selection ({self.robot_name}, payload {self.payload_kg:g} kg, "
             f"lightest by {self.objective})",
             "",
-            "One pass: link masses are those of the description (not updated for the "
-            "chosen parts).",
+            f"{_rounds_text(self.rounds)} Link masses are those of the description (not "
+            "updated for the chosen parts).",
             "",
             f"| joint | chosen motor + reducer | mass [kg] | price{cur} | available [N m] |"
             f" binding check (margin) | runner-up | passing | current parts: ok? mass [kg] |",
@@ -255,9 +273,23 @@ class Selection:
                 mass = f"{now.mass_kg:.3g}" if math.isfinite(now.mass_kg) else "?"
                 tail = ("pass" if not failing else "fails " + ", ".join(failing)) + f"; {mass}"
             lines.append(f"{row} {js.n_passing}/{js.n_candidates} | {tail} |")
+        skipped = [f"- {j}: skipped {line}" for j, v in self.skipped.items() for line in v]
+        if skipped:
+            lines += ["", "Candidates passed over after the sizing checks:", *skipped]
+        if self.notes:
+            lines += ["", *(f"- {n}" for n in self.notes)]
         if self.assumptions:
             lines += ["", *(f"- ASSUMED: {a}" for a in self.assumptions)]
         return "\n".join(lines) + "\n"
+
+
+def _rounds_text(rounds: int) -> str:
+    if rounds <= 1:
+        return "One pass (the plan was not re-made with the chosen drives' limits)."
+    return (
+        f"Stable after {rounds} select -> limits -> plan rounds: the chosen drives pass on the "
+        "plan made with their own limits."
+    )
 
 
 def _runner_up_text(c: Candidate | None) -> str:
@@ -277,6 +309,30 @@ def hold_trajectories(robot: Robot, static) -> list[Trajectory]:
         zero = np.zeros_like(q)
         out.append(Trajectory(np.zeros(1), q, zero, zero, method=f"hold ({x.joint} worst pose)"))
     return out
+
+
+def _checked(
+    drives: list[Drive], loads, columns: slice, lever_m, options, joint_inertia_kg_m2
+) -> list[Candidate]:
+    """Each drive as a :class:`Candidate` with its sizing checks on one joint's loads (and the
+    arm's inertia at the joint along them, for the inertia ratio)."""
+    if not drives:
+        return []
+    train = DriveTrain.from_drives(drives)
+    results = evaluate_checks(
+        loads.torque_Nm[:, columns],
+        loads.qd[:, columns],
+        loads.qdd[:, columns],
+        loads.weights,
+        train,
+        lever_m,
+        options,
+        joint_inertia_kg_m2=joint_inertia_kg_m2,
+    )
+    return [
+        Candidate(d.motor, d.reducer, d.derating, checks_for_column(results, c, drives=train), d)
+        for c, d in enumerate(drives)
+    ]
 
 
 def _drive(robot, j: int, motor: Motor, reducer: Reducer, derating: float) -> Drive:
@@ -315,6 +371,7 @@ def select_drives(
     allow_estimated: bool = False,
     required_life_h: float = DEFAULT_REQUIRED_LIFE_H,
     momentary_load: str = "plan",
+    candidates: Mapping[str, Callable[[Drive], Drive | None]] | None = None,
 ) -> Selection:
     """Choose each joint's lightest (or cheapest) catalogue motor + reducer passing every check.
 
@@ -342,6 +399,15 @@ def select_drives(
     allow_estimated : bool
         Also combine parts with values not read from a published source
         (:meth:`Catalogue.combinations`; ``[sizing] allow_estimated``).
+    candidates : mapping of joint name to callable, optional
+        Per joint, a rule applied to each catalogue drive before it is checked: it returns the
+        drive to check (changed, e.g. a study's ``[drives.<joint>]`` encoder or efficiency) or
+        None to leave the pair out (another model named, a pair passed over by a later stage).
+
+    Notes
+    -----
+    A part of an integrated servo (``integrated`` set on the motor or the reducer: motor, gear
+    and controller in one) combines only with the other part of the same servo.
 
     Returns
     -------
@@ -371,6 +437,7 @@ def select_drives(
     inertias = joint_inertias_kg_m2(robot, loads.q)
     levers = lever_arms_m(robot)
     combos = catalogue.combinations(allow_estimated)
+    rules = candidates or {}
 
     def key(c: Candidate):
         a, b = (c.mass_kg, c.price) if objective == "mass" else (c.price, c.mass_kg)
@@ -379,27 +446,16 @@ def select_drives(
     joints = []
     for j, name in enumerate(robot.joint_names):
         drives = [_drive(robot, j, m, r, catalogue.derating.get(m.model, 1.0)) for m, r in combos]
+        rule = rules.get(name)
+        if rule is not None:
+            drives = [d for d in map(rule, drives) if d is not None]
         columns = slice(j, j + 1)
-        train = DriveTrain.from_drives(drives)
-        results = evaluate_checks(
-            loads.torque_Nm[:, columns],
-            loads.qd[:, columns],
-            loads.qdd[:, columns],
-            loads.weights,
-            train,
-            levers[j],
-            options,
-            joint_inertia_kg_m2=inertias[:, columns],
-        )
-        cands = [
-            Candidate(m, r, drives[c].derating, checks_for_column(results, c, drives=train))
-            for c, (m, r) in enumerate(combos)
-        ]
+        cands = _checked(drives, loads, columns, levers[j], options, inertias[:, columns])
         passing = sorted((c for c in cands if c.ok), key=key)
-        closest = None if passing else max(cands, key=lambda c: c.binding.margin)
+        closest = max(cands, key=lambda c: c.binding.margin) if cands and not passing else None
         failed_by_all: tuple[str, ...] = ()
-        if not passing:  # the checks no candidate passes (a check a part has no rating for:
-            # not failed)
+        if cands and not passing:  # the checks no candidate passes (a check a part has no
+            # rating for: not failed)
             failing = [{ch.name for ch in c.checks if not ch.ok} for c in cands]
             failed_by_all = tuple(n for n in CHECK_NAMES if all(n in f for f in failing))
         current = None

@@ -94,17 +94,22 @@ def build_robot(spec: StudySpec) -> Robot:
         from armlab.robot.drives import read_drives
 
         robot.drives = read_drives(spec.resolve(spec.robot.drives), robot.joint_names)
-    if spec.drives:
+    for joint in spec.drives:
+        if joint not in robot.joint_names:
+            raise SpecError(
+                f"drives.{joint}: no joint {joint!r} in {robot.name} "
+                f"(joints: {', '.join(robot.joint_names)})"
+            )
+    # with [sizing] select = true, a robot without drives and [drives.<joint>] tables for only
+    # some joints gets its drives from the selection, which honours the tables given
+    # (armlab.study.drive_choice.study_rules)
+    partial = any(j not in spec.drives for j in robot.joint_names)
+    if spec.drives and not (robot.drives is None and spec.sizing.select and partial):
         if robot.drives is None:
             robot.drives = _drives_from_study(robot, spec)
         drives = dict(robot.drives)
         for joint, change in spec.drives.items():
             where = f"drives.{joint}"
-            if joint not in drives:
-                raise SpecError(
-                    f"{where}: no joint {joint!r} in {robot.name} "
-                    f"(joints: {', '.join(robot.joint_names)})"
-                )
             old: Drive = drives[joint]
             new = old
             if change.motor is not None:
@@ -113,28 +118,32 @@ def build_robot(spec: StudySpec) -> Robot:
             if change.reducer is not None:
                 reducer, _ = _find_part("reducer", change.reducer, robot, spec, f"{where}.reducer")
                 new = replace(new, reducer=reducer)
-            red = {
-                k: getattr(change, k)
-                for k in ("ratio", "efficiency")
-                if getattr(change, k) is not None
-            }
-            if red:
-                new = replace(new, reducer=replace(new.reducer, **red))
-            enc = {
-                k: getattr(change, k)
-                for k in ("pulses_per_rev", "decoding")
-                if getattr(change, k) is not None
-            }
-            if enc:
-                new = replace(new, encoder=replace(new.encoder, **enc))
-            if change.derating is not None:
-                new = replace(new, derating=change.derating)
+            new = changed_values(new, change)
             if change.amplifier is not None:
                 new = replace(new, amplifier=_study_amplifier(spec, change.amplifier, where))
             drives[joint] = new
         robot.drives = drives
     _resolve_robot_limits(robot, spec)
     return robot
+
+
+def changed_values(drive, change):
+    """``drive`` with the numbers of a ``[drives.<joint>]`` table (ratio, efficiency, encoder,
+    derating; not its part names) put in."""
+    new = drive
+    red = {k: getattr(change, k) for k in ("ratio", "efficiency") if getattr(change, k) is not None}
+    if red:
+        new = replace(new, reducer=replace(new.reducer, **red))
+    enc = {
+        k: getattr(change, k)
+        for k in ("pulses_per_rev", "decoding")
+        if getattr(change, k) is not None
+    }
+    if enc:
+        new = replace(new, encoder=replace(new.encoder, **enc))
+    if change.derating is not None:
+        new = replace(new, derating=change.derating)
+    return new
 
 
 def _resolve_robot_limits(robot, spec: StudySpec) -> None:

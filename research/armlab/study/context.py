@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from armlab.kinematics.workspace import WorkspaceResult
     from armlab.robot.model import Robot
     from armlab.study.decisions import Decision
-    from armlab.study.verdict import StageRecord
+    from armlab.study.verdict import StageOutput, StageRecord
     from armlab.trajectory import Trajectory
     from armlab.trajectory.sampling import LimitReport
 
@@ -78,6 +78,13 @@ class StudyContext:
     requirement_sizing: SizingReport | None = None
     selection: Selection | None = None
     drives_selected: bool = False
+    #: the plan stage's output again and its time [s] when the selection re-planned with the
+    #: chosen drives' limits (:func:`armlab.study.drive_choice.choose_drives`; the runner
+    #: records it)
+    replanned: tuple[StageOutput, float] | None = None
+    #: the gains and tracking result the selection verified, for the drives they were made
+    #: with (``{"drives", "gains", "tracking"}``): the tuning and tracking stages reuse them
+    verified: dict[str, Any] | None = None
     #: tuning
     gains: ArmGains | None = None
     #: tracking: the result, the diagnosis of a miss (:func:`~armlab.control.simulate.
@@ -86,6 +93,8 @@ class StudyContext:
     diagnosis: dict[str, Any] | None = None
     tracking_options: dict[str, Any] = field(default_factory=dict)
     tracking_variants: dict[str, TrackingResult] = field(default_factory=dict)
+    #: remedies of a failing design, measured and ranked (:mod:`armlab.study.remedies`)
+    remedies: list[Any] = field(default_factory=list)
     #: export: the set-point table (None: it breaks a controller limit) and the sha256 of each
     #: file the stage wrote, by name
     setpoints: SetpointTable | None = None

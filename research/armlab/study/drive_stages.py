@@ -8,7 +8,7 @@ import inspect
 import math
 from typing import Any
 
-from armlab.study.build import _catalogue, _resolve_robot_limits
+from armlab.study.build import _catalogue
 from armlab.study.context import NotApplicable, StudyContext, jsonable, jsonable_block
 from armlab.study.verdict import StageOutput
 
@@ -111,33 +111,22 @@ def selection_duty(ctx: StudyContext) -> list:
 
 
 def select_and_install(ctx: StudyContext) -> list:
-    """Select every joint's motor + reducer from the catalogue against :func:`selection_duty`
-    and make them the robot's drive train (limits resolved again: motor speed / ratio, available
-    torque, derived acceleration and jerk where the study gives none). Returns the duty cycle.
+    """Select every joint's motor + reducer from the catalogue so that the study's later stages
+    pass with them (:func:`armlab.study.drive_choice.choose_drives`: select -> limits -> plan
+    until stable, tunable loops, the tracking verdict) and make them the robot's drive train.
+    Returns the duty cycle of the final plan (:func:`selection_duty`).
 
     Raises
     ------
     InfeasibleError
-        A joint for which no catalogue entry passes, naming the check every candidate fails.
+        A joint for which no catalogue entry passes, naming the check every candidate fails, or
+        a choice that does not settle.
     """
-    from armlab.dynamics import select_drives
+    from armlab.study.drive_choice import choose_drives
 
     assert ctx.controller is not None  # run_study sets it before the stages
-    duty = selection_duty(ctx)
-    sel = select_drives(
-        ctx.robot,
-        duty,
-        catalogue=_catalogue(ctx.spec),
-        dt=ctx.spec.plan.check_dt_s,
-        controller=ctx.controller,
-        **sizing_options(ctx),
-        allow_estimated=ctx.spec.sizing.allow_estimated,
-    )
-    ctx.selection = sel
-    ctx.robot.drives = sel.require().drives(ctx.robot)
-    _resolve_robot_limits(ctx.robot, ctx.spec)
-    ctx.drives_selected = True
-    return duty
+    choose_drives(ctx)
+    return selection_duty(ctx)
 
 
 def sizing_failures(report, only: tuple[str, ...] | None = None) -> list[str]:
@@ -266,7 +255,11 @@ def stage_tuning(ctx: StudyContext) -> StageOutput:
     from armlab.control import tune_arm
 
     _needs_drives(ctx)
-    gains = tune_arm(ctx.robot, controller=ctx.controller, **tuning_options(ctx))
+    done = ctx.verified
+    if done is not None and done["drives"] is ctx.robot.drives:  # tuned by the selection
+        gains = done["gains"]
+    else:
+        gains = tune_arm(ctx.robot, controller=ctx.controller, **tuning_options(ctx))
     ctx.gains = gains
     block = {"servo_period_s": ctx.controller.servo_period_s, **jsonable(gains.summary())}
     return StageOutput(block, failed_checks=_tuning_failures(gains, gains.spec))
@@ -309,7 +302,11 @@ def stage_tracking(ctx: StudyContext) -> StageOutput:
         f"({ctx.trajectory.duration:.3g} s plan + {t_after:g} s after) / {period:g} s servo period",
     )
     compliant = bool(ctx.spec.tracking.compliant)
-    res = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, **opts, compliant=compliant)
+    done = ctx.verified
+    if done is not None and done["drives"] is ctx.robot.drives and done["gains"] is ctx.gains:
+        res = done["tracking"]  # simulated by the selection (the same plan, gains, options)
+    else:
+        res = simulate_tracking(ctx.robot, ctx.trajectory, ctx.gains, **opts, compliant=compliant)
     # the diagnosis' and the report's drive-model variants are of the rigid joint
     ctx.tracking, ctx.tracking_options, ctx.tracking_variants = res, opts, {}
     failed = []

@@ -255,6 +255,29 @@ def _table(header: list[str], rows: list[list[Any]]) -> list[str]:
     return lines + [""]
 
 
+def _remedy_section(ctx: StudyContext) -> list[str]:
+    """report.md's measured remedies (:mod:`armlab.study.remedies`), ranked."""
+    if not ctx.remedies:
+        return []
+    return (
+        ["## Remedies (measured)", ""]
+        + _table(
+            ["rank", "study keys to change", "TCP error [mm]", "verdict", "failed checks"],
+            [
+                [
+                    k + 1,
+                    f"`{r.keys_text()}`",
+                    "-" if r.tcp_error_m is None else _fmt(r.tcp_error_m * 1e3),
+                    r.verdict,
+                    len(r.failed_checks),
+                ]
+                for k, r in enumerate(ctx.remedies)
+            ],
+        )
+        + [""]
+    )
+
+
 def write_report(
     ctx: StudyContext,
     records: dict[str, StageRecord],
@@ -280,6 +303,7 @@ def write_report(
         "",
         *design.lines(),
         "",
+        *_remedy_section(ctx),
         "## Stages",
         "",
     ]
@@ -687,6 +711,20 @@ def _stage_figures(stage: str, ctx: StudyContext, kf: dict[str, Any]) -> str:
     return ""
 
 
+def remedies_lines(block: dict[str, Any] | None) -> list[str]:
+    """The measured remedies of summary ``remedies``, ranked (none: no lines)."""
+    if not block:
+        return []
+    measured = block["measured"]
+    head = (
+        f"remedies: {len(measured)} of {block['candidates']} candidate(s) measured "
+        f"(limit {block['limit']}), each a study run with the keys changed; best first"
+    )
+    if not measured:
+        return [head + ": none could run"]
+    return [head] + [f"  {k + 1}. {r['text']}" for k, r in enumerate(measured)]
+
+
 def summary_text(result: StudyResult) -> str:
     """The one-screen summary ``armlab run`` prints: each stage, its key figures, the files."""
     from armlab.study.spec import STAGES
@@ -699,6 +737,7 @@ def summary_text(result: StudyResult) -> str:
     ]
     lines += [_stage_line(result, s) for s in STAGES]
     lines += result.design.lines()
+    lines += remedies_lines(result.summary.get("remedies"))
     if result.files:
         names = list(dict.fromkeys(Path(f).name for f in result.files))
         pngs = [n for n in names if n.endswith(".png")]

@@ -140,6 +140,7 @@ def run_spec(
     force: bool = False,
     overwrite: bool = False,
     announce: Callable[[list[Decision]], None] | None = None,
+    remedies: int = 0,
 ) -> StudyResult:
     """Run every stage of a study.
 
@@ -164,6 +165,10 @@ def run_spec(
         Called once, before the first stage, with the study's decisions
         (:mod:`armlab.study.decisions`: tool frame, controller, drives, limits ... each with the
         rule that chose it); ``armlab run`` prints them (:func:`print_decisions`).
+    remedies : int
+        For a failing design, measure up to this many remedies, each a modified study run in
+        memory (:func:`armlab.study.remedies.try_remedies`; summary ``remedies``). 0 (the
+        default, and what sweeps use): none.
 
     Raises
     ------
@@ -180,10 +185,26 @@ def run_spec(
     while the study runs (:func:`armlab.study.record.locked_folder`): one writer per folder.
     """
     if out_dir is None:
-        return _run(spec, None, progress=progress, report=report, force=force, announce=announce)
+        return _run(
+            spec,
+            None,
+            progress=progress,
+            report=report,
+            force=force,
+            announce=announce,
+            remedies=remedies,
+        )
     with locked_folder(out_dir, "armlab run") as folder:
         out = prepare_out_dir(folder, spec.hash, overwrite=overwrite)
-        return _run(spec, out, progress=progress, report=report, force=force, announce=announce)
+        return _run(
+            spec,
+            out,
+            progress=progress,
+            report=report,
+            force=force,
+            announce=announce,
+            remedies=remedies,
+        )
 
 
 def _run(
@@ -194,6 +215,7 @@ def _run(
     report: bool | None,
     force: bool,
     announce: Callable[[list[Decision]], None] | None = None,
+    remedies: int = 0,
 ) -> StudyResult:
     """:func:`run_spec` into the prepared (and locked) folder ``out``, or in memory."""
     written: dict[str, str] = {}  # file name -> path, of every data file the run wrote
@@ -304,6 +326,10 @@ def _run(
                     raise stopped(stage, t0, exc) from None
                 else:
                     record(stage, t0, output)
+                    if ctx.replanned is not None:  # the selection re-planned with its drives
+                        plan, plan_s = ctx.replanned
+                        record("plan", time.perf_counter() - plan_s, plan)
+                        ctx.replanned = None
             bar.update()
         if ctx.drives_selected:  # the sizing stage gave the robot its drive train
             summary["robot"].update(robot_block(ctx))
@@ -311,6 +337,8 @@ def _run(
             if out is not None:
                 record_ = design_record(ctx.robot, ctx.controller, spec)
                 written[DESIGN_FILE] = str(write_json(out / DESIGN_FILE, record_))
+        if remedies > 0:
+            _measure_remedies(ctx, judge()[0], remedies, summary, bar)
         if out is not None and (spec.study.report if report is None else report):
             from armlab.study.report import write_report
 
@@ -333,6 +361,24 @@ def _run(
     )
 
 
+def _measure_remedies(ctx: StudyContext, design: DesignVerdict, limit: int, summary, bar) -> None:
+    """summary ``remedies`` of a failing design: the measured remedies, ranked
+    (:func:`armlab.study.remedies.try_remedies`); nothing for a design that does not fail."""
+    from armlab.study.remedies import candidate_remedies, try_remedies
+
+    if design.verdict != "fail":
+        return
+    bar.set_postfix_str("remedies")
+    n = len(candidate_remedies(ctx, design))
+    measured = try_remedies(ctx, design, limit)
+    ctx.remedies = measured
+    summary["remedies"] = {
+        "limit": limit,
+        "candidates": n,
+        "measured": [r.to_dict() for r in measured],
+    }
+
+
 def _checksums(out: Path, written: dict[str, str]) -> dict[str, str]:
     """sha256 of every data file the run wrote (relative names), for export's verification."""
     from armlab.deploy.provenance import file_sha256
@@ -349,6 +395,7 @@ def run_study(
     quiet: bool = False,
     force: bool = False,
     overwrite: bool = False,
+    remedies: int | None = None,
 ) -> dict[str, Any]:
     """Run a study file into ``out_dir`` and print a one-screen summary (``armlab run``).
 
@@ -369,6 +416,9 @@ def run_study(
         Write the set-point table of a failing design (the table records the failed checks).
     overwrite : bool
         Clear an output folder that holds another study's outputs.
+    remedies : int, optional
+        Remedies to measure for a failing design (default
+        :data:`armlab.study.remedies.MAX_REMEDIES`, as ``armlab run``; 0: none).
 
     Returns
     -------
@@ -376,6 +426,8 @@ def run_study(
         The summary (summary.json content); ``summary["design"]["verdict"]`` is the design's
         verdict.
     """
+    from armlab.study.remedies import MAX_REMEDIES
+
     spec = load_study(study, overrides)
 
     result = run_spec(
@@ -385,6 +437,7 @@ def run_study(
         force=force,
         overwrite=overwrite,
         announce=None if quiet else print_decisions,
+        remedies=MAX_REMEDIES if remedies is None else remedies,
     )
     if not quiet:
         from armlab.study.report import summary_text

@@ -68,8 +68,10 @@ _KINEMATIC = ("position", "velocity", "acceleration", "jerk")
 def selection_for_study(spec: StudySpec) -> StudyContext:
     """Plan a study's motion and select its drive train from the catalogue (``armlab drives``):
     the robot, kinematics, plan and static-load stages, then :func:`select_and_install` -- also
-    for a robot that has drives (their encoders are kept). The context holds the robot with the
-    selected drives, the trajectory, the selection and the sizing on the selection's duty cycle.
+    for a robot that has drives (their encoders are kept) -- which selects, re-plans, tunes and
+    simulates as the study's later stages will (:mod:`armlab.study.drive_choice`). The context
+    holds the robot with the selected drives, the plan made with them, the selection and the
+    sizing on the selection's duty cycle.
 
     Raises
     ------
