@@ -64,6 +64,9 @@ import pinocchio as pin
 
 from armlab.errors import ArmlabError, InputError, RobotDescriptionError
 from armlab.io import atomic_write
+from armlab.robot.geometry import mesh_search_dirs as _mesh_search_dirs
+from armlab.robot.geometry import reduced_geometry
+from armlab.robot.geometry import resolve_mesh as _resolve_mesh
 
 __all__ = [
     "DEFAULT_FPS",
@@ -94,39 +97,6 @@ class VizWarning(UserWarning):
 
 
 # ---------------------------------------------------------------------------- geometry
-def _mesh_search_dirs(urdf: Path, package_dirs: Sequence[str | os.PathLike]) -> list[Path]:
-    """Folders in which ``package://PKG/...`` is looked up as ``<folder>/PKG/...``."""
-    dirs = [Path(d) for d in package_dirs]
-    dirs += list(urdf.resolve().parents)
-    try:  # the Python part of example-robot-data, where installed
-        from example_robot_data.robots_loader import EXAMPLE_ROBOT_DATA_MODEL_DIR
-
-        dirs.append(Path(EXAMPLE_ROBOT_DATA_MODEL_DIR).parent.parent)
-    except (ImportError, AttributeError):
-        pass
-    for entry in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep):
-        if entry:
-            dirs += [Path(entry), Path(entry).parent]
-    return list(dict.fromkeys(dirs))
-
-
-def _resolve_mesh(filename: str, urdf: Path, dirs: list[Path]) -> Path | None:
-    """The file a URDF mesh ``filename`` names, or None if it is not found."""
-    if filename.startswith("package://"):
-        rest = filename[len("package://") :]
-        for d in dirs:
-            cand = d / rest
-            if cand.is_file():
-                return cand
-        return None
-    if filename.startswith("file://"):
-        filename = filename[len("file://") :]
-    path = Path(filename)
-    if not path.is_absolute():
-        path = urdf.parent / path
-    return path if path.is_file() else None
-
-
 def _urdf_with_found_meshes(urdf: Path, dirs: list[Path]) -> tuple[str, int, list[str]]:
     """The URDF text with every visual mesh made an absolute path and the visuals whose mesh
     is missing removed: (text, number of visuals kept, the missing meshes' file names)."""
@@ -215,24 +185,9 @@ def visual_model(
     urdf = Path(robot.urdf_path)
     dirs = _mesh_search_dirs(urdf, package_dirs)
     text, kept, missing = _urdf_with_found_meshes(urdf, dirs)
-    try:
-        full = pin.buildModelFromXML(text)
-        geom = pin.buildGeomFromUrdfString(
-            full, text, pin.GeometryType.VISUAL, package_dirs=[str(d) for d in dirs]
-        )
-    except Exception as exc:  # pinocchio: ValueError/RuntimeError with XML details
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise RobotDescriptionError(f"{urdf}: cannot build its visual geometry ({first})") from None
-    wanted = list(robot.model.names)
-    locked = [j for j in range(1, full.njoints) if full.names[j] not in wanted]
-    model = full
-    if locked:
-        model, geoms = pin.buildReducedModel(full, [geom], locked, pin.neutral(full))
-        geom = geoms[0]
-    if list(model.names) != wanted:
-        raise RobotDescriptionError(
-            f"{urdf}: its joints {list(model.names[1:])} are not the robot's {wanted[1:]}"
-        )
+    model, geom = reduced_geometry(
+        robot, text, pin.GeometryType.VISUAL, "visual", package_dirs=[str(d) for d in dirs]
+    )
     notes = []
     if missing:
         notes.append(

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from armlab.collision import CollisionScene, Shape
-from armlab.collision.shapes import rpy_matrix
 from armlab.errors import InputError
 from armlab.kinematics import fk
+from armlab.kinematics.forward import rpy_to_matrix as rpy_matrix
 from armlab.robot.model import load_robot
 
 Q = np.radians([45.0, 20.0, 30.0, 0.0, 40.0, 0.0])  # the demo's pick: tool at z = -0.097 m

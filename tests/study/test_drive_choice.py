@@ -29,7 +29,6 @@ from armlab.study.spec import load_study, parse_study
 from armlab.sweep import parse_sweep
 from armlab.sweep.spec import parameter_key, parameter_sets
 from armlab.sweep.task import run_parameter_set
-from conftest import example_robot_data_dir
 
 UR10 = "erd:ur_description/urdf/ur10_robot.urdf"
 
@@ -200,42 +199,33 @@ def test_payload_by_speed_sweep_on_ur10_has_no_error_rows(ur10):
         assert row["status"] == "done", row["error"]
 
 
-def _kinova_urdf(folder: Path) -> Path:
-    """The Kinova j2s6s200 of example-robot-data with its continuous joints (which carry
-    +-2 pi limits) loaded as revolute: the loader's continuous-joint support is another part of
-    the issue."""
-    text = (example_robot_data_dir() / "kinova_description/robots/kinova.urdf").read_text()
-    path = folder / "kinova_rev.urdf"
-    path.write_text(text.replace('type="continuous"', 'type="revolute"'))
-    return path
-
-
 _ARMS = {
+    # no tool frame and no controller profile: the study's decisions derive them (the URDF's
+    # eef / end_effector frame; dda_n_axis for 7 and 5 axes); Kinova's continuous joints load
     "xarm7": (
-        'name = "erd:xarm_description/urdf/xarm7.urdf"\ntool_frame = "link_eef"',
+        'name = "erd:xarm_description/urdf/xarm7.urdf"',
         1.0,
         "[[0, -30, 0, 30, 0, 60, 0], [40, -10, 20, 60, 20, 70, 30]]",
-        "dda_n_axis",
+        ("link_eef", "dda_n_axis"),
     ),
     "kinova": (
-        'name = "{kinova}"\ntool_frame = "j2s6s200_end_effector"',
+        'name = "erd:kinova_description/robots/kinova.urdf"',
         0.5,
         "[[0, 180, 180, 0, 180, 0], [40, 150, 150, 30, 150, 30]]",
-        "reference_dda",
+        ("j2s6s200_end_effector", "reference_dda"),
     ),
     "so101": (
         'name = "erd:so_arm_description/urdf/so101.urdf"\nlock_joints = ["gripper"]',
         0.1,
         "[[0, 0, 0, 0, 0], [40, 20, -20, 20, 30]]",
-        "dda_n_axis",
+        (None, "dda_n_axis"),
     ),
 }
 
 
 @pytest.mark.parametrize("arm", sorted(_ARMS))
 def test_other_arms_reach_a_verdict_from_a_short_study(arm, tmp_path):
-    robot, payload, joints, profile = _ARMS[arm]
-    robot = robot.format(kinova=_kinova_urdf(tmp_path))
+    robot, payload, joints, (tool, profile) = _ARMS[arm]
     doc = f"""
 [study]
 name = "{arm}"
@@ -256,8 +246,6 @@ planner = "ptp"
 select = true
 [control]
 n_inertia_samples = 2
-[controller]
-profile = "{profile}"
 """
     study = tmp_path / "study.toml"
     study.write_text(doc)
@@ -266,6 +254,9 @@ profile = "{profile}"
         assert res.stages[stage].status == "ok", (stage, res.stages[stage].note)
     assert res.verdict in ("pass", "fail")
     assert res.summary["sizing"]["verdict"] == "pass"
+    assert res.context.controller.name == profile
+    if tool is not None:
+        assert res.robot.tool_frame == tool
     sel = res.context.selection
     error = res.context.tracking.tcp_max_error_m
     for joint, lines in sel.skipped.items():  # a tracking miss moved a joint up: the rule

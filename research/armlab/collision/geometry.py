@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 import pinocchio as pin
 
 from armlab.errors import RobotDescriptionError
+from armlab.robot.geometry import mesh_search_dirs, reduced_geometry, resolve_mesh
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
@@ -69,9 +70,7 @@ def urdf_sha256(path: str | Path) -> str:
 
 def _with_found_meshes(urdf: Path, element: str) -> tuple[str, list[str]]:
     """The URDF text with every ``element`` mesh made an absolute path: (text, missing)."""
-    from armlab.viz import _mesh_search_dirs, _resolve_mesh
-
-    dirs = _mesh_search_dirs(urdf, ())
+    dirs = mesh_search_dirs(urdf, ())
     root = ET.parse(urdf).getroot()
     missing = []
     for link in root.iter("link"):
@@ -79,7 +78,7 @@ def _with_found_meshes(urdf: Path, element: str) -> tuple[str, list[str]]:
             mesh = el.find("geometry/mesh")
             if mesh is None:
                 continue
-            found = _resolve_mesh(mesh.get("filename", ""), urdf, dirs)
+            found = resolve_mesh(mesh.get("filename", ""), urdf, dirs)
             if found is None:
                 missing.append(f"{link.get('name')}: {mesh.get('filename', '?')}")
             else:
@@ -124,24 +123,7 @@ def robot_geometry(robot: Robot) -> RobotGeometry:
         raise RobotDescriptionError(
             f"{urdf}: {len(missing)} {source} mesh(es) not found (first: {missing[0]})"
         )
-    try:
-        full = pin.buildModelFromXML(text)
-        geom = pin.buildGeomFromUrdfString(full, text, kind)
-    except Exception as exc:  # pinocchio: ValueError/RuntimeError with XML details
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise RobotDescriptionError(
-            f"{urdf}: cannot build its {source} geometry ({first})"
-        ) from None
-    wanted = list(robot.model.names)
-    locked = [j for j in range(1, full.njoints) if full.names[j] not in wanted]
-    model = full
-    if locked:
-        model, geoms = pin.buildReducedModel(full, [geom], locked, pin.neutral(full))
-        geom = geoms[0]
-    if list(model.names) != wanted:
-        raise RobotDescriptionError(
-            f"{urdf}: its joints {list(model.names[1:])} are not the robot's {wanted[1:]}"
-        )
+    model, geom = reduced_geometry(robot, text, kind, source)
     link_of = {}
     for obj in geom.geometryObjects:
         link_of[obj.name] = model.frames[obj.parentFrame].name

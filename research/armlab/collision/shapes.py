@@ -27,9 +27,10 @@ from typing import Any
 import numpy as np
 
 from armlab.errors import InputError, SpecError
+from armlab.kinematics.forward import rpy_to_matrix
 from armlab.names import check_name
 
-__all__ = ["SHAPE_KEYS", "Shape", "shape_from_table", "rpy_matrix"]
+__all__ = ["SHAPE_KEYS", "Shape", "shape_from_table"]
 
 #: The keys of which a shape table holds exactly one.
 SHAPE_KEYS = ("box_m", "sphere_m", "cylinder_m", "capsule_m", "mesh")
@@ -68,7 +69,7 @@ class Shape:
     def transform(self) -> np.ndarray:
         """The pose (4, 4) of the shape's centre in its parent frame."""
         T = np.eye(4)
-        T[:3, :3] = rpy_matrix(*np.radians(self.rpy_deg))
+        T[:3, :3] = rpy_to_matrix(*np.radians(self.rpy_deg))
         T[:3, 3] = self.xyz_m
         return T
 
@@ -115,25 +116,6 @@ class Shape:
         geom = self.coal_geometry()
         geom.computeLocalAABB()
         return float(geom.aabb_radius + np.linalg.norm(geom.aabb_center))
-
-
-def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """``Rz(yaw) Ry(pitch) Rx(roll)`` (3, 3), angles in [rad] (URDF's rpy convention)."""
-    cr, sr, cp, sp, cy, sy = (
-        math.cos(roll),
-        math.sin(roll),
-        math.cos(pitch),
-        math.sin(pitch),
-        math.cos(yaw),
-        math.sin(yaw),
-    )
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
 
 
 def _positive(v, where: str) -> float:

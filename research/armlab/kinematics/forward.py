@@ -5,6 +5,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -13,7 +14,7 @@ import pinocchio as pin
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
 
-__all__ = ["fk", "fk_batch", "jacobian", "analytic_jacobian", "tool_positions"]
+__all__ = ["fk", "fk_batch", "jacobian", "analytic_jacobian", "tool_positions", "rpy_to_matrix"]
 
 
 def fk(robot: Robot, q, frame: str | None = None) -> np.ndarray:
@@ -86,3 +87,22 @@ def analytic_jacobian(robot: Robot, q, frame: str | None = None) -> np.ndarray:
     rpy = pin.rpy.matrixToRpy(T[:3, :3])
     E = _rpy_rate_matrix(rpy)
     return np.vstack([J[:3], np.linalg.solve(E, J[3:])])
+
+
+def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """R = Rz(yaw) Ry(pitch) Rx(roll) (URDF / ROS fixed-axis convention)."""
+    cr, sr, cp, sp, cy, sy = (
+        math.cos(roll),
+        math.sin(roll),
+        math.cos(pitch),
+        math.sin(pitch),
+        math.cos(yaw),
+        math.sin(yaw),
+    )
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from armlab.errors import SpecError
+from armlab.kinematics.forward import rpy_to_matrix
 from armlab.robot.controller import ControllerProfile
 from armlab.study.spec import StudySpec
 
@@ -227,25 +228,6 @@ def _study_amplifier(spec: StudySpec, value, where: str):
         return _catalogue(spec).amplifier(str(value), f"{where}.amplifier")
     except RobotDescriptionError as exc:
         raise SpecError(str(exc)) from None
-
-
-def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """R = Rz(yaw) Ry(pitch) Rx(roll) (URDF / ROS fixed-axis convention)."""
-    cr, sr, cp, sp, cy, sy = (
-        math.cos(roll),
-        math.sin(roll),
-        math.cos(pitch),
-        math.sin(pitch),
-        math.cos(yaw),
-        math.sin(yaw),
-    )
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
 
 
 def base_transform(spec: StudySpec) -> np.ndarray | None:
