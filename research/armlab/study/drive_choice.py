@@ -162,6 +162,20 @@ class _Choice:
         self.skipped.setdefault(joint, []).append(f"{_pair(d)}: {why}")
 
 
+def _left_out(ctx: StudyContext, catalogue) -> str:
+    """What a study without ``[sizing] allow_estimated`` left out of the selection (the parts
+    with values not read from a published source), so a user sees what would widen it."""
+    if ctx.spec.sizing.allow_estimated:
+        return ""
+    n = len(catalogue.combinations(True)) - len(catalogue.combinations(False))
+    if n <= 0:
+        return ""
+    return (
+        f"; {n} catalogue pairs with estimated values were left out ([sizing] allow_estimated "
+        "= true admits them, docs/catalogue.md says which values are estimated)"
+    )
+
+
 def _passed(state: _Choice, joint: str) -> str:
     """What a joint's pairs passed over by the later stages were (for the line of a joint
     left without one)."""
@@ -220,7 +234,10 @@ def _select(ctx: StudyContext, base: Robot, catalogue, state: _Choice, inertias)
         )
         for js in sel.joints:
             if not js.ok:
-                raise InfeasibleError(f"drive selection: {js.why_none()}{_passed(state, js.joint)}")
+                raise InfeasibleError(
+                    f"drive selection: {js.why_none()}{_passed(state, js.joint)}"
+                    f"{_left_out(ctx, catalogue)}"
+                )
         drives = sel.drives(base)
         if inertias is None:
             return sel
