@@ -170,3 +170,22 @@ def test_a_study_without_sizing_is_held_to_the_drives_peak_torque(tmp_path, caps
     line = one_line(capsys)
     assert "export refused" in line and "sizing: joint2 motor_peak_torque" in line
     assert not (tmp_path / "exp" / "setpoints.csv").exists()
+
+
+def test_an_edited_scene_is_checked_again_at_export(tmp_path, capsys):
+    """The collision check runs again at export, on the recorded study's scene: a floor put
+    0.3 m above the base in design.json's study document (checksum put right) -- links of the
+    arm pass below it -- is refused in one line naming the floor; the unedited folder exports."""
+    out, code = _run(tmp_path, "floor", ["kinematics", "plan", "export"])
+    assert code == 0
+    assert main(["export", str(out), "--format", "csv", "--out", str(tmp_path / "ok")]) == 0
+    capsys.readouterr()
+
+    def edit(record):
+        record["study"]["document"].setdefault("robot", {})["floor_z_m"] = 0.3
+
+    _rewrite(out, "design.json", edit)
+    assert main(["export", str(out), "--format", "csv", "--out", str(tmp_path / "x")]) == 1
+    line = one_line(capsys)
+    assert "plan: the recorded plan collides" in line and "floor" in line
+    assert not (tmp_path / "x" / "setpoints.csv").exists()

@@ -11,7 +11,8 @@ not follow from them is refused), the sizing checks are re-run with design.json'
 the recorded plan (all of them when the study sized its drives, else the limits of the hardware,
 ``HARDWARE_CHECKS``: peak motor and reducer torque, motor and reducer input speed, pulse
 rate), and the set-point pre-flight runs against each drive train's own speed limit
-(``drive_train_velocity``). A failing design is refused
+(``drive_train_velocity``), and the recorded plan is checked for collisions again against the
+recorded study's scene (``recleared``). A failing design is refused
 unless ``force``. The study folder and ``out_dir`` are locked while export reads and writes
 them (:func:`armlab.study.record.locked_folder`). It writes into ``out_dir``:
 
@@ -61,7 +62,13 @@ from armlab.io.lock import is_lock_file
 from armlab.robot.controller import ControllerProfile, load_profile
 from armlab.study.budget import check_table_rows
 from armlab.study.export_target import check_target
-from armlab.study.recheck import drive_train_velocity, recorded_verdict, resized, same_study
+from armlab.study.recheck import (
+    drive_train_velocity,
+    recleared,
+    recorded_verdict,
+    resized,
+    same_study,
+)
 from armlab.study.record import (
     controller_from_design,
     load_design,
@@ -316,6 +323,7 @@ def _render(
     traj = load_trajectory(tpath) if tpath.is_file() else None  # read once, for both uses
     study_profile = controller_from_design(record)
     again = resized(traj, summary, record, robot, study_profile)  # the drive train judged again
+    again += recleared(traj, record, robot)  # and the plan against the recorded scene
     failed = list(dict.fromkeys([*verdict.failed_checks, *again]))
     result = ExportResult()
     if verdict.verdict != "pass" or failed:

@@ -189,3 +189,29 @@ def _sizing_keywords(record: dict) -> dict:
     except SpecError:
         spec = SizingSpec()
     return sizing_keywords(spec)
+
+
+def recleared(traj, record: dict, robot: Robot) -> list[str]:
+    """The collision check re-run on the recorded plan: the scene of the recorded study
+    document (``[[obstacle]]``, floor, payload shape, pairs file, ``[plan] clearance_m``;
+    relative paths from the study file's folder) with design.json's robot, through the plan
+    stage's own :func:`armlab.collision.check_motion`. Its failure as a failed check ([]
+    without a trajectory or a recorded study document).
+
+    Raises
+    ------
+    SpecError, RobotDescriptionError
+        The recorded document is not a valid study, or the geometry cannot be built (one line).
+    """
+    study = record.get("study") or {}
+    document = study.get("document")
+    if traj is None or not isinstance(document, dict):
+        return []
+    from armlab.collision import CollisionScene, check_motion
+    from armlab.study.spec import parse_study
+
+    source = str(study.get("source") or "")
+    base = Path(source).parent if source and not source.startswith("<") else Path(".")
+    spec = parse_study(document, base_dir=base, source="design.json study.document")
+    report = check_motion(CollisionScene.from_study(spec, robot), traj)
+    return [] if report.ok else [f"plan: {report.message('the recorded plan')}"]
