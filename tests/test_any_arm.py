@@ -20,7 +20,7 @@ from armlab.dynamics.selection import select_drives
 from armlab.errors import ArmlabError, InfeasibleError, RobotDescriptionError
 from armlab.robot import load_profile, load_robot
 from armlab.robot.catalogue import load_catalogue
-from armlab.robot.drives import drives_toml, read_drives
+from armlab.robot.drives_file import drives_toml, read_drives
 from armlab.study.build import build_robot
 from armlab.study.drive_stages import selection_duty
 from armlab.study.runner import run_spec

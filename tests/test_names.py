@@ -31,7 +31,7 @@ from armlab.errors import InputError, RobotDescriptionError, SpecError
 from armlab.names import MAX_NAME_LENGTH, check_names, identifier_key, name_problem
 from armlab.robot import load_robot
 from armlab.robot.controller import ControllerProfile, load_profile
-from armlab.robot.drives import read_drives
+from armlab.robot.drives_file import read_drives
 from armlab.study.spec import parse_study
 
 GCC = shutil.which("gcc")

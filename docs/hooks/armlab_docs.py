@@ -187,7 +187,7 @@ _FIELD_MEANING = {
 
 def drives_keys() -> str:
     """The tables of one ``[[joint]]`` entry of drives.toml and what each field accepts."""
-    from armlab.robot import drives
+    from armlab.robot import drives, drives_file
 
     out = []
     parts = (
@@ -202,14 +202,14 @@ def drives_keys() -> str:
         ),
     )
     for title, cls, what in parts:
-        rules = drives._RULES.get(cls.__name__, {})
+        rules = drives_file._RULES.get(cls.__name__, {})
         docs = _attribute_docs(cls)
         rows = []
         for f in fields(cls):
             if f.name in ("motor", "reducer", "encoder"):
                 continue
             name = "name" if f.name == "joint" else f.name
-            if f.name in (*drives._TEXT_FIELDS, "joint"):
+            if f.name in (*drives_file._TEXT_FIELDS, "joint"):
                 accepts = "string"
             elif f.name == "amplifier":
                 accepts = "catalogue amplifier name, or the `[joint.amplifier]` table below"

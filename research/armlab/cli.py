@@ -62,7 +62,7 @@ def info_text(
     from armlab.collision import collision_summary
     from armlab.kinematics import max_reach_m
     from armlab.robot import load_robot
-    from armlab.robot.drives import read_drives
+    from armlab.robot.drives_file import read_drives
     from armlab.robot.limits import description_limits, resolve_limits
 
     robot = load_robot(robot_name, tool_frame=tool_frame, lock_joints=list(lock_joints))
@@ -172,7 +172,7 @@ def _cmd_drives(args) -> int:
     from pathlib import Path
 
     from armlab.io import atomic_write
-    from armlab.robot.drives import drives_toml
+    from armlab.robot.drives_file import drives_toml
     from armlab.study.spec import load_study
     from armlab.study.stages import selection_for_study
 

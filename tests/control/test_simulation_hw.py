@@ -22,7 +22,8 @@ from armlab.errors import InputError, RobotDescriptionError
 from armlab.robot import drivetrain as dtm
 from armlab.robot import rigid_body
 from armlab.robot.controller import load_profile
-from armlab.robot.drives import RPM_TO_RAD_S, motor_from_dict, reducer_from_dict
+from armlab.robot.drives import RPM_TO_RAD_S
+from armlab.robot.drives_file import motor_from_dict, reducer_from_dict
 from armlab.trajectory import Trajectory, ptp_sync
 
 FF = ("velocity", "acceleration", "gravity")

@@ -160,7 +160,7 @@ def test_compliant_hold_sags_by_the_windup_of_gravity(teachbot6, arm_gains):
 )
 def test_bad_stiffness_is_one_line_naming_the_key(bad, message):
     from armlab.errors import RobotDescriptionError
-    from armlab.robot.drives import reducer_from_dict
+    from armlab.robot.drives_file import reducer_from_dict
 
     data = {
         "model": "x",

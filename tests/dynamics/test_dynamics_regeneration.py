@@ -13,15 +13,8 @@ from armlab.dynamics.regeneration import regeneration
 from armlab.errors import RobotDescriptionError
 from armlab.robot import load_profile
 from armlab.robot.catalogue import load_catalogue
-from armlab.robot.drives import (
-    Amplifier,
-    Drive,
-    Encoder,
-    Motor,
-    Reducer,
-    drives_toml,
-    read_drives,
-)
+from armlab.robot.drives import Amplifier, Drive, Encoder, Motor, Reducer
+from armlab.robot.drives_file import drives_toml, read_drives
 from armlab.robot.drivetrain import DriveTrain
 
 AMP = Amplifier(

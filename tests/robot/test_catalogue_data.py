@@ -16,7 +16,8 @@ import pytest
 from armlab.errors import RobotDescriptionError
 from armlab.robot.catalogue import MINOR_FIELDS, load_catalogue, usable
 from armlab.robot.catalogue_doc import catalogue_markdown
-from armlab.robot.drives import RPM_TO_RAD_S, Motor, Reducer, read_drives
+from armlab.robot.drives import RPM_TO_RAD_S, Motor, Reducer
+from armlab.robot.drives_file import read_drives
 
 REPO = Path(__file__).resolve().parents[2]
 TEACHBOT6 = REPO / "robot_desc" / "teachbot6" / "drives.toml"

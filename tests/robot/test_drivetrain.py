@@ -11,16 +11,8 @@ import pytest
 
 import armlab
 from armlab.robot import drivetrain as dtm
-from armlab.robot.drives import (
-    Drive,
-    Encoder,
-    Motor,
-    Reducer,
-    available_torque_Nm,
-    motor_from_dict,
-    read_drives,
-    reducer_from_dict,
-)
+from armlab.robot.drives import Drive, Encoder, Motor, Reducer, available_torque_Nm
+from armlab.robot.drives_file import motor_from_dict, read_drives, reducer_from_dict
 
 
 def _drive(**reducer_kw) -> Drive:

@@ -12,7 +12,7 @@ import pytest
 
 from armlab.errors import InputError, RobotDescriptionError, SpecError
 from armlab.robot.controller import ControllerProfile, list_profiles, load_profile
-from armlab.robot.drives import read_drives
+from armlab.robot.drives_file import read_drives
 from armlab.robot.model import robot_desc_dir
 from armlab.study.spec import parse_study
 

@@ -21,7 +21,7 @@ from armlab.cli import main
 from armlab.dynamics import size
 from armlab.errors import InfeasibleError
 from armlab.robot.catalogue import load_catalogue
-from armlab.robot.drives import read_drives
+from armlab.robot.drives_file import read_drives
 from armlab.study.drive_stages import selection_duty
 from armlab.study.remedies import Remedy
 from armlab.study.report import summary_text

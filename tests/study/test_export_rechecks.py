@@ -17,7 +17,8 @@ import pytest
 from armlab.cli import main
 from armlab.deploy.provenance import file_sha256
 from armlab.deploy.table import read_setpoints
-from armlab.robot.drives import Drive, Encoder, motor_from_dict, reducer_from_dict
+from armlab.robot.drives import Drive, Encoder
+from armlab.robot.drives_file import motor_from_dict, reducer_from_dict
 from cases import one_line, quick_study
 
 #: relative tolerance of the motor-speed comparison (the pre-flight's speed tolerance is 1e-6)

@@ -4,7 +4,8 @@
 
 from armlab.robot.controller import ControllerProfile, list_profiles, load_profile
 from armlab.robot.dh import DHTable, read_dh_table, urdf_from_dh
-from armlab.robot.drives import Drive, Encoder, Motor, Reducer, read_drives
+from armlab.robot.drives import Drive, Encoder, Motor, Reducer
+from armlab.robot.drives_file import read_drives
 from armlab.robot.drivetrain import DriveTrain, drive_train
 from armlab.robot.limits import Limits, resolve_limits
 from armlab.robot.model import Payload, Robot, list_robots, load_robot

@@ -30,14 +30,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from armlab.errors import RobotDescriptionError
-from armlab.robot.drives import (
-    Amplifier,
-    Motor,
-    Reducer,
-    amplifier_from_dict,
-    motor_from_dict,
-    reducer_from_dict,
-)
+from armlab.robot.drives import Amplifier, Motor, Reducer
+from armlab.robot.drives_file import amplifier_from_dict, motor_from_dict, reducer_from_dict
 from armlab.tomlfile import read_toml
 
 __all__ = [

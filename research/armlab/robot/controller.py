@@ -22,7 +22,7 @@ import numpy as np
 
 from armlab.errors import InputError
 from armlab.names import check_name
-from armlab.robot.drives import value_problem
+from armlab.robot.drives_file import value_problem
 from armlab.tomlfile import read_toml
 
 if TYPE_CHECKING:
@@ -39,7 +39,7 @@ _OTHER_AXIS_COUNT = (
 )
 
 
-#: Rule of each numeric field (:func:`armlab.robot.drives.value_problem`: "pos" finite > 0,
+#: Rule of each numeric field (:func:`armlab.robot.drives_file.value_problem`: "pos" finite > 0,
 #: "nonneg" finite >= 0, "count" a positive integer, "decoding" 1, 2 or 4).
 _RULES = {
     "max_pulses_per_cycle": "count",
@@ -123,7 +123,7 @@ class ControllerProfile:
     Every value is checked by its meaning when the profile is made (:class:`InputError`, one
     line naming the key): ``decoding`` 1, 2 or 4 and ``max_pulses_per_cycle``, ``max_axes``,
     ``dac_bits`` (<= 32) positive integers, with the drives file's validator
-    (:func:`armlab.robot.drives.value_problem`: no truncation of ``1.5``); periods, ranges and
+    (:func:`armlab.robot.drives_file.value_problem`: no truncation of ``1.5``); periods, ranges and
     ``dac_range_V`` finite and > 0 (``servo_period_s`` <= 2 s); tolerances finite, >= 0 and at
     most the bounds above (a tolerance is slack for round-off: ``1e300`` would switch the
     pre-flight off); ``name`` keeps the name policy (:mod:`armlab.names`).
@@ -170,7 +170,7 @@ class ControllerProfile:
                 f"range {lo:g} .. {hi:g} s"
             )
         object.__setattr__(self, "cycle_s", c)
-        # values by meaning, with the drives file's validator (armlab.robot.drives.value_problem)
+        # values by meaning, with the drives file's validator (drives_file.value_problem)
         for key, rule in _RULES.items():
             v = getattr(self, key)
             if isinstance(v, np.integer):

@@ -16,7 +16,7 @@ import numpy as np
 
 from armlab.io import atomic_write
 from armlab.robot.dh import read_dh_table, urdf_from_dh
-from armlab.robot.drives import read_drives
+from armlab.robot.drives_file import read_drives
 from armlab.robot.model import robot_desc_dir
 
 __all__ = ["description_urdf", "write_collision_pairs", "write_description_urdf"]

@@ -20,7 +20,8 @@ import pinocchio as pin
 from armlab.errors import InputError, RobotDescriptionError
 from armlab.names import check_name, check_names, one_line
 from armlab.robot.dh import DHTable, read_dh_table
-from armlab.robot.drives import Drive, read_drives
+from armlab.robot.drives import Drive
+from armlab.robot.drives_file import read_drives
 from armlab.robot.limits import Limits, description_limits, resolve_limits
 from armlab.robot.urdf_check import build_model_quietly, check_urdf, revolute_continuous
 

@@ -92,7 +92,7 @@ def build_robot(spec: StudySpec) -> Robot:
         com = robot.payload.com_m if p.com_m is None else np.asarray(p.com_m)
         robot.attach_payload(mass, com)
     if spec.robot.drives is not None:  # the study's drives file replaces the description's
-        from armlab.robot.drives import read_drives
+        from armlab.robot.drives_file import read_drives
 
         robot.drives = read_drives(spec.resolve(spec.robot.drives), robot.joint_names)
     for joint in spec.drives:
@@ -220,7 +220,7 @@ def _study_amplifier(spec: StudySpec, value, where: str):
     """The amplifier a study's ``[drives.<joint>] amplifier`` names: a catalogue model or a
     table of :class:`~armlab.robot.drives.Amplifier` fields (checked as in a drives file)."""
     from armlab.errors import RobotDescriptionError
-    from armlab.robot.drives import amplifier_from_dict
+    from armlab.robot.drives_file import amplifier_from_dict
 
     try:
         if isinstance(value, dict):

@@ -29,13 +29,8 @@ from armlab.deploy.provenance import armlab_version, file_sha256
 from armlab.errors import InputError
 from armlab.io.lock import FolderLock, is_lock_file
 from armlab.robot.controller import ControllerProfile
-from armlab.robot.drives import (
-    Drive,
-    Encoder,
-    amplifier_from_dict,
-    motor_from_dict,
-    reducer_from_dict,
-)
+from armlab.robot.drives import Drive, Encoder
+from armlab.robot.drives_file import amplifier_from_dict, motor_from_dict, reducer_from_dict
 
 if TYPE_CHECKING:
     from armlab.robot.limits import Limits
