@@ -52,6 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from armlab._keywords import renamed_keywords
+from armlab.deploy.carries import target_of
 from armlab.deploy.gains_export import gains_files, load_gains
 from armlab.deploy.provenance import file_sha256
 from armlab.deploy.table import setpoint_table
@@ -353,6 +354,10 @@ def _render(
     }
     if failed:
         source["forced_despite"] = failed
+    # the study's gains, read once: for the gains files, the goal, and the target simulation
+    gpath = study / GAINS_FILE
+    wanted = fmt in (*_GAINS_FILE, "trajectory") or target_of(fmt).simulable
+    gains = load_gains(gpath) if wanted and gpath.is_file() else None
     # export what was verified: the controller this format feeds (armlab.deploy.carries)
     target = check_target(
         fmt,
@@ -360,7 +365,7 @@ def _render(
         record=record,
         robot=robot,
         traj=traj,
-        gains_path=study / GAINS_FILE,
+        gains=gains,
         controller=study_profile,
         force=force,
     )
@@ -378,10 +383,6 @@ def _render(
         if fmt in _SETPOINT_FILE:
             outputs += table.files(out / _SETPOINT_FILE[fmt], fmt)
 
-    gains = None
-    gpath = study / GAINS_FILE
-    if fmt in (*_GAINS_FILE, "trajectory") and gpath.is_file():
-        gains = load_gains(gpath)
     if fmt in _GAINS_FILE and gains is not None:
         periods = {lg.sample_time_s for g in gains.joints.values() for lg in (g.speed, g.position)}
         if any(abs(p - prof.servo_period_s) > 1e-12 for p in periods):

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import inspect
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from armlab.deploy.carries import target_of
@@ -95,7 +94,7 @@ def check_target(
     record: dict,
     robot: Robot,
     traj: Trajectory | None,
-    gains_path: Path,
+    gains,
     controller: ControllerProfile,
     force: bool,
 ) -> TargetCheck:
@@ -128,12 +127,10 @@ def check_target(
     if not target.simulable:
         check.notes.append(f"{what} -- the controller must compute them from the table")
         return check
-    if traj is None or not gains_path.is_file():
+    if traj is None or gains is None:
         check.notes.append(f"{what} -- not simulated (no trajectory or gains in the study)")
         return check
-    from armlab.deploy.gains_export import load_gains
-
-    res = _simulate(robot, traj, load_gains(gains_path), controller, runs, summary, record)
+    res = _simulate(robot, traj, gains, controller, runs, summary, record)
     err_mm, budget_mm = res.tcp_max_error_m * 1e3, res.accuracy_m * 1e3
     ok = bool(res.within_accuracy)
     block["target_tracking"] = {
