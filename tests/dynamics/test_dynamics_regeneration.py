@@ -105,11 +105,19 @@ def test_amplifier_currents_and_four_quadrant_envelope():
     assert checks["amplifier_peak_current"].value == pytest.approx(0.8)
     assert not checks["amplifier_peak_current"].ok
     assert checks["amplifier_continuous_current"].limit == pytest.approx(0.15)
-    # braking at 300 rad/s (qd 3): four-quadrant line Kt (U + Ke w) / R = 0.05 (48 + 15) / 10
-    # = 0.315 N m; without regeneration the two-quadrant 0.05 (48 - 15) / 10 = 0.165 N m
+    # the envelope holds the amplifier's current: Kt I_peak = 0.05 x 0.5 = 0.025 N m at any
+    # speed where the voltage line allows more (here braking at 300 rad/s)
+    assert d.peak_motor_torque_Nm == pytest.approx(0.025)
+    _, checks = _checks(d, [[-2.0]], [[3.0]], np.ones(1))
+    assert checks["motor_envelope"].limit == pytest.approx(0.025)
+    # with a 20 A amplifier (Kt I = 1 N m, the motor's own peak), braking at 300 rad/s (qd 3):
+    # four-quadrant line Kt (U + Ke w) / R = 0.05 (48 + 15) / 10 = 0.315 N m; without
+    # regeneration the two-quadrant 0.05 (48 - 15) / 10 = 0.165 N m
+    big = {**vars(AMP), "peak_current_A": 20.0}
+    d = _drive(Amplifier(**big), resistance_ohm=10.0)
     _, checks = _checks(d, [[-2.0]], [[3.0]], np.ones(1))
     assert checks["motor_envelope"].limit == pytest.approx(0.315)
-    two_q = _drive(Amplifier(**{**vars(AMP), "regenerates": False}), resistance_ohm=10.0)
+    two_q = _drive(Amplifier(**{**big, "regenerates": False}), resistance_ohm=10.0)
     _, checks = _checks(two_q, [[-2.0]], [[3.0]], np.ones(1))
     assert checks["motor_envelope"].limit == pytest.approx(0.165)
     assert "bus_capacitor_energy" not in checks  # no regeneration: nothing to size

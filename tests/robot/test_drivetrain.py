@@ -258,6 +258,37 @@ def test_topp_with_drive_limits_stays_in_the_envelope(heavy):
     assert np.max(plan.stats["drive_ratios"]["motor_envelope"]) > 0.99
 
 
+def test_planned_motion_keeps_the_amplifiers_peak_current(heavy):
+    """An amplifier whose peak current is below the motor's peak torque caps the drive: the
+    drive-limited plan keeps ``|T_m| <= Kt I_peak`` (the current, computed here from the
+    amplifier's data), where the plan without the amplifier goes above it."""
+    import dataclasses
+
+    from armlab.planning import optimal
+    from armlab.robot.drives import Amplifier
+
+    d2 = heavy.drives["joint2"]
+    i_peak = 0.6  # [A]: Kt I = 0.09 N m; the plan without it needs 0.87 A (0.13 N m)
+    amp = Amplifier("test amp", 0.6, i_peak, bus_voltage_V=d2.supply_voltage_V)  # same line
+    capped = heavy.with_payload(1.0)
+    capped.drives = {**heavy.drives, "joint2": dataclasses.replace(d2, amplifier=amp)}
+    kt = d2.motor.torque_constant_Nm_A
+    assert capped.drives["joint2"].peak_motor_torque_Nm == pytest.approx(kt * i_peak)
+    assert capped.drives["joint2"].current_limit_A == pytest.approx(i_peak)
+
+    def peak_current(robot, traj):
+        fine = traj.sample(traj.duration / 4000)
+        tau = armlab.robot.rigid_body.inverse_dynamics(robot, fine.q, fine.qd, fine.qdd)
+        t_m, _ = dtm.motor_torque(tau, fine.qd, fine.qdd, dtm.drive_train(robot))
+        return np.abs(t_m[:, 1]).max() / kt
+
+    free = optimal(heavy, MOVE, a_max=False, j_max=False, n_intervals=16, drive_limits=True)
+    plan = optimal(capped, MOVE, a_max=False, j_max=False, n_intervals=16, drive_limits=True)
+    assert peak_current(heavy, free) > 1.2 * i_peak  # without the amplifier it needs more
+    assert peak_current(capped, plan) <= i_peak * (1 + 1e-6)
+    assert plan.duration > free.duration and plan.stats["ok"]
+
+
 def test_drive_limits_bad_input(heavy):
     from armlab.planning import optimal
     from armlab.study.spec import parse_study

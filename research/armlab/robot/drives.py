@@ -431,12 +431,24 @@ class Drive:
         )
 
     @property
+    def amplifier_torque_Nm(self) -> float:
+        """The motor torque of the amplifier's peak current, ``Kt I_peak``, in [N m] (inf
+        without an amplifier): the electronics cannot drive more current than that
+        (``T_m = Kt i``, HEU thesis ch. 5)."""
+        a = self.amplifier
+        if a is None or not math.isfinite(a.peak_current_A):
+            return math.inf
+        return float(self.motor.torque_constant_Nm_A * a.peak_current_A)
+
+    @property
     def peak_motor_torque_Nm(self) -> float:
         """The largest motor torque the drive may give, in [N m]: derating x the peak rating
-        (:attr:`peak_motor_torque_rating_Nm`). Sizing's peak check, the envelope, the servo
-        plant's current limit (hence the tuning and the simulation), the derived acceleration
-        limit and CiA 402 0x6072 all use this one number."""
-        return self.derating * self.peak_motor_torque_rating_Nm
+        (:attr:`peak_motor_torque_rating_Nm`), at most the torque of the amplifier's peak
+        current (:attr:`amplifier_torque_Nm`). Sizing's peak check, the envelope (so every
+        planner's motor-envelope rows), the servo plant's current limit (hence the tuning and
+        the simulation), the derived acceleration limit and CiA 402 0x6072 all use this one
+        number."""
+        return min(self.derating * self.peak_motor_torque_rating_Nm, self.amplifier_torque_Nm)
 
     @property
     def continuous_motor_torque_Nm(self) -> float:
@@ -461,15 +473,13 @@ class Drive:
     @property
     def current_limit_A(self) -> float:
         """The amplifier's current limit in [A]: the current of the peak torque,
-        ``peak_motor_torque_Nm / Kt``, at most the standstill current the supply can drive,
-        ``U / R`` (armature equation ``U = R i + Ke w``, HEU thesis ch. 5), and at most the
-        amplifier's peak current when one is described."""
+        ``peak_motor_torque_Nm / Kt`` (which holds the amplifier's peak current when one is
+        described), at most the standstill current the supply can drive, ``U / R`` (armature
+        equation ``U = R i + Ke w``, HEU thesis ch. 5)."""
         m = self.motor
-        amp = self.amplifier.peak_current_A if self.amplifier is not None else math.inf
         return min(
             self.peak_motor_torque_Nm / m.torque_constant_Nm_A,
             self.supply_voltage_V / m.resistance_ohm,
-            amp,
         )
 
     @property

@@ -45,11 +45,13 @@ The envelope (what the motor can give)
 From the armature equation ``U = R i + Ke w`` and ``T = Kt i`` (HEU thesis ch. 5) with the
 amplifier's supply voltage ``U``::
 
-    |T_m| <= derating x min(T_peak, Kt (U - Ke |w_m|) / R)       (voltage line, both quadrants)
+    |T_m| <= min(T_max, derating x Kt (U - Ke |w_m|) / R)        (voltage line, both quadrants)
     |w_m| <= motor speed limit (rated table speed, else U / Ke)   (maximum speed)
     sqrt(mean over the cycle of T_m^2) <= derating x T_stall      (continuous rating, RMS)
 
-``T_peak`` is the data sheet's peak torque, the stall torque when it gives none (conservative).
+``T_max = min(derating x T_peak, Kt I_amp)``: ``T_peak`` the data sheet's peak torque (the
+stall torque when it gives none, conservative), ``I_amp`` the amplifier's peak current when one
+is described (:attr:`armlab.robot.drives.Drive.peak_motor_torque_Nm`, the one home of it).
 **Regeneration**: without a described amplifier (teachbot6's is not in the thesis) the same
 voltage line bounds the braking quadrants (no credit, ASSUMED, conservative): the envelope is
 symmetric in torque. A drive whose amplifier regenerates (:class:`armlab.robot.drives.Amplifier`
@@ -141,8 +143,9 @@ class DriveTrain:
     torque_constant_Nm_A, back_emf_V_s_rad, resistance_ohm, supply_voltage_V : Kt, Ke, R, U
     power_W : table power in [W] (NaN when not given)
     reducer_rated_torque_Nm, reducer_peak_torque_Nm, reducer_max_input_speed_rad_s
-    peak_motor_torque_Nm, continuous_motor_torque_Nm : derated peak and continuous motor torque
-        in [N m] (:attr:`~armlab.robot.drives.Drive.peak_motor_torque_Nm`,
+    peak_motor_torque_Nm, continuous_motor_torque_Nm : the drive's largest motor torque
+        (derated peak rating, capped by the amplifier's peak current) and the derated
+        continuous one in [N m] (:attr:`~armlab.robot.drives.Drive.peak_motor_torque_Nm`,
         :attr:`~armlab.robot.drives.Drive.continuous_motor_torque_Nm`)
     quadrant_band_rad_s : joint speed over which the reducer passes from motoring to
         back-driven efficiency through standstill [rad/s] (:func:`quadrant_share`)
@@ -460,8 +463,10 @@ def voltage_line_torque(w_m, dt: DriveTrain) -> np.ndarray:
 
 def envelope_torque(w_m, dt: DriveTrain, t_m=None) -> np.ndarray:
     """The motor torque bound at each speed, in [N m]:
-    ``derating x min(T_peak, Kt (U - Ke |w_m|) / R)`` (negative beyond the no-load speed: no
-    torque left there).
+    ``min(T_peak,drive, derating Kt (U - Ke |w_m|) / R)`` with ``T_peak,drive`` the drive's
+    largest torque (:attr:`~armlab.robot.drives.Drive.peak_motor_torque_Nm`: derating x the
+    peak rating, at most ``Kt`` x the amplifier's peak current); negative beyond the no-load
+    speed: no torque left there.
 
     With the motor torque ``t_m`` given, the **braking** samples (``T_m w_m < 0``: quadrants II
     and IV) of a drive whose amplifier regenerates (:attr:`DriveTrain.regenerates`) are bounded
@@ -478,7 +483,7 @@ def envelope_torque(w_m, dt: DriveTrain, t_m=None) -> np.ndarray:
             / dt.resistance_ohm
         )
         line = np.where(braking, four_q, line)
-    return dt.derating * np.minimum(dt.peak_torque_Nm, line)
+    return np.minimum(dt.peak_motor_torque_Nm, dt.derating * line)
 
 
 def envelope_ratio(t_m, w_m, dt: DriveTrain) -> np.ndarray:
