@@ -12,6 +12,7 @@ that makes the warm start an exact solution of the optimiser's integration equat
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -75,27 +76,30 @@ def phase_grid(
     first = set()
     for rank, i in enumerate(joints):
         t = profiles[i].corners
-        pts += list(t)
+        pts += t.tolist()
         if rank == 0:
             first = set(t.tolist())
-    grid = np.unique(np.array(pts))
-    while grid.size > 2:  # merge points closer than h_min
-        d = np.diff(grid)
-        k = int(np.argmin(d))
+    # (a few dozen points: Python floats, the same arithmetic as numpy's, without the
+    # per-call overhead of np.delete / np.insert)
+    grid = sorted(set(pts))
+    while len(grid) > 2:  # merge points closer than h_min
+        d = [b - a for a, b in zip(grid[:-1], grid[1:], strict=True)]
+        k = min(range(len(d)), key=d.__getitem__)  # the first smallest, as np.argmin
         if d[k] >= max(h_min, 1e-12):
             break
-        grid = np.delete(grid, k + 1 if k + 1 < grid.size - 1 else k)
-    while grid.size - 1 > n_intervals:
+        del grid[k + 1 if k + 1 < len(grid) - 1 else k]
+    while len(grid) - 1 > n_intervals:
         # drop the point whose neighbours are closest, sparing the first joint's switches
-        span = grid[2:] - grid[:-2]
-        spare = np.array([x in first for x in grid[1:-1]])
-        if not np.all(spare):
-            span = np.where(spare, np.inf, span)
-        grid = np.delete(grid, 1 + int(np.argmin(span)))
-    while grid.size - 1 < n_intervals:
-        k = int(np.argmax(np.diff(grid)))
-        grid = np.insert(grid, k + 1, 0.5 * (grid[k] + grid[k + 1]))
-    return grid
+        span = [c - a for a, c in zip(grid[:-2], grid[2:], strict=True)]
+        spare = [x in first for x in grid[1:-1]]
+        if not all(spare):
+            span = [math.inf if sp else x for x, sp in zip(span, spare, strict=True)]
+        del grid[1 + min(range(len(span)), key=span.__getitem__)]
+    while len(grid) - 1 < n_intervals:  # halve the longest interval (the first of equals)
+        d = [b - a for a, b in zip(grid[:-1], grid[1:], strict=True)]
+        k = max(range(len(d)), key=d.__getitem__)
+        grid.insert(k + 1, 0.5 * (grid[k] + grid[k + 1]))
+    return np.array(grid, dtype=float)
 
 
 def fit_piecewise(h, u_ref, target, mode: str = "jerk", start=None) -> np.ndarray:
