@@ -39,6 +39,7 @@ from armlab.planning.warmstart import (
 from armlab.robot import drivetrain
 from armlab.robot.limits import Limits
 from armlab.trajectory.core import Trajectory
+from armlab.trajectory.sampling import sample_times
 
 if TYPE_CHECKING:
     import casadi as ca  # the real module for the type checker (CasADi ships type stubs)
@@ -426,6 +427,8 @@ class OptimalProblem:
             k_tol *= k_drive
             samples = samples if k_drive == 1.0 else None
         traj.meta["knot_times_s"] = traj.meta["knot_times_s"] * k_tol
+        if samples is None:  # a stretched plan: its own samples (the energy below reads them)
+            samples = traj.limit_samples(dt, robot=self.robot if torque_on else None)
         traj.report = traj.check_limits(
             self.robot, dt=dt, limits=jl, torque=torque_on, samples=samples
         )
@@ -465,10 +468,7 @@ class OptimalProblem:
         if train is not None:
             stats["drive_ratios"] = {k: r.tolist() for k, r in drive_ratios.items()}
         if self.objective == "energy" or torque_on:
-            ew, unit = _energy_weights(self.robot)
-            fine = traj.sample(dt)
-            stats["energy"] = float(np.trapezoid(fine.torques(self.robot) ** 2 @ ew, fine.t))
-            stats["energy_unit"] = unit
+            stats["energy"], stats["energy_unit"] = _fine_energy(traj, self.robot, dt, samples)
         self.stats = stats
         traj.stats = stats
         try:
@@ -592,6 +592,28 @@ def _binding_of(traj: Trajectory) -> tuple[str, str, float]:
         if r[i] > best[2]:
             best = (kind, traj.joint_names[i], float(r[i]))
     return best
+
+
+def _fine_energy(traj: Trajectory, robot: Robot, dt: float, samples) -> tuple[float, str]:
+    """``(int sum_i w_i tau_i^2 dt, unit)`` by the trapezoidal rule on the uniform grid of
+    ``traj.sample(dt)`` (weights :func:`~armlab.planning.optimal_bounds._energy_weights`).
+
+    The torques on that grid are read from ``samples`` (``traj``'s limit samples at ``dt``
+    with torques: they hold every grid time, evaluated and RNEA'd from the same numbers as
+    ``traj.sample(dt)``, so the rows are the same floats); where a grid time is not among
+    them (or the samples have no torques) the grid is sampled and its torques computed."""
+    ew, unit = _energy_weights(robot)
+    times = traj.t[0] + sample_times(traj.duration, dt)
+    times[-1] = traj.t[-1]  # as Trajectory.sample
+    tau = None
+    if samples is not None and samples.tau is not None:
+        rows = np.searchsorted(samples.t, times, "right") - 1  # a knot's own row: its last
+        if np.array_equal(samples.t[rows], times):
+            tau = samples.tau[rows]
+    if tau is None:
+        fine = traj.sample(dt)
+        times, tau = fine.t, fine.torques(robot)
+    return float(np.trapezoid(tau**2 @ ew, times)), unit
 
 
 def _ramped_trajectory(t, Q, V, U, names, start=None) -> Trajectory:

@@ -114,26 +114,39 @@ def _classical_segment(
     return T, t, q, qd, qdd, u
 
 
-def _timescale_for_torque(robot, q, qd, qdd, tau_max) -> float:
-    """Smallest factor ``alpha >= 1`` so that slowing the warm start's samples down by it
-    meets the optimiser's torque rows, ``|tau| <= (1 - TORQUE_ROW_MARGIN) tau_max``
+def _segment_dynamics(robot, segments, need: bool) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``(tau, g)`` of every segment's samples (RNEA torques and gravity torques, each
+    ``(n_samples, n_joints)`` in [N m]) from one batched pass over all of them
+    (:func:`~armlab.robot.rigid_body.inverse_dynamics`: each sample's torque is computed on
+    its own, so the values are those of a pass per segment); empty if not ``need``."""
+    if not need:
+        return []
+    q, qd, qdd = (np.vstack([seg[i] for seg in segments]) for i in (2, 3, 4))
+    taus = rigid_body.inverse_dynamics(robot, q, qd, qdd)
+    gs = rigid_body.gravity_torques(robot, q)
+    cut = np.cumsum([seg[2].shape[0] for seg in segments])[:-1]
+    return list(zip(np.split(taus, cut), np.split(gs, cut), strict=True))
+
+
+def _timescale_for_torque(tau, g, tau_max) -> float:
+    """Smallest factor ``alpha >= 1`` so that slowing the warm start's samples (torques
+    ``tau``, gravity torques ``g``) down by it meets the optimiser's torque rows,
+    ``|tau| <= (1 - TORQUE_ROW_MARGIN) tau_max``
     (:func:`~armlab.planning.timescale.torque_stretch`, exact; samples where gravity alone is
     over the limit are left to the solver)."""
     if tau_max is None:
         return 1.0
-    taus = rigid_body.inverse_dynamics(robot, q, qd, qdd)
-    gs = rigid_body.gravity_torques(robot, q)
-    return float(np.max(torque_stretch(taus, gs, (1.0 - TORQUE_ROW_MARGIN) * tau_max)))
+    return float(np.max(torque_stretch(tau, g, (1.0 - TORQUE_ROW_MARGIN) * tau_max)))
 
 
-def _timescale_for_drive(robot, q, qd, qdd, train) -> float:
+def _timescale_for_drive(tau, g, qd, qdd, train) -> float:
     """Smallest factor ``alpha >= 1`` (of a geometric search, step 5 %) with which the warm
-    start's samples fit the motor envelope (voltage line and peak torque); the plan's RMS is
-    left to the optimiser. A start that never fits is returned at ``alpha = 20``."""
+    start's samples (torques ``tau``, gravity torques ``g``) fit the motor envelope (voltage
+    line and peak torque); the plan's RMS is left to the optimiser. A start that never fits
+    is returned at ``alpha = 20``."""
     if train is None:
         return 1.0
-    g = rigid_body.gravity_torques(robot, q)
-    d = rigid_body.inverse_dynamics(robot, q, qd, qdd) - g
+    d = tau - g
     alpha = 1.0
     for _ in range(62):
         a2 = alpha**2
@@ -158,17 +171,25 @@ def make_warm_start(prob: OptimalProblem) -> np.ndarray:
     if v_lim is not None and np.all(np.isfinite(acc)) and np.all(np.isfinite(v_lim)):
         j_lim = ls.jerk_rad_s3 if ls.jerk_rad_s3 is not None else np.inf
         batch = synchronised_scurves(np.diff(w, axis=0)[None], v_lim, acc, j_lim)
+    segments = []
     for s, ns in enumerate(prob.segment_intervals):
         state = None
         if prob.from_state and s in (0, last):  # a replan's first or last segment
             state = (v0 if s == 0 else z, a0 if s == 0 else z, v1 if s == last else z)
-        T, t, q, qd, qdd, u = _classical_segment(
-            prob.robot, w[s], w[s + 1], ls, acc, ns, prob.mode, state, batch, (0, s)
+        segments.append(
+            _classical_segment(
+                prob.robot, w[s], w[s + 1], ls, acc, ns, prob.mode, state, batch, (0, s)
+            )
         )
+    drive = prob.drive_limits and prob.train is not None
+    dynamics = _segment_dynamics(prob.robot, segments, ls.torque_Nm is not None or drive)
+    for s, (T, t, q, qd, qdd, u) in enumerate(segments):
         # slow down uniformly until the torques fit: t*alpha, qd/alpha, qdd/alpha^2, ...
-        alpha = _timescale_for_torque(prob.robot, q, qd, qdd, ls.torque_Nm)
-        if prob.drive_limits:
-            alpha = max(alpha, _timescale_for_drive(prob.robot, q, qd, qdd, prob.train))
+        alpha = 1.0
+        if ls.torque_Nm is not None:
+            alpha = _timescale_for_torque(*dynamics[s], ls.torque_Nm)
+        if drive:
+            alpha = max(alpha, _timescale_for_drive(*dynamics[s], qd, qdd, prob.train))
         order = 3 if prob.mode == "jerk" else 2
         T, t, qd, qdd, u = T * alpha, t * alpha, qd / alpha, qdd / alpha**2, u / alpha**order
         qs.append(q[1:])

@@ -178,6 +178,15 @@ duration (:mod:`armlab.planning.optimal_closed`), ``stats["method"] = "closed_fo
 2 ms instead of 40-130 ms of IPOPT (teachbot6, durations within 4e-8 s of IPOPT's); every other
 plan says ``"transcription"``. :func:`build_optimal` (the engine) always transcribes.
 
+Outside the solver (issue 26): a fine-grid check is one batched RNEA pass
+(:func:`armlab.robot.rigid_body.inverse_dynamics`, ``pinocchio.rneaInParallel``, about 1 us
+of CPU per point on teachbot6; a CasADi map of the symbolic RNEA compiled with ``-O3`` was
+measured on par, its virtual machine 4x and a Python loop over ``pinocchio.rnea`` 2x slower)
+over the ~4 000-6 500 limit samples, and a plan without back-off rounds makes three: the
+back-off check, the gravity torques of the tolerance stretch, and the check of the plan
+handed out (the stretched one), whose samples also give ``stats["energy"]``. The warm
+start's torque slow-down is one batched pass over the samples of every segment.
+
 References: Verscheure et al., IEEE TAC 54(10) 2009 (time-optimal problems as optimisation);
 Betts, *Practical Methods for Optimal Control*, 2010 (direct transcription); Farouki, CAGD 29 2012
 (Bernstein convex-hull property); Jiang 1987, eq. 1-5 (time-synchronised PTP); Berscheid &

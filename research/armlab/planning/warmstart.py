@@ -12,6 +12,7 @@ that makes the warm start an exact solution of the optimiser's integration equat
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -75,27 +76,30 @@ def phase_grid(
     first = set()
     for rank, i in enumerate(joints):
         t = profiles[i].corners
-        pts += list(t)
+        pts += t.tolist()
         if rank == 0:
             first = set(t.tolist())
-    grid = np.unique(np.array(pts))
-    while grid.size > 2:  # merge points closer than h_min
-        d = np.diff(grid)
-        k = int(np.argmin(d))
+    # (a few dozen points: Python floats, the same arithmetic as numpy's, without the
+    # per-call overhead of np.delete / np.insert)
+    grid = sorted(set(pts))
+    while len(grid) > 2:  # merge points closer than h_min
+        d = [b - a for a, b in zip(grid[:-1], grid[1:], strict=True)]
+        k = min(range(len(d)), key=d.__getitem__)  # the first smallest, as np.argmin
         if d[k] >= max(h_min, 1e-12):
             break
-        grid = np.delete(grid, k + 1 if k + 1 < grid.size - 1 else k)
-    while grid.size - 1 > n_intervals:
+        del grid[k + 1 if k + 1 < len(grid) - 1 else k]
+    while len(grid) - 1 > n_intervals:
         # drop the point whose neighbours are closest, sparing the first joint's switches
-        span = grid[2:] - grid[:-2]
-        spare = np.array([x in first for x in grid[1:-1]])
-        if not np.all(spare):
-            span = np.where(spare, np.inf, span)
-        grid = np.delete(grid, 1 + int(np.argmin(span)))
-    while grid.size - 1 < n_intervals:
-        k = int(np.argmax(np.diff(grid)))
-        grid = np.insert(grid, k + 1, 0.5 * (grid[k] + grid[k + 1]))
-    return grid
+        span = [c - a for a, c in zip(grid[:-2], grid[2:], strict=True)]
+        spare = [x in first for x in grid[1:-1]]
+        if not all(spare):
+            span = [math.inf if sp else x for x, sp in zip(span, spare, strict=True)]
+        del grid[1 + min(range(len(span)), key=span.__getitem__)]
+    while len(grid) - 1 < n_intervals:  # halve the longest interval (the first of equals)
+        d = [b - a for a, b in zip(grid[:-1], grid[1:], strict=True)]
+        k = max(range(len(d)), key=d.__getitem__)
+        grid.insert(k + 1, 0.5 * (grid[k] + grid[k + 1]))
+    return np.array(grid, dtype=float)
 
 
 def fit_piecewise(h, u_ref, target, mode: str = "jerk", start=None) -> np.ndarray:
@@ -144,23 +148,48 @@ def integrate_piecewise(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Node states ``q, qd, qdd`` (each (N+1, n)) of piecewise-constant jerk (or acceleration)
     from position ``x0`` and the start speeds and accelerations ``start = (qd0, qdd0)``
-    (default rest; in ``"acceleration"`` mode ``qdd`` at a node is the input that follows it)."""
+    (default rest; in ``"acceleration"`` mode ``qdd`` at a node is the input that follows it).
+
+    The exact integration over each interval (jerk mode; acceleration mode drops ``qdd``)::
+
+        q_{k+1}   = q_k + h_k qd_k + h_k^2/2 qdd_k + h_k^3/6 u_k
+        qd_{k+1}  = qd_k + h_k qdd_k + h_k^2/2 u_k
+        qdd_{k+1} = qdd_k + h_k u_k
+
+    evaluated as running sums (:func:`_running_sum`): the terms of every interval in the order
+    above, added one after the other -- the same floating-point operations as a loop over the
+    intervals, without one.
+    """
+    h = np.asarray(h, float)
+    u = np.asarray(u, float)
     N, n = u.shape
-    q = np.empty((N + 1, n))
-    v = np.empty((N + 1, n))
-    a = np.empty((N + 1, n))
-    q[0] = x0
-    v[0], a[0] = (0.0, 0.0) if start is None else start
-    for k in range(N):
-        hk, uk = h[k], u[k]
-        if mode == "jerk":
-            q[k + 1] = q[k] + hk * v[k] + hk**2 / 2 * a[k] + hk**3 / 6 * uk
-            v[k + 1] = v[k] + hk * a[k] + hk**2 / 2 * uk
-            a[k + 1] = a[k] + hk * uk
-        else:
-            q[k + 1] = q[k] + hk * v[k] + hk**2 / 2 * uk
-            v[k + 1] = v[k] + hk * uk
-            a[k + 1] = uk
-    if mode != "jerk":
-        a[0] = u[0]
+    v0, a0 = (np.zeros(n), np.zeros(n)) if start is None else start
+    hc = h[:, None]
+    h2 = _powers(h, 2)[:, None] / 2  # as the loop's h_k**2 / 2
+    if mode == "jerk":
+        a = _running_sum(a0, hc * u)
+        v = _running_sum(v0, hc * a[:-1], h2 * u)
+        q = _running_sum(x0, hc * v[:-1], h2 * a[:-1], _powers(h, 3)[:, None] / 6 * u)
+        return q, v, a
+    v = _running_sum(v0, hc * u)
+    q = _running_sum(x0, hc * v[:-1], h2 * u)
+    a = np.vstack([u[:1], u])  # the input that follows each node (the last: the last input)
     return q, v, a
+
+
+def _powers(h: np.ndarray, p: int) -> np.ndarray:
+    """``h_k ** p`` of every element, each a float's own power (as ``float(h_k) ** p``)."""
+    return np.array([x**p for x in h.tolist()], dtype=float).reshape(h.shape)
+
+
+def _running_sum(x0, *terms: np.ndarray) -> np.ndarray:
+    """``(N + 1, n)``: ``x0`` then ``x_{k+1} = ((x_k + t1_k) + t2_k) + ...`` for the terms
+    ``(N, n)`` each, left to right (``np.add.accumulate`` adds in sequence, so every value is
+    the same float a loop would give)."""
+    N, n = terms[0].shape
+    m = len(terms)
+    seq = np.empty((1 + m * N, n))
+    seq[0] = x0
+    for i, t in enumerate(terms):
+        seq[1 + i :: m] = t
+    return np.add.accumulate(seq, axis=0)[::m]

@@ -198,26 +198,43 @@ class Trajectory:
         self, k: np.ndarray, tau: np.ndarray, pieces, jerk: bool = True
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
         """(q, qd, qdd, qddd) of pieces ``k`` (m,) at ``tau`` (m,) [s] after their left knots
-        (``qddd`` None unless ``jerk``)."""
-        # np.take: rows of (n, n_joints) arrays several times faster than fancy indexing
+        (``qddd`` None unless ``jerk``).
+
+        The polynomial of the module docstring in Horner form; what depends on the piece only
+        (its knot values, ``a0 / 2`` and the closure coefficients times their integer
+        factors) is computed once per piece and gathered in one ``np.take`` -- each value the
+        same float as when computed per point."""
         tau = tau[:, None]
-        q0, v0, a0 = (np.take(x, k, axis=0) for x in (self.q, self.qd, self.qdd))
-        if self.qddd is None and not jerk:  # j = K5 = 0 (quartic): the same values, fewer terms
-            h, K3, K4 = (np.take(pieces[i], k, axis=0) for i in (0, 2, 3))
-            s = tau / h
-            q = q0 + tau * (v0 + tau * (a0 / 2)) + s**3 * (K3 + s * K4)
-            qd = v0 + tau * a0 + s * s * (3 * K3 + s * (4 * K4)) / h
-            qdd = a0 + s * (6 * K3 + s * (12 * K4)) / h**2
-            return q, qd, qdd, None
-        h, j, K3, K4, K5 = (np.take(x, k, axis=0) for x in pieces)
+        h = np.take(pieces[0], k, axis=0)
         s = tau / h
-        q = q0 + tau * (v0 + tau * (a0 / 2 + tau * j / 6)) + s**3 * (K3 + s * (K4 + s * K5))
-        qd = v0 + tau * (a0 + tau * j / 2) + s * s * (3 * K3 + s * (4 * K4 + 5 * s * K5)) / h
-        qdd = a0 + tau * j + s * (6 * K3 + s * (12 * K4 + 20 * s * K5)) / h**2
+        if self.qddd is None and not jerk:  # j = K5 = 0 (quartic): the same values, fewer terms
+            q0, v0, a0, A2, K3, K4, K3_3, K4_4, K3_6, K4_12 = self._gather(k, pieces, False)
+            q = q0 + tau * (v0 + tau * A2) + s**3 * (K3 + s * K4)
+            qd = v0 + tau * a0 + s * s * (K3_3 + s * K4_4) / h
+            qdd = a0 + s * (K3_6 + s * K4_12) / h**2
+            return q, qd, qdd, None
+        q0, v0, a0, A2, K3, K4, K3_3, K4_4, K3_6, K4_12, j, K5, K4_24 = self._gather(
+            k, pieces, True
+        )
+        tj = tau * j
+        q = q0 + tau * (v0 + tau * (A2 + tj / 6)) + s**3 * (K3 + s * (K4 + s * K5))
+        qd = v0 + tau * (a0 + tj / 2) + s * s * (K3_3 + s * (K4_4 + 5 * s * K5)) / h
+        qdd = a0 + tj + s * (K3_6 + s * (K4_12 + 20 * s * K5)) / h**2
         if not jerk:
             return q, qd, qdd, None
-        qddd = j + (6 * K3 + s * (24 * K4 + 60 * s * K5)) / h**3
+        qddd = j + (K3_6 + s * (K4_24 + 60 * s * K5)) / h**3
         return q, qd, qdd, qddd
+
+    def _gather(self, k: np.ndarray, pieces, jerk: bool) -> np.ndarray:
+        """Per piece ``k`` (m,): ``q0, v0, a0, a0 / 2, K3, K4, 3 K3, 4 K4, 6 K3, 12 K4`` and
+        with ``jerk`` also ``j, K5, 24 K4``, stacked ``(c, m, n_joints)`` (each contiguous)."""
+        m = self.n_samples - 1
+        _, j, K3, K4, K5 = pieces
+        a0 = self.qdd[:m]
+        cols = [self.q[:m], self.qd[:m], a0, a0 / 2, K3, K4, 3 * K3, 4 * K4, 6 * K3, 12 * K4]
+        if jerk:
+            cols += [j, K5, 24 * K4]
+        return np.take(np.stack(cols), k, axis=1)
 
     def at(self, times) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Evaluate (q, qd, qdd, qddd) at ``times`` (n,) in [s] from the piecewise definition
