@@ -49,6 +49,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import time  # noqa: E402
+from collections import Counter  # noqa: E402
+from contextlib import contextmanager  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
@@ -623,15 +625,46 @@ def success_problem(robot, i: int) -> tuple[np.ndarray, str]:
     return w, ""
 
 
-def success_case(robot, i: int) -> dict:
+#: the solvers of the success table: ``"fatrop"`` is the default (fatrop where it applies,
+#: :mod:`armlab.planning.fatrop_backend`; ``stats["solver"]`` says which solver gave the plan),
+#: ``"ipopt"`` the reference (``ARMLAB_SOLVER=ipopt`` around the call)
+SOLVERS = ("fatrop", "ipopt")
+#: goal of issue 26: the default solver's durations within this of IPOPT's on the same case [s]
+DURATION_GOAL_S = 1e-6
+SUCCESS_PROGRESS = 50  # a progress line every this many planner tests
+
+
+@contextmanager
+def solver_env(solver: str):
+    """The environment of one call: ``ARMLAB_SOLVER`` unset (the default, fatrop where it
+    applies) or ``ARMLAB_SOLVER=ipopt`` (the public switch of
+    :mod:`armlab.planning.fatrop_backend`); restored afterwards."""
+    from armlab.planning.fatrop_backend import SOLVER_ENV
+
+    before = os.environ.pop(SOLVER_ENV, None)
+    if solver == "ipopt":
+        os.environ[SOLVER_ENV] = "ipopt"
+    try:
+        yield
+    finally:
+        os.environ.pop(SOLVER_ENV, None)
+        if before is not None:
+            os.environ[SOLVER_ENV] = before
+
+
+def success_case(robot, i: int, solver: str = "fatrop") -> dict:
     """Plan problem ``i`` (:func:`success_problem`) with teachbot6's own v/a/j/tau limits and
-    classify it (:data:`VERDICTS`): a plan must pass ``check_limits`` within ``PROMISED_TOL``;
-    a refusal (an ``ArmlabError``) is accepted only for a problem proved infeasible."""
+    the given solver (:data:`SOLVERS`) and classify it (:data:`VERDICTS`): a plan must pass
+    ``check_limits`` within ``PROMISED_TOL``; a refusal (an ``ArmlabError``) is accepted only
+    for a problem proved infeasible. ``used`` is ``stats["solver"]`` of the plan (the last
+    solve's), ``fallback`` why it was not fatrop (``stats["fallback"]``, "" when it was)."""
     w, proof = success_problem(robot, i)
     out: dict = {"case": i, "proof": proof, "message": "", "solve_s": np.nan, "T_s": np.nan}
+    out.update(used="", fallback="")
     t0 = time.perf_counter()
     try:
-        tr = optimal(robot, w)
+        with solver_env(solver):
+            tr = optimal(robot, w)
     except ArmlabError as exc:
         out["verdict"] = VERDICTS[1] if proof else VERDICTS[2]
         out["message"] = f"{type(exc).__name__}: {exc}"
@@ -643,6 +676,8 @@ def success_case(robot, i: int) -> dict:
         out["solve_s"] = tr.stats["solve_time_s"]
         out["T_s"] = tr.duration
         out["backoff_rounds"] = tr.stats["backoff_rounds"]
+        out["used"] = str(tr.stats.get("solver", "ipopt"))
+        out["fallback"] = str(tr.stats.get("fallback", ""))
         rep = tr.check_limits(robot, dt=tr.duration / CHECK_SAMPLES)
         bad = rep.violations(PROMISED_TOL)
         out["verdict"] = VERDICTS[4] if bad else VERDICTS[0]
@@ -653,56 +688,166 @@ def success_case(robot, i: int) -> dict:
     return out
 
 
-def bench_success(n: int) -> dict:
+def _success_summary(cases: list[dict], n: int) -> dict:
+    """Counts and times of one solver's cases (:func:`success_case` results)."""
+    count = {v: sum(c["verdict"] == v for c in cases) for v in VERDICTS}
+    planned = [c for c in cases if c["verdict"] == VERDICTS[0]]
+    fell = [c for c in planned if c["used"] != "fatrop"]
+    return {
+        "n": n,
+        "count": count,
+        "fails": count[VERDICTS[2]] + count[VERDICTS[3]] + count[VERDICTS[4]],
+        "solve": np.array([c["solve_s"] for c in planned]),
+        "wall": np.array([c["wall_s"] for c in planned]),
+        "fatrop": len(planned) - len(fell),
+        "fallback": len(fell),
+        "reasons": Counter(c["fallback"] or c["used"] for c in fell),
+        "failed": [c for c in cases if c["verdict"] not in VERDICTS[:2]],
+    }
+
+
+def _duration_gap(by_solver: dict) -> tuple[float, int, int]:
+    """Largest ``|T_fatrop - T_ipopt|`` [s] over the cases both planned, its case, and how many
+    cases differ by more than :data:`DURATION_GOAL_S`."""
+    gaps = [
+        (abs(a["T_s"] - b["T_s"]), a["case"])
+        for a, b in zip(by_solver["fatrop"], by_solver["ipopt"], strict=True)
+        if a["verdict"] == b["verdict"] == VERDICTS[0]
+    ]
+    if not gaps:
+        return np.nan, -1, 0
+    worst = max(gaps)
+    return float(worst[0]), int(worst[1]), sum(g > DURATION_GOAL_S for g, _ in gaps)
+
+
+def bench_success(n: int, json_path: str | None = None) -> dict:
     """``optimal`` on random 5-waypoint v/a/j/tau problems (teachbot6, its own limits) until
-    ``n`` problems not proved infeasible have been planned or refused: each classified by
-    :func:`success_case`. The draws that are proved infeasible (gravity at a waypoint) are run
-    too -- the refusal must be a named error -- but counted apart: a problem without a
-    solution does not test the planner. Goal (issue 15): 100 % of the ``n`` planned within
-    every limit."""
+    ``n`` problems not proved infeasible have been planned or refused, each by the default
+    solver (fatrop where it applies) and by IPOPT, each classified by :func:`success_case`.
+    The draws that are proved infeasible (gravity at a waypoint) are run too -- the refusal
+    must be a named error -- but counted apart: a problem without a solution does not test the
+    planner. Goals (issues 15, 26): 100 % of the ``n`` planned within every limit by each
+    solver, the default solver's durations within :data:`DURATION_GOAL_S` of IPOPT's."""
     robot = armlab.load_robot("teachbot6")
-    optimal(robot, success_problem(robot, 10**6)[0])  # the compiled problem: built, not timed
-    cases: list[dict] = []
+    for solver in SOLVERS:  # the compiled problems (fatrop: the per-robot library): not timed
+        with solver_env(solver):
+            optimal(robot, success_problem(robot, 10**6)[0])
+    by_solver: dict[str, list[dict]] = {s: [] for s in SOLVERS}
     tests = 0
     i = 0
+    t_start = time.perf_counter()
+    print(
+        f"optimal() success, {SUCCESS_WAYPOINTS} random waypoints, teachbot6, solvers "
+        f"{' and '.join(SOLVERS)} on the same cases: {n} planner tests",
+        flush=True,
+    )
     while tests < n:
-        c = success_case(robot, i)
-        cases.append(c)
-        tests += not c["proof"]
-        if c["verdict"] not in VERDICTS[:2]:  # a failure, named as it happens
-            print(f"  case {i}: {c['verdict']}: {c['message']}", flush=True)
+        for solver in SOLVERS:
+            c = success_case(robot, i, solver)
+            by_solver[solver].append(c)
+            if c["verdict"] not in VERDICTS[:2]:  # a failure, named as it happens
+                print(f"  case {i} ({solver}): {c['verdict']}: {c['message']}", flush=True)
+        f, p = by_solver["fatrop"][-1], by_solver["ipopt"][-1]
+        if f["verdict"] == p["verdict"] == VERDICTS[0] and abs(f["T_s"] - p["T_s"]) > 1e-6:
+            print(
+                f"  case {i}: durations differ: fatrop ({f['used']}) {f['T_s']:.9f} s, "
+                f"IPOPT {p['T_s']:.9f} s",
+                flush=True,
+            )
+        tests += not f["proof"]
         i += 1
-    count = {v: sum(c["verdict"] == v for c in cases) for v in VERDICTS}
-    solve = np.array([c["solve_s"] for c in cases if c["verdict"] == VERDICTS[0]])
+        if not f["proof"] and tests % SUCCESS_PROGRESS == 0:
+            done = {s: sum(c["verdict"] == VERDICTS[0] for c in by_solver[s]) for s in SOLVERS}
+            fell = sum(c["verdict"] == VERDICTS[0] and c["used"] != "fatrop"
+                       for c in by_solver["fatrop"])  # fmt: skip
+            gap, _, _ = _duration_gap(by_solver)
+            print(
+                f"  {tests:>5}/{n} tests ({i} draws), {time.perf_counter() - t_start:.0f} s: "
+                f"planned {', '.join(f'{s} {done[s]}' for s in SOLVERS)}; fatrop fell back "
+                f"{fell}; largest |dT| {gap:.1e} s",
+                flush=True,
+            )
+    res: dict = {"n": n, "draws": i, "by_solver": by_solver}
+    for s in SOLVERS:
+        res[s] = _success_summary(by_solver[s], n)
+    res["gap"] = _duration_gap(by_solver)
+    success_print(res)
+    if json_path:
+        import json
+
+        with open(json_path, "w", encoding="utf-8") as fh:
+            json.dump(by_solver, fh, indent=1, default=float)
+        print(f"  cases written to {json_path}")
+    return res
+
+
+def success_print(res: dict) -> None:
+    """The success table of :func:`bench_success` (per solver, then the duration gap)."""
+    n, draws = res["n"], res["draws"]
     print()
     print(
         f"optimal() success: {SUCCESS_WAYPOINTS} random waypoints in {SUCCESS_RANGE:.0%} of the "
         f"ranges, v/a/j/tau, teachbot6 (seed ({SEED + 6}, case))"
     )
-    print(f"  draws {len(cases)}: {n} planner tests, {len(cases) - n} proved infeasible")
+    print(f"  draws {draws}: {n} planner tests, {draws - n} proved infeasible")
+    print(f"  {'verdict':<28}" + "".join(f"{s:>10}" for s in SOLVERS))
     for v in VERDICTS:
-        print(f"  {v:<28}{count[v]:>6}")
-    if solve.size:
-        print(
-            f"  IPOPT solve [s]: median {np.median(solve):.3f}, p90 "
-            f"{np.percentile(solve, 90):.3f}, max {np.max(solve):.3f}"
-        )
-    return {"n": n, "count": count, "solve": solve, "cases": cases}
+        print(f"  {v:<28}" + "".join(f"{res[s]['count'][v]:>10}" for s in SOLVERS))
+    fat = res["fatrop"]
+    print(f"  fatrop's plans solved by fatrop: {fat['fatrop']}, fell back to IPOPT: "
+          f"{fat['fallback']}")  # fmt: skip
+    for why, k in fat["reasons"].most_common(5):
+        print(f"    {k:>5} x {why}")
+    for s in SOLVERS:
+        r = res[s]
+        if r["solve"].size:
+            print(
+                f"  {s:<7} solve [s]: median {np.median(r['solve']):.3f}, p90 "
+                f"{np.percentile(r['solve'], 90):.3f}, max {np.max(r['solve']):.3f}; whole call "
+                f"median {np.median(r['wall']):.3f}, p90 {np.percentile(r['wall'], 90):.3f}"
+            )
+        for c in r["failed"]:
+            print(f"  {s:<7} failed case {c['case']}: {c['verdict']}: {c['message']}")
+    gap, case, over = res["gap"]
+    print(
+        f"  largest duration difference fatrop vs IPOPT: {gap:.1e} s (case {case}); "
+        f"{over} cases over {DURATION_GOAL_S:.0e} s"
+    )
+    goal = all(res[s]["count"][VERDICTS[0]] == n for s in SOLVERS) and gap <= DURATION_GOAL_S
+    print(f"  goal (each {n}/{n} within every limit, |dT| <= {DURATION_GOAL_S:.0e} s): "
+          f"{'met' if goal else 'NOT met'}")  # fmt: skip
 
 
 def success_row(res: dict) -> None:
     """README row of section 6."""
-    c, n, solve = res["count"], res["n"], res["solve"]
-    fails = c[VERDICTS[2]] + c[VERDICTS[3]] + c[VERDICTS[4]]
+    n = res["n"]
+    cells = []
+    for s in SOLVERS:
+        r = res[s]
+        c, solve = r["count"], r["solve"]
+        cell = (
+            f"{s}: {100 * c[VERDICTS[0]] / n:.1f} % planned within every limit (1e-9), "
+            f"{r['fails']} failures ({c[VERDICTS[2]]} refusals not proved, {c[VERDICTS[3]]} "
+            f"unnamed errors, {c[VERDICTS[4]]} plans over a limit)"
+        )
+        if s == "fatrop":
+            cell += f", {r['fallback']} fell back to IPOPT"
+        if solve.size:
+            cell += (
+                f", solve median {1e3 * np.median(solve):.0f} ms, p90 "
+                f"{1e3 * np.percentile(solve, 90):.0f} ms"
+            )
+        cells.append(cell)
+    gap, _, over = res["gap"]
+    refused = res["fatrop"]["count"][VERDICTS[1]]
     readme_row(
         __file__,
         f"`optimal`, {SUCCESS_WAYPOINTS} random waypoints, v/a/j/tau (teachbot6's limits): "
-        f"success on {f'{n:,}'.replace(',', ' ')} problems not proved infeasible",
-        f"{100 * c[VERDICTS[0]] / n:.1f} % planned within every limit (1e-9), {fails} failures "
-        f"({c[VERDICTS[2]]} refusals not proved, {c[VERDICTS[3]]} unnamed errors, "
-        f"{c[VERDICTS[4]]} plans over a limit); {c[VERDICTS[1]]} more draws refused by name, "
-        f"gravity at a waypoint over a torque limit; IPOPT median {np.median(solve):.2f} s, "
-        f"p90 {np.percentile(solve, 90):.2f} s, max {np.max(solve):.2f} s",
+        f"success on {f'{n:,}'.replace(',', ' ')} problems not proved infeasible, fatrop "
+        "(default) and IPOPT on the same cases (goal 100 %, durations within 1e-6 s)",
+        "; ".join(cells) + f"; durations fatrop vs IPOPT within {gap:.1e} s ({over} cases over "
+        f"1e-6 s); {refused} more draws refused by name, gravity at a waypoint over a torque "
+        "limit",
         "neither peer can do it",
     )
 
@@ -728,6 +873,11 @@ def main() -> None:
     )
     ap.add_argument("--success-only", action="store_true", help="only the success table")
     ap.add_argument(
+        "--success-json",
+        metavar="PATH",
+        help="write the success table's cases (per solver: verdict, duration, times) as JSON",
+    )
+    ap.add_argument(
         "--calls-only", action="store_true", help="only the whole-call table (issue 26)"
     )
     ap.add_argument(
@@ -744,7 +894,7 @@ def main() -> None:
         scaling_row(bench_optimal_scaling(args.quick))
         return
     if args.success_only:
-        success_row(bench_success(n_success))
+        success_row(bench_success(n_success, args.success_json))
         return
     if args.calls_only:
         calls_row(bench_optimal_calls(args.quick))
@@ -821,7 +971,7 @@ def main() -> None:
     scurves = bench_scurve_batch(args.quick)
     calls = bench_optimal_calls(args.quick)  # first: sizes not yet built by section 5
     scaling = bench_optimal_scaling(args.quick)
-    success = bench_success(n_success)
+    success = bench_success(n_success, args.success_json)
 
     # ------------------------------------------------------------------------- README rows
     names = {"teachbot6": "teachbot6", "ur5": "UR5"}
