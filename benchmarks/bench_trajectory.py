@@ -164,13 +164,29 @@ def bench_ruckig(robot, extra, rng, n):
 
 
 # ----------------------------------------------------------------------------- 2. TOPP-RA
+_TOPPRA_LOGGING: list[str] = []  # the level set by quiet_toppra (once per process)
+
+
+def quiet_toppra(level: str = "ERROR") -> None:
+    """TOPP-RA's own logging (``toppra.setup_logging``, which adds a console handler at each
+    call) set once per process at ``level``: its warning per failed parameterisation ("The
+    controllable set at step [i / N] can't be computed", "Fail to parametrize path") is not
+    printed; the benchmarks count TOPP-RA's failures instead (``compute_trajectory`` returns
+    None)."""
+    import toppra as ta
+
+    if not _TOPPRA_LOGGING:
+        ta.setup_logging(level)
+        _TOPPRA_LOGGING.append(level)
+
+
 def toppra_problem(robot, w, v, a, tau):
     """TOPP-RA's path (the same spline and parameter as ours) and its velocity, acceleration
     and torque constraints; also used by ``bench_topp.py``."""
     import toppra as ta
     import toppra.constraint as constraint
 
-    ta.setup_logging("WARNING")
+    quiet_toppra()
     gp = GeometricPath(w, robot.n_joints)  # the same spline and parameter as ours
     path = ta.SplineInterpolator(gp.s_points, w, bc_type="not-a-knot")
     data = robot.model.createData()
@@ -247,6 +263,7 @@ def bench_toppra(robot, extra, rng, n):
             "ratio_stretched",
         )
     }
+    failed = 0  # TOPP-RA found no parameterisation (its case left out of the ratios)
     for _ in range(n):
         while True:  # a path whose spline stays inside the joint ranges
             w = draw_waypoints(robot, rng, TOPP_WAYPOINTS, step=TOPP_STEP_RAD)
@@ -257,6 +274,7 @@ def bench_toppra(robot, extra, rng, n):
                 continue
         peer, peer_t = toppra_solve(robot, w, v, a, tau)
         if peer is None:
+            failed += 1
             continue
         rep = peer.check_limits(robot, dt=peer.duration / CHECK_SAMPLES, limits=lim)
         t0 = time.perf_counter()
@@ -273,7 +291,7 @@ def bench_toppra(robot, extra, rng, n):
         out["peer_worst"].append(max(float(np.max(r)) for r in rep.ratios.values()))
         for key, tr in (("ours_worst", ours), ("free_worst", free)):
             out[key].append(max(float(np.max(r)) for r in tr.report.ratios.values()))
-    return {k: np.array(x) for k, x in out.items()}
+    return {**{k: np.array(x) for k, x in out.items()}, "peer_failed": failed, "n": n}
 
 
 # ----------------------------------------------------------------------------- 3. full
@@ -450,7 +468,49 @@ def bench_optimal_scaling(quick: bool = False) -> dict:
 
 
 # ----------------------------------------------------------------------------- 7. whole call
-CALLS_CASES = 5  # per waypoint count (2 with --quick)
+CALLS_CASES = 10  # timed calls per waypoint count (3 with --quick)
+CALLS_PTP = 100  # 2-waypoint v/a/j problems timed against Ruckig (20 with --quick)
+CALLS_DRIVE = 5  # 3-waypoint moves, drive-limited and torque box (2 with --quick)
+FIRST_WARMUP_WAYPOINTS = 3  # the first-call process plans this size first (not in the table)
+#: measured at 91f2439 (main when issue 26 started, fatrop, this 2-core machine; the issue's
+#: brief), kept as a stated row, not re-measured: whole call and TOPP-RA by waypoint count [ms]
+#: (medians), first call over a repeat (worst size), 2-waypoint v/a/j per call [ms] and Ruckig
+#: [us], drive_limits=True and the torque box on 3 waypoints [ms]
+BEFORE_91F2439 = {
+    "call_ms": {2: 43.0, 5: 81.0, 10: 202.0, 20: 404.0},
+    "toppra_ms": {2: 4.1, 5: 15.0, 10: 33.0, 20: 68.0},
+    "first": 1.53,
+    "optimal_2wp_ms": 1.44,
+    "ptp_sync_ms": 2.68,
+    "ruckig_us": 8.6,
+    "optimal_2wp_x": 168.0,
+    "ptp_sync_x": 312.0,
+    "drive_ms": 1367.0,
+    "box_ms": 186.0,
+    "drive_x": 9.0,  # the median of the per-move ratios (not the ratio of the medians)
+}
+#: the goals of issue 26: key, what, limit (the measured ratio must be <= it)
+CALL_GOALS = (
+    ("toppra5", "whole call / TOPP-RA at 5 waypoints", 15.0),
+    ("scale20", "20-waypoint / 5-waypoint whole call", 6.0),
+    ("optimal2", "2 wp v/a/j optimal() / Ruckig per call", 10.0),
+    ("ptp2", "2 wp v/a/j ptp_sync(scurve) / Ruckig", 10.0),
+    ("first", "first call on a new waypoint count / repeat", 3.0),
+    ("drive", "drive_limits=True / torque box (3 wp)", 2.0),
+)
+
+
+def _before_ratios() -> dict[str, float]:
+    """The goals' ratios at 91f2439 (:data:`BEFORE_91F2439`)."""
+    b = BEFORE_91F2439
+    return {
+        "toppra5": b["call_ms"][5] / b["toppra_ms"][5],
+        "scale20": b["call_ms"][20] / b["call_ms"][5],
+        "optimal2": b["optimal_2wp_x"],
+        "ptp2": b["ptp_sync_x"],
+        "first": b["first"],
+        "drive": b["drive_x"],
+    }
 
 
 def _med_p90(x) -> str:
@@ -458,83 +518,163 @@ def _med_p90(x) -> str:
     return f"{np.median(x):.0f} / {np.percentile(x, 90):.0f}" if x.size else "-"
 
 
-def bench_optimal_calls(quick: bool = False) -> dict:
-    """The whole ``optimal()`` call by waypoint count (issue 26; module docstring, 7).
+def _solvers(stats: list[dict]) -> str:
+    """Which solver gave the plans (``stats["solver"]``, or ``stats["method"]`` where it has no
+    solver), e.g. ``fatrop`` or ``fatrop 8, ipopt 2``."""
+    names = Counter(
+        "closed form" if s.get("method") == "closed_form" else str(s.get("solver", "?"))
+        for s in stats
+    )
+    if len(names) == 1:
+        return next(iter(names))
+    return ", ".join(f"{k} {v}" for k, v in names.most_common())
 
-    teachbot6, its own v/a/j/tau limits, the waypoints of section 5 (70 % of the ranges): wall
-    time of the whole call and the solve (median / p90, ms), the first call on a waypoint count
-    (the compiled problems of every size dropped before it; the per-robot inverse dynamics
-    kept: "after the per-robot build") over the median repeat; TOPP-RA (v/a/torque, its own
-    spline through the same waypoints) where installed; 2 waypoints v/a/j against Ruckig per
-    call (``optimal`` and ``ptp_sync(..., "scurve")``); ``drive_limits=True`` over the torque box
-    on the same 3-waypoint moves (v/torque, ``a_max=j_max=False`` as bench_drive_limits.py)."""
-    import importlib
-    from importlib.util import find_spec
 
-    from ruckig import InputParameter, Ruckig
-    from ruckig import Trajectory as RTrajectory
-
-    from armlab.planning import ptp_sync
-
-    transcription = importlib.import_module("armlab.planning.transcription")
-    robot = armlab.load_robot("teachbot6")
-    L = robot.limits
-    lo, hi = L.lower_rad, L.upper_rad
+def calls_cases(robot, nw: int, n: int) -> list[np.ndarray]:
+    """``n`` random ``nw``-waypoint problems of section 7 (70 % of the ranges, statically
+    feasible waypoints; seed ``SEED + 7 + nw``), the same in every process."""
+    lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
     mid, half = (lo + hi) / 2, (hi - lo) / 2 * SCALING_RANGE
-    n_cases = 2 if quick else CALLS_CASES
-    have_toppra = find_spec("toppra") is not None
-    res: dict = {"n_cases": n_cases}
-    print()
-    print(f"optimal() whole call by waypoint count (teachbot6, v/a/j/tau, seed {SEED + 7:d})")
+    rng = np.random.default_rng(SEED + 7 + nw)
+    cases: list[np.ndarray] = []
+    while len(cases) < n:
+        w = mid + half * (2 * rng.random((nw, robot.n_joints)) - 1)
+        if all(statically_ok(robot, q) for q in w):
+            cases.append(w)
+    return cases
+
+
+def first_call(nw: int, n: int) -> dict:
+    """In a fresh process (``--first-call NW``): plan a ``FIRST_WARMUP_WAYPOINTS`` problem (the
+    per-robot work: the compiled library loaded, the symbolic functions built), then time the
+    first call on ``nw`` waypoints and ``n`` repeats of that size. Whatever a process keeps per
+    waypoint count is thus paid by the first call, whatever its cache is named."""
+    robot = armlab.load_robot("teachbot6")
+    optimal(robot, calls_cases(robot, FIRST_WARMUP_WAYPOINTS, 1)[0])
+    cases = calls_cases(robot, nw, n)
+    t0 = time.perf_counter()
+    tr = optimal(robot, cases[0])
+    first = time.perf_counter() - t0
+    repeat = []
+    for w in cases:
+        t0 = time.perf_counter()
+        optimal(robot, w)
+        repeat.append(time.perf_counter() - t0)
+    return {"first_s": first, "repeat_s": float(np.median(repeat)), "solver": tr.stats["solver"]}
+
+
+def _first_call_subprocess(nw: int, n: int) -> dict:
+    """:func:`first_call` in a fresh interpreter (this script with ``--first-call``)."""
+    import json
+    import subprocess
+    import sys
+
+    cmd = [sys.executable, __file__, "--first-call", str(nw), "--first-repeats", str(n)]
+    out = subprocess.run(cmd, capture_output=True, text=True, check=False, env=os.environ)
+    for line in out.stdout.splitlines():
+        if line.startswith("FIRST-CALL\t"):
+            return json.loads(line.split("\t", 1)[1])
+    tail = (out.stderr or out.stdout).strip().splitlines()[-1:] or ["no output"]
+    return {"first_s": np.nan, "repeat_s": np.nan, "solver": f"failed: {tail[0]}"}
+
+
+def _peer_toppra(robot, w) -> float | None:
+    """TOPP-RA's time [s] on ``w`` (v/a/torque, :func:`toppra_solve`), None when it finds no
+    parameterisation (a failure of the peer: counted, its time left out)."""
+    L = robot.limits
+    try:
+        traj, dt = toppra_solve(robot, w, L.velocity_rad_s, L.acceleration_rad_s2, L.effort_Nm)
+    except Exception:  # noqa: BLE001 -- the peer failing is what is counted
+        return None
+    return None if traj is None else dt
+
+
+def _calls_by_size(robot, n_cases: int, have_toppra: bool, res: dict) -> None:
+    """The per-waypoint-count rows of section 7 into ``res[nw]``."""
     hdr = (
-        f"{'wp':>3}{'n':>3}  {'call [ms] med/p90':>18}  {'solve [ms] med/p90':>19}  "
-        f"{'first/repeat':>12}  {'TOPP-RA [ms] med':>16}  {'call/TOPP-RA':>12}"
+        f"{'wp':>3}{'n':>4}  {'call [ms] med/p90':>18}  {'solve [ms] med/p90':>19}  "
+        f"{'solver':<16}{'first/repeat':>12}  {'TOPP-RA [ms] med':>16}  {'TOPP-RA failed':>14}  "
+        f"{'call/TOPP-RA':>12}"
     )
     print(hdr)
     print("-" * len(hdr))
-    optimal(robot, mid + half * np.eye(2, robot.n_joints))  # per-robot functions, not timed
+    b = BEFORE_91F2439
     for nw in SCALING_WAYPOINTS:
-        rng = np.random.default_rng(SEED + 7 + nw)
-        cases = []
-        while len(cases) < n_cases:
-            w = mid + half * (2 * rng.random((nw, robot.n_joints)) - 1)
-            if all(statically_ok(robot, q) for q in w):
-                cases.append(w)
-        transcription._STRUCTURES.clear()  # a waypoint count this process has not seen
-        t0 = time.perf_counter()
-        optimal(robot, cases[0])
-        first = time.perf_counter() - t0
-        call, solve, peer = [], [], []
+        cases = calls_cases(robot, nw, n_cases)
+        optimal(robot, cases[0])  # this size's first call (timed apart, in a fresh process)
+        call, solve, stats, peer, refused = [], [], [], [], 0
         for w in cases:
             t0 = time.perf_counter()
             try:
                 tr = optimal(robot, w)
             except ArmlabError:
+                refused += 1
                 continue
-            call.append(time.perf_counter() - t0)
+            elapsed = time.perf_counter() - t0
+            dt = _peer_toppra(robot, w) if have_toppra else None
+            call.append(elapsed)
             solve.append(tr.stats["solve_time_s"])
-            if have_toppra:
-                _, dt = toppra_solve(robot, w, L.velocity_rad_s, L.acceleration_rad_s2, L.effort_Nm)
-                peer.append(dt)
-        ratio = first / np.median(call)
-        peer_med = f"{1e3 * np.median(peer):.1f}" if peer else "not installed"
-        vs = f"{np.median(call) / np.median(peer):.0f}x" if peer else "-"
+            stats.append(tr.stats)
+            if dt is not None:
+                peer.append((elapsed, dt))
+        fc = _first_call_subprocess(nw, min(n_cases, 5))
+        ratio = fc["first_s"] / fc["repeat_s"]
+        if have_toppra:
+            pc = np.array(peer).reshape(-1, 2)
+            peer_med = f"{1e3 * np.median(pc[:, 1]):.1f}" if len(pc) else "-"
+            fails = f"{len(call) - len(pc)}/{len(call)}"
+            vs = np.median(pc[:, 0]) / np.median(pc[:, 1]) if len(pc) else np.nan
+        else:
+            peer_med, fails, vs = "not installed", "-", np.nan
+        used = _solvers(stats) + (f", {refused} refused" if refused else "")
         print(
-            f"{nw:>3}{n_cases:>3}  {_med_p90(call):>18}  {_med_p90(solve):>19}  {ratio:>12.2f}  "
-            f"{peer_med:>16}  {vs:>12}",
+            f"{nw:>3}{len(call):>4}  {_med_p90(call):>18}  {_med_p90(solve):>19}  {used:<16}"
+            f"{ratio:>12.2f}  {peer_med:>16}  {fails:>14}  {vs:>11.1f}x",
             flush=True,
         )
-        res[nw] = (float(np.median(call)), float(np.median(solve)), ratio)
-    # 2 waypoints, v/a/j, no torque: the public calls against Ruckig, per call
+        for why, k in Counter(s["fallback"] for s in stats if s.get("fallback")).items():
+            print(f"{'':>9}fell back to IPOPT {k}x: {why}")
+        if not str(fc["solver"]).startswith(("fatrop", "ipopt")):
+            print(f"{'':>9}first-call process: {fc['solver']}")
+        res[nw] = {
+            "call": float(np.median(call)),
+            "solve": float(np.median(solve)),
+            "first": ratio,
+            "toppra": float(np.median(np.array(peer)[:, 1])) if peer else np.nan,
+            "vs_toppra": float(vs),
+            "toppra_failed": len(call) - len(peer) if have_toppra else -1,
+            "solver": used,
+        }
+    before = ", ".join(
+        f"{nw} wp {b['call_ms'][nw]:.0f} ms (TOPP-RA {b['toppra_ms'][nw]:g})"
+        for nw in SCALING_WAYPOINTS
+    )
+    print(f"measured at 91f2439 (not re-measured): {before}; first call <= {b['first']}x")
+
+
+def _calls_ptp(robot, n: int, res: dict) -> None:
+    """2 waypoints, v/a/j, no torque: ``optimal`` and ``ptp_sync(..., "scurve")`` per call
+    against Ruckig's ``calculate`` (inputs set beforehand) on the same problems."""
+    from ruckig import InputParameter, Ruckig
+    from ruckig import Trajectory as RTrajectory
+
+    from armlab.planning import ptp_sync
+
+    L = robot.limits
     v, a, j = L.velocity_rad_s, L.acceleration_rad_s2, L.jerk_rad_s3
+    lo, hi = L.lower_rad, L.upper_rad
+    mid, half = (lo + hi) / 2, (hi - lo) / 2 * SCALING_RANGE
     rng = np.random.default_rng(SEED + 72)
-    ws = [mid + half * (2 * rng.random((2, robot.n_joints)) - 1) for _ in range(20 * n_cases)]
-    t_opt, t_ptp, t_rk = [], [], []
+    ws = [mid + half * (2 * rng.random((2, robot.n_joints)) - 1) for _ in range(n)]
     nj = robot.n_joints
+    optimal(robot, ws[0], tau_max=False)  # warm: imports, first calls
+    ptp_sync(robot, ws[0][0], ws[0][1], "scurve", tau_max=False)
+    t_opt, t_ptp, t_rk, stats = [], [], [], []
     for w in ws:
         t0 = time.perf_counter()
         tr = optimal(robot, w, tau_max=False)
         t_opt.append(time.perf_counter() - t0)
+        stats.append(tr.stats)
         t0 = time.perf_counter()
         ptp_sync(robot, w[0], w[1], "scurve", tau_max=False)
         t_ptp.append(time.perf_counter() - t0)
@@ -544,47 +684,137 @@ def bench_optimal_calls(quick: bool = False) -> dict:
         t0 = time.perf_counter()
         otg.calculate(inp, rt)
         t_rk.append(time.perf_counter() - t0)
-    method = tr.stats.get("method", "transcription")
+    methods = Counter(str(s.get("method", "transcription")) for s in stats)
+    method = ", ".join(f"{k} {c}" if len(methods) > 1 else k for k, c in methods.most_common())
     rk = float(np.median(t_rk))
-    res["ruckig"] = (float(np.median(t_opt)) / rk, float(np.median(t_ptp)) / rk, rk, method)
+    res["ptp"] = {
+        "optimal_ms": 1e3 * float(np.median(t_opt)),
+        "ptp_ms": 1e3 * float(np.median(t_ptp)),
+        "ruckig_us": 1e6 * rk,
+        "optimal2": float(np.median(t_opt)) / rk,
+        "ptp2": float(np.median(t_ptp)) / rk,
+        "method": method,
+        "solver": _solvers(stats),
+    }
+    p, b = res["ptp"], BEFORE_91F2439
     print(
-        f"2 wp v/a/j per call: optimal ({method}) {1e3 * np.median(t_opt):.2f} ms = "
-        f"{res['ruckig'][0]:.0f}x Ruckig, ptp_sync scurve {1e3 * np.median(t_ptp):.2f} ms = "
-        f"{res['ruckig'][1]:.0f}x Ruckig ({1e6 * rk:.1f} us)"
+        f"2 wp v/a/j per call ({n} problems): optimal ({method}; {p['solver']}) "
+        f"{p['optimal_ms']:.3f} ms = {p['optimal2']:.0f}x Ruckig, ptp_sync scurve "
+        f"{p['ptp_ms']:.3f} ms = {p['ptp2']:.0f}x Ruckig ({p['ruckig_us']:.1f} us); at 91f2439 "
+        f"{b['optimal_2wp_ms']} ms = {b['optimal_2wp_x']:.0f}x and {b['ptp_sync_ms']} ms = "
+        f"{b['ptp_sync_x']:.0f}x (Ruckig {b['ruckig_us']} us)"
     )
-    # drive-limited against the torque box, the same moves (repeats: sizes built first)
+
+
+def _calls_drive(robot, n: int, res: dict) -> None:
+    """``drive_limits=True`` over the torque box on the same 3-waypoint moves (v/torque,
+    ``a_max=j_max=False`` as bench_drive_limits.py), repeats (each size planned once first)."""
+    L = robot.limits
+    lo, hi = L.lower_rad, L.upper_rad
+    mid, half = (lo + hi) / 2, (hi - lo) / 2 * SCALING_RANGE
     rng = np.random.default_rng(SEED + 73)
-    box, drive = [], []
+    box, drive, s_box, s_drive = [], [], [], []
     kw = dict(a_max=False, j_max=False)
-    for i in range(n_cases):
+    for i in range(n):
         w = mid + 0.5 * half * (2 * rng.random((3, robot.n_joints)) - 1)
         if i == 0:
             optimal(robot, w, **kw)
             optimal(robot, w, drive_limits=True, **kw)
-        for out, dl in ((box, False), (drive, True)):
+        for out, st, dl in ((box, s_box, False), (drive, s_drive, True)):
             t0 = time.perf_counter()
-            optimal(robot, w, drive_limits=dl, **kw)
+            tr = optimal(robot, w, drive_limits=dl, **kw)
             out.append(time.perf_counter() - t0)
-    res["drive"] = float(np.median(np.array(drive) / np.array(box)))
+            st.append(tr.stats)
+    res["drive"] = {
+        "ratio": float(np.median(np.array(drive) / np.array(box))),
+        "drive_ms": 1e3 * float(np.median(drive)),
+        "box_ms": 1e3 * float(np.median(box)),
+        "solver": f"{_solvers(s_drive)} / {_solvers(s_box)}",
+    }
+    d, b = res["drive"], BEFORE_91F2439
     print(
-        f"3 wp v/torque: drive_limits=True {_med_p90(drive)} ms, torque box {_med_p90(box)} ms "
-        f"(med/p90): drive / box median {res['drive']:.1f}x"
+        f"3 wp v/torque ({n} moves): drive_limits=True {_med_p90(drive)} ms, torque box "
+        f"{_med_p90(box)} ms (med/p90; solvers {d['solver']}): drive / box median "
+        f"{d['ratio']:.1f}x; at 91f2439 {b['drive_ms']:.0f} vs {b['box_ms']:.0f} ms"
     )
+
+
+def calls_goals(res: dict) -> list[tuple[str, float, float, float, bool]]:
+    """The goals of issue 26 (:data:`CALL_GOALS`): (what, limit, at 91f2439, now, met)."""
+    now = {
+        "toppra5": res[5]["vs_toppra"],
+        "scale20": res[20]["call"] / res[5]["call"],
+        "optimal2": res["ptp"]["optimal2"],
+        "ptp2": res["ptp"]["ptp2"],
+        "first": max(res[nw]["first"] for nw in SCALING_WAYPOINTS),
+        "drive": res["drive"]["ratio"],
+    }
+    before = _before_ratios()
+    return [(what, lim, before[k], now[k], bool(now[k] <= lim)) for k, what, lim in CALL_GOALS]
+
+
+def bench_optimal_calls(quick: bool = False) -> dict:
+    """The whole ``optimal()`` call by waypoint count (issue 26; module docstring, 7).
+
+    teachbot6, its own v/a/j/tau limits, the waypoints of section 5 (70 % of the ranges): wall
+    time of the whole call and the solve (median / p90, ms, repeats), which solver gave the plans
+    (``stats["solver"]``), the first call on a waypoint count over a repeat (measured in a fresh
+    process after a plan of another size: "after the per-robot compile"), TOPP-RA (v/a/torque,
+    its own spline through the same waypoints, the solve alone) where installed, with its
+    failures counted and their times left out; 2 waypoints v/a/j against Ruckig per call
+    (``optimal`` and ``ptp_sync(..., "scurve")``); ``drive_limits=True`` over the torque box;
+    then each goal of issue 26 against the same ratio at 91f2439 (:data:`BEFORE_91F2439`,
+    stated, not re-measured), met or not."""
+    from importlib.util import find_spec
+
+    robot = armlab.load_robot("teachbot6")
+    n_cases = 3 if quick else CALLS_CASES
+    have_toppra = find_spec("toppra") is not None
+    if have_toppra:
+        quiet_toppra()
+    res: dict = {"n_cases": n_cases}
+    print()
+    print(f"optimal() whole call by waypoint count (teachbot6, v/a/j/tau, seed {SEED + 7:d})")
+    optimal(robot, calls_cases(robot, FIRST_WARMUP_WAYPOINTS, 1)[0])  # per robot, not timed
+    _calls_by_size(robot, n_cases, have_toppra, res)
+    _calls_ptp(robot, 20 if quick else CALLS_PTP, res)
+    _calls_drive(robot, 2 if quick else CALLS_DRIVE, res)
+    res["goals"] = calls_goals(res)
+    print()
+    hdr = f"{'goal (issue 26)':<46}{'limit':>7}  {'at 91f2439':>10}  {'now':>8}  verdict"
+    print(hdr)
+    print("-" * len(hdr))
+    for what, lim, before, now, met in res["goals"]:
+        print(
+            f"{what:<46}{lim:>6.0f}x  {before:>9.2f}x  {now:>7.2f}x  "
+            f"{'goal met' if met else 'goal NOT met'}"
+        )
     return res
 
 
 def calls_row(res: dict) -> None:
-    """README row of section 7: the whole optimal() call (issue 26)."""
-    cells = ", ".join(f"{nw} wp {1e3 * res[nw][0]:.0f} ms" for nw in SCALING_WAYPOINTS)
-    first = max(res[nw][2] for nw in SCALING_WAYPOINTS)
-    r_opt, r_ptp, rk, method = res["ruckig"]
+    """README row of section 7: the whole optimal() call and the goals of issue 26."""
+    cells = ", ".join(f"{nw} wp {1e3 * res[nw]['call']:.0f} ms" for nw in SCALING_WAYPOINTS)
+    solvers = sorted({res[nw]["solver"] for nw in SCALING_WAYPOINTS})
+    goals = "; ".join(
+        f"{what} {now:.3g}x (goal <= {lim:g}x, {'met' if met else 'NOT met'}; {before:.3g}x at "
+        "91f2439)"
+        for what, lim, before, now, met in res["goals"]
+    )
+    peer = ", ".join(
+        f"{nw} wp {1e3 * res[nw]['toppra']:.1f} ms"
+        + (f" ({res[nw]['toppra_failed']} failed)" if res[nw]["toppra_failed"] > 0 else "")
+        for nw in SCALING_WAYPOINTS
+    )
+    b = BEFORE_91F2439
     readme_row(
         __file__,
-        "`optimal` whole call by waypoint count (teachbot6, v/a/j/tau, median; issue 26)",
-        f"{cells}; first call on a new waypoint count <= {first:.1f}x a repeat; 2 wp v/a/j "
-        f"({method}) {r_opt:.0f}x Ruckig, `ptp_sync` scurve {r_ptp:.0f}x; drive_limits "
-        f"{res['drive']:.1f}x the torque box",
-        f"Ruckig {1e6 * rk:.1f} us per case",
+        "`optimal` whole call by waypoint count (teachbot6, v/a/j/tau, median of "
+        f"{res['n_cases']}; issue 26 goals, before = 91f2439: "
+        + ", ".join(f"{nw} wp {b['call_ms'][nw]:.0f} ms" for nw in SCALING_WAYPOINTS)
+        + ")",
+        f"{cells} ({'; '.join(solvers)}); {goals}",
+        f"TOPP-RA (v/a/torque) {peer}; Ruckig {res['ptp']['ruckig_us']:.1f} us per case",
     )
 
 
@@ -885,7 +1115,14 @@ def main() -> None:
         action="store_true",
         help="only the side-by-side with Ruckig and (where installed) TOPP-RA: notebook 03",
     )
+    ap.add_argument("--first-call", type=int, metavar="NW", help=argparse.SUPPRESS)
+    ap.add_argument("--first-repeats", type=int, default=5, help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.first_call:  # section 7's first call, in the fresh process run_calls starts
+        import json
+
+        print("FIRST-CALL\t" + json.dumps(first_call(args.first_call, args.first_repeats)))
+        return
     if args.peers_only:
         peers_table(args.quick)
         return
@@ -997,7 +1234,9 @@ def main() -> None:
         + f"; armlab over a limit on the fine grid on {ours_over} of {len(topp)} paths; "
         "`optimal` (free path through the waypoints) / TOPP-RA: median "
         + " / ".join(f"{np.median(r[3]['ratio_free']):.2f}" for r in rows),
-        f"TOPP-RA {np.min(peer_ms):.0f}-{np.max(peer_ms):.0f} ms per path",
+        f"TOPP-RA {np.min(peer_ms):.0f}-{np.max(peer_ms):.0f} ms per path; no "
+        f"parameterisation on {sum(r[3]['peer_failed'] for r in rows)} of "
+        f"{sum(r[3]['n'] for r in rows)} paths (left out)",
     )
     readme_row(
         __file__,
@@ -1046,6 +1285,10 @@ def toppra_lines(name: str, r2: dict) -> None:
         f"{np.median(r2['ratio_free']):>9.4f}  {np.max(r2['ratio_free']):>9.4f}  "
         f"{np.median(r2['free_t']):>12.3f}  {np.median(r2['peer_t']):>12.4f}  "
         f"{ok_free:>8}/{peer_ok:<9}"
+    )
+    print(
+        f"{'  TOPP-RA found no parameterisation (left out)':<47}{name:<11}{r2['n']:>4}  "
+        f"{r2['peer_failed']:>9d} of {r2['n']} paths"
     )
     print(
         f"{'  TOPP-RA worst limit ratio on the fine grid':<47}{name:<11}{n2:>4}  "
