@@ -51,6 +51,7 @@ import argparse  # noqa: E402
 import time  # noqa: E402
 from collections import Counter  # noqa: E402
 from contextlib import contextmanager  # noqa: E402
+from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
@@ -125,9 +126,9 @@ def draw_waypoints(robot, rng, n, step=None):
                 else w[-1] + rng.uniform(-step, step, robot.n_joints)
             )
             w.append(np.clip(q, robot.limits.lower_rad + 1e-3, robot.limits.upper_rad - 1e-3))
-        w = np.array(w)
-        if all(statically_ok(robot, q) for q in w):
-            return w
+        ws = np.array(w)
+        if all(statically_ok(robot, q) for q in ws):
+            return ws
 
 
 # ----------------------------------------------------------------------------- 1. Ruckig
@@ -249,7 +250,7 @@ def stretch_to_feasible(robot, traj, v, a, tau, iters: int = 30) -> float:
 def bench_toppra(robot, extra, rng, n):
     v, a, _, tau = limits_of(robot, extra)
     lim = robot.with_limits(acceleration_rad_s2=a, jerk_rad_s3=None).limits
-    out = {
+    out: dict[str, list] = {
         k: []
         for k in (
             "ratio_path",
@@ -400,8 +401,8 @@ def bench_optimal_scaling(quick: bool = False) -> dict:
     import importlib
 
     # the module whose solve reads WARM_RESOLVE
-    optimal_module = importlib.import_module("armlab.planning.optimal_problem")
-    transcription = importlib.import_module("armlab.planning.transcription")
+    optimal_module: Any = importlib.import_module("armlab.planning.optimal_problem")
+    transcription: Any = importlib.import_module("armlab.planning.transcription")
     pivot_now = transcription.MUMPS_PIVOT_ORDER
     robot = armlab.load_robot("teachbot6")
     lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
@@ -427,7 +428,7 @@ def bench_optimal_scaling(quick: bool = False) -> dict:
     for kind, tau in (("v/a/j", False), ("v/a/j/tau", None)):
         for nw in SCALING_WAYPOINTS:
             rng = np.random.default_rng(SEED + 5 + nw)
-            cases = []
+            cases: list[np.ndarray] = []
             while len(cases) < n_cases:
                 w = mid + half * (2 * rng.random((nw, robot.n_joints)) - 1)
                 if all(statically_ok(robot, q) for q in w):
@@ -476,7 +477,7 @@ FIRST_WARMUP_WAYPOINTS = 3  # the first-call process plans this size first (not 
 #: brief), kept as a stated row, not re-measured: whole call and TOPP-RA by waypoint count [ms]
 #: (medians), first call over a repeat (worst size), 2-waypoint v/a/j per call [ms] and Ruckig
 #: [us], drive_limits=True and the torque box on 3 waypoints [ms]
-BEFORE_91F2439 = {
+BEFORE_91F2439: dict[str, Any] = {
     "call_ms": {2: 43.0, 5: 81.0, 10: 202.0, 20: 404.0},
     "toppra_ms": {2: 4.1, 5: 15.0, 10: 33.0, 20: 68.0},
     "first": 1.53,
@@ -713,7 +714,10 @@ def _calls_drive(robot, n: int, res: dict) -> None:
     lo, hi = L.lower_rad, L.upper_rad
     mid, half = (lo + hi) / 2, (hi - lo) / 2 * SCALING_RANGE
     rng = np.random.default_rng(SEED + 73)
-    box, drive, s_box, s_drive = [], [], [], []
+    box: list[float] = []
+    drive: list[float] = []
+    s_box: list[dict] = []
+    s_drive: list[dict] = []
     kw = dict(a_max=False, j_max=False)
     for i in range(n):
         w = mid + 0.5 * half * (2 * rng.random((3, robot.n_joints)) - 1)
