@@ -6,7 +6,9 @@
 2. A 5-waypoint joint path with velocity/acceleration/torque limits vs TOPP-RA on the same
    cubic spline (chord-length parameter, not-a-knot): ``time_optimal_path`` (same path) and
    ``optimal`` (free path through the same via points). Goal: ratio <= 1.00, both checked on
-   the same fine grid (dt = T/4000, our ``Trajectory.check_limits``).
+   the same fine grid (dt = T/4000, our ``Trajectory.check_limits``). A path TOPP-RA finds no
+   parameterisation for is counted as its failure and left out of the ratios (its log warnings
+   are silenced: ``quiet_toppra``).
 3. The full problem with all four limits (no peer does it): success rate and solve time over
    random 3-waypoint requests. Goal: 100 % success, median solve < 1 s on one core.
 4. The rest-to-rest v/a/j PTP in closed form (``synchronised_scurves``) vs Ruckig: the same
@@ -21,21 +23,30 @@
    success rate and the largest duration change from "before". Goals (issue 15): v/a/j/tau
    median <= 50 ms at 5 waypoints, <= 300 ms at 20, 100 % success, durations within 0.5 %;
    ``--optimal-scaling-only`` runs this table alone.
-6. ``optimal`` success on random problems (issue 15): ``--success N`` (default 1000, 20 with
-   ``--quick``) random 5-waypoint v/a/j/tau problems on teachbot6 (its own limits, waypoints in
-   70 % of the ranges), each planned within every limit (``check_limits`` at ``T/4000``, 1e-9),
-   refused by name as *provably* infeasible (gravity alone at a waypoint over a torque limit,
-   by ``pinocchio``; these draws are run but not counted among the ``N``), or a failure (a
-   refusal not proved, an unnamed error, a plan over a limit); median / p90 / max IPOPT time.
-   Goal: 100 %. ``--success-only`` runs this table alone (~6 min for 1000 on one core: run it
-   with ``nice -n 19``).
+6. ``optimal`` success on random problems (issues 15, 26): ``--success N`` (default 1000, 20
+   with ``--quick``) random 5-waypoint v/a/j/tau problems on teachbot6 (its own limits,
+   waypoints in 70 % of the ranges), each planned twice, by the default solver (fatrop where it
+   applies) and by IPOPT (``ARMLAB_SOLVER=ipopt`` around the call), and classified per solver:
+   planned within every limit (``check_limits`` at ``T/4000``, 1e-9), refused by name as
+   *provably* infeasible (gravity alone at a waypoint over a torque limit, by ``pinocchio``;
+   these draws are run but not counted among the ``N``), or a failure (a refusal not proved, an
+   unnamed error, a plan over a limit), each failure named by its case index; how many of the
+   default solver's plans fell back to IPOPT (``stats["solver"]``, ``stats["fallback"]``); the
+   largest duration difference between the two on the same case; median / p90 / max solve time
+   per solver. Goals: 100 % for each, durations within 1e-6 s. ``--success-only`` runs this
+   table alone (~10 min for 1000 on a shared 2-core machine: run it with ``nice -n 19``;
+   ``--success-json PATH`` keeps every case).
 7. The whole ``optimal()`` call (issue 26): at 2/5/10/20 waypoints (teachbot6, v/a/j/tau) the
-   median and p90 of the call and of the solve, the first call on a waypoint count over a
-   repeat, TOPP-RA (v/a/torque) on the same waypoints where installed; 2 waypoints v/a/j
+   median and p90 of the call and of the solve and the solver that gave the plans
+   (``stats["solver"]``, fallbacks named), the first call on a waypoint count over a repeat
+   (in a fresh process, after a plan of another size), TOPP-RA (v/a/torque) on the same
+   waypoints where installed (its failures counted, their times left out); 2 waypoints v/a/j
    (``optimal``'s closed form, ``ptp_sync``) per call against Ruckig; ``drive_limits=True``
    over the torque box. Goals (issue 26): whole call <= 15x TOPP-RA at 5 waypoints, 20
    waypoints <= 6x the 5-waypoint time, 2-waypoint v/a/j <= 10x Ruckig, first call <= 3x a
-   repeat, drive-limited <= 2x the torque box. ``--calls-only`` runs this table alone.
+   repeat, drive-limited <= 2x the torque box: a table of each goal's ratio now, at 91f2439
+   (``BEFORE_91F2439``, stated, not re-measured) and met / not met. ``--calls-only`` runs this
+   table alone (~1-2 min).
 
 Run:  ``MPLBACKEND=Agg .venv/bin/python benchmarks/bench_trajectory.py [--quick]``
 """
@@ -1032,6 +1043,10 @@ def success_print(res: dict) -> None:
           f"{fat['fallback']}")  # fmt: skip
     for why, k in fat["reasons"].most_common(5):
         print(f"    {k:>5} x {why}")
+    fell = [c["case"] for c in res["by_solver"]["fatrop"]
+            if c["verdict"] == VERDICTS[0] and c["used"] != "fatrop"]  # fmt: skip
+    if fell:
+        print(f"    cases: {', '.join(map(str, fell[:20]))}{' ...' if len(fell) > 20 else ''}")
     for s in SOLVERS:
         r = res[s]
         if r["solve"].size:
@@ -1210,7 +1225,7 @@ def main() -> None:
         f" (< 1 s)"
     )
     scurves = bench_scurve_batch(args.quick)
-    calls = bench_optimal_calls(args.quick)  # first: sizes not yet built by section 5
+    calls = bench_optimal_calls(args.quick)
     scaling = bench_optimal_scaling(args.quick)
     success = bench_success(n_success, args.success_json)
 
