@@ -572,7 +572,8 @@ def first_call(nw: int, n: int) -> dict:
         t0 = time.perf_counter()
         optimal(robot, w)
         repeat.append(time.perf_counter() - t0)
-    return {"first_s": first, "repeat_s": float(np.median(repeat)), "solver": tr.stats["solver"]}
+    solver = tr.stats.get("solver", "?")
+    return {"first_s": first, "repeat_s": float(np.median(repeat)), "solver": solver}
 
 
 def _first_call_subprocess(nw: int, n: int) -> dict:
@@ -710,7 +711,7 @@ def _calls_ptp(robot, n: int, res: dict) -> None:
     }
     p, b = res["ptp"], BEFORE_91F2439
     print(
-        f"2 wp v/a/j per call ({n} problems): optimal ({method}; {p['solver']}) "
+        f"2 wp v/a/j per call ({n} problems): optimal ({p['solver']}) "
         f"{p['optimal_ms']:.3f} ms = {p['optimal2']:.0f}x Ruckig, ptp_sync scurve "
         f"{p['ptp_ms']:.3f} ms = {p['ptp2']:.0f}x Ruckig ({p['ruckig_us']:.1f} us); at 91f2439 "
         f"{b['optimal_2wp_ms']} ms = {b['optimal_2wp_x']:.0f}x and {b['ptp_sync_ms']} ms = "
