@@ -48,7 +48,7 @@
    waypoints <= 6x the 5-waypoint time, 2-waypoint v/a/j <= 10x Ruckig, first call <= 3x a
    repeat, drive-limited <= 2x the torque box: a table of each goal's ratio now, at 91f2439
    (``BEFORE_91F2439``, stated, not re-measured) and met / not met. ``--calls-only`` runs this
-   table alone (~2-3 min on a loaded 2-core machine).
+   table alone (54 s on the shared 2-core machine at load 3, 2.5 min at load 4).
 
 Run:  ``MPLBACKEND=Agg .venv/bin/python benchmarks/bench_trajectory.py [--quick]``
 """
