@@ -5,6 +5,8 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 # the dependency versions .venv installs (pip constraints); `make lock` regenerates it
 LOCK := requirements/lock.txt
+# the versions `make bench` adds for the peers (the bench extra over $(LOCK)); `make lock` too
+BENCH_LOCK := requirements/lock-bench.txt
 
 .PHONY: demo test test-latest lint docs bench soak clean setup lock
 
@@ -31,7 +33,8 @@ test-latest:
 	.venv-latest/bin/python -m pip freeze --exclude-editable > .venv-latest/versions.txt
 	MPLBACKEND=Agg .venv-latest/bin/python -m pytest -q
 
-# regenerate $(LOCK): the newest allowed releases of the test and docs extras, frozen
+# regenerate $(LOCK): the newest allowed releases of the test and docs extras, frozen; then
+# $(BENCH_LOCK): the bench extra installed over those versions, the packages it adds, frozen
 lock:
 	rm -rf .venv-lock
 	$(PYTHON) -m venv .venv-lock
@@ -40,6 +43,11 @@ lock:
 	head -n 3 $(LOCK) > $(LOCK).new
 	.venv-lock/bin/python -m pip freeze --exclude-editable | grep -v '^armlab' >> $(LOCK).new
 	mv $(LOCK).new $(LOCK)
+	.venv-lock/bin/python -m pip install --quiet -c $(LOCK) -e ".[test,docs,bench]"
+	head -n 3 $(BENCH_LOCK) > $(BENCH_LOCK).new
+	.venv-lock/bin/python -m pip freeze --exclude-editable | grep -v '^armlab' \
+		| { grep -v -x -F -f $(LOCK) || true; } >> $(BENCH_LOCK).new
+	mv $(BENCH_LOCK).new $(BENCH_LOCK)
 	rm -rf .venv-lock
 
 # ruff (lint + format check) and mypy (files and settings in pyproject.toml [tool.mypy])
@@ -53,9 +61,10 @@ docs: $(STAMP)
 	$(PY) -m pip install --quiet -c $(LOCK) -e ".[test,docs]"
 	$(VENV)/bin/mkdocs build --strict
 
-# every benchmarks/bench_*.py (outputs in out/bench/); regenerates README.md's benchmark table
+# every benchmarks/bench_*.py (outputs in out/bench/); regenerates README.md's benchmark table;
+# the peers (TOPP-RA, Robotics Toolbox) at the versions of $(BENCH_LOCK), the rest at $(LOCK)'s
 bench: $(STAMP)
-	$(PY) -m pip install --quiet -c $(LOCK) -e ".[test,bench]"
+	$(PY) -m pip install --quiet -c $(LOCK) -c $(BENCH_LOCK) -e ".[test,bench]"
 	$(PY) benchmarks/run_all.py --update-readme
 
 # the planner property checks of tests/planning/test_planner_properties.py on many more random cases:

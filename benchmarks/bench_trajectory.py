@@ -6,7 +6,9 @@
 2. A 5-waypoint joint path with velocity/acceleration/torque limits vs TOPP-RA on the same
    cubic spline (chord-length parameter, not-a-knot): ``time_optimal_path`` (same path) and
    ``optimal`` (free path through the same via points). Goal: ratio <= 1.00, both checked on
-   the same fine grid (dt = T/4000, our ``Trajectory.check_limits``).
+   the same fine grid (dt = T/4000, our ``Trajectory.check_limits``). A path TOPP-RA finds no
+   parameterisation for is counted as its failure and left out of the ratios (its log warnings
+   are silenced: ``quiet_toppra``).
 3. The full problem with all four limits (no peer does it): success rate and solve time over
    random 3-waypoint requests. Goal: 100 % success, median solve < 1 s on one core.
 4. The rest-to-rest v/a/j PTP in closed form (``synchronised_scurves``) vs Ruckig: the same
@@ -20,22 +22,33 @@
    AMF ordering, ``transcription.MUMPS_PIVOT_ORDER``): median / max IPOPT time, wall per call,
    success rate and the largest duration change from "before". Goals (issue 15): v/a/j/tau
    median <= 50 ms at 5 waypoints, <= 300 ms at 20, 100 % success, durations within 0.5 %;
-   ``--optimal-scaling-only`` runs this table alone.
-6. ``optimal`` success on random problems (issue 15): ``--success N`` (default 1000, 20 with
-   ``--quick``) random 5-waypoint v/a/j/tau problems on teachbot6 (its own limits, waypoints in
-   70 % of the ranges), each planned within every limit (``check_limits`` at ``T/4000``, 1e-9),
-   refused by name as *provably* infeasible (gravity alone at a waypoint over a torque limit,
-   by ``pinocchio``; these draws are run but not counted among the ``N``), or a failure (a
-   refusal not proved, an unnamed error, a plan over a limit); median / p90 / max IPOPT time.
-   Goal: 100 %. ``--success-only`` runs this table alone (~6 min for 1000 on one core: run it
-   with ``nice -n 19``).
+   ``--optimal-scaling-only`` runs this table alone. IPOPT is forced (``ARMLAB_SOLVER=ipopt``):
+   these are its settings; the default solver (fatrop) is timed in section 7. (2 waypoints
+   v/a/j are planned in closed form whatever the solver.)
+6. ``optimal`` success on random problems (issues 15, 26): ``--success N`` (default 1000, 20
+   with ``--quick``) random 5-waypoint v/a/j/tau problems on teachbot6 (its own limits,
+   waypoints in 70 % of the ranges), each planned twice, by the default solver (fatrop where it
+   applies) and by IPOPT (``ARMLAB_SOLVER=ipopt`` around the call), and classified per solver:
+   planned within every limit (``check_limits`` at ``T/4000``, 1e-9), refused by name as
+   *provably* infeasible (gravity alone at a waypoint over a torque limit, by ``pinocchio``;
+   these draws are run but not counted among the ``N``), or a failure (a refusal not proved, an
+   unnamed error, a plan over a limit), each failure named by its case index; how many of the
+   default solver's plans fell back to IPOPT (``stats["solver"]``, ``stats["fallback"]``); the
+   largest duration difference between the two on the same case; median / p90 / max solve time
+   per solver. Goals: 100 % for each, durations within 1e-6 s. ``--success-only`` runs this
+   table alone (~10 min for 1000 on a shared 2-core machine: run it with ``nice -n 19``;
+   ``--success-json PATH`` keeps every case).
 7. The whole ``optimal()`` call (issue 26): at 2/5/10/20 waypoints (teachbot6, v/a/j/tau) the
-   median and p90 of the call and of the solve, the first call on a waypoint count over a
-   repeat, TOPP-RA (v/a/torque) on the same waypoints where installed; 2 waypoints v/a/j
+   median and p90 of the call and of the solve and the solver that gave the plans
+   (``stats["solver"]``, fallbacks named), the first call on a waypoint count over a repeat
+   (in a fresh process, after a plan of another size), TOPP-RA (v/a/torque) on the same
+   waypoints where installed (its failures counted, their times left out); 2 waypoints v/a/j
    (``optimal``'s closed form, ``ptp_sync``) per call against Ruckig; ``drive_limits=True``
    over the torque box. Goals (issue 26): whole call <= 15x TOPP-RA at 5 waypoints, 20
    waypoints <= 6x the 5-waypoint time, 2-waypoint v/a/j <= 10x Ruckig, first call <= 3x a
-   repeat, drive-limited <= 2x the torque box. ``--calls-only`` runs this table alone.
+   repeat, drive-limited <= 2x the torque box: a table of each goal's ratio now, at 91f2439
+   (``BEFORE_91F2439``, stated, not re-measured) and met / not met. ``--calls-only`` runs this
+   table alone (54 s on the shared 2-core machine at load 3, 2.5 min at load 4).
 
 Run:  ``MPLBACKEND=Agg .venv/bin/python benchmarks/bench_trajectory.py [--quick]``
 """
@@ -49,6 +62,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import time  # noqa: E402
+from collections import Counter  # noqa: E402
+from contextlib import contextmanager  # noqa: E402
+from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
@@ -123,9 +139,9 @@ def draw_waypoints(robot, rng, n, step=None):
                 else w[-1] + rng.uniform(-step, step, robot.n_joints)
             )
             w.append(np.clip(q, robot.limits.lower_rad + 1e-3, robot.limits.upper_rad - 1e-3))
-        w = np.array(w)
-        if all(statically_ok(robot, q) for q in w):
-            return w
+        ws = np.array(w)
+        if all(statically_ok(robot, q) for q in ws):
+            return ws
 
 
 # ----------------------------------------------------------------------------- 1. Ruckig
@@ -162,13 +178,29 @@ def bench_ruckig(robot, extra, rng, n):
 
 
 # ----------------------------------------------------------------------------- 2. TOPP-RA
+_TOPPRA_LOGGING: list[str] = []  # the level set by quiet_toppra (once per process)
+
+
+def quiet_toppra(level: str = "ERROR") -> None:
+    """TOPP-RA's own logging (``toppra.setup_logging``, which adds a console handler at each
+    call) set once per process at ``level``: its warning per failed parameterisation ("The
+    controllable set at step [i / N] can't be computed", "Fail to parametrize path") is not
+    printed; the benchmarks count TOPP-RA's failures instead (``compute_trajectory`` returns
+    None)."""
+    import toppra as ta
+
+    if not _TOPPRA_LOGGING:
+        ta.setup_logging(level)
+        _TOPPRA_LOGGING.append(level)
+
+
 def toppra_problem(robot, w, v, a, tau):
     """TOPP-RA's path (the same spline and parameter as ours) and its velocity, acceleration
     and torque constraints; also used by ``bench_topp.py``."""
     import toppra as ta
     import toppra.constraint as constraint
 
-    ta.setup_logging("WARNING")
+    quiet_toppra()
     gp = GeometricPath(w, robot.n_joints)  # the same spline and parameter as ours
     path = ta.SplineInterpolator(gp.s_points, w, bc_type="not-a-knot")
     data = robot.model.createData()
@@ -231,7 +263,7 @@ def stretch_to_feasible(robot, traj, v, a, tau, iters: int = 30) -> float:
 def bench_toppra(robot, extra, rng, n):
     v, a, _, tau = limits_of(robot, extra)
     lim = robot.with_limits(acceleration_rad_s2=a, jerk_rad_s3=None).limits
-    out = {
+    out: dict[str, list] = {
         k: []
         for k in (
             "ratio_path",
@@ -245,6 +277,7 @@ def bench_toppra(robot, extra, rng, n):
             "ratio_stretched",
         )
     }
+    failed = 0  # TOPP-RA found no parameterisation (its case left out of the ratios)
     for _ in range(n):
         while True:  # a path whose spline stays inside the joint ranges
             w = draw_waypoints(robot, rng, TOPP_WAYPOINTS, step=TOPP_STEP_RAD)
@@ -255,6 +288,7 @@ def bench_toppra(robot, extra, rng, n):
                 continue
         peer, peer_t = toppra_solve(robot, w, v, a, tau)
         if peer is None:
+            failed += 1
             continue
         rep = peer.check_limits(robot, dt=peer.duration / CHECK_SAMPLES, limits=lim)
         t0 = time.perf_counter()
@@ -271,7 +305,7 @@ def bench_toppra(robot, extra, rng, n):
         out["peer_worst"].append(max(float(np.max(r)) for r in rep.ratios.values()))
         for key, tr in (("ours_worst", ours), ("free_worst", free)):
             out[key].append(max(float(np.max(r)) for r in tr.report.ratios.values()))
-    return {k: np.array(x) for k, x in out.items()}
+    return {**{k: np.array(x) for k, x in out.items()}, "peer_failed": failed, "n": n}
 
 
 # ----------------------------------------------------------------------------- 3. full
@@ -376,12 +410,20 @@ SCALING_RANGE = 0.7
 
 
 def bench_optimal_scaling(quick: bool = False) -> dict:
-    """``optimal`` on teachbot6 by waypoint count, before / after issue 15 (module docstring, 5)."""
+    """``optimal`` on teachbot6 by waypoint count, before / after issue 15 (module docstring, 5),
+    solved by IPOPT (``ARMLAB_SOLVER=ipopt``): the settings compared are IPOPT's (fatrop, the
+    default since issue 26, is timed by section 7)."""
+    with solver_env("ipopt"):
+        return _scaling_ipopt(quick)
+
+
+def _scaling_ipopt(quick: bool) -> dict:
+    """The body of :func:`bench_optimal_scaling` (IPOPT forced around it)."""
     import importlib
 
     # the module whose solve reads WARM_RESOLVE
-    optimal_module = importlib.import_module("armlab.planning.optimal_problem")
-    transcription = importlib.import_module("armlab.planning.transcription")
+    optimal_module: Any = importlib.import_module("armlab.planning.optimal_problem")
+    transcription: Any = importlib.import_module("armlab.planning.transcription")
     pivot_now = transcription.MUMPS_PIVOT_ORDER
     robot = armlab.load_robot("teachbot6")
     lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
@@ -407,7 +449,7 @@ def bench_optimal_scaling(quick: bool = False) -> dict:
     for kind, tau in (("v/a/j", False), ("v/a/j/tau", None)):
         for nw in SCALING_WAYPOINTS:
             rng = np.random.default_rng(SEED + 5 + nw)
-            cases = []
+            cases: list[np.ndarray] = []
             while len(cases) < n_cases:
                 w = mid + half * (2 * rng.random((nw, robot.n_joints)) - 1)
                 if all(statically_ok(robot, q) for q in w):
@@ -448,7 +490,49 @@ def bench_optimal_scaling(quick: bool = False) -> dict:
 
 
 # ----------------------------------------------------------------------------- 7. whole call
-CALLS_CASES = 5  # per waypoint count (2 with --quick)
+CALLS_CASES = 10  # timed calls per waypoint count (3 with --quick)
+CALLS_PTP = 100  # 2-waypoint v/a/j problems timed against Ruckig (20 with --quick)
+CALLS_DRIVE = 5  # 3-waypoint moves, drive-limited and torque box (2 with --quick)
+FIRST_WARMUP_WAYPOINTS = 3  # the first-call process plans this size first (not in the table)
+#: measured at 91f2439 (main when issue 26 started, fatrop, this 2-core machine; the issue's
+#: brief), kept as a stated row, not re-measured: whole call and TOPP-RA by waypoint count [ms]
+#: (medians), first call over a repeat (worst size), 2-waypoint v/a/j per call [ms] and Ruckig
+#: [us], drive_limits=True and the torque box on 3 waypoints [ms]
+BEFORE_91F2439: dict[str, Any] = {
+    "call_ms": {2: 43.0, 5: 81.0, 10: 202.0, 20: 404.0},
+    "toppra_ms": {2: 4.1, 5: 15.0, 10: 33.0, 20: 68.0},
+    "first": 1.53,
+    "optimal_2wp_ms": 1.44,
+    "ptp_sync_ms": 2.68,
+    "ruckig_us": 8.6,
+    "optimal_2wp_x": 168.0,
+    "ptp_sync_x": 312.0,
+    "drive_ms": 1367.0,
+    "box_ms": 186.0,
+    "drive_x": 9.0,  # the median of the per-move ratios (not the ratio of the medians)
+}
+#: the goals of issue 26: key, what, limit (the measured ratio must be <= it)
+CALL_GOALS = (
+    ("toppra5", "whole call / TOPP-RA at 5 waypoints", 15.0),
+    ("scale20", "20-waypoint / 5-waypoint whole call", 6.0),
+    ("optimal2", "2 wp v/a/j optimal() / Ruckig per call", 10.0),
+    ("ptp2", "2 wp v/a/j ptp_sync(scurve) / Ruckig", 10.0),
+    ("first", "first call on a new waypoint count / repeat", 3.0),
+    ("drive", "drive_limits=True / torque box (3 wp)", 2.0),
+)
+
+
+def _before_ratios() -> dict[str, float]:
+    """The goals' ratios at 91f2439 (:data:`BEFORE_91F2439`)."""
+    b = BEFORE_91F2439
+    return {
+        "toppra5": b["call_ms"][5] / b["toppra_ms"][5],
+        "scale20": b["call_ms"][20] / b["call_ms"][5],
+        "optimal2": b["optimal_2wp_x"],
+        "ptp2": b["ptp_sync_x"],
+        "first": b["first"],
+        "drive": b["drive_x"],
+    }
 
 
 def _med_p90(x) -> str:
@@ -456,83 +540,164 @@ def _med_p90(x) -> str:
     return f"{np.median(x):.0f} / {np.percentile(x, 90):.0f}" if x.size else "-"
 
 
-def bench_optimal_calls(quick: bool = False) -> dict:
-    """The whole ``optimal()`` call by waypoint count (issue 26; module docstring, 7).
+def _solvers(stats: list[dict]) -> str:
+    """Which solver gave the plans (``stats["solver"]``, or ``stats["method"]`` where it has no
+    solver), e.g. ``fatrop`` or ``fatrop 8, ipopt 2``."""
+    names = Counter(
+        "closed form" if s.get("method") == "closed_form" else str(s.get("solver", "?"))
+        for s in stats
+    )
+    if len(names) == 1:
+        return next(iter(names))
+    return ", ".join(f"{k} {v}" for k, v in names.most_common())
 
-    teachbot6, its own v/a/j/tau limits, the waypoints of section 5 (70 % of the ranges): wall
-    time of the whole call and the solve (median / p90, ms), the first call on a waypoint count
-    (the compiled problems of every size dropped before it; the per-robot inverse dynamics
-    kept: "after the per-robot build") over the median repeat; TOPP-RA (v/a/torque, its own
-    spline through the same waypoints) where installed; 2 waypoints v/a/j against Ruckig per
-    call (``optimal`` and ``ptp_sync(..., "scurve")``); ``drive_limits=True`` over the torque box
-    on the same 3-waypoint moves (v/torque, ``a_max=j_max=False`` as bench_drive_limits.py)."""
-    import importlib
-    from importlib.util import find_spec
 
-    from ruckig import InputParameter, Ruckig
-    from ruckig import Trajectory as RTrajectory
-
-    from armlab.planning import ptp_sync
-
-    transcription = importlib.import_module("armlab.planning.transcription")
-    robot = armlab.load_robot("teachbot6")
-    L = robot.limits
-    lo, hi = L.lower_rad, L.upper_rad
+def calls_cases(robot, nw: int, n: int) -> list[np.ndarray]:
+    """``n`` random ``nw``-waypoint problems of section 7 (70 % of the ranges, statically
+    feasible waypoints; seed ``SEED + 7 + nw``), the same in every process."""
+    lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
     mid, half = (lo + hi) / 2, (hi - lo) / 2 * SCALING_RANGE
-    n_cases = 2 if quick else CALLS_CASES
-    have_toppra = find_spec("toppra") is not None
-    res: dict = {"n_cases": n_cases}
-    print()
-    print(f"optimal() whole call by waypoint count (teachbot6, v/a/j/tau, seed {SEED + 7:d})")
+    rng = np.random.default_rng(SEED + 7 + nw)
+    cases: list[np.ndarray] = []
+    while len(cases) < n:
+        w = mid + half * (2 * rng.random((nw, robot.n_joints)) - 1)
+        if all(statically_ok(robot, q) for q in w):
+            cases.append(w)
+    return cases
+
+
+def first_call(nw: int, n: int) -> dict:
+    """In a fresh process (``--first-call NW``): plan a ``FIRST_WARMUP_WAYPOINTS`` problem (the
+    per-robot work: the compiled library loaded, the symbolic functions built), then time the
+    first call on ``nw`` waypoints and ``n`` repeats of that size. Whatever a process keeps per
+    waypoint count is thus paid by the first call, whatever its cache is named."""
+    robot = armlab.load_robot("teachbot6")
+    optimal(robot, calls_cases(robot, FIRST_WARMUP_WAYPOINTS, 1)[0])
+    cases = calls_cases(robot, nw, n)
+    t0 = time.perf_counter()
+    tr = optimal(robot, cases[0])
+    first = time.perf_counter() - t0
+    repeat = []
+    for w in cases:
+        t0 = time.perf_counter()
+        optimal(robot, w)
+        repeat.append(time.perf_counter() - t0)
+    solver = tr.stats.get("solver", "?")
+    return {"first_s": first, "repeat_s": float(np.median(repeat)), "solver": solver}
+
+
+def _first_call_subprocess(nw: int, n: int) -> dict:
+    """:func:`first_call` in a fresh interpreter (this script with ``--first-call``)."""
+    import json
+    import subprocess
+    import sys
+
+    cmd = [sys.executable, __file__, "--first-call", str(nw), "--first-repeats", str(n)]
+    out = subprocess.run(cmd, capture_output=True, text=True, check=False, env=os.environ)
+    for line in out.stdout.splitlines():
+        if line.startswith("FIRST-CALL\t"):
+            return json.loads(line.split("\t", 1)[1])
+    tail = (out.stderr or out.stdout).strip().splitlines()[-1:] or ["no output"]
+    return {"first_s": np.nan, "repeat_s": np.nan, "solver": f"failed: {tail[0]}"}
+
+
+def _peer_toppra(robot, w) -> float | None:
+    """TOPP-RA's time [s] on ``w`` (v/a/torque, :func:`toppra_solve`), None when it finds no
+    parameterisation (a failure of the peer: counted, its time left out)."""
+    L = robot.limits
+    try:
+        traj, dt = toppra_solve(robot, w, L.velocity_rad_s, L.acceleration_rad_s2, L.effort_Nm)
+    except Exception:  # noqa: BLE001 -- the peer failing is what is counted
+        return None
+    return None if traj is None else dt
+
+
+def _calls_by_size(robot, n_cases: int, have_toppra: bool, res: dict) -> None:
+    """The per-waypoint-count rows of section 7 into ``res[nw]``."""
     hdr = (
-        f"{'wp':>3}{'n':>3}  {'call [ms] med/p90':>18}  {'solve [ms] med/p90':>19}  "
-        f"{'first/repeat':>12}  {'TOPP-RA [ms] med':>16}  {'call/TOPP-RA':>12}"
+        f"{'wp':>3}{'n':>4}  {'call [ms] med/p90':>18}  {'solve [ms] med/p90':>19}  "
+        f"{'solver':<16}{'first/repeat':>12}  {'TOPP-RA [ms] med':>16}  {'TOPP-RA failed':>14}  "
+        f"{'call/TOPP-RA':>12}"
     )
     print(hdr)
     print("-" * len(hdr))
-    optimal(robot, mid + half * np.eye(2, robot.n_joints))  # per-robot functions, not timed
+    b = BEFORE_91F2439
     for nw in SCALING_WAYPOINTS:
-        rng = np.random.default_rng(SEED + 7 + nw)
-        cases = []
-        while len(cases) < n_cases:
-            w = mid + half * (2 * rng.random((nw, robot.n_joints)) - 1)
-            if all(statically_ok(robot, q) for q in w):
-                cases.append(w)
-        transcription._STRUCTURES.clear()  # a waypoint count this process has not seen
-        t0 = time.perf_counter()
-        optimal(robot, cases[0])
-        first = time.perf_counter() - t0
-        call, solve, peer = [], [], []
+        cases = calls_cases(robot, nw, n_cases)
+        optimal(robot, cases[0])  # this size's first call (timed apart, in a fresh process)
+        call, solve, stats, peer, refused = [], [], [], [], 0
         for w in cases:
             t0 = time.perf_counter()
             try:
                 tr = optimal(robot, w)
             except ArmlabError:
+                refused += 1
                 continue
-            call.append(time.perf_counter() - t0)
+            elapsed = time.perf_counter() - t0
+            dt = _peer_toppra(robot, w) if have_toppra else None
+            call.append(elapsed)
             solve.append(tr.stats["solve_time_s"])
-            if have_toppra:
-                _, dt = toppra_solve(robot, w, L.velocity_rad_s, L.acceleration_rad_s2, L.effort_Nm)
-                peer.append(dt)
-        ratio = first / np.median(call)
-        peer_med = f"{1e3 * np.median(peer):.1f}" if peer else "not installed"
-        vs = f"{np.median(call) / np.median(peer):.0f}x" if peer else "-"
+            stats.append(tr.stats)
+            if dt is not None:
+                peer.append((elapsed, dt))
+        fc = _first_call_subprocess(nw, min(n_cases, 5))
+        ratio = fc["first_s"] / fc["repeat_s"]
+        if have_toppra:
+            pc = np.array(peer).reshape(-1, 2)
+            peer_med = f"{1e3 * np.median(pc[:, 1]):.1f}" if len(pc) else "-"
+            fails = f"{len(call) - len(pc)}/{len(call)}"
+            vs = np.median(pc[:, 0]) / np.median(pc[:, 1]) if len(pc) else np.nan
+        else:
+            peer_med, fails, vs = "not installed", "-", np.nan
+        used = _solvers(stats) + (f", {refused} refused" if refused else "")
         print(
-            f"{nw:>3}{n_cases:>3}  {_med_p90(call):>18}  {_med_p90(solve):>19}  {ratio:>12.2f}  "
-            f"{peer_med:>16}  {vs:>12}",
+            f"{nw:>3}{len(call):>4}  {_med_p90(call):>18}  {_med_p90(solve):>19}  {used:<16}"
+            f"{ratio:>12.2f}  {peer_med:>16}  {fails:>14}  {vs:>11.1f}x",
             flush=True,
         )
-        res[nw] = (float(np.median(call)), float(np.median(solve)), ratio)
-    # 2 waypoints, v/a/j, no torque: the public calls against Ruckig, per call
+        for why, k in Counter(s["fallback"] for s in stats if s.get("fallback")).items():
+            print(f"{'':>9}fell back to IPOPT {k}x: {why}")
+        if not str(fc["solver"]).startswith(("fatrop", "ipopt")):
+            print(f"{'':>9}first-call process: {fc['solver']}")
+        res[nw] = {
+            "call": float(np.median(call)),
+            "solve": float(np.median(solve)),
+            "first": ratio,
+            "toppra": float(np.median(np.array(peer)[:, 1])) if peer else np.nan,
+            "vs_toppra": float(vs),
+            "toppra_failed": len(call) - len(peer) if have_toppra else -1,
+            "solver": used,
+        }
+    before = ", ".join(
+        f"{nw} wp {b['call_ms'][nw]:.0f} ms (TOPP-RA {b['toppra_ms'][nw]:g})"
+        for nw in SCALING_WAYPOINTS
+    )
+    print(f"measured at 91f2439 (not re-measured): {before}; first call <= {b['first']}x")
+
+
+def _calls_ptp(robot, n: int, res: dict) -> None:
+    """2 waypoints, v/a/j, no torque: ``optimal`` and ``ptp_sync(..., "scurve")`` per call
+    against Ruckig's ``calculate`` (inputs set beforehand) on the same problems."""
+    from ruckig import InputParameter, Ruckig
+    from ruckig import Trajectory as RTrajectory
+
+    from armlab.planning import ptp_sync
+
+    L = robot.limits
     v, a, j = L.velocity_rad_s, L.acceleration_rad_s2, L.jerk_rad_s3
+    lo, hi = L.lower_rad, L.upper_rad
+    mid, half = (lo + hi) / 2, (hi - lo) / 2 * SCALING_RANGE
     rng = np.random.default_rng(SEED + 72)
-    ws = [mid + half * (2 * rng.random((2, robot.n_joints)) - 1) for _ in range(20 * n_cases)]
-    t_opt, t_ptp, t_rk = [], [], []
+    ws = [mid + half * (2 * rng.random((2, robot.n_joints)) - 1) for _ in range(n)]
     nj = robot.n_joints
+    optimal(robot, ws[0], tau_max=False)  # warm: imports, first calls
+    ptp_sync(robot, ws[0][0], ws[0][1], "scurve", tau_max=False)
+    t_opt, t_ptp, t_rk, stats = [], [], [], []
     for w in ws:
         t0 = time.perf_counter()
         tr = optimal(robot, w, tau_max=False)
         t_opt.append(time.perf_counter() - t0)
+        stats.append(tr.stats)
         t0 = time.perf_counter()
         ptp_sync(robot, w[0], w[1], "scurve", tau_max=False)
         t_ptp.append(time.perf_counter() - t0)
@@ -542,47 +707,140 @@ def bench_optimal_calls(quick: bool = False) -> dict:
         t0 = time.perf_counter()
         otg.calculate(inp, rt)
         t_rk.append(time.perf_counter() - t0)
-    method = tr.stats.get("method", "transcription")
+    methods = Counter(str(s.get("method", "transcription")) for s in stats)
+    method = ", ".join(f"{k} {c}" if len(methods) > 1 else k for k, c in methods.most_common())
     rk = float(np.median(t_rk))
-    res["ruckig"] = (float(np.median(t_opt)) / rk, float(np.median(t_ptp)) / rk, rk, method)
+    res["ptp"] = {
+        "optimal_ms": 1e3 * float(np.median(t_opt)),
+        "ptp_ms": 1e3 * float(np.median(t_ptp)),
+        "ruckig_us": 1e6 * rk,
+        "optimal2": float(np.median(t_opt)) / rk,
+        "ptp2": float(np.median(t_ptp)) / rk,
+        "method": method,
+        "solver": _solvers(stats),
+    }
+    p, b = res["ptp"], BEFORE_91F2439
     print(
-        f"2 wp v/a/j per call: optimal ({method}) {1e3 * np.median(t_opt):.2f} ms = "
-        f"{res['ruckig'][0]:.0f}x Ruckig, ptp_sync scurve {1e3 * np.median(t_ptp):.2f} ms = "
-        f"{res['ruckig'][1]:.0f}x Ruckig ({1e6 * rk:.1f} us)"
+        f"2 wp v/a/j per call ({n} problems): optimal ({p['solver']}) "
+        f"{p['optimal_ms']:.3f} ms = {p['optimal2']:.0f}x Ruckig, ptp_sync scurve "
+        f"{p['ptp_ms']:.3f} ms = {p['ptp2']:.0f}x Ruckig ({p['ruckig_us']:.1f} us); at 91f2439 "
+        f"{b['optimal_2wp_ms']} ms = {b['optimal_2wp_x']:.0f}x and {b['ptp_sync_ms']} ms = "
+        f"{b['ptp_sync_x']:.0f}x (Ruckig {b['ruckig_us']} us)"
     )
-    # drive-limited against the torque box, the same moves (repeats: sizes built first)
+
+
+def _calls_drive(robot, n: int, res: dict) -> None:
+    """``drive_limits=True`` over the torque box on the same 3-waypoint moves (v/torque,
+    ``a_max=j_max=False`` as bench_drive_limits.py), repeats (each size planned once first)."""
+    L = robot.limits
+    lo, hi = L.lower_rad, L.upper_rad
+    mid, half = (lo + hi) / 2, (hi - lo) / 2 * SCALING_RANGE
     rng = np.random.default_rng(SEED + 73)
-    box, drive = [], []
+    box: list[float] = []
+    drive: list[float] = []
+    s_box: list[dict] = []
+    s_drive: list[dict] = []
     kw = dict(a_max=False, j_max=False)
-    for i in range(n_cases):
+    for i in range(n):
         w = mid + 0.5 * half * (2 * rng.random((3, robot.n_joints)) - 1)
         if i == 0:
             optimal(robot, w, **kw)
             optimal(robot, w, drive_limits=True, **kw)
-        for out, dl in ((box, False), (drive, True)):
+        for out, st, dl in ((box, s_box, False), (drive, s_drive, True)):
             t0 = time.perf_counter()
-            optimal(robot, w, drive_limits=dl, **kw)
+            tr = optimal(robot, w, drive_limits=dl, **kw)
             out.append(time.perf_counter() - t0)
-    res["drive"] = float(np.median(np.array(drive) / np.array(box)))
+            st.append(tr.stats)
+    res["drive"] = {
+        "ratio": float(np.median(np.array(drive) / np.array(box))),
+        "drive_ms": 1e3 * float(np.median(drive)),
+        "box_ms": 1e3 * float(np.median(box)),
+        "solver": f"{_solvers(s_drive)} / {_solvers(s_box)}",
+    }
+    d, b = res["drive"], BEFORE_91F2439
     print(
-        f"3 wp v/torque: drive_limits=True {_med_p90(drive)} ms, torque box {_med_p90(box)} ms "
-        f"(med/p90): drive / box median {res['drive']:.1f}x"
+        f"3 wp v/torque ({n} moves): drive_limits=True {_med_p90(drive)} ms, torque box "
+        f"{_med_p90(box)} ms (med/p90; solvers {d['solver']}): drive / box median "
+        f"{d['ratio']:.1f}x; at 91f2439 {b['drive_ms']:.0f} vs {b['box_ms']:.0f} ms"
     )
+
+
+def calls_goals(res: dict) -> list[tuple[str, float, float, float, bool]]:
+    """The goals of issue 26 (:data:`CALL_GOALS`): (what, limit, at 91f2439, now, met)."""
+    now = {
+        "toppra5": res[5]["vs_toppra"],
+        "scale20": res[20]["call"] / res[5]["call"],
+        "optimal2": res["ptp"]["optimal2"],
+        "ptp2": res["ptp"]["ptp2"],
+        "first": max(res[nw]["first"] for nw in SCALING_WAYPOINTS),
+        "drive": res["drive"]["ratio"],
+    }
+    before = _before_ratios()
+    return [(what, lim, before[k], now[k], bool(now[k] <= lim)) for k, what, lim in CALL_GOALS]
+
+
+def bench_optimal_calls(quick: bool = False) -> dict:
+    """The whole ``optimal()`` call by waypoint count (issue 26; module docstring, 7).
+
+    teachbot6, its own v/a/j/tau limits, the waypoints of section 5 (70 % of the ranges): wall
+    time of the whole call and the solve (median / p90, ms, repeats), which solver gave the plans
+    (``stats["solver"]``), the first call on a waypoint count over a repeat (measured in a fresh
+    process after a plan of another size: "after the per-robot compile"), TOPP-RA (v/a/torque,
+    its own spline through the same waypoints, the solve alone) where installed, with its
+    failures counted and their times left out; 2 waypoints v/a/j against Ruckig per call
+    (``optimal`` and ``ptp_sync(..., "scurve")``); ``drive_limits=True`` over the torque box;
+    then each goal of issue 26 against the same ratio at 91f2439 (:data:`BEFORE_91F2439`,
+    stated, not re-measured), met or not."""
+    from importlib.util import find_spec
+
+    robot = armlab.load_robot("teachbot6")
+    n_cases = 3 if quick else CALLS_CASES
+    have_toppra = find_spec("toppra") is not None
+    if have_toppra:
+        quiet_toppra()
+    res: dict = {"n_cases": n_cases}
+    print()
+    print(f"optimal() whole call by waypoint count (teachbot6, v/a/j/tau, seed {SEED + 7:d})")
+    optimal(robot, calls_cases(robot, FIRST_WARMUP_WAYPOINTS, 1)[0])  # per robot, not timed
+    _calls_by_size(robot, n_cases, have_toppra, res)
+    _calls_ptp(robot, 20 if quick else CALLS_PTP, res)
+    _calls_drive(robot, 2 if quick else CALLS_DRIVE, res)
+    res["goals"] = calls_goals(res)
+    print()
+    hdr = f"{'goal (issue 26)':<46}{'limit':>7}  {'at 91f2439':>10}  {'now':>8}  verdict"
+    print(hdr)
+    print("-" * len(hdr))
+    for what, lim, before, now, met in res["goals"]:
+        print(
+            f"{what:<46}{lim:>6.0f}x  {before:>9.2f}x  {now:>7.2f}x  "
+            f"{'goal met' if met else 'goal NOT met'}"
+        )
     return res
 
 
 def calls_row(res: dict) -> None:
-    """README row of section 7: the whole optimal() call (issue 26)."""
-    cells = ", ".join(f"{nw} wp {1e3 * res[nw][0]:.0f} ms" for nw in SCALING_WAYPOINTS)
-    first = max(res[nw][2] for nw in SCALING_WAYPOINTS)
-    r_opt, r_ptp, rk, method = res["ruckig"]
+    """README row of section 7: the whole optimal() call and the goals of issue 26."""
+    cells = ", ".join(f"{nw} wp {1e3 * res[nw]['call']:.0f} ms" for nw in SCALING_WAYPOINTS)
+    solvers = sorted({res[nw]["solver"] for nw in SCALING_WAYPOINTS})
+    goals = "; ".join(
+        f"{what} {now:.3g}x (goal <= {lim:g}x, {'met' if met else 'NOT met'}; {before:.3g}x at "
+        "91f2439)"
+        for what, lim, before, now, met in res["goals"]
+    )
+    peer = ", ".join(
+        f"{nw} wp {1e3 * res[nw]['toppra']:.1f} ms"
+        + (f" ({res[nw]['toppra_failed']} failed)" if res[nw]["toppra_failed"] > 0 else "")
+        for nw in SCALING_WAYPOINTS
+    )
+    b = BEFORE_91F2439
     readme_row(
         __file__,
-        "`optimal` whole call by waypoint count (teachbot6, v/a/j/tau, median; issue 26)",
-        f"{cells}; first call on a new waypoint count <= {first:.1f}x a repeat; 2 wp v/a/j "
-        f"({method}) {r_opt:.0f}x Ruckig, `ptp_sync` scurve {r_ptp:.0f}x; drive_limits "
-        f"{res['drive']:.1f}x the torque box",
-        f"Ruckig {1e6 * rk:.1f} us per case",
+        "`optimal` whole call by waypoint count (teachbot6, v/a/j/tau, median of "
+        f"{res['n_cases']}; issue 26 goals, before = 91f2439: "
+        + ", ".join(f"{nw} wp {b['call_ms'][nw]:.0f} ms" for nw in SCALING_WAYPOINTS)
+        + ")",
+        f"{cells} ({'; '.join(solvers)}); {goals}",
+        f"TOPP-RA (v/a/torque) {peer}; Ruckig {res['ptp']['ruckig_us']:.1f} us per case",
     )
 
 
@@ -623,15 +881,46 @@ def success_problem(robot, i: int) -> tuple[np.ndarray, str]:
     return w, ""
 
 
-def success_case(robot, i: int) -> dict:
+#: the solvers of the success table: ``"fatrop"`` is the default (fatrop where it applies,
+#: :mod:`armlab.planning.fatrop_backend`; ``stats["solver"]`` says which solver gave the plan),
+#: ``"ipopt"`` the reference (``ARMLAB_SOLVER=ipopt`` around the call)
+SOLVERS = ("fatrop", "ipopt")
+#: goal of issue 26: the default solver's durations within this of IPOPT's on the same case [s]
+DURATION_GOAL_S = 1e-6
+SUCCESS_PROGRESS = 50  # a progress line every this many planner tests
+
+
+@contextmanager
+def solver_env(solver: str):
+    """The environment of one call: ``ARMLAB_SOLVER`` unset (the default, fatrop where it
+    applies) or ``ARMLAB_SOLVER=ipopt`` (the public switch of
+    :mod:`armlab.planning.fatrop_backend`); restored afterwards."""
+    from armlab.planning.fatrop_backend import SOLVER_ENV
+
+    before = os.environ.pop(SOLVER_ENV, None)
+    if solver == "ipopt":
+        os.environ[SOLVER_ENV] = "ipopt"
+    try:
+        yield
+    finally:
+        os.environ.pop(SOLVER_ENV, None)
+        if before is not None:
+            os.environ[SOLVER_ENV] = before
+
+
+def success_case(robot, i: int, solver: str = "fatrop") -> dict:
     """Plan problem ``i`` (:func:`success_problem`) with teachbot6's own v/a/j/tau limits and
-    classify it (:data:`VERDICTS`): a plan must pass ``check_limits`` within ``PROMISED_TOL``;
-    a refusal (an ``ArmlabError``) is accepted only for a problem proved infeasible."""
+    the given solver (:data:`SOLVERS`) and classify it (:data:`VERDICTS`): a plan must pass
+    ``check_limits`` within ``PROMISED_TOL``; a refusal (an ``ArmlabError``) is accepted only
+    for a problem proved infeasible. ``used`` is ``stats["solver"]`` of the plan (the last
+    solve's), ``fallback`` why it was not fatrop (``stats["fallback"]``, "" when it was)."""
     w, proof = success_problem(robot, i)
     out: dict = {"case": i, "proof": proof, "message": "", "solve_s": np.nan, "T_s": np.nan}
+    out.update(used="", fallback="")
     t0 = time.perf_counter()
     try:
-        tr = optimal(robot, w)
+        with solver_env(solver):
+            tr = optimal(robot, w)
     except ArmlabError as exc:
         out["verdict"] = VERDICTS[1] if proof else VERDICTS[2]
         out["message"] = f"{type(exc).__name__}: {exc}"
@@ -643,6 +932,8 @@ def success_case(robot, i: int) -> dict:
         out["solve_s"] = tr.stats["solve_time_s"]
         out["T_s"] = tr.duration
         out["backoff_rounds"] = tr.stats["backoff_rounds"]
+        out["used"] = str(tr.stats.get("solver", "ipopt"))
+        out["fallback"] = str(tr.stats.get("fallback", ""))
         rep = tr.check_limits(robot, dt=tr.duration / CHECK_SAMPLES)
         bad = rep.violations(PROMISED_TOL)
         out["verdict"] = VERDICTS[4] if bad else VERDICTS[0]
@@ -653,56 +944,201 @@ def success_case(robot, i: int) -> dict:
     return out
 
 
-def bench_success(n: int) -> dict:
+def _success_summary(cases: list[dict], n: int) -> dict:
+    """Counts and times of one solver's cases (:func:`success_case` results)."""
+    count = {v: sum(c["verdict"] == v for c in cases) for v in VERDICTS}
+    planned = [c for c in cases if c["verdict"] == VERDICTS[0]]
+    fell = [c for c in planned if c["used"] != "fatrop"]
+    return {
+        "n": n,
+        "count": count,
+        "fails": count[VERDICTS[2]] + count[VERDICTS[3]] + count[VERDICTS[4]],
+        "solve": np.array([c["solve_s"] for c in planned]),
+        "wall": np.array([c["wall_s"] for c in planned]),
+        "fatrop": len(planned) - len(fell),
+        "fallback": len(fell),
+        "reasons": Counter(c["fallback"] or c["used"] for c in fell),
+        "failed": [c for c in cases if c["verdict"] not in VERDICTS[:2]],
+    }
+
+
+def _duration_gap(by_solver: dict) -> tuple[float, int, int]:
+    """Largest ``|T_fatrop - T_ipopt|`` [s] over the cases both planned, its case, and how many
+    cases differ by more than :data:`DURATION_GOAL_S`."""
+    gaps = [
+        (abs(a["T_s"] - b["T_s"]), a["case"])
+        for a, b in zip(by_solver["fatrop"], by_solver["ipopt"], strict=True)
+        if a["verdict"] == b["verdict"] == VERDICTS[0]
+    ]
+    if not gaps:
+        return np.nan, -1, 0
+    worst = max(gaps)
+    return float(worst[0]), int(worst[1]), sum(g > DURATION_GOAL_S for g, _ in gaps)
+
+
+def _rerun_fallbacks(robot, cases: list[dict]) -> list[dict]:
+    """The default solver's plans that fell back to IPOPT, planned once more by it after the
+    loop: a fallback of the watchdog (wall time) can come from a busy machine rather than the
+    problem; the rerun tells which (``used`` "fatrop" the second time: the load)."""
+    return [
+        success_case(robot, c["case"], "fatrop")
+        for c in cases
+        if c["verdict"] == VERDICTS[0] and c["used"] != "fatrop"
+    ]
+
+
+def bench_success(n: int, json_path: str | None = None) -> dict:
     """``optimal`` on random 5-waypoint v/a/j/tau problems (teachbot6, its own limits) until
-    ``n`` problems not proved infeasible have been planned or refused: each classified by
-    :func:`success_case`. The draws that are proved infeasible (gravity at a waypoint) are run
-    too -- the refusal must be a named error -- but counted apart: a problem without a
-    solution does not test the planner. Goal (issue 15): 100 % of the ``n`` planned within
-    every limit."""
+    ``n`` problems not proved infeasible have been planned or refused, each by the default
+    solver (fatrop where it applies) and by IPOPT, each classified by :func:`success_case`.
+    The draws that are proved infeasible (gravity at a waypoint) are run too -- the refusal
+    must be a named error -- but counted apart: a problem without a solution does not test the
+    planner. Goals (issues 15, 26): 100 % of the ``n`` planned within every limit by each
+    solver, the default solver's durations within :data:`DURATION_GOAL_S` of IPOPT's."""
     robot = armlab.load_robot("teachbot6")
-    optimal(robot, success_problem(robot, 10**6)[0])  # the compiled problem: built, not timed
-    cases: list[dict] = []
+    for solver in SOLVERS:  # the compiled problems (fatrop: the per-robot library): not timed
+        with solver_env(solver):
+            optimal(robot, success_problem(robot, 10**6)[0])
+    by_solver: dict[str, list[dict]] = {s: [] for s in SOLVERS}
     tests = 0
     i = 0
+    t_start = time.perf_counter()
+    print(
+        f"optimal() success, {SUCCESS_WAYPOINTS} random waypoints, teachbot6, solvers "
+        f"{' and '.join(SOLVERS)} on the same cases: {n} planner tests",
+        flush=True,
+    )
     while tests < n:
-        c = success_case(robot, i)
-        cases.append(c)
-        tests += not c["proof"]
-        if c["verdict"] not in VERDICTS[:2]:  # a failure, named as it happens
-            print(f"  case {i}: {c['verdict']}: {c['message']}", flush=True)
+        for solver in SOLVERS:
+            c = success_case(robot, i, solver)
+            by_solver[solver].append(c)
+            if c["verdict"] not in VERDICTS[:2]:  # a failure, named as it happens
+                print(f"  case {i} ({solver}): {c['verdict']}: {c['message']}", flush=True)
+        f, p = by_solver["fatrop"][-1], by_solver["ipopt"][-1]
+        if (
+            f["verdict"] == p["verdict"] == VERDICTS[0]
+            and abs(f["T_s"] - p["T_s"]) > DURATION_GOAL_S
+        ):
+            print(
+                f"  case {i}: durations differ: fatrop ({f['used']}) {f['T_s']:.9f} s, "
+                f"IPOPT {p['T_s']:.9f} s",
+                flush=True,
+            )
+        tests += not f["proof"]
         i += 1
-    count = {v: sum(c["verdict"] == v for c in cases) for v in VERDICTS}
-    solve = np.array([c["solve_s"] for c in cases if c["verdict"] == VERDICTS[0]])
+        if not f["proof"] and tests % SUCCESS_PROGRESS == 0:
+            done = {s: sum(c["verdict"] == VERDICTS[0] for c in by_solver[s]) for s in SOLVERS}
+            fell = sum(c["verdict"] == VERDICTS[0] and c["used"] != "fatrop"
+                       for c in by_solver["fatrop"])  # fmt: skip
+            gap, _, _ = _duration_gap(by_solver)
+            print(
+                f"  {tests:>5}/{n} tests ({i} draws), {time.perf_counter() - t_start:.0f} s: "
+                f"planned {', '.join(f'{s} {done[s]}' for s in SOLVERS)}; fatrop fell back "
+                f"{fell}; largest |dT| {gap:.1e} s",
+                flush=True,
+            )
+    res: dict = {"n": n, "draws": i, "by_solver": by_solver}
+    for s in SOLVERS:
+        res[s] = _success_summary(by_solver[s], n)
+    res["gap"] = _duration_gap(by_solver)
+    res["rerun"] = _rerun_fallbacks(robot, by_solver["fatrop"])
+    success_print(res)
+    if json_path:
+        import json
+
+        with open(json_path, "w", encoding="utf-8") as fh:
+            json.dump(by_solver, fh, indent=1, default=float)
+        print(f"  cases written to {json_path}")
+    return res
+
+
+def success_print(res: dict) -> None:
+    """The success table of :func:`bench_success` (per solver, then the duration gap)."""
+    n, draws = res["n"], res["draws"]
     print()
     print(
         f"optimal() success: {SUCCESS_WAYPOINTS} random waypoints in {SUCCESS_RANGE:.0%} of the "
         f"ranges, v/a/j/tau, teachbot6 (seed ({SEED + 6}, case))"
     )
-    print(f"  draws {len(cases)}: {n} planner tests, {len(cases) - n} proved infeasible")
+    print(f"  draws {draws}: {n} planner tests, {draws - n} proved infeasible")
+    print(f"  {'verdict':<28}" + "".join(f"{s:>10}" for s in SOLVERS))
     for v in VERDICTS:
-        print(f"  {v:<28}{count[v]:>6}")
-    if solve.size:
+        print(f"  {v:<28}" + "".join(f"{res[s]['count'][v]:>10}" for s in SOLVERS))
+    fat = res["fatrop"]
+    print(f"  fatrop's plans solved by fatrop: {fat['fatrop']}, fell back to IPOPT: "
+          f"{fat['fallback']}")  # fmt: skip
+    for why, k in fat["reasons"].most_common(5):
+        print(f"    {k:>5} x {why}")
+    fell = [c["case"] for c in res["by_solver"]["fatrop"]
+            if c["verdict"] == VERDICTS[0] and c["used"] != "fatrop"]  # fmt: skip
+    if fell:
+        print(f"    cases: {', '.join(map(str, fell[:20]))}{' ...' if len(fell) > 20 else ''}")
+    for s in SOLVERS:
+        r = res[s]
+        if r["solve"].size:
+            print(
+                f"  {s:<7} solve [s]: median {np.median(r['solve']):.3f}, p90 "
+                f"{np.percentile(r['solve'], 90):.3f}, max {np.max(r['solve']):.3f}; whole call "
+                f"median {np.median(r['wall']):.3f}, p90 {np.percentile(r['wall'], 90):.3f}"
+            )
+        for c in r["failed"]:
+            print(f"  {s:<7} failed case {c['case']}: {c['verdict']}: {c['message']}")
+    for c in res["rerun"]:
         print(
-            f"  IPOPT solve [s]: median {np.median(solve):.3f}, p90 "
-            f"{np.percentile(solve, 90):.3f}, max {np.max(solve):.3f}"
+            f"    case {c['case']} planned again: {c['verdict']} by {c['used']} "
+            f"({c['fallback'] or 'no fallback'}), solve {c['solve_s']:.3f} s"
         )
-    return {"n": n, "count": count, "solve": solve, "cases": cases}
+    for a, b in zip(res["by_solver"]["fatrop"], res["by_solver"]["ipopt"], strict=True):
+        both = a["verdict"] == b["verdict"] == VERDICTS[0]
+        if both and abs(a["T_s"] - b["T_s"]) > DURATION_GOAL_S:
+            print(
+                f"  case {a['case']}: T fatrop ({a['used']}) {a['T_s']:.6f} s, "
+                f"{a['backoff_rounds']} back-off rounds; IPOPT {b['T_s']:.6f} s, "
+                f"{b['backoff_rounds']}"
+            )
+    gap, case, over = res["gap"]
+    print(
+        f"  largest duration difference fatrop vs IPOPT: {gap:.1e} s (case {case}); "
+        f"{over} cases over {DURATION_GOAL_S:.0e} s"
+    )
+    goal = all(res[s]["count"][VERDICTS[0]] == n for s in SOLVERS) and gap <= DURATION_GOAL_S
+    print(f"  goal (each {n}/{n} within every limit, |dT| <= {DURATION_GOAL_S:.0e} s): "
+          f"{'met' if goal else 'NOT met'}")  # fmt: skip
 
 
 def success_row(res: dict) -> None:
     """README row of section 6."""
-    c, n, solve = res["count"], res["n"], res["solve"]
-    fails = c[VERDICTS[2]] + c[VERDICTS[3]] + c[VERDICTS[4]]
+    n = res["n"]
+    cells = []
+    for s in SOLVERS:
+        r = res[s]
+        c, solve = r["count"], r["solve"]
+        cell = (
+            f"{s}: {100 * c[VERDICTS[0]] / n:.1f} % planned within every limit (1e-9), "
+            f"{r['fails']} failures ({c[VERDICTS[2]]} refusals not proved, {c[VERDICTS[3]]} "
+            f"unnamed errors, {c[VERDICTS[4]]} plans over a limit)"
+        )
+        if s == "fatrop":
+            cell += f", {r['fallback']} fell back to IPOPT"
+            again = sum(c["used"] == "fatrop" for c in res.get("rerun", []))
+            if r["fallback"]:
+                cell += f" ({again} of them solved by fatrop when planned again: load)"
+        if solve.size:
+            cell += (
+                f", solve median {1e3 * np.median(solve):.0f} ms, p90 "
+                f"{1e3 * np.percentile(solve, 90):.0f} ms"
+            )
+        cells.append(cell)
+    gap, _, over = res["gap"]
+    refused = res["fatrop"]["count"][VERDICTS[1]]
     readme_row(
         __file__,
         f"`optimal`, {SUCCESS_WAYPOINTS} random waypoints, v/a/j/tau (teachbot6's limits): "
-        f"success on {f'{n:,}'.replace(',', ' ')} problems not proved infeasible",
-        f"{100 * c[VERDICTS[0]] / n:.1f} % planned within every limit (1e-9), {fails} failures "
-        f"({c[VERDICTS[2]]} refusals not proved, {c[VERDICTS[3]]} unnamed errors, "
-        f"{c[VERDICTS[4]]} plans over a limit); {c[VERDICTS[1]]} more draws refused by name, "
-        f"gravity at a waypoint over a torque limit; IPOPT median {np.median(solve):.2f} s, "
-        f"p90 {np.percentile(solve, 90):.2f} s, max {np.max(solve):.2f} s",
+        f"success on {f'{n:,}'.replace(',', ' ')} problems not proved infeasible, fatrop "
+        "(default) and IPOPT on the same cases (goal 100 %, durations within 1e-6 s)",
+        "; ".join(cells) + f"; durations fatrop vs IPOPT within {gap:.1e} s ({over} cases over "
+        f"1e-6 s); {refused} more draws refused by name, gravity at a waypoint over a torque "
+        "limit",
         "neither peer can do it",
     )
 
@@ -728,6 +1164,11 @@ def main() -> None:
     )
     ap.add_argument("--success-only", action="store_true", help="only the success table")
     ap.add_argument(
+        "--success-json",
+        metavar="PATH",
+        help="write the success table's cases (per solver: verdict, duration, times) as JSON",
+    )
+    ap.add_argument(
         "--calls-only", action="store_true", help="only the whole-call table (issue 26)"
     )
     ap.add_argument(
@@ -735,7 +1176,14 @@ def main() -> None:
         action="store_true",
         help="only the side-by-side with Ruckig and (where installed) TOPP-RA: notebook 03",
     )
+    ap.add_argument("--first-call", type=int, metavar="NW", help=argparse.SUPPRESS)
+    ap.add_argument("--first-repeats", type=int, default=5, help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.first_call:  # section 7's first call, in the fresh process run_calls starts
+        import json
+
+        print("FIRST-CALL\t" + json.dumps(first_call(args.first_call, args.first_repeats)))
+        return
     if args.peers_only:
         peers_table(args.quick)
         return
@@ -744,7 +1192,7 @@ def main() -> None:
         scaling_row(bench_optimal_scaling(args.quick))
         return
     if args.success_only:
-        success_row(bench_success(n_success))
+        success_row(bench_success(n_success, args.success_json))
         return
     if args.calls_only:
         calls_row(bench_optimal_calls(args.quick))
@@ -819,9 +1267,9 @@ def main() -> None:
         f" (< 1 s)"
     )
     scurves = bench_scurve_batch(args.quick)
-    calls = bench_optimal_calls(args.quick)  # first: sizes not yet built by section 5
+    calls = bench_optimal_calls(args.quick)
     scaling = bench_optimal_scaling(args.quick)
-    success = bench_success(n_success)
+    success = bench_success(n_success, args.success_json)
 
     # ------------------------------------------------------------------------- README rows
     names = {"teachbot6": "teachbot6", "ur5": "UR5"}
@@ -847,7 +1295,9 @@ def main() -> None:
         + f"; armlab over a limit on the fine grid on {ours_over} of {len(topp)} paths; "
         "`optimal` (free path through the waypoints) / TOPP-RA: median "
         + " / ".join(f"{np.median(r[3]['ratio_free']):.2f}" for r in rows),
-        f"TOPP-RA {np.min(peer_ms):.0f}-{np.max(peer_ms):.0f} ms per path",
+        f"TOPP-RA {np.min(peer_ms):.0f}-{np.max(peer_ms):.0f} ms per path; no "
+        f"parameterisation on {sum(r[3]['peer_failed'] for r in rows)} of "
+        f"{sum(r[3]['n'] for r in rows)} paths (left out)",
     )
     readme_row(
         __file__,
@@ -896,6 +1346,10 @@ def toppra_lines(name: str, r2: dict) -> None:
         f"{np.median(r2['ratio_free']):>9.4f}  {np.max(r2['ratio_free']):>9.4f}  "
         f"{np.median(r2['free_t']):>12.3f}  {np.median(r2['peer_t']):>12.4f}  "
         f"{ok_free:>8}/{peer_ok:<9}"
+    )
+    print(
+        f"{'  TOPP-RA found no parameterisation (left out)':<47}{name:<11}{r2['n']:>4}  "
+        f"{r2['peer_failed']:>9d} of {r2['n']} paths"
     )
     print(
         f"{'  TOPP-RA worst limit ratio on the fine grid':<47}{name:<11}{n2:>4}  "
