@@ -59,7 +59,7 @@ import pinocchio as pin  # noqa: E402
 from _readme import readme_row, sig  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_trajectory import ROBOTS, draw_waypoints, limits_of, load  # noqa: E402
+from bench_trajectory import ROBOTS, draw_waypoints, limits_of, load, quiet_toppra  # noqa: E402
 
 from armlab.errors import ArmlabError, InfeasibleError  # noqa: E402
 from armlab.planning import reachability  # noqa: E402
@@ -88,7 +88,7 @@ def toppra_solve(robot, w, v, a, tau, gridpoints):
     import toppra.algorithm as algo
     import toppra.constraint as constraint
 
-    ta.setup_logging("WARNING")
+    quiet_toppra()  # once per process: its failures are counted, not printed
     data = robot.model.createData()
 
     def inv_dyn(q, qd, qdd):
