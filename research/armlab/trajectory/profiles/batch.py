@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -45,6 +45,8 @@ class SCurveBatch:
         durations [s]: the seven phases are ``tj, ta - 2 tj, tj, tv, tj, ta - 2 tj, tj``.
     a_max : array (..., n_joints)
         The acceleration limit of each joint.
+
+    The phase data (:meth:`boundaries`) are computed once, on first use.
     """
 
     duration: np.ndarray
@@ -57,6 +59,7 @@ class SCurveBatch:
     ta: np.ndarray
     tv: np.ndarray
     a_max: np.ndarray
+    _bounds: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
 
     def profile(self, index) -> MotionProfile:
         """The :class:`MotionProfile` of one joint of one problem, ``index`` into the
@@ -68,38 +71,122 @@ class SCurveBatch:
             return rest_profile(T)
         return _double_s_phases(L, v, float(self.a_max[index]), float(self.j[index]), T)
 
+    def phases(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The seven phases of every joint's double S (Biagiotti & Melchiorri §3.4), unsigned:
+        ``(durations, start accelerations, jerks)``, each ``(7, ..., n_joints)`` in [s],
+        [unit/s^2], [unit/s^3] -- durations ``tj, ta - 2 tj, tj, tv, tj, ta - 2 tj, tj``,
+        accelerations ``0, a, a, 0, 0, -a, -a``, jerks ``j, 0, -j, 0, -j, 0, j`` (0 for a
+        trapezoid, ``j = inf``)."""
+        _, _, _, d, acc, jrk = self.boundaries()
+        return d, acc, jrk
+
+    def boundaries(self) -> np.ndarray:
+        """Each phase's start ``(t0, s0, v0)`` and its data ``(d, acc, jrk)`` (:meth:`phases`):
+        an array ``(6, 7, ..., n_joints)``, unsigned, integrated from rest with a constant jerk
+        in each phase (computed once)::
+
+            t0[k+1] = t0[k] + d_k,   v0[k+1] = v0[k] + a_k d_k + j_k d_k^2 / 2,
+            s0[k+1] = s0[k] + v0[k] d_k + a_k d_k^2 / 2 + j_k d_k^3 / 6
+        """
+        if self._bounds is not None:
+            return self._bounds
+        ap, tj = self.a, self.tj
+        tc = self.ta - 2 * tj
+        z = np.zeros_like(ap)
+        jf = np.where(np.isfinite(self.j), self.j, 0.0)  # a trapezoid has no jerk phases
+        out = np.empty((6, 7) + ap.shape)
+        t0, s0, v0, d, acc, jrk = out
+        d[:] = (tj, tc, tj, self.tv, tj, tc, tj)
+        acc[:] = (z, ap, ap, z, z, -ap, -ap)
+        jrk[:] = (jf, z, -jf, z, -jf, z, jf)
+        t0[0] = s0[0] = v0[0] = 0.0
+        np.cumsum(d[:-1], axis=0, out=t0[1:])
+        np.cumsum((d * (acc + d * jrk / 2))[:-1], axis=0, out=v0[1:])
+        ds = d * (v0 + d * (acc / 2 + d * jrk / 6))
+        np.cumsum(ds[:-1], axis=0, out=s0[1:])
+        self._bounds = out
+        return out
+
     def evaluate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(q, qd, qdd)`` displacements from the start at times ``t`` (m,) [s]: arrays
         ``(m, ..., n_joints)``; clamped to each problem's ``[0, duration]``."""
+        return self.evaluate_jerk(t)[:3]
+
+    def evaluate_jerk(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`evaluate` and the jerk ``(q, qd, qdd, qddd)``: each joint's phase of every
+        time (right-continuous: at a phase boundary the phase that starts there; the last
+        phase holds the end), its Taylor polynomial from the phase's start
+        (:meth:`boundaries`)."""
         t = np.asarray(t, float).reshape(-1)
         shape = (t.size,) + (1,) * self.distance.ndim
-        tt = np.minimum(t.reshape(shape), self.duration[..., None])
-        tt = np.maximum(tt, 0.0)
-        sgn = np.sign(self.distance)
-        ap, jj, tj, ta, tv = self.a, self.j, self.tj, self.ta, self.tv
-        tc = ta - 2 * tj
-        z = np.zeros_like(ap)
-        jf = np.where(np.isfinite(jj), jj, 0.0)  # a trapezoid has no jerk phases
-        d = np.stack([tj, tc, tj, tv, tj, tc, tj])  # (7, ..., n)
-        acc = np.stack([z, ap, ap, z, z, -ap, -ap])
-        jrk = np.stack([jf, z, -jf, z, -jf, z, jf])
-        s = np.zeros_like(tt * ap)
-        v = np.zeros_like(s)
-        a = np.zeros_like(s)
-        t0 = np.zeros_like(ap)
-        s0, v0 = np.zeros_like(ap), np.zeros_like(ap)
-        for k in range(7):
-            h = np.clip(tt - t0, 0.0, d[k])
-            a0, j0 = acc[k], jrk[k]
-            inside = (tt >= t0) & ((tt < t0 + d[k]) | (k == 6))
-            s = np.where(inside, s0 + v0 * h + a0 * h * h / 2 + j0 * h**3 / 6, s)
-            v = np.where(inside, v0 + a0 * h + j0 * h * h / 2, v)
-            a = np.where(inside, a0 + j0 * h, a)
-            hk = d[k]
-            s0 = s0 + v0 * hk + a0 * hk * hk / 2 + j0 * hk**3 / 6
-            v0 = v0 + a0 * hk + j0 * hk * hk / 2
-            t0 = t0 + hk
-        return sgn * s, sgn * v, sgn * a
+        tt = np.maximum(np.minimum(t.reshape(shape), self.duration[..., None]), 0.0)
+        b = self.boundaries()
+        # the phase of each time: the phase ends passed (phase k ends where k + 1 starts; a
+        # zero-length phase is passed with its predecessor), at most the last
+        k = (tt[:, None] >= b[0, 1:][None]).sum(axis=1)
+        cols = self.distance.size
+        t0, s0, v0, d, a0, j0 = b.reshape(6, 7, cols)[:, k.reshape(t.size, cols), np.arange(cols)]
+        tt = np.broadcast_to(tt, k.shape).reshape(t.size, cols)
+        h = np.minimum(np.maximum(tt - t0, 0.0), d)
+        s = s0 + h * (v0 + h * (a0 / 2 + h * j0 / 6))
+        v = v0 + h * (a0 + h * j0 / 2)
+        sgn = np.sign(self.distance).reshape(1, cols)
+        return tuple(  # type: ignore[return-value]
+            (sgn * x).reshape(k.shape) for x in (s, v, a0 + j0 * h, j0)
+        )
+
+    def peaks(self) -> dict[str, np.ndarray]:
+        """Exact extremes of every joint's motion from its phase data (:meth:`boundaries`),
+        each ``(..., n_joints)``, unsigned.
+
+        Within a phase the jerk is constant, the acceleration linear (its extremes at the
+        phase ends) and the speed quadratic, extreme at the ends or where the acceleration
+        crosses zero inside (``v0 - a0^2 / 2 j``, taken where the acceleration changes sign).
+
+        Returns
+        -------
+        dict
+            ``velocity``, ``acceleration``, ``jerk``: the peak ``|qd|``, ``|qdd|``,
+            ``|qddd|`` over the motion (phases of zero length left out), with ``*_at_s`` the
+            time [s] of each (the first); ``reverse``: the most negative speed against the
+            direction of the move (0 when the motion is monotone, so the position stays
+            between start and goal); ``end_position``, ``end_velocity``,
+            ``end_acceleration``: the state at the end of the last phase, to be compared
+            with ``|distance|``, 0, 0 (a trapezoid's acceleration steps to 0 at its end: 0).
+        """
+        b = self.boundaries()
+        cols = self.distance.size
+        t0, s0, v0, d, acc, jrk = b.reshape(6, 7, cols)
+        live = d > 0
+        a1 = acc + jrk * d  # the acceleration at each phase end
+        v1 = v0 + d * (acc + d * jrk / 2)
+        cross = live & (acc * a1 < 0)  # the speed's extreme inside the phase
+        jn = np.where(cross, jrk, 1.0)
+        # candidates (21, cols): the phase starts, the phase ends, the extremes inside
+        cand = np.empty((3, 21, cols))
+        ct, cv, ca = cand
+        ct[:7], ct[7:14], ct[14:] = t0, t0 + d, t0 - acc / jn
+        cv[:7], cv[7:14], cv[14:] = v0 * live, v1 * live, (v0 - acc * acc / (2 * jn)) * cross
+        ca[:7], ca[7:14], ca[14:] = np.abs(acc) * live, np.abs(a1) * live, 0.0
+        cj = np.abs(jrk) * live
+        col = np.arange(cols)
+        av = np.abs(cv)
+        iv, ia, ij = av.argmax(axis=0), ca.argmax(axis=0), cj.argmax(axis=0)
+        e = d[6] * (v0[6] + d[6] * (acc[6] / 2 + d[6] * jrk[6] / 6))
+        shape = self.distance.shape
+        out = {
+            "velocity": av[iv, col],
+            "velocity_at_s": ct[iv, col],
+            "acceleration": ca[ia, col],
+            "acceleration_at_s": ct[ia, col],
+            "jerk": cj[ij, col],
+            "jerk_at_s": t0[ij, col],
+            "reverse": np.maximum(-cv.min(axis=0), 0.0),
+            "end_position": s0[6] + e,
+            "end_velocity": v1[6],
+            "end_acceleration": a1[6] * live[6],
+        }
+        return {k: x.reshape(shape) for k, x in out.items()}
 
 
 def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch:
