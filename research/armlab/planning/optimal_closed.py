@@ -46,7 +46,13 @@ from armlab.trajectory.sampling import LimitReport
 if TYPE_CHECKING:
     from armlab.planning.optimal_problem import OptimalProblem
 
-__all__ = ["closed_form_applies", "closed_form_optimal", "exact_report"]
+__all__ = [
+    "closed_form_applies",
+    "closed_form_optimal",
+    "exact_report",
+    "EXACT_CHECK",
+    "SAMPLE_CHECK",
+]
 
 
 def closed_form_applies(prob: OptimalProblem) -> bool:
@@ -87,6 +93,8 @@ EXACT_CHECK = (
     "speed never against the move (positions between start and goal), the end state at the "
     "goal at rest within rounding"
 )
+#: ``stats["limit_check"]`` where the samples were checked (:meth:`Trajectory.check_limits`)
+SAMPLE_CHECK = "samples (Trajectory.check_limits)"
 #: the end state of the phase data against the goal at rest, relative to the move (position)
 #: and to the limits (speed, acceleration): rounding only
 ARRIVAL_TOL = 1e-10
@@ -123,7 +131,9 @@ def exact_report(batch, start, goal, limits, joint_names) -> tuple[LimitReport, 
     k = np.argmax(ends, axis=0)
     report.ratios["position"] = ends[k, np.arange(k.size)]
     report.at_s["position"] = np.where(k == 0, 0.0, T)
-    for kind, lim in (("velocity", v), ("acceleration", a), ("jerk", j)):
+    # a trapezoid (j = inf in the batch) has no jerk signal: no jerk ratio, as for its samples
+    jerk = j if bool(np.all(np.isfinite(batch.j))) else None
+    for kind, lim in (("velocity", v), ("acceleration", a), ("jerk", jerk)):
         if lim is not None:
             report.ratios[kind] = pk[kind] / lim
             report.at_s[kind] = pk[f"{kind}_at_s"]
@@ -157,7 +167,7 @@ def closed_form_optimal(prob: OptimalProblem) -> Trajectory:
         exact = exact_report(batch, w[0], w[-1], ls, traj.joint_names)
     if exact is None:
         traj.report = traj.check_limits(prob.robot, dt=prob.check_dt, limits=ls, torque=False)
-        check, residual = "samples (Trajectory.check_limits)", None
+        check, residual = SAMPLE_CHECK, None
     else:
         (traj.report, residual), check = exact, EXACT_CHECK
     T = float(batch.duration[0])

@@ -131,9 +131,7 @@ class SCurveBatch:
         s = s0 + h * (v0 + h * (a0 / 2 + h * j0 / 6))
         v = v0 + h * (a0 + h * j0 / 2)
         sgn = np.sign(self.distance).reshape(1, cols)
-        return tuple(  # type: ignore[return-value]
-            (sgn * x).reshape(k.shape) for x in (s, v, a0 + j0 * h, j0)
-        )
+        return tuple((sgn * x).reshape(k.shape) for x in (s, v, a0 + j0 * h, j0))
 
     def peaks(self) -> dict[str, np.ndarray]:
         """Exact extremes of every joint's motion from its phase data (:meth:`boundaries`),
