@@ -10,7 +10,6 @@ import numpy as np
 
 from armlab.errors import InputError
 from armlab.trajectory.profiles.motion import MotionProfile, rest_profile
-from armlab.trajectory.profiles.rest_to_rest import _double_s_phases
 from armlab.trajectory.profiles.timing import (
     _floats,
     double_s_min_times,
@@ -69,7 +68,14 @@ class SCurveBatch:
         v = float(self.v[index])
         if L <= 0 or v <= 0:
             return rest_profile(T)
-        return _double_s_phases(L, v, float(self.a_max[index]), float(self.j[index]), T)
+        at = index if isinstance(index, tuple) else (index,)
+        _, _, _, d, acc, jrk = self.boundaries()[(slice(None), slice(None), *at)]
+        j = float(self.j[index])
+        if math.isinf(j):  # the trapezoid: its three phases
+            params = {"v": v, "a_acc": float(acc[1]), "a_dec": float(acc[1]), "length": L}
+            return MotionProfile(d, acc, jrk, kind="trapezoid", params=params)
+        params = {"v": v, "a": float(acc[1]), "j": j, "length": L}
+        return MotionProfile(d, acc, jrk, kind="double_s", params=params)
 
     def phases(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The seven phases of every joint's double S (Biagiotti & Melchiorri §3.4), unsigned:

@@ -66,16 +66,16 @@ class MotionProfile:
         self.durations, self.accels, self.jerks = d[keep], a[keep], j[keep]
         k = self.durations.size
         self.t_knots = np.concatenate([[0.0], np.cumsum(self.durations)])
-        s = np.zeros(k + 1)
-        v = np.zeros(k + 1)
-        v[0] = self.v_start
-        for i in range(k):
-            h, a0, jj = self.durations[i], self.accels[i], self.jerks[i]
-            s[i + 1] = s[i] + v[i] * h + a0 * h * h / 2 + jj * h**3 / 6
-            v[i + 1] = v[i] + a0 * h + jj * h * h / 2
+        s, v = [0.0], [float(self.v_start)]
+        # (Python floats: the same IEEE arithmetic, without numpy's per-scalar cost)
+        for h, a0, jj in zip(
+            self.durations.tolist(), self.accels.tolist(), self.jerks.tolist(), strict=True
+        ):
+            s.append(s[-1] + v[-1] * h + a0 * h * h / 2 + jj * h**3 / 6)
+            v.append(v[-1] + a0 * h + jj * h * h / 2)
         if k and "length" in self.params:  # the nominal end point, free of rounding
             s[-1] = float(self.params["length"])
-        self.s_knots, self.v_knots = s, v
+        self.s_knots, self.v_knots = np.array(s), np.array(v)
 
     # ------------------------------------------------------------------ facts
     @property
