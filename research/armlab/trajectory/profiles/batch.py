@@ -11,7 +11,6 @@ import numpy as np
 from armlab.errors import InputError
 from armlab.trajectory.profiles.motion import MotionProfile, rest_profile
 from armlab.trajectory.profiles.timing import (
-    _floats,
     double_s_min_times,
     double_s_peak_speed,
     double_s_ramp,
@@ -193,6 +192,15 @@ class SCurveBatch:
         return {k: x.reshape(shape) for k, x in out.items()}
 
 
+def _full(x: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """``x`` broadcast to ``shape`` as its own contiguous array."""
+    if x.shape == shape:
+        return x
+    out = np.empty(shape)
+    out[...] = x
+    return out
+
+
 def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch:
     """Time-synchronised rest-to-rest double S profiles of many problems at once, closed form.
 
@@ -223,22 +231,25 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
     D = np.asarray(distances, float)
     if D.ndim == 0:
         raise InputError("synchronised_scurves: distances must have a joint axis (..., n_joints)")
-    if not np.all(np.isfinite(D)):
+    if not np.isfinite(D).all():
         raise InputError("synchronised_scurves: distances must be finite")
     v, a, j = (np.asarray(x, float) for x in (v_max, a_max, j_max))
     for name, x, inf_ok in (("v_max", v, False), ("a_max", a, False), ("j_max", j, True)):
-        if not np.all(x > 0) or not (inf_ok or np.all(np.isfinite(x))):
+        if not (x > 0).all() or not (inf_ok or np.isfinite(x).all()):
             raise InputError(f"synchronised_scurves: {name} must be > 0 and finite")
     try:
-        L, v, a, j = _floats(np.abs(D), v, a, j)
+        shape = np.broadcast_shapes(D.shape, v.shape, a.shape, j.shape)
     except ValueError:
         raise InputError(
             f"synchronised_scurves: limits do not broadcast to distances {D.shape}"
         ) from None
+    # every argument at the full shape once: the primitives below then skip broadcasting
+    L, v, a, j = (_full(x, shape) for x in (np.abs(D), v, a, j))
+    D = _full(D, shape)
     peak = double_s_peak_speed(L, v, a, j)
     t_min = double_s_min_times(L, v, a, j, peak=peak)
     T = t_min.max(axis=-1) if t_min.shape[-1] else np.zeros(t_min.shape[:-1])
-    vp = double_s_speed_for_duration(L, T[..., None], a, j, v, peak=peak, t_min=t_min)
+    vp = double_s_speed_for_duration(L, _full(T[..., None], shape), a, j, v, peak=peak, t_min=t_min)
     tj, ta = double_s_ramp(vp, a, j)
     with np.errstate(invalid="ignore", over="ignore"):
         ap = np.where(np.isinf(j), a, np.minimum(j * tj, a))
