@@ -19,6 +19,10 @@ from armlab.trajectory.profiles.timing import (
 
 __all__ = ["SCurveBatch", "synchronised_scurves"]
 
+#: up to this many joints x problems, :meth:`SCurveBatch.evaluate_jerk` finds each time's phase
+#: by a binary search per column (a comparison with every phase end above)
+_SEARCH_COLUMNS = 16
+
 
 # ---------------------------------------------------------------------- batched, closed form
 @dataclass
@@ -126,17 +130,24 @@ class SCurveBatch:
         shape = (t.size,) + (1,) * self.distance.ndim
         tt = np.maximum(np.minimum(t.reshape(shape), self.duration[..., None]), 0.0)
         b = self.boundaries()
-        # the phase of each time: the phase ends passed (phase k ends where k + 1 starts; a
-        # zero-length phase is passed with its predecessor), at most the last
-        k = (tt[:, None] >= b[0, 1:][None]).sum(axis=1)
         cols = self.distance.size
-        t0, s0, v0, d, a0, j0 = b.reshape(6, 7, cols)[:, k.reshape(t.size, cols), np.arange(cols)]
-        tt = np.broadcast_to(tt, k.shape).reshape(t.size, cols)
+        ends = b[0, 1:].reshape(6, cols)  # phase k ends where phase k + 1 starts
+        tt = np.broadcast_to(tt, (t.size,) + self.distance.shape).reshape(t.size, cols)
+        # the phase of each time: the phase ends passed (a zero-length phase is passed with
+        # its predecessor), at most the last; a binary search per joint where there are few
+        if cols <= _SEARCH_COLUMNS:
+            k = np.empty((t.size, cols), np.intp)
+            for c in range(cols):
+                k[:, c] = np.searchsorted(ends[:, c], tt[:, c], side="right")
+        else:
+            k = (tt[:, None] >= ends[None]).sum(axis=1)
+        t0, s0, v0, d, a0, j0 = np.take(b.reshape(6, 7 * cols), k * cols + np.arange(cols), axis=1)
         h = np.minimum(np.maximum(tt - t0, 0.0), d)
         s = s0 + h * (v0 + h * (a0 / 2 + h * j0 / 6))
         v = v0 + h * (a0 + h * j0 / 2)
         sgn = np.sign(self.distance).reshape(1, cols)
-        return tuple((sgn * x).reshape(k.shape) for x in (s, v, a0 + j0 * h, j0))
+        out = (t.size,) + self.distance.shape
+        return tuple((sgn * x).reshape(out) for x in (s, v, a0 + j0 * h, j0))
 
     def peaks(self) -> dict[str, np.ndarray]:
         """Exact extremes of every joint's motion from its phase data (:meth:`boundaries`),
