@@ -117,22 +117,20 @@ def exact_report(batch, start, goal, limits, joint_names) -> tuple[LimitReport, 
     pk = {k: x.reshape(-1) for k, x in batch.peaks().items()}
     v, a, j = limits.velocity_rad_s, limits.acceleration_rad_s2, limits.jerk_rad_s3
     L = np.abs(batch.distance.reshape(-1))
-    residual = max(
-        float(np.max(np.abs(pk["end_position"] - L) / (1.0 + L))),
-        float(np.max(np.abs(pk["end_velocity"]) / v)),
-        float(np.max(np.abs(pk["end_acceleration"]) / a)) if a is not None else 0.0,
-    )
-    if residual > ARRIVAL_TOL or np.any(pk["reverse"] > ARRIVAL_TOL * v):
+    off = [np.abs(pk["end_position"] - L) / (1.0 + L), np.abs(pk["end_velocity"]) / v]
+    if a is not None:
+        off.append(np.abs(pk["end_acceleration"]) / a)
+    residual = float(np.concatenate(off).max())
+    if residual > ARRIVAL_TOL or (pk["reverse"] > ARRIVAL_TOL * v).any():
         return None
     T = float(batch.duration.reshape(-1)[0])
     report = LimitReport(list(joint_names))
-    half = 0.5 * (limits.upper_rad - limits.lower_rad)
-    ends = np.abs(np.stack([start, goal]) - limits.centre_rad) / half
-    k = np.argmax(ends, axis=0)
-    report.ratios["position"] = ends[k, np.arange(k.size)]
-    report.at_s["position"] = np.where(k == 0, 0.0, T)
+    centre, half = limits.centre_rad, 0.5 * (limits.upper_rad - limits.lower_rad)
+    r0, r1 = np.abs(start - centre) / half, np.abs(goal - centre) / half
+    report.ratios["position"] = np.maximum(r0, r1)
+    report.at_s["position"] = np.where(r1 > r0, T, 0.0)  # the start where both are equal
     # a trapezoid (j = inf in the batch) has no jerk signal: no jerk ratio, as for its samples
-    jerk = j if bool(np.all(np.isfinite(batch.j))) else None
+    jerk = j if np.isfinite(batch.j).all() else None
     for kind, lim in (("velocity", v), ("acceleration", a), ("jerk", jerk)):
         if lim is not None:
             report.ratios[kind] = pk[kind] / lim

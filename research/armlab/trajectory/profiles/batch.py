@@ -176,12 +176,10 @@ class SCurveBatch:
         v1 = v0 + d * (acc + d * jrk / 2)
         cross = live & (acc * a1 < 0)  # the speed's extreme inside the phase
         jn = np.where(cross, jrk, 1.0)
-        # candidates (21, cols): the phase starts, the phase ends, the extremes inside
-        cand = np.empty((3, 21, cols))
-        ct, cv, ca = cand
-        ct[:7], ct[7:14], ct[14:] = t0, t0 + d, t0 - acc / jn
-        cv[:7], cv[7:14], cv[14:] = v0 * live, v1 * live, (v0 - acc * acc / (2 * jn)) * cross
-        ca[:7], ca[7:14], ca[14:] = np.abs(acc) * live, np.abs(a1) * live, 0.0
+        # candidates (21 or 14, cols): at the phase starts, the phase ends, the extremes inside
+        ct = np.concatenate([t0, t0 + d, t0 - acc / jn])
+        cv = np.concatenate([v0 * live, v1 * live, (v0 - acc * acc / (2 * jn)) * cross])
+        ca = np.concatenate([np.abs(acc) * live, np.abs(a1) * live])
         cj = np.abs(jrk) * live
         col = np.arange(cols)
         av = np.abs(cv)
