@@ -254,7 +254,7 @@ def ptp_sync(
         check_stoppable(robot, v0, a0, v, j, where="ptp_sync")
     else:
         a0 = np.zeros(robot.n_joints)  # a trapezoid's acceleration steps: only checked
-    from_state = bool(np.any(v0 != 0) or np.any(v1 != 0) or np.any(a0 != 0))
+    from_state = bool(v0.any() or v1.any() or a0.any())  # a nonzero speed or acceleration
     if from_state and (profile == "velocity" or sync != "time"):
         raise InputError(
             f"ptp_sync: qd_start/qdd_start/qd_goal (replanning from a moving state) need "
@@ -303,7 +303,8 @@ def ptp_sync(
         T, t_i = float(batch.duration[0]), batch.t_min[0]
         profs = [batch.profile((0, i)) for i in range(robot.n_joints)]
         bj = int(np.argmax(t_i))
-        bkind = double_s_binding(D[bj], v[bj], a[bj], jj[bj])
+        # the slowest joint takes its own shortest time: its speed is its peak speed
+        bkind = double_s_binding(D[bj], v[bj], a[bj], jj[bj], peak=batch.v[0, bj])
         if sync == "phase":
             moving = D > 0
             vs = float(np.min(v[moving] / D[moving]))
