@@ -24,9 +24,26 @@ and both are within every limit. Measured on teachbot6 (tests): durations within
 IPOPT's.
 
 The result holds the exact piecewise cubic: its samples are the switching instants of every
-joint (jerk constant between them), so :meth:`Trajectory.at` evaluates it exactly, and the limit
-check (:meth:`Trajectory.check_limits`, knots and each piece's interior extremes) is exact
-without a fine grid (a grid of ``check_dt`` is added when the caller gives one).
+joint (jerk constant between them, the jerk of the phase), so :meth:`Trajectory.at` evaluates
+it exactly.
+
+What is verified, and how (``stats["limit_check"]``)
+----------------------------------------------------
+A result is returned only with its check. The check is exact and made on the phase data
+(:func:`exact_report`, :meth:`SCurveBatch.peaks <armlab.trajectory.profiles.SCurveBatch.peaks>`):
+within a phase the jerk is constant, the acceleration linear and the speed quadratic, so each
+joint's peak ``|qdd|`` is at a phase end, its peak ``|qd|`` at a phase end or where the
+acceleration crosses zero inside a phase, its ``|qddd|`` that of a phase of positive length;
+its speed never against the move means the position is monotone, so the range ratio is that
+of the two waypoints; the end of the last phase is the goal at rest within
+:data:`ARRIVAL_TOL` (``stats["arrival_residual"]``). The Trajectory's samples are these phase
+data at the switching instants, so the ratios are those of its evaluation too (tests: equal to
+:meth:`Trajectory.check_limits` within 1e-12). Where the phase data do not show it (a speed
+against the move, an end off the goal) or the caller asks for a grid (``check_dt``), the
+samples are checked (:meth:`Trajectory.check_limits`) instead, and ``stats["limit_check"]``
+says so. :func:`~armlab.planning.ptp_sync` uses the same check for its rest-to-rest S-curves
+and trapezoids without a torque limit.
+
 ``stats["method"] = "closed_form"``; :func:`~armlab.planning.build_optimal` (the engine) still
 solves the same problem by transcription.
 """

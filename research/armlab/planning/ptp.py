@@ -37,6 +37,12 @@ current velocity / acceleration and target velocity), with ``sync="time"``:
   :func:`~armlab.trajectory.profiles.synchronised_from_state`). The acceleration is
   continuous: the plan starts with ``qdd_start`` and ends with zero acceleration.
 
+Rest to rest with ``sync="time"``, every joint's samples come from the batch's phase data in
+one evaluation (:meth:`~armlab.trajectory.profiles.SCurveBatch.evaluate_jerk`), and without a
+torque limit the limit report is the exact check of the phase data
+(:func:`~armlab.planning.optimal_closed.exact_report`, ``stats["limit_check"]``); with one,
+the samples and their torques are checked.
+
 A start or goal speed above a joint's velocity limit, a start acceleration above its
 acceleration limit, or (``"scurve"``) a start acceleration the jerk limit cannot bring to zero
 before the speed passes its limit (``qd + qdd |qdd| / 2 j``) is refused (:class:`InputError`
