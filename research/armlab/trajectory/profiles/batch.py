@@ -100,14 +100,18 @@ class SCurveBatch:
         if self._bounds is not None:
             return self._bounds
         ap, tj = self.a, self.tj
-        tc = self.ta - 2 * tj
-        z = np.zeros_like(ap)
         jf = np.where(np.isfinite(self.j), self.j, 0.0)  # a trapezoid has no jerk phases
         out = np.empty((6, 7) + ap.shape)
         t0, s0, v0, d, acc, jrk = out
-        d[:] = (tj, tc, tj, self.tv, tj, tc, tj)
-        acc[:] = (z, ap, ap, z, z, -ap, -ap)
-        jrk[:] = (jf, z, -jf, z, -jf, z, jf)
+        d[0::2] = tj  # phases 0, 2, 4, 6: the jerk phases
+        d[1] = d[5] = self.ta - 2 * tj  # constant acceleration
+        d[3] = self.tv  # cruise
+        acc[0] = acc[3] = acc[4] = 0.0
+        acc[1:3] = ap
+        acc[5:7] = -ap
+        jrk[1::2] = 0.0
+        jrk[0::6] = jf  # phases 0 and 6
+        jrk[2:5:2] = -jf  # phases 2 and 4
         t0[0] = s0[0] = v0[0] = 0.0
         np.cumsum(d[:-1], axis=0, out=t0[1:])
         np.cumsum((d * (acc + d * jrk / 2))[:-1], axis=0, out=v0[1:])
@@ -127,18 +131,23 @@ class SCurveBatch:
         phase holds the end), its Taylor polynomial from the phase's start
         (:meth:`boundaries`)."""
         t = np.asarray(t, float).reshape(-1)
-        shape = (t.size,) + (1,) * self.distance.ndim
-        tt = np.maximum(np.minimum(t.reshape(shape), self.duration[..., None]), 0.0)
         b = self.boundaries()
         cols = self.distance.size
         ends = b[0, 1:].reshape(6, cols)  # phase k ends where phase k + 1 starts
-        tt = np.broadcast_to(tt, (t.size,) + self.distance.shape).reshape(t.size, cols)
+        if self.duration.size == 1:  # one problem: one time axis for every joint
+            t1 = np.minimum(np.maximum(t, 0.0), float(self.duration.reshape(-1)[0]))
+            tt = t1[:, None]
+        else:
+            shape = (t.size,) + (1,) * self.distance.ndim
+            tt = np.maximum(np.minimum(t.reshape(shape), self.duration[..., None]), 0.0)
+            tt = np.broadcast_to(tt, (t.size,) + self.distance.shape).reshape(t.size, cols)
         # the phase of each time: the phase ends passed (a zero-length phase is passed with
         # its predecessor), at most the last; a binary search per joint where there are few
         if cols <= _SEARCH_COLUMNS:
-            k = np.empty((t.size, cols), np.intp)
+            k = np.empty((cols, t.size), np.intp)
             for c in range(cols):
-                k[:, c] = np.searchsorted(ends[:, c], tt[:, c], side="right")
+                k[c] = np.searchsorted(ends[:, c], tt[:, c if tt.shape[1] > 1 else 0], "right")
+            k = k.T
         else:
             k = (tt[:, None] >= ends[None]).sum(axis=1)
         t0, s0, v0, d, a0, j0 = np.take(b.reshape(6, 7 * cols), k * cols + np.arange(cols), axis=1)
