@@ -307,7 +307,7 @@ def ptp_sync(
         # Jiang 1987, eq. 3-4, each joint's double S in closed form (one batch)
         batch = synchronised_scurves(D[None], v, a, jj)
         T, t_i = float(batch.duration[0]), batch.t_min[0]
-        profs = [batch.profile((0, i)) for i in range(robot.n_joints)]
+        profs = batch.profiles(0)
         bj = int(np.argmax(t_i))
         # the slowest joint takes its own shortest time: its speed is its peak speed
         bkind = double_s_binding(D[bj], v[bj], a[bj], jj[bj], peak=batch.v[0, bj])

@@ -66,19 +66,32 @@ class SCurveBatch:
     def profile(self, index) -> MotionProfile:
         """The :class:`MotionProfile` of one joint of one problem, ``index`` into the
         ``(..., n_joints)`` arrays (e.g. ``(problem, joint)``), over ``|distance|``."""
-        L = abs(float(self.distance[index]))
-        T = float(self.duration[index[:-1]] if isinstance(index, tuple) else self.duration)
-        v = float(self.v[index])
-        if L <= 0 or v <= 0:
-            return rest_profile(T)
         at = index if isinstance(index, tuple) else (index,)
-        _, _, _, d, acc, jrk = self.boundaries()[(slice(None), slice(None), *at)]
-        j = float(self.j[index])
-        if math.isinf(j):  # the trapezoid: its three phases
-            params = {"v": v, "a_acc": float(acc[1]), "a_dec": float(acc[1]), "length": L}
-            return MotionProfile(d, acc, jrk, kind="trapezoid", params=params)
-        params = {"v": v, "a": float(acc[1]), "j": j, "length": L}
-        return MotionProfile(d, acc, jrk, kind="double_s", params=params)
+        return self.profiles(at[:-1], joints=[at[-1]])[0]
+
+    def profiles(self, problem=(), joints=None) -> list[MotionProfile]:
+        """The :class:`MotionProfile` of every joint (or of ``joints``) of one problem,
+        ``problem`` indexing the leading axes (``()`` for a batch of one joint axis), each
+        over ``|distance|``, from the phase data (:meth:`boundaries`)."""
+        at = problem if isinstance(problem, tuple) else (problem,)
+        phases = self.boundaries()[(slice(3, None), slice(None), *at)]  # (3, 7, n_joints)
+        cols = range(phases.shape[-1]) if joints is None else joints
+        T = float(self.duration[at])
+        # Python floats once (one conversion of the table, not one per value)
+        L, v, j = (np.asarray(x[at])[cols].tolist() for x in (self.distance, self.v, self.j))
+        table = phases.transpose(2, 0, 1)[cols].tolist()  # per joint: d, acc, jrk
+        out = []
+        for Li, vi, ji, (d, acc, jrk) in zip(L, v, j, table, strict=True):
+            Li = abs(Li)
+            if Li <= 0 or vi <= 0:
+                out.append(rest_profile(T))
+            elif math.isinf(ji):  # the trapezoid: its three phases
+                params = {"v": vi, "a_acc": acc[1], "a_dec": acc[1], "length": Li}
+                out.append(MotionProfile(d, acc, jrk, kind="trapezoid", params=params))
+            else:
+                params = {"v": vi, "a": acc[1], "j": ji, "length": Li}
+                out.append(MotionProfile(d, acc, jrk, kind="double_s", params=params))
+        return out
 
     def phases(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The seven phases of every joint's double S (Biagiotti & Melchiorri §3.4), unsigned:
