@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 
 from armlab.planning import optimal, ptp_sync
+from armlab.planning.optimal_closed import exact_report
 from armlab.planning.optimiser import build_optimal
+from armlab.trajectory.profiles import synchronised_scurves
 
 #: the closed form against IPOPT's optimum on the same problem, in [s]: IPOPT meets its
 #: constraints to 1e-9 and its objective carries a 1e-7 smoothness term (measured 4e-8)
@@ -106,3 +108,48 @@ def test_ptp_sync_says_closed_form(teachbot6, profile):
         best = optimal(teachbot6, w, tau_max=False)
         assert traj.duration == pytest.approx(best.duration, abs=1e-9)
     assert math.isclose(traj.stats["duration_s"], traj.duration, abs_tol=1e-12)
+
+
+def _same_report(exact, sampled, tol=1e-12):
+    assert set(exact.ratios) == set(sampled.ratios)
+    for kind, r in sampled.ratios.items():
+        np.testing.assert_allclose(exact.ratios[kind], r, rtol=tol, atol=tol, err_msg=kind)
+
+
+@pytest.mark.parametrize("profile", ["optimal", "scurve", "trapezoid"])
+def test_exact_check_is_the_sample_check(teachbot6, profile):
+    """The report of a closed-form plan comes from the phase data (exact_report); the sample
+    check of the returned Trajectory (knots, left limits, interior extremes of its pieces,
+    Trajectory.check_limits) finds the same peak ratios."""
+    for w in _cases(teachbot6, 4, 31):
+        if profile == "optimal":
+            traj = optimal(teachbot6, w, tau_max=False)
+        else:
+            traj = ptp_sync(teachbot6, w[0], w[1], profile, tau_max=False)
+        assert traj.stats["limit_check"].startswith("exact")
+        assert 0.0 <= traj.stats["arrival_residual"] < 1e-12
+        lim = teachbot6.limits
+        sampled = traj.check_limits(teachbot6, limits=lim, torque=False)
+        _same_report(traj.report, sampled)
+
+
+def test_a_grid_asked_for_is_sampled(teachbot6):
+    w = _cases(teachbot6, 1, 3)[0]
+    traj = optimal(teachbot6, w, tau_max=False, check_dt=0.01)
+    assert traj.stats["method"] == "closed_form"
+    assert traj.stats["limit_check"].startswith("samples")
+    assert traj.stats["arrival_residual"] is None
+    assert traj.report.ok(1e-9)
+
+
+def test_exact_report_refuses_phase_data_that_do_not_arrive(teachbot6):
+    """Phase data whose end is not the goal at rest (a cruise 1 % too long) are not reported
+    exactly: None, and the caller checks the samples."""
+    w = _cases(teachbot6, 1, 5)[0]
+    lim = teachbot6.limits
+    args = (np.diff(w, axis=0), lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3)
+    good = synchronised_scurves(*args)
+    assert exact_report(good, w[0], w[1], lim, teachbot6.joint_names) is not None
+    bad = synchronised_scurves(*args)
+    bad.tv = bad.tv * 1.01
+    assert exact_report(bad, w[0], w[1], lim, teachbot6.joint_names) is None

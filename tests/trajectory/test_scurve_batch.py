@@ -98,6 +98,36 @@ def test_sampled_profiles_keep_the_limits_and_arrive_together():
         np.testing.assert_allclose(qd[:, p, k], sgn * sd, atol=1e-10)
 
 
+def test_peaks_from_the_phase_data_are_the_timing_of_each_profile():
+    """SCurveBatch.peaks integrates the seven phases; the timing primitives give the same
+    peaks independently: the peak speed ``v``, the peak acceleration ``a`` (Biagiotti &
+    Melchiorri §3.4), jerk ``j`` where a joint moves on a double S, the end at ``|D|`` at rest,
+    never a speed against the move; and no sample of the evaluation exceeds them."""
+    rng = np.random.default_rng(17)
+    D = rng.uniform(-2.0, 2.0, (30, 6))
+    D[::3, 1] = 0.0
+    D[1::5, 3] = 1e-4  # a short move: no cruise, no acceleration plateau
+    batch = synchronised_scurves(D, V, A, J)
+    pk = batch.peaks()
+    moving = D != 0
+    np.testing.assert_allclose(pk["velocity"], batch.v, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(pk["acceleration"], np.where(moving, batch.a, 0.0), rtol=1e-12)
+    jerk = np.where(moving & np.isfinite(J), np.where(np.isfinite(J), J, 0.0), 0.0)
+    np.testing.assert_allclose(pk["jerk"], jerk, rtol=1e-15)
+    np.testing.assert_allclose(pk["end_position"], np.abs(D), rtol=1e-12, atol=1e-15)
+    assert np.abs(pk["end_velocity"]).max() < 1e-12
+    assert np.abs(pk["end_acceleration"]).max() < 1e-9
+    assert pk["reverse"].max() < 1e-12
+    t = np.linspace(0.0, batch.duration.max(), 2001)
+    q, qd, qdd, qddd = batch.evaluate_jerk(t)
+    assert np.all(np.abs(qd).max(axis=0) <= pk["velocity"] * (1 + 1e-12))
+    assert np.all(np.abs(qdd).max(axis=0) <= pk["acceleration"] * (1 + 1e-12))
+    assert np.all(np.abs(qddd).max(axis=0) <= pk["jerk"])
+    # the jerk of the evaluation is the slope of its acceleration between samples
+    slope = np.diff(qdd, axis=0) / np.diff(t)[:, None, None]
+    assert np.all(np.abs(slope) <= np.where(np.isfinite(J), J, np.inf) * (1 + 1e-6))
+
+
 def test_zero_velocity_waypoints_are_a_batch_of_segments():
     w = np.array([[0.0, 0.5, -1.0], [1.0, 0.5, 0.0], [0.2, -0.7, 0.4]])
     seg = synchronised_scurves(np.diff(w, axis=0), 2.0, 5.0, 50.0)

@@ -24,9 +24,26 @@ and both are within every limit. Measured on teachbot6 (tests): durations within
 IPOPT's.
 
 The result holds the exact piecewise cubic: its samples are the switching instants of every
-joint (jerk constant between them), so :meth:`Trajectory.at` evaluates it exactly, and the limit
-check (:meth:`Trajectory.check_limits`, knots and each piece's interior extremes) is exact
-without a fine grid (a grid of ``check_dt`` is added when the caller gives one).
+joint (jerk constant between them, the jerk of the phase), so :meth:`Trajectory.at` evaluates
+it exactly.
+
+What is verified, and how (``stats["limit_check"]``)
+----------------------------------------------------
+A result is returned only with its check. The check is exact and made on the phase data
+(:func:`exact_report`, :meth:`SCurveBatch.peaks <armlab.trajectory.profiles.SCurveBatch.peaks>`):
+within a phase the jerk is constant, the acceleration linear and the speed quadratic, so each
+joint's peak ``|qdd|`` is at a phase end, its peak ``|qd|`` at a phase end or where the
+acceleration crosses zero inside a phase, its ``|qddd|`` that of a phase of positive length;
+its speed never against the move means the position is monotone, so the range ratio is that
+of the two waypoints; the end of the last phase is the goal at rest within
+:data:`ARRIVAL_TOL` (``stats["arrival_residual"]``). The Trajectory's samples are these phase
+data at the switching instants, so the ratios are those of its evaluation too (tests: equal to
+:meth:`Trajectory.check_limits` within 1e-12). Where the phase data do not show it (a speed
+against the move, an end off the goal) or the caller asks for a grid (``check_dt``), the
+samples are checked (:meth:`Trajectory.check_limits`) instead, and ``stats["limit_check"]``
+says so. :func:`~armlab.planning.ptp_sync` uses the same check for its rest-to-rest S-curves
+and trapezoids without a torque limit.
+
 ``stats["method"] = "closed_form"``; :func:`~armlab.planning.build_optimal` (the engine) still
 solves the same problem by transcription.
 """
@@ -41,11 +58,18 @@ import numpy as np
 from armlab.planning.timescale import CHECK_TOL
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import synchronised_scurves
+from armlab.trajectory.sampling import LimitReport
 
 if TYPE_CHECKING:
     from armlab.planning.optimal_problem import OptimalProblem
 
-__all__ = ["closed_form_applies", "closed_form_optimal"]
+__all__ = [
+    "closed_form_applies",
+    "closed_form_optimal",
+    "exact_report",
+    "EXACT_CHECK",
+    "SAMPLE_CHECK",
+]
 
 
 def closed_form_applies(prob: OptimalProblem) -> bool:
@@ -64,45 +88,103 @@ def closed_form_applies(prob: OptimalProblem) -> bool:
     )
 
 
-def _knots(batch) -> np.ndarray:
-    """Every joint's switching instants and the ends, sorted; instants closer than the
-    rounding of the times merge (as :func:`~armlab.trajectory.sampling.sample_times`)."""
-    T = float(batch.duration[0])
-    tc = batch.ta[0] - 2 * batch.tj[0]
-    phases = np.stack([batch.tj[0], tc, batch.tj[0], batch.tv[0], batch.tj[0], tc, batch.tj[0]])
-    corners = np.cumsum(phases, axis=0)[:-1].reshape(-1)
+def _knots(t0: np.ndarray, T: float) -> np.ndarray:
+    """Every joint's switching instants (the phase starts ``t0``, (7, n_joints)) and the
+    ends, sorted; instants closer than the rounding of the times merge (as
+    :func:`~armlab.trajectory.sampling.sample_times`)."""
+    corners = t0[1:].reshape(-1)
     tiny = 8 * np.finfo(float).eps * max(T, 1.0)
-    inner = np.unique(corners[(corners > tiny) & (corners < T - tiny)])
-    inner = inner[np.append(np.diff(inner) > tiny, True)] if inner.size else inner
-    return np.concatenate([[0.0], inner, [T]])
+    inner = np.sort(corners[(corners > tiny) & (corners < T - tiny)])
+    keep = np.empty(inner.size + 2, bool)  # the later of two merged instants
+    keep[0] = keep[-2:] = True
+    np.greater(inner[1:] - inner[:-1], tiny, out=keep[1:-2])
+    out = np.empty(inner.size + 2)
+    out[0], out[1:-1], out[-1] = 0.0, inner, T
+    return out[keep]
+
+
+#: what the exact check of a closed-form plan verified (``stats["limit_check"]``)
+EXACT_CHECK = (
+    "exact, from each joint's phase data: peak |qd| at the phase ends and where the "
+    "acceleration crosses zero, peak |qdd| at the phase ends, |qddd| of every phase, the "
+    "speed never against the move (positions between start and goal), the end state at the "
+    "goal at rest within rounding"
+)
+#: ``stats["limit_check"]`` where the samples were checked (:meth:`Trajectory.check_limits`)
+SAMPLE_CHECK = "samples (Trajectory.check_limits)"
+#: the end state of the phase data against the goal at rest, relative to the move (position)
+#: and to the limits (speed, acceleration): rounding only
+ARRIVAL_TOL = 1e-10
+
+
+def exact_report(batch, start, goal, limits, joint_names) -> tuple[LimitReport, float] | None:
+    """The :class:`~armlab.trajectory.sampling.LimitReport` of one synchronised double S
+    (``batch`` of one problem, :func:`~armlab.trajectory.profiles.synchronised_scurves`)
+    from its phase data, exactly (:meth:`SCurveBatch.peaks`), and the largest arrival residual
+    (relative, :data:`ARRIVAL_TOL`); None where the phase data do not show what the exact check
+    needs (a speed against the move, an end state off the goal at rest): the caller then
+    checks the samples.
+
+    A rest-to-rest double S moves monotonically (its speed never changes sign), so its
+    positions stay between ``start`` and ``goal`` and their peak ratio to the range is at an
+    end; its speed, acceleration and jerk peak at the phase ends or (speed) where the
+    acceleration crosses zero inside a phase (Biagiotti & Melchiorri §3.4): the ratios below
+    are those of the motion, not of samples of it.
+    """
+    pk = {k: x.reshape(-1) for k, x in batch.peaks().items()}
+    v, a, j = limits.velocity_rad_s, limits.acceleration_rad_s2, limits.jerk_rad_s3
+    L = np.abs(batch.distance.reshape(-1))
+    off = [np.abs(pk["end_position"] - L) / (1.0 + L), np.abs(pk["end_velocity"]) / v]
+    if a is not None:
+        off.append(np.abs(pk["end_acceleration"]) / a)
+    residual = float(np.concatenate(off).max())
+    if residual > ARRIVAL_TOL or (pk["reverse"] > ARRIVAL_TOL * v).any():
+        return None
+    T = float(batch.duration.reshape(-1)[0])
+    report = LimitReport(list(joint_names))
+    centre, half = limits.centre_rad, 0.5 * (limits.upper_rad - limits.lower_rad)
+    r0, r1 = np.abs(start - centre) / half, np.abs(goal - centre) / half
+    report.ratios["position"] = np.maximum(r0, r1)
+    report.at_s["position"] = np.where(r1 > r0, T, 0.0)  # the start where both are equal
+    # a trapezoid (j = inf in the batch) has no jerk signal: no jerk ratio, as for its samples
+    jerk = j if np.isfinite(batch.j).all() else None
+    for kind, lim in (("velocity", v), ("acceleration", a), ("jerk", jerk)):
+        if lim is not None:
+            report.ratios[kind] = pk[kind] / lim
+            report.at_s[kind] = pk[f"{kind}_at_s"]
+    return report, residual
 
 
 def closed_form_optimal(prob: OptimalProblem) -> Trajectory:
     """The time-synchronised double S of ``prob`` (:func:`closed_form_applies` must hold) as
     the :func:`~armlab.planning.optimal` result: exact piecewise cubic, ``report`` (its exact
-    limit check), ``stats`` (``method = "closed_form"``, the keys of a transcribed plan that
-    apply) and ``meta``."""
+    limit check, :func:`exact_report`; the sample check of
+    :meth:`~armlab.trajectory.Trajectory.check_limits` where the caller gives ``check_dt``),
+    ``stats`` (``method = "closed_form"``, ``limit_check``, the keys of a transcribed plan
+    that apply) and ``meta``."""
     t0 = _time.perf_counter()
     ls = prob.limits
     w = prob.waypoints
     batch = synchronised_scurves(
         np.diff(w, axis=0), ls.velocity_rad_s, ls.acceleration_rad_s2, ls.jerk_rad_s3
     )
-    t = _knots(batch)
-    q, qd, qdd = (x[:, 0] for x in batch.evaluate(t))
-    # the jerk of each piece, from the acceleration at its two ends (linear in between: the
-    # knots hold every joint's switching instants); exact zero where it does not step
-    h = np.diff(t)[:, None]
-    jerk = np.diff(qdd, axis=0) / h
-    jmax = ls.jerk_rad_s3
-    assert jmax is not None  # closed_form_applies
-    jerk = np.clip(np.where(np.abs(jerk) < 1e-9 * jmax, 0.0, jerk), -jmax, jmax)
+    T = float(batch.duration[0])
+    t = _knots(batch.boundaries()[0, :, 0], T)
+    # the phase data at every switching instant: each piece between knots is one phase of
+    # every joint (constant jerk, the one of the phase that starts at its left knot)
+    q, qd, qdd, J = (x[:, 0] for x in batch.evaluate_jerk(t))
     q = w[0] + q
-    q[-1], qd[-1], qdd[-1] = w[-1], 0.0, 0.0  # the goal at rest exactly
-    J = np.vstack([jerk, np.zeros((1, prob.n))])
+    q[-1], qd[-1], qdd[-1], J[-1] = w[-1], 0.0, 0.0, 0.0  # the goal at rest exactly
     traj = Trajectory(t, q, qd, qdd, J, joint_names=prob.robot.joint_names, method="optimal")
     solve_time = _time.perf_counter() - t0
-    traj.report = traj.check_limits(prob.robot, dt=prob.check_dt, limits=ls, torque=False)
+    exact = None  # a grid asked for (check_dt): the samples
+    if prob.check_dt is None:
+        exact = exact_report(batch, w[0], w[-1], ls, traj.joint_names)
+    if exact is None:
+        traj.report = traj.check_limits(prob.robot, dt=prob.check_dt, limits=ls, torque=False)
+        check, residual = SAMPLE_CHECK, None
+    else:
+        (traj.report, residual), check = exact, EXACT_CHECK
     T = float(batch.duration[0])
     binding = [
         (k, traj.joint_names[i], float(r[i]))
@@ -132,6 +214,8 @@ def closed_form_optimal(prob: OptimalProblem) -> Trajectory:
         "report_dt_s": prob.check_dt,
         "ok": ok,
         "drive_limits": False,
+        "limit_check": check,
+        "arrival_residual": residual,
     }
     traj.meta.update(
         {

@@ -37,6 +37,12 @@ current velocity / acceleration and target velocity), with ``sync="time"``:
   :func:`~armlab.trajectory.profiles.synchronised_from_state`). The acceleration is
   continuous: the plan starts with ``qdd_start`` and ends with zero acceleration.
 
+Rest to rest with ``sync="time"``, every joint's samples come from the batch's phase data in
+one evaluation (:meth:`~armlab.trajectory.profiles.SCurveBatch.evaluate_jerk`), and without a
+torque limit the limit report is the exact check of the phase data
+(:func:`~armlab.planning.optimal_closed.exact_report`, ``stats["limit_check"]``); with one,
+the samples and their torques are checked.
+
 A start or goal speed above a joint's velocity limit, a start acceleration above its
 acceleration limit, or (``"scurve"``) a start acceleration the jerk limit cannot bring to zero
 before the speed passes its limit (``qd + qdd |qdd| / 2 j``) is refused (:class:`InputError`
@@ -56,12 +62,14 @@ import numpy as np
 
 from armlab._keywords import renamed_keywords
 from armlab.errors import InputError, LimitViolation
+from armlab.planning.optimal_closed import EXACT_CHECK, SAMPLE_CHECK, exact_report
 from armlab.planning.timescale import finish, held_over_limit, stretch_needed
 from armlab.robot import rigid_body
 from armlab.robot.limits import resolve_limits
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import (
     MotionProfile,
+    SCurveBatch,
     double_s_binding,
     double_s_profile,
     rest_profile,
@@ -252,7 +260,7 @@ def ptp_sync(
         check_stoppable(robot, v0, a0, v, j, where="ptp_sync")
     else:
         a0 = np.zeros(robot.n_joints)  # a trapezoid's acceleration steps: only checked
-    from_state = bool(np.any(v0 != 0) or np.any(v1 != 0) or np.any(a0 != 0))
+    from_state = bool(v0.any() or v1.any() or a0.any())  # a nonzero speed or acceleration
     if from_state and (profile == "velocity" or sync != "time"):
         raise InputError(
             f"ptp_sync: qd_start/qdd_start/qd_goal (replanning from a moving state) need "
@@ -288,6 +296,7 @@ def ptp_sync(
         )
         return finish(traj, robot, lim, torque=torque, what=method)
 
+    batch: SCurveBatch | None = None
     if profile == "velocity":
         profs, T, (bkind, bj) = _velocity_profiles(D, v, a, dt)
         sync_used = "phase"
@@ -298,9 +307,10 @@ def ptp_sync(
         # Jiang 1987, eq. 3-4, each joint's double S in closed form (one batch)
         batch = synchronised_scurves(D[None], v, a, jj)
         T, t_i = float(batch.duration[0]), batch.t_min[0]
-        profs = [batch.profile((0, i)) for i in range(robot.n_joints)]
+        profs = batch.profiles(0)
         bj = int(np.argmax(t_i))
-        bkind = double_s_binding(D[bj], v[bj], a[bj], jj[bj])
+        # the slowest joint takes its own shortest time: its speed is its peak speed
+        bkind = double_s_binding(D[bj], v[bj], a[bj], jj[bj], peak=batch.v[0, bj])
         if sync == "phase":
             moving = D > 0
             vs = float(np.min(v[moving] / D[moving]))
@@ -311,41 +321,38 @@ def ptp_sync(
                 base = double_s_profile(1.0, vs, as_, float(np.min(jj[moving] / D[moving])))
             T = base.duration
             profs = [base] * robot.n_joints
+            batch = None  # one normalised profile: not the batch's
         sync_used = sync
 
     normalised = profile != "velocity" and sync_used == "phase"
 
-    def build(profiles, duration) -> Trajectory:
+    def build(duration, corners, evaluate) -> Trajectory:
         # every joint's switching times are knots: each piece between knots is the Taylor
         # polynomial of its left knot (constant acceleration or jerk), evaluated exactly
-        t = sample_times(duration, dt, np.concatenate([p.corners for p in profiles]))
-        n = t.size
-        q = np.empty((n, robot.n_joints))
-        qd = np.empty_like(q)
-        qdd = np.empty_like(q)
-        qddd = np.empty_like(q)
-        for i, p in enumerate(profiles):
-            s, sd, sdd, sddd = p.evaluate(t)
-            # phase sync: one profile over [0, 1]; otherwise each joint's own distance
-            scale = delta[i] if normalised else np.sign(delta[i])
-            q[:, i] = q0[i] + scale * s
-            qd[:, i], qdd[:, i], qddd[:, i] = scale * sd, scale * sdd, scale * sddd
+        t = sample_times(duration, dt, corners)
+        s, sd, sdd, sddd = evaluate(t)  # each (n_samples, n_joints)
+        # phase sync: one profile over [0, 1]; otherwise each joint's own distance
+        scale = delta if normalised else np.sign(delta)
+        q = q0 + scale * s
         q[-1] = q1  # exact arrival of every joint at the last sample
         return Trajectory(
             t,
             q,
-            qd,
-            qdd,
-            qddd if profile == "scurve" else None,
+            scale * sd,
+            scale * sdd,
+            scale * sddd if profile == "scurve" else None,
             joint_names=robot.joint_names,
             method=method,
         )
 
-    traj = build(profs, T)
+    if batch is not None:  # time sync: every joint at once, from the batch's phase data
+        traj = build(T, batch.boundaries()[0, 1:].reshape(-1), _batch_columns(batch))
+    else:
+        traj = build(T, np.concatenate([p.corners for p in profs]), _columns(profs))
     slowdown = None
     T0 = T
     # without a torque limit the closed-form profiles are within every limit by construction
-    # (the check of finish() below says so): no stretch rounds
+    # (the check below says so, exactly from the phase data where it can): no stretch rounds
     for _ in range(10 if torque else 0):  # torque peaks move between samples: iterate
         # on the evaluation's peaks (knots, left limits, interior extremes, refined torques)
         check = traj.limit_samples(robot=robot if torque else None)
@@ -355,7 +362,7 @@ def ptp_sync(
         k *= 1 + 1e-9
         profs = [p.stretched(k) for p in profs]
         T = T * k
-        traj = build(profs, T)
+        traj = build(T, np.concatenate([p.corners for p in profs]), _columns(profs))
         if slowdown is None:
             slowdown = {"kind": kind, "joint": joint}
         slowdown["factor"] = T / T0
@@ -372,7 +379,31 @@ def ptp_sync(
         slowdown=slowdown,
     )
     traj.stats.update(method="closed_form", duration_s=float(T), torque_stretch=T / T0)
-    return finish(traj, robot, lim, torque=torque, what=method)
+    # without torque and unstretched, the exact check of the phase data (optimal_closed);
+    # otherwise (or where the phase data do not show it) the samples
+    exact = None
+    if not torque and slowdown is None and batch is not None:
+        exact = exact_report(batch, q0, q1, lim, robot.joint_names)
+    traj.stats["limit_check"] = SAMPLE_CHECK if exact is None else EXACT_CHECK
+    traj.stats["arrival_residual"] = None if exact is None else exact[1]
+    report = None if exact is None else exact[0]
+    return finish(traj, robot, lim, torque=torque, what=method, report=report)
+
+
+def _columns(profiles):
+    """The evaluation of one profile per joint as ``(n_samples, n_joints)`` arrays
+    ``(s, sd, sdd, sddd)`` at times ``t``."""
+
+    def evaluate(t):
+        cols = [p.evaluate(t) for p in profiles]
+        return tuple(np.stack([c[i] for c in cols], axis=1) for i in range(4))
+
+    return evaluate
+
+
+def _batch_columns(batch):
+    """:func:`_columns` of a batch of one problem (:meth:`SCurveBatch.evaluate_jerk`)."""
+    return lambda t: tuple(x[:, 0] for x in batch.evaluate_jerk(t))
 
 
 def _scurves_from_state(delta, v0, a0, v1, v, a, j):

@@ -82,6 +82,8 @@ _OFF = "off"
 
 
 def _readonly(a) -> np.ndarray:
+    if isinstance(a, np.ndarray) and a.dtype == np.float64 and not a.flags.writeable:
+        return a  # already one (another Limits' array): nobody can change it
     out = np.array(a, dtype=float)
     out.flags.writeable = False
     return out
@@ -123,18 +125,23 @@ class Limits:
         n = len(names)
         set_ = object.__setattr__
         set_(self, "joint_names", names)
-        for name, bad in (("lower_rad", np.inf), ("upper_rad", -np.inf)):
-            a = _readonly(getattr(self, name))
-            # an unbounded joint (a continuous joint without range) has -inf / +inf
-            if a.shape != (n,) or np.any(np.isnan(a)) or np.any(a == bad):
-                raise InputError(f"limits {name} must be {n} numbers, not {a.tolist()}")
-            set_(self, name, a)
-        if np.any(np.isinf(self.lower_rad) != np.isinf(self.upper_rad)):
-            j = int(np.argmax(np.isinf(self.lower_rad) != np.isinf(self.upper_rad)))
-            raise InputError(f"limits of {names[j]}: a range unbounded on one side only")
-        if np.any(self.lower_rad > self.upper_rad):
-            j = int(np.argmax(self.lower_rad > self.upper_rad))
+        lo, hi = _readonly(self.lower_rad), _readonly(self.upper_rad)
+        # one test of a valid range (an unbounded joint, a continuous joint without range,
+        # has -inf / +inf); where it fails, the checks in turn name the first problem
+        valid = lo.shape == hi.shape == (n,) and bool(
+            ((lo <= hi) & (lo != np.inf) & (hi != -np.inf) & (np.isinf(lo) == np.isinf(hi))).all()
+        )
+        if not valid:
+            for name, a, bad in (("lower_rad", lo, np.inf), ("upper_rad", hi, -np.inf)):
+                if a.shape != (n,) or np.any(np.isnan(a)) or np.any(a == bad):
+                    raise InputError(f"limits {name} must be {n} numbers, not {a.tolist()}")
+            if np.any(np.isinf(lo) != np.isinf(hi)):
+                j = int(np.argmax(np.isinf(lo) != np.isinf(hi)))
+                raise InputError(f"limits of {names[j]}: a range unbounded on one side only")
+            j = int(np.argmax(lo > hi))
             raise InputError(f"limits of {names[j]}: lower_rad is above upper_rad")
+        set_(self, "lower_rad", lo)
+        set_(self, "upper_rad", hi)
         for kind, (name, unit, _, _) in LIMIT_KEYS.items():
             a = getattr(self, name)
             if a is None:
@@ -142,7 +149,7 @@ class Limits:
             a = _readonly(a)
             if a.shape != (n,):
                 raise InputError(f"limits {name} has shape {a.shape}, expected ({n},)")
-            if not np.all(a > 0):  # NaN fails too
+            if not (a > 0).all():  # NaN fails too
                 j = int(np.argmax(~(a > 0)))
                 raise InputError(f"{kind} limit of {names[j]} is {a[j]!r}; it must be > 0 {unit}")
             set_(self, name, a)
@@ -181,7 +188,7 @@ class Limits:
     # ------------------------------------------------------------------ derived sets
     def _with(self, values: dict, notes: dict) -> Limits:
         """A copy with ``{field: array or None}`` replaced and ``{kind: sources}`` set."""
-        kw = {f.name: getattr(self, f.name) for f in fields(self)}
+        kw = {name: getattr(self, name) for name in _LIMITS_FIELDS}
         kw.update(values)
         kw["sources"] = {**self.sources, **notes}
         return Limits(**kw)
@@ -303,7 +310,7 @@ class Limits:
         """JSON-able: ``{field: {joint: value} or None, "sources": {kind: {joint: source}}}``."""
 
         def arr(x):
-            return None if x is None else dict(zip(self.joint_names, map(float, x), strict=True))
+            return None if x is None else dict(zip(self.joint_names, x.tolist(), strict=True))
 
         out: dict = {"joint_names": list(self.joint_names)}
         for name in _fields():
@@ -312,6 +319,9 @@ class Limits:
             k: dict(zip(self.joint_names, v, strict=True)) for k, v in self.sources.items()
         }
         return out
+
+
+_LIMITS_FIELDS = tuple(f.name for f in fields(Limits))
 
 
 def _fields() -> tuple[str, ...]:

@@ -41,7 +41,11 @@ problems (``(n_problems, n_joints)`` moves, or the segments of a path that stops
 waypoints) at once, on the same primitives, for planners that need thousands of plans. Every
 step is in closed form: the peak speed for a given duration from a quadratic or a cubic
 (:func:`double_s_speed_for_duration`; the bisection it replaced is the tests' oracle,
-``tests/oracles/double_s.py``).
+``tests/oracles/double_s.py``). Its result, an :class:`SCurveBatch`, holds each joint's seven
+phases (:meth:`SCurveBatch.boundaries`, integrated once), evaluates them with the jerk
+(:meth:`SCurveBatch.evaluate_jerk`), gives each joint's exact peaks, end state and direction
+from them (:meth:`SCurveBatch.peaks`: the closed forms' limit check) and each joint's
+:class:`MotionProfile` from the same phases (:meth:`SCurveBatch.profile`).
 
 From a moving state (replanning, :func:`~armlab.planning.ptp_sync` with ``qd_start``):
 :func:`trapezoid_min_time_from_state`, :func:`trapezoid_blocked_from_state`,

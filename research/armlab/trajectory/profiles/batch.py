@@ -4,15 +4,13 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from armlab.errors import InputError
 from armlab.trajectory.profiles.motion import MotionProfile, rest_profile
-from armlab.trajectory.profiles.rest_to_rest import _double_s_phases
 from armlab.trajectory.profiles.timing import (
-    _floats,
     double_s_min_times,
     double_s_peak_speed,
     double_s_ramp,
@@ -20,6 +18,10 @@ from armlab.trajectory.profiles.timing import (
 )
 
 __all__ = ["SCurveBatch", "synchronised_scurves"]
+
+#: up to this many joints x problems, :meth:`SCurveBatch.evaluate_jerk` finds each time's phase
+#: by a binary search per column (a comparison with every phase end above)
+_SEARCH_COLUMNS = 16
 
 
 # ---------------------------------------------------------------------- batched, closed form
@@ -45,6 +47,8 @@ class SCurveBatch:
         durations [s]: the seven phases are ``tj, ta - 2 tj, tj, tv, tj, ta - 2 tj, tj``.
     a_max : array (..., n_joints)
         The acceleration limit of each joint.
+
+    The phase data (:meth:`boundaries`) are computed once, on first use.
     """
 
     duration: np.ndarray
@@ -57,49 +61,175 @@ class SCurveBatch:
     ta: np.ndarray
     tv: np.ndarray
     a_max: np.ndarray
+    _bounds: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
 
     def profile(self, index) -> MotionProfile:
         """The :class:`MotionProfile` of one joint of one problem, ``index`` into the
         ``(..., n_joints)`` arrays (e.g. ``(problem, joint)``), over ``|distance|``."""
-        L = abs(float(self.distance[index]))
-        T = float(self.duration[index[:-1]] if isinstance(index, tuple) else self.duration)
-        v = float(self.v[index])
-        if L <= 0 or v <= 0:
-            return rest_profile(T)
-        return _double_s_phases(L, v, float(self.a_max[index]), float(self.j[index]), T)
+        at = index if isinstance(index, tuple) else (index,)
+        return self.profiles(at[:-1], joints=[at[-1]])[0]
+
+    def profiles(self, problem=(), joints=None) -> list[MotionProfile]:
+        """The :class:`MotionProfile` of every joint (or of ``joints``) of one problem,
+        ``problem`` indexing the leading axes (``()`` for a batch of one joint axis), each
+        over ``|distance|``, from the phase data (:meth:`boundaries`)."""
+        at = problem if isinstance(problem, tuple) else (problem,)
+        phases = self.boundaries()[(slice(3, None), slice(None), *at)]  # (3, 7, n_joints)
+        cols = range(phases.shape[-1]) if joints is None else joints
+        T = float(self.duration[at])
+        # Python floats once (one conversion of the table, not one per value)
+        L, v, j = (np.asarray(x[at])[cols].tolist() for x in (self.distance, self.v, self.j))
+        table = phases.transpose(2, 0, 1)[cols].tolist()  # per joint: d, acc, jrk
+        out = []
+        for Li, vi, ji, (d, acc, jrk) in zip(L, v, j, table, strict=True):
+            Li = abs(Li)
+            if Li <= 0 or vi <= 0:
+                out.append(rest_profile(T))
+            elif math.isinf(ji):  # the trapezoid: its three phases
+                params = {"v": vi, "a_acc": acc[1], "a_dec": acc[1], "length": Li}
+                out.append(MotionProfile(d, acc, jrk, kind="trapezoid", params=params))
+            else:
+                params = {"v": vi, "a": acc[1], "j": ji, "length": Li}
+                out.append(MotionProfile(d, acc, jrk, kind="double_s", params=params))
+        return out
+
+    def phases(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The seven phases of every joint's double S (Biagiotti & Melchiorri §3.4), unsigned:
+        ``(durations, start accelerations, jerks)``, each ``(7, ..., n_joints)`` in [s],
+        [unit/s^2], [unit/s^3] -- durations ``tj, ta - 2 tj, tj, tv, tj, ta - 2 tj, tj``,
+        accelerations ``0, a, a, 0, 0, -a, -a``, jerks ``j, 0, -j, 0, -j, 0, j`` (0 for a
+        trapezoid, ``j = inf``)."""
+        _, _, _, d, acc, jrk = self.boundaries()
+        return d, acc, jrk
+
+    def boundaries(self) -> np.ndarray:
+        """Each phase's start ``(t0, s0, v0)`` and its data ``(d, acc, jrk)`` (:meth:`phases`):
+        an array ``(6, 7, ..., n_joints)``, unsigned, integrated from rest with a constant jerk
+        in each phase (computed once)::
+
+            t0[k+1] = t0[k] + d_k,   v0[k+1] = v0[k] + a_k d_k + j_k d_k^2 / 2,
+            s0[k+1] = s0[k] + v0[k] d_k + a_k d_k^2 / 2 + j_k d_k^3 / 6
+        """
+        if self._bounds is not None:
+            return self._bounds
+        ap, tj = self.a, self.tj
+        jf = np.where(np.isfinite(self.j), self.j, 0.0)  # a trapezoid has no jerk phases
+        out = np.empty((6, 7) + ap.shape)
+        t0, s0, v0, d, acc, jrk = out
+        d[0::2] = tj  # phases 0, 2, 4, 6: the jerk phases
+        d[1] = d[5] = self.ta - 2 * tj  # constant acceleration
+        d[3] = self.tv  # cruise
+        acc[0] = acc[3] = acc[4] = 0.0
+        acc[1:3] = ap
+        acc[5:7] = -ap
+        jrk[1::2] = 0.0
+        jrk[0::6] = jf  # phases 0 and 6
+        jrk[2:5:2] = -jf  # phases 2 and 4
+        t0[0] = s0[0] = v0[0] = 0.0
+        np.cumsum(d[:-1], axis=0, out=t0[1:])
+        np.cumsum((d * (acc + d * jrk / 2))[:-1], axis=0, out=v0[1:])
+        ds = d * (v0 + d * (acc / 2 + d * jrk / 6))
+        np.cumsum(ds[:-1], axis=0, out=s0[1:])
+        self._bounds = out
+        return out
 
     def evaluate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(q, qd, qdd)`` displacements from the start at times ``t`` (m,) [s]: arrays
         ``(m, ..., n_joints)``; clamped to each problem's ``[0, duration]``."""
+        return self.evaluate_jerk(t)[:3]
+
+    def evaluate_jerk(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`evaluate` and the jerk ``(q, qd, qdd, qddd)``: each joint's phase of every
+        time (right-continuous: at a phase boundary the phase that starts there; the last
+        phase holds the end), its Taylor polynomial from the phase's start
+        (:meth:`boundaries`)."""
         t = np.asarray(t, float).reshape(-1)
-        shape = (t.size,) + (1,) * self.distance.ndim
-        tt = np.minimum(t.reshape(shape), self.duration[..., None])
-        tt = np.maximum(tt, 0.0)
-        sgn = np.sign(self.distance)
-        ap, jj, tj, ta, tv = self.a, self.j, self.tj, self.ta, self.tv
-        tc = ta - 2 * tj
-        z = np.zeros_like(ap)
-        jf = np.where(np.isfinite(jj), jj, 0.0)  # a trapezoid has no jerk phases
-        d = np.stack([tj, tc, tj, tv, tj, tc, tj])  # (7, ..., n)
-        acc = np.stack([z, ap, ap, z, z, -ap, -ap])
-        jrk = np.stack([jf, z, -jf, z, -jf, z, jf])
-        s = np.zeros_like(tt * ap)
-        v = np.zeros_like(s)
-        a = np.zeros_like(s)
-        t0 = np.zeros_like(ap)
-        s0, v0 = np.zeros_like(ap), np.zeros_like(ap)
-        for k in range(7):
-            h = np.clip(tt - t0, 0.0, d[k])
-            a0, j0 = acc[k], jrk[k]
-            inside = (tt >= t0) & ((tt < t0 + d[k]) | (k == 6))
-            s = np.where(inside, s0 + v0 * h + a0 * h * h / 2 + j0 * h**3 / 6, s)
-            v = np.where(inside, v0 + a0 * h + j0 * h * h / 2, v)
-            a = np.where(inside, a0 + j0 * h, a)
-            hk = d[k]
-            s0 = s0 + v0 * hk + a0 * hk * hk / 2 + j0 * hk**3 / 6
-            v0 = v0 + a0 * hk + j0 * hk * hk / 2
-            t0 = t0 + hk
-        return sgn * s, sgn * v, sgn * a
+        b = self.boundaries()
+        cols = self.distance.size
+        ends = b[0, 1:].reshape(6, cols)  # phase k ends where phase k + 1 starts
+        if self.duration.size == 1:  # one problem: one time axis for every joint
+            t1 = np.minimum(np.maximum(t, 0.0), float(self.duration.reshape(-1)[0]))
+            tt = t1[:, None]
+        else:
+            shape = (t.size,) + (1,) * self.distance.ndim
+            tt = np.maximum(np.minimum(t.reshape(shape), self.duration[..., None]), 0.0)
+            tt = np.broadcast_to(tt, (t.size,) + self.distance.shape).reshape(t.size, cols)
+        # the phase of each time: the phase ends passed (a zero-length phase is passed with
+        # its predecessor), at most the last; a binary search per joint where there are few
+        if cols <= _SEARCH_COLUMNS:
+            k = np.empty((cols, t.size), np.intp)
+            for c in range(cols):
+                k[c] = np.searchsorted(ends[:, c], tt[:, c if tt.shape[1] > 1 else 0], "right")
+            k = k.T
+        else:
+            k = (tt[:, None] >= ends[None]).sum(axis=1)
+        t0, s0, v0, d, a0, j0 = np.take(b.reshape(6, 7 * cols), k * cols + np.arange(cols), axis=1)
+        h = np.minimum(np.maximum(tt - t0, 0.0), d)
+        s = s0 + h * (v0 + h * (a0 / 2 + h * j0 / 6))
+        v = v0 + h * (a0 + h * j0 / 2)
+        sgn = np.sign(self.distance).reshape(1, cols)
+        out = (t.size,) + self.distance.shape
+        return tuple((sgn * x).reshape(out) for x in (s, v, a0 + j0 * h, j0))
+
+    def peaks(self) -> dict[str, np.ndarray]:
+        """Exact extremes of every joint's motion from its phase data (:meth:`boundaries`),
+        each ``(..., n_joints)``, unsigned.
+
+        Within a phase the jerk is constant, the acceleration linear (its extremes at the
+        phase ends) and the speed quadratic, extreme at the ends or where the acceleration
+        crosses zero inside (``v0 - a0^2 / 2 j``, taken where the acceleration changes sign).
+
+        Returns
+        -------
+        dict
+            ``velocity``, ``acceleration``, ``jerk``: the peak ``|qd|``, ``|qdd|``,
+            ``|qddd|`` over the motion (phases of zero length left out), with ``*_at_s`` the
+            time [s] of each (the first); ``reverse``: the most negative speed against the
+            direction of the move (0 when the motion is monotone, so the position stays
+            between start and goal); ``end_position``, ``end_velocity``,
+            ``end_acceleration``: the state at the end of the last phase, to be compared
+            with ``|distance|``, 0, 0 (a trapezoid's acceleration steps to 0 at its end: 0).
+        """
+        b = self.boundaries()
+        cols = self.distance.size
+        t0, s0, v0, d, acc, jrk = b.reshape(6, 7, cols)
+        live = d > 0
+        a1 = acc + jrk * d  # the acceleration at each phase end
+        v1 = v0 + d * (acc + d * jrk / 2)
+        cross = live & (acc * a1 < 0)  # the speed's extreme inside the phase
+        jn = np.where(cross, jrk, 1.0)
+        # candidates (21 or 14, cols): at the phase starts, the phase ends, the extremes inside
+        ct = np.concatenate([t0, t0 + d, t0 - acc / jn])
+        cv = np.concatenate([v0 * live, v1 * live, (v0 - acc * acc / (2 * jn)) * cross])
+        ca = np.concatenate([np.abs(acc) * live, np.abs(a1) * live])
+        cj = np.abs(jrk) * live
+        col = np.arange(cols)
+        av = np.abs(cv)
+        iv, ia, ij = av.argmax(axis=0), ca.argmax(axis=0), cj.argmax(axis=0)
+        e = d[6] * (v0[6] + d[6] * (acc[6] / 2 + d[6] * jrk[6] / 6))
+        shape = self.distance.shape
+        out = {
+            "velocity": av[iv, col],
+            "velocity_at_s": ct[iv, col],
+            "acceleration": ca[ia, col],
+            "acceleration_at_s": ct[ia, col],
+            "jerk": cj[ij, col],
+            "jerk_at_s": t0[ij, col],
+            "reverse": np.maximum(-cv.min(axis=0), 0.0),
+            "end_position": s0[6] + e,
+            "end_velocity": v1[6],
+            "end_acceleration": a1[6] * live[6],
+        }
+        return {k: x.reshape(shape) for k, x in out.items()}
+
+
+def _full(x: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """``x`` broadcast to ``shape`` as its own contiguous array."""
+    if x.shape == shape:
+        return x
+    out = np.empty(shape)
+    out[...] = x
+    return out
 
 
 def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch:
@@ -132,22 +262,25 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
     D = np.asarray(distances, float)
     if D.ndim == 0:
         raise InputError("synchronised_scurves: distances must have a joint axis (..., n_joints)")
-    if not np.all(np.isfinite(D)):
+    if not np.isfinite(D).all():
         raise InputError("synchronised_scurves: distances must be finite")
     v, a, j = (np.asarray(x, float) for x in (v_max, a_max, j_max))
     for name, x, inf_ok in (("v_max", v, False), ("a_max", a, False), ("j_max", j, True)):
-        if not np.all(x > 0) or not (inf_ok or np.all(np.isfinite(x))):
+        if not (x > 0).all() or not (inf_ok or np.isfinite(x).all()):
             raise InputError(f"synchronised_scurves: {name} must be > 0 and finite")
     try:
-        L, v, a, j = _floats(np.abs(D), v, a, j)
+        shape = np.broadcast_shapes(D.shape, v.shape, a.shape, j.shape)
     except ValueError:
         raise InputError(
             f"synchronised_scurves: limits do not broadcast to distances {D.shape}"
         ) from None
+    # every argument at the full shape once: the primitives below then skip broadcasting
+    L, v, a, j = (_full(x, shape) for x in (np.abs(D), v, a, j))
+    D = _full(D, shape)
     peak = double_s_peak_speed(L, v, a, j)
     t_min = double_s_min_times(L, v, a, j, peak=peak)
     T = t_min.max(axis=-1) if t_min.shape[-1] else np.zeros(t_min.shape[:-1])
-    vp = double_s_speed_for_duration(L, T[..., None], a, j, v, peak=peak, t_min=t_min)
+    vp = double_s_speed_for_duration(L, _full(T[..., None], shape), a, j, v, peak=peak, t_min=t_min)
     tj, ta = double_s_ramp(vp, a, j)
     with np.errstate(invalid="ignore", over="ignore"):
         ap = np.where(np.isinf(j), a, np.minimum(j * tj, a))

@@ -59,23 +59,22 @@ class MotionProfile:
     v_start: float = 0.0
 
     def __post_init__(self) -> None:
-        d = np.asarray(self.durations, float).reshape(-1)
-        a = np.asarray(self.accels, float).reshape(-1)
-        j = np.asarray(self.jerks, float).reshape(-1)
-        keep = d > 0
-        self.durations, self.accels, self.jerks = d[keep], a[keep], j[keep]
-        k = self.durations.size
-        self.t_knots = np.concatenate([[0.0], np.cumsum(self.durations)])
-        s = np.zeros(k + 1)
-        v = np.zeros(k + 1)
-        v[0] = self.v_start
-        for i in range(k):
-            h, a0, jj = self.durations[i], self.accels[i], self.jerks[i]
-            s[i + 1] = s[i] + v[i] * h + a0 * h * h / 2 + jj * h**3 / 6
-            v[i + 1] = v[i] + a0 * h + jj * h * h / 2
-        if k and "length" in self.params:  # the nominal end point, free of rounding
+        d = np.asarray(self.durations, float).reshape(-1).tolist()
+        a = np.asarray(self.accels, float).reshape(-1).tolist()
+        j = np.asarray(self.jerks, float).reshape(-1).tolist()
+        # the phases of positive length, integrated in Python floats (the same IEEE
+        # arithmetic as numpy's, without its per-scalar cost)
+        rows = [(h, a0, jj) for h, a0, jj in zip(d, a, j, strict=True) if h > 0]
+        t, s, v = [0.0], [0.0], [float(self.v_start)]
+        for h, a0, jj in rows:
+            t.append(t[-1] + h)
+            s.append(s[-1] + v[-1] * h + a0 * h * h / 2 + jj * h**3 / 6)
+            v.append(v[-1] + a0 * h + jj * h * h / 2)
+        if rows and "length" in self.params:  # the nominal end point, free of rounding
             s[-1] = float(self.params["length"])
-        self.s_knots, self.v_knots = s, v
+        cols = list(zip(*rows, strict=True)) if rows else [(), (), ()]
+        self.durations, self.accels, self.jerks = (np.array(c, float) for c in cols)
+        self.t_knots, self.s_knots, self.v_knots = np.array(t), np.array(s), np.array(v)
 
     # ------------------------------------------------------------------ facts
     @property

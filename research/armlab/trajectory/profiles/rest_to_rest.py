@@ -186,12 +186,16 @@ def double_s_profile_for_duration(
     return _double_s_phases(length, v, a_max, j_max, duration)
 
 
-def double_s_binding(length: float, v_max: float, a_max: float, j_max: float = math.inf) -> str:
+def double_s_binding(
+    length: float, v_max: float, a_max: float, j_max: float = math.inf, *, peak=None
+) -> str:
     """The limit that sets the shortest double S over ``length`` (a trapezoid if ``j_max`` is
     inf): ``"velocity"`` if it cruises at ``v_max``, else ``"acceleration"`` if it reaches
     ``a_max`` (``v_p j >= a^2``, Biagiotti & Melchiorri §3.4; always for the trapezoid), else
-    ``"jerk"``."""
-    vp = float(double_s_peak_speed(length, v_max, a_max, j_max))
+    ``"jerk"``. ``peak``: its :func:`double_s_peak_speed` if the caller has it."""
+    if peak is None:
+        peak = double_s_peak_speed(length, v_max, a_max, j_max)
+    vp = float(peak)
     if vp >= v_max:
         return "velocity"
     if math.isinf(j_max) or vp * j_max >= a_max * a_max:
