@@ -172,7 +172,8 @@ def _layout(prob: OptimalProblem, torque_rows: bool, var: Variant) -> tuple[Stru
         where.append(np.where(stages[:, None] < 0, -1, spot).ravel())
 
     ivals, nodes = np.arange(N), np.arange(N + 1)
-    add("dynamics", np.full((3 if var.jerk else 2) * N, -1))
+    for _ in range(3 if var.jerk else 2):  # q, qd (and qdd) integration: fatrop's dynamics
+        add("dynamics", np.full(N, -1))
     if var.jerk:
         add("velocity", ivals, n)
         add("position", ivals, 2 * n)
