@@ -1,10 +1,15 @@
 """optimal() on fatrop (compiled stage functions) against IPOPT, the reference, on teachbot6.
 
-The stage library is compiled once for this module into a temporary cache (about 17 s of gcc);
-where no compiler is found the compiled-path tests are skipped and the fallback tests still run.
+The stage libraries are compiled once for this module into a temporary cache (one per variant:
+jerk mode, acceleration mode, each with drive rows, the fixed-duration row; see
+docs/api/planning.md for the compile times), or taken from ``$ARMLAB_TEST_FATROP_CACHE`` when
+that is set (a developer's cache of compiled libraries, to rerun without compiling); where no
+compiler is found the compiled-path tests are skipped and the fallback tests still run.
 """
 
 from __future__ import annotations
+
+import os
 
 import numpy as np
 import pinocchio as pin
@@ -33,7 +38,8 @@ def robot():
 def compiled(robot, tmp_path_factory):
     """The fatrop path on, with teachbot6's library compiled once into a temporary cache."""
     with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("ARMLAB_CACHE_DIR", str(tmp_path_factory.mktemp("armlab-cache")))
+        own = os.environ.get("ARMLAB_TEST_FATROP_CACHE")
+        mp.setenv("ARMLAB_CACHE_DIR", own or str(tmp_path_factory.mktemp("armlab-cache")))
         mp.setenv("ARMLAB_SOLVER", "fatrop")
         try:
             so, _ = fatrop_stages.compiled_library(robot)
@@ -99,7 +105,7 @@ def _drive_ok(traj) -> bool:
     ("w", "kw"),
     [
         (W3, {"j_max": False}),  # acceleration mode, torque box
-        (W3, {"a_max": False, "j_max": False, "tau_max": False}),  # acceleration, v only
+        (W3, {"j_max": False, "tau_max": False}),  # acceleration mode, v/a only
         (W3, {"a_max": False, "j_max": False, "drive_limits": True}),  # acc., motor envelope
         (W2, {"drive_limits": True}),  # jerk mode, motor envelope and RMS
     ],
@@ -144,10 +150,11 @@ def test_the_payload_is_run_time_data(compiled, robot):
     """A payload changes the inertias, not the kinematics: the same library plans it (one
     library of the variant in the cache) and the payload slows the plan down."""
     light = optimal(robot, W3)
+    before = sorted(compiled.parent.iterdir())
     heavy = optimal(robot, W3, payload_kg=1.5)
     assert heavy.stats["solver"] == "fatrop"
     assert heavy.stats["duration_s"] > light.stats["duration_s"]
-    assert len(list(compiled.parent.glob("fatrop-stages-jerk-????*.so"))) == 1
+    assert sorted(compiled.parent.iterdir()) == before  # nothing compiled for the payload
 
 
 @pytest.mark.parametrize(

@@ -9,12 +9,15 @@ IROS 2023; the library shipped in the casadi wheel) through its C OCP interface,
 recursion costs time linear in the number of intervals. A solver instance is made per grid
 shape (intervals and segment ends) in milliseconds and reused with new data.
 
-Where fatrop is used: jerk mode (a jerk limit) with the ``"time"`` or ``"time+smooth"``
-objective, with or without torque limits, via tolerances and moving start or goal states,
-Hessian ``"partial"`` or ``"exact"``. Everything else is solved by IPOPT and ``stats["fallback"]``
-says why: acceleration mode, ``drive_limits``, the fixed-duration objectives (their duration row
-couples every stage), ``hessian="limited-memory"``, no C compiler or no fatrop in the casadi
-wheel (:class:`~armlab.planning.fatrop_stages.FatropUnavailable`), ``ARMLAB_SOLVER=ipopt`` in the
+Where fatrop is used: jerk mode (a jerk limit) and acceleration mode (none), the ``"time"`` and
+``"time+smooth"`` objectives and the fixed-duration ``"jerk"`` objective, with or without
+torque limits, with or without ``drive_limits`` (the motor envelope and RMS rows), via
+tolerances and moving start or goal states, Hessian ``"partial"`` or ``"exact"``; each
+combination of mode, drive rows and duration row is its own compiled library
+(:class:`~armlab.planning.fatrop_stages.Variant`). Everything else is solved by IPOPT and
+``stats["fallback"]`` says why: the ``"energy"`` objective, ``hessian="limited-memory"``,
+interior torque points, clearance rows, no C compiler or no fatrop in the casadi wheel
+(:class:`~armlab.planning.fatrop_stages.FatropUnavailable`), ``ARMLAB_SOLVER=ipopt`` in the
 environment, and a fatrop solve that fails (not converged within its iteration cap, NaN, or
 over its wall-time budget :func:`watchdog_budget_s`, the watchdog): that solve is repeated by
 IPOPT from the same start, so every verdict (a plan, or an error naming the limit) is IPOPT's
@@ -181,8 +184,8 @@ def _layout(prob: OptimalProblem, torque_rows: bool, var: Variant) -> tuple[Stru
         if torque_rows:
             add("torque", nodes, 0)
         if var.drive:
-            for t, tag in enumerate(DRIVE_ROW_TAGS):
-                add("motor_envelope", nodes, np.where(nodes < N, 4 * n, n) + t * n, tag)
+            for t, name in enumerate(DRIVE_ROW_TAGS):
+                add("motor_envelope", nodes, np.where(nodes < N, 4 * n, n) + t * n, name)
             add("motor_rms", [N], 9 * n)
     else:
         add("position", ivals, 2 * n)
@@ -191,8 +194,8 @@ def _layout(prob: OptimalProblem, torque_rows: bool, var: Variant) -> tuple[Stru
             add("torque", ivals, n)
         if var.drive:
             for side in range(2):
-                for t, tag in enumerate(DRIVE_ROW_TAGS):
-                    add("motor_envelope", ivals, (3 + 8 * side + t) * n, tag, side * N)
+                for t, name in enumerate(DRIVE_ROW_TAGS):
+                    add("motor_envelope", ivals, (3 + 8 * side + t) * n, name, side * N)
             add("motor_rms", [N], 0)
     kind, tag, col, spot = (np.concatenate(z) for z in (kinds, tags, cols, where))
     joint = np.tile(J, kind.size // n)
@@ -358,7 +361,7 @@ def _fatrop(prob: OptimalProblem, hessian: str, limits: Limits, x0: np.ndarray, 
     b, data, gmask, rest, arm, sv = _stage_data(prob, st, spot, var, limits, x0, drive_scale)
     n, N = prob.n, prob.N
     dm = var.dims(n)
-    exact = hessian == "exact" or not st.torque_rows
+    exact = hessian == "exact" or not st.torque_rows or var.one_hessian
     cap = min(prob.max_iter, FATROP_MAX_ITER if exact else PARTIAL_MAX_ITER)
     budget = watchdog_budget_s(N)
     t0 = time.perf_counter()

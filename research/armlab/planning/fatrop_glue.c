@@ -1,6 +1,6 @@
-/* armlab: fatrop OCP C-interface glue for the optimiser's stage-wise (jerk-mode) problem.
+/* armlab: fatrop OCP C-interface glue for the optimiser's stage-wise problem (every variant).
  *
- * Robot-independent; compiled ONCE per robot kinematics together with the CasADi-generated
+ * Robot-independent; compiled ONCE per robot kinematics and variant together with the CasADi-generated
  * stage functions (fo_*, armlab/planning/fatrop_stages.py) into one shared library linked
  * against libfatrop.so / libblasfeo.so of the casadi wheel. The joint count and the sizes
  * of the library's variant (fatrop_stages.Variant.dims) are given on the compiler's command
@@ -28,6 +28,12 @@ typedef long long int casadi_int;
 #define DECL(f)                                                                     \
   int f(const double **arg, double **res, casadi_int *iw, double *w, int mem);     \
   int f##_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#ifdef ONE_HESS /* one Hessian serves the exact and the "partial" solves (Variant.one_hessian) */
+#define fo_hess_p fo_hess
+#define fo_hess_p_work fo_hess_work
+#define fo_thess_p fo_thess
+#define fo_thess_p_work fo_thess_work
+#endif
 DECL(fo_eval)
 DECL(fo_jac)
 DECL(fo_hess)

@@ -1,41 +1,67 @@
-r"""The optimiser's per-interval stage functions for fatrop, compiled once per robot kinematics.
+r"""The optimiser's per-interval stage functions for fatrop, compiled once per robot kinematics
+and variant.
 
-:func:`armlab.planning.optimal` in jerk mode is a discrete optimal-control problem: each
-interval ``k`` of the node grid maps a state to the next one. In fatrop's stage-wise form
-(:mod:`armlab.planning.fatrop_backend`), scaled exactly as :mod:`armlab.planning.transcription`:
+:func:`armlab.planning.optimal` is a discrete optimal-control problem: each interval ``k`` of
+the node grid maps a state to the next one. In fatrop's stage-wise form
+(:mod:`armlab.planning.fatrop_backend`), scaled exactly as :mod:`armlab.planning.transcription`,
+for the demo's variant (jerk mode, :data:`JERK`):
 
 * state ``x_k = [q (n), qd / s_v (n), qdd / s_a (n), T_seg / s_T (1)]`` (``nx = 3n + 1``)
 * input ``u_k = [qddd / s_u (n), T_next / s_T' (1)]`` (the last entry is used only at the last
   interval of a segment: the next segment's duration enters there)
 * stage data ``pk_k = [c_k, b_k]``, ``c_k = s_T f_k`` (grid fraction times the duration scale),
   ``b_k = 1`` at a segment's last interval
-* shared data ``pg = [s_v, s_a, s_u, tau_max, u_ref, w, pi]`` (``pi`` the inertial parameters,
-  :func:`armlab.robot.symbolic.dynamic_parameters`)
+* shared data ``pg = [s_v, s_a, s_u, tau_max, u_ref, w, t_w, pi]`` (``pi`` the inertial
+  parameters, :func:`armlab.robot.symbolic.dynamic_parameters`; ``t_w`` the weight of the
+  time, 0 for the ``"jerk"`` objective)
 
 with ``h = T c`` and, exactly as the IPOPT transcription (cubic integration, Betts 2010)::
 
     F = [q + h qd + h^2/2 qdd + h^3/6 u, (qd + h qdd + h^2/2 u)/s_v, (qdd + h u)/s_a,
          (1 - b) T + b T_next]
     g = [tau(q, qd, qdd; pi) / tau_max, (qd + qdd h/2)/s_v, q + qd h/3, q + 2h/3 qd + h^2/6 qdd]
-    l = h + w h sum((u / u_ref)^2)
+    l = t_w h + w h sum((u / u_ref)^2)
 
 (the velocity and position rows are the Bernstein coefficients of the interval's quadratic and
 cubic, Farouki 2012; the last one equals ``q_{k+1} - qd_{k+1} h/3`` on the dynamics) and at the
-last node ``g_N = tau / tau_max``. The functions and their first and second derivatives
-(exact Hessian of the Lagrangian, and the "partial" one without the torque rows' curvature,
-:data:`armlab.planning.transcription.HESSIANS`) are generated as C by CasADi and compiled with
-the robot-independent glue ``fatrop_glue.c`` (package data) into one shared library linked
-against the casadi wheel's ``libfatrop`` and ``libblasfeo``. Inertial parameters, limits,
-payload, scales and grid are run-time data, so the library depends only on the kinematic tree
-(:func:`armlab.robot.symbolic.kinematics_key`).
+last node ``g_N = tau / tau_max``.
+
+Other variants (:class:`Variant`, each its own library):
+
+* **acceleration mode** (no jerk limit): ``x = [q, qd / s_v, T / s_T]``, ``u = [qdd / s_u,
+  T_next]``, ``F = [q + h qd + h^2/2 u, (qd + h u)/s_v, ...]`` and the rows ``[tau(q, qd, u),
+  tau(q_b, qd_b, u)] / tau_max`` (both ends of the interval, the right one ``q_b = q + h qd +
+  h^2/2 u``, ``qd_b = qd + h u`` through the dynamics) and the position row ``q + qd h/2``.
+* **drive rows** (``drive_limits``): the motor-envelope rows of
+  :func:`armlab.planning.transcription._drive_rows` (the same function) at each constrained
+  point, with its direction ``sigma`` in the stage data; the RMS row ``sum_k w_k T_m,k^2 /
+  (sum T cont^2) <= 1`` couples every stage, so its numerator over ``cont^2`` is carried as
+  ``n`` states ``E`` (``E_{k+1} = E_k + h/2 (T_a^2 + T_b^2) / cont^2`` in acceleration mode;
+  in jerk mode the node weight ``(h_{k-1} + h_k)/2`` needs the last interval, carried as one
+  more state) with the elapsed time ``t`` (``t_{k+1} = t_k + h``) and checked at the last
+  node, ``E_N / t_N <= 1``. ``E`` and ``t`` are scaled by ``s_e = sum s_T``.
+* **fixed duration** (``duration=``, the ``"jerk"`` objective): the elapsed time as a state
+  and the last node's row ``t_N = D``.
+
+The functions and their first and second derivatives (exact Hessian of the Lagrangian, and the
+"partial" one without the torque-box rows' curvature,
+:data:`armlab.planning.transcription.HESSIANS`; one Hessian with drive rows,
+:attr:`Variant.one_hessian`) are generated as C by CasADi and compiled with the
+robot-independent glue ``fatrop_glue.c`` (package data; the variant's sizes as ``-D`` flags)
+into one shared library linked against the casadi wheel's ``libfatrop`` and ``libblasfeo``.
+Inertial parameters, limits, payload, drive data, scales and grid are run-time data, so the
+library depends only on the kinematic tree (:func:`armlab.robot.symbolic.kinematics_key`) and
+the variant. Compile times (teachbot6, shared 2-core machine; :data:`CFLAGS_LARGE` beyond the
+demo's variant) are listed in ``docs/api/planning.md``.
 
 The library is cached on disk (:func:`cache_dir`: ``$ARMLAB_CACHE_DIR``, else
 ``$XDG_CACHE_HOME/armlab``, else ``~/.cache/armlab``) under a key of everything it depends on:
-the kinematics hash, the casadi version, the glue's and this module's generator version, the
-compiler and its flags. It is written atomically (:func:`armlab.io.atomic.atomic_write`): two
-processes that compile at once each write a complete file and the last rename wins. The
-compile prints one line on stderr before and one after (how long). Generic ``-O2`` (no
-``-march=native``: a cache folder may be shared between machines).
+the kinematics hash, the variant, the casadi version, the glue's and this module's generator
+version, the compiler and its flags. It is written atomically
+(:func:`armlab.io.atomic.atomic_write`): two processes that compile at once each write a
+complete file and the last rename wins. The compile prints one line on stderr before and one
+after (how long). Generic flags (no ``-march=native``: a cache folder may be shared between
+machines).
 """
 
 from __future__ import annotations
@@ -77,6 +103,11 @@ __all__ = [
 
 #: compiler flags of the stage library (generic: portable between machines of one arch)
 CFLAGS = ("-O2", "-fPIC", "-shared")
+#: the flags of the larger variants (acceleration mode, drive rows): gcc -O2 on their
+#: generated functions took 5-6 x as long as -O1 (teachbot6 acc-drive: 233 s against 41 s,
+#: measured on the shared 2-core machine) for solves no faster (115-137 ms against 300 ms on
+#: the same case, measured)
+CFLAGS_LARGE = ("-O1", "-fPIC", "-shared")
 #: version of the generated functions' layout (part of the cache key)
 GENERATOR_VERSION = "stages-v2"
 #: the functions the glue calls, in this order
@@ -112,6 +143,18 @@ class Variant:
     def elapsed(self) -> bool:
         """The elapsed time is a state (the RMS row's denominator, the duration row)."""
         return self.drive or self.duration
+
+    @property
+    def one_hessian(self) -> bool:
+        """One Hessian function: with drive rows the "partial" Hessian (without the torque
+        box's curvature) keeps the inverse dynamics' curvature through the envelope rows, so
+        it costs as much as the exact one; the exact one serves both (the same KKT point)."""
+        return self.drive
+
+    @property
+    def cflags(self) -> tuple[str, ...]:
+        """The compiler flags (:data:`CFLAGS`; :data:`CFLAGS_LARGE` beyond the demo's)."""
+        return CFLAGS if self == Variant() else CFLAGS_LARGE
 
     @property
     def tag(self) -> str:
@@ -216,7 +259,7 @@ def library_key(robot, var: Variant = JERK) -> str:
         _glue_source(),
         GENERATOR_VERSION,
         compiler(),
-        " ".join(CFLAGS),
+        " ".join(var.cflags),
         sys.platform,
     ):
         h.update(part.encode())
@@ -318,7 +361,7 @@ def stage_functions(robot, var: Variant = JERK) -> dict[str, ca.Function]:
     lagN_p = ca.dot(lamN[ntau_n:], gN[ntau_n:]) if gN.numel() > ntau_n else ca.SX(0)
     gradN = ca.gradient(lagN, x)
     tin = [x, pk, pg, lamN]
-    return {
+    fns = {
         "fo_eval": ca.Function("fo_eval", [x, u, pk, pg], [F, g, cost]),
         "fo_jac": ca.Function("fo_jac", [x, u, pk, pg], [jac_F, jac_g]),
         "fo_hess": ca.Function("fo_hess", hin, [d(ca.vertcat(ca.hessian(lag, ux)[0], grad.T))]),
@@ -327,16 +370,15 @@ def stage_functions(robot, var: Variant = JERK) -> dict[str, ca.Function]:
         ),
         "fo_grad": ca.Function("fo_grad", [x, u, pk, pg], [d(ca.gradient(cost, ux))]),
         "fo_teval": ca.Function("fo_teval", [x, pk, pg], [gN]),
-        "fo_tjac": ca.Function(
-            "fo_tjac", [x, pk, pg], [d(ca.vertcat(ca.jacobian(gN, x).T, gN.T))]
-        ),
-        "fo_thess": ca.Function(
-            "fo_thess", tin, [d(ca.vertcat(ca.hessian(lagN, x)[0], gradN.T))]
-        ),
+        "fo_tjac": ca.Function("fo_tjac", [x, pk, pg], [d(ca.vertcat(ca.jacobian(gN, x).T, gN.T))]),
+        "fo_thess": ca.Function("fo_thess", tin, [d(ca.vertcat(ca.hessian(lagN, x)[0], gradN.T))]),
         "fo_thess_p": ca.Function(
             "fo_thess_p", tin, [d(ca.vertcat(ca.hessian(lagN_p, x)[0], gradN.T))]
         ),
     }
+    if var.one_hessian:  # the glue calls the exact ones (-DONE_HESS)
+        del fns["fo_hess_p"], fns["fo_thess_p"]
+    return fns
 
 
 def _build(robot, var: Variant, so: Path, cc: str, casadi: Path) -> float:
@@ -351,6 +393,7 @@ def _build(robot, var: Variant, so: Path, cc: str, casadi: Path) -> float:
     fns = stage_functions(robot, var)
     dims = var.dims(robot.n_joints)
     defs = [f"-D{k.upper()}={dims[k]}" for k in ("nx", "nu", "ng", "ngn", "npk")]
+    defs += ["-DONE_HESS"] if var.one_hessian else []
     with tempfile.TemporaryDirectory(prefix="armlab-fatrop-") as tmp:
         src = Path(tmp)
         gen = ca.CodeGenerator(
@@ -358,13 +401,14 @@ def _build(robot, var: Variant, so: Path, cc: str, casadi: Path) -> float:
             {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"},
         )
         for name in FUNCTION_NAMES:
-            gen.add(fns[name])
+            if name in fns:
+                gen.add(fns[name])
         gen.generate(str(src) + "/")
         (src / "fatrop_glue.c").write_text(_glue_source())
         out = src / "stages.so"
         cmd = [
             cc,
-            *CFLAGS,
+            *var.cflags,
             f"-DNJ={robot.n_joints}",
             *defs,
             str(src / "fo_funcs.c"),
