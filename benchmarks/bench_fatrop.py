@@ -78,7 +78,7 @@ VARIANTS = {
         ("acceleration", True, False),
     ),
     "jerk, drive_limits": ({"drive_limits": True}, ("jerk", True, False)),
-    "jerk objective, duration": ({"objective": "jerk", "duration": 5.0}, ("jerk", False, True)),
+    "jerk objective, duration": ({"objective": "jerk", "duration": 12.0}, ("jerk", False, True)),
 }
 
 
