@@ -27,7 +27,14 @@ limit samples and a ``T / 4000`` grid). Reported: (a) the share of box plans out
 envelope, (b) the duration of the drive plan over the safe box's (median, and where a torque
 limit binds in the safe-box plan), violations of the drive plans (goal 0), wall time per plan.
 
-Run:  ``MPLBACKEND=Agg .venv/bin/python benchmarks/bench_drive_limits.py [--quick]``
+With ``--solvers`` (issue 26) it also plans the box and the drive plans of every case with
+IPOPT (``ARMLAB_SOLVER=ipopt``) and with fatrop (the default: compiled stage libraries of
+acceleration mode with and without the drive rows), alternating, and prints per case the
+whole-call and solve times, the largest duration difference and the drive / box ratio of each
+solver (medians; the first case's calls are dropped: they build IPOPT's problem or load the
+library).
+
+Run:  ``MPLBACKEND=Agg .venv/bin/python benchmarks/bench_drive_limits.py [--quick] [--solvers]``
 """
 
 from __future__ import annotations
@@ -98,6 +105,40 @@ def plan(robot, w, **kw):
     return tr, time.perf_counter() - t0, ""
 
 
+def solver_table(cases) -> None:
+    """fatrop against IPOPT on the box and drive plans of ``cases`` (module docstring)."""
+    print(f"\nsolvers: {'case':>11} | {'plan':>5} | ipopt call/solve [ms] | fatrop call/solve "
+          "[ms] | ipopt/fatrop | dT/T")  # fmt: skip
+    rows: dict = {(s, dl): [] for s in ("ipopt", "fatrop") for dl in (False, True)}
+    devs = []
+    for i, (name, w, _kg, robot) in enumerate(cases):
+        for dl in (False, True):
+            got = {}
+            for s in ("ipopt", "fatrop") if i % 2 else ("fatrop", "ipopt"):
+                os.environ["ARMLAB_SOLVER"] = s
+                tr, wall, err = plan(robot, w, drive_limits=dl)
+                got[s] = (tr, wall)
+                if i and tr is not None:
+                    rows[(s, dl)].append((wall, tr.stats["solve_time_s"], tr.stats["solver"]))
+            (a, wa), (b, wb) = got["ipopt"], got["fatrop"]
+            if a is None or b is None:
+                continue
+            dev = b.duration / a.duration - 1
+            devs.append(abs(dev))
+            print(f"{'':>8} {name:>11} | {'drive' if dl else 'box':>5} | {1e3 * wa:>10.0f} "
+                  f"/{1e3 * a.stats['solve_time_s']:>7.0f}  | {1e3 * wb:>9.0f} "
+                  f"/{1e3 * b.stats['solve_time_s']:>7.0f}  | {wa / wb:>12.1f} | {dev:+.1e} "
+                  f"{b.stats['solver']}", flush=True)  # fmt: skip
+    os.environ.pop("ARMLAB_SOLVER", None)
+    med = {k: np.median([r[0] for r in v]) if v else np.nan for k, v in rows.items()}
+    fb = sum(r[2] != "fatrop" for k, v in rows.items() if k[0] == "fatrop" for r in v)
+    print(f"whole call, median over the repeat cases: drive / box ipopt "
+          f"{med[('ipopt', True)] / med[('ipopt', False)]:.1f}x, fatrop "
+          f"{med[('fatrop', True)] / med[('fatrop', False)]:.1f}x; drive ipopt / fatrop "
+          f"{med[('ipopt', True)] / med[('fatrop', True)]:.1f}x; max |dT/T| "
+          f"{max(devs, default=np.nan):.1e}; fatrop plans solved by IPOPT: {fb}")  # fmt: skip
+
+
 def worst(ratios: dict) -> float:
     return max(float(np.max(r)) for r in ratios.values())
 
@@ -105,10 +146,14 @@ def worst(ratios: dict) -> float:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help=f"{QUICK} moves instead of {CASES}")
+    ap.add_argument("--solvers", action="store_true", help="fatrop vs IPOPT table only")
     args = ap.parse_args()
     base = armlab.load_robot("teachbot6")
     rng = np.random.default_rng(SEED)
     cases = draw_cases(base, QUICK if args.quick else CASES, rng)
+    if args.solvers:
+        solver_table([(nm, w, kg, base.with_payload(kg)) for nm, w, kg in cases])
+        return
     rows = []
     print(
         f"teachbot6, optimal() torque-limited (a_max=False, j_max=False), {N_INTERVALS} intervals"

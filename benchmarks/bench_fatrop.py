@@ -9,7 +9,13 @@ and the repeat calls: median / p90 of the whole ``optimal()`` call and of the so
 (``stats["solve_time_s"]``), and the largest relative duration difference.
 Goals (issue 26): durations within 1e-6 of IPOPT's; first call <= 3 x a repeat.
 
-Run:  ``.venv/bin/python benchmarks/bench_fatrop.py [--quick] [--cache DIR]``
+With ``--variants``: the other stage libraries (issue 26) on 3-waypoint cases of the same
+draw (the middle half of each range, as ``bench_trajectory.py``'s drive row): per variant the
+compile (wall and the compiler's CPU), then IPOPT and fatrop alternating case by case, the first
+case dropped (IPOPT builds its problem): median whole call and solve, ipopt / fatrop, the
+largest relative duration difference (for the fixed duration: of the jerk objective's value).
+
+Run:  ``.venv/bin/python benchmarks/bench_fatrop.py [--quick] [--variants] [--cache DIR]``
 """
 
 from __future__ import annotations
@@ -62,6 +68,76 @@ def one_call(robot, w, solver: str) -> tuple[float, dict]:
     return time.perf_counter() - t0, traj.stats
 
 
+#: the variants' requests (teachbot6's own limits otherwise) and their stage library
+VARIANTS = {
+    "jerk, torque box": ({}, ("jerk", False, False)),
+    "acceleration, torque box": ({"j_max": False}, ("acceleration", False, False)),
+    "acceleration, v/torque": ({"a_max": False, "j_max": False}, ("acceleration", False, False)),
+    "acceleration, drive_limits": (
+        {"a_max": False, "j_max": False, "drive_limits": True},
+        ("acceleration", True, False),
+    ),
+    "jerk, drive_limits": ({"drive_limits": True}, ("jerk", True, False)),
+    "jerk objective, duration": ({"objective": "jerk", "duration": 12.0}, ("jerk", False, True)),
+}
+
+
+def variant_table(robot, n: int) -> None:
+    """``--variants`` (module docstring)."""
+    lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
+    mid, half = (lo + hi) / 2, (hi - lo) / 2 * RANGE * 0.5  # bench_trajectory.py drive row
+    rng = np.random.default_rng(SEED + 73)
+    cases = [mid + half * (2 * rng.random((3, robot.n_joints)) - 1) for _ in range(n + 1)]
+    hdr = (
+        f"{'variant':<28} | {'compile wall/CPU [s]':>20} | {'ipopt call/solve [ms]':>21} | "
+        f"{'fatrop call/solve [ms]':>22} | {'ipopt/fatrop':>12} | {'max dev':>7} | fb"
+    )
+    print(hdr)
+    print("-" * len(hdr))
+    for name, (kw, var) in VARIANTS.items():
+        t0, c0 = time.perf_counter(), os.times()
+        fatrop_stages.compiled_library(robot, fatrop_stages.Variant(*var))
+        c1 = os.times()
+        cpu = (c1.children_user + c1.children_system) - (c0.children_user + c0.children_system)
+        wall_c = time.perf_counter() - t0
+        res: dict = {s: [] for s in SOLVERS}
+        for i, w in enumerate(cases):
+            for s in SOLVERS if i % 2 else SOLVERS[::-1]:
+                os.environ["ARMLAB_SOLVER"] = s
+                t1 = time.perf_counter()
+                traj = optimal(robot, w, **kw)
+                if i:
+                    res[s].append((time.perf_counter() - t1, traj))
+        if "duration" in kw:  # the jerk objective's value, the plans' durations being fixed
+            val = {s: [_jerk_value(robot, t) for _, t in res[s]] for s in res}
+        else:
+            val = {s: [t.stats["duration_s"] for _, t in res[s]] for s in res}
+        dev = float(np.max(np.abs(np.array(val["fatrop"]) / np.array(val["ipopt"]) - 1)))
+        med = {
+            s: (
+                np.median([c for c, _ in res[s]]),
+                np.median([t.stats["solve_time_s"] for _, t in res[s]]),
+            )
+            for s in SOLVERS
+        }
+        fb = sum(t.stats["solver"] != "fatrop" for _, t in res["fatrop"])
+        print(
+            f"{name:<28} | {wall_c:>9.1f} /{cpu:>9.1f} | {1e3 * med['ipopt'][0]:>10.0f} /"
+            f"{1e3 * med['ipopt'][1]:>9.0f} | {1e3 * med['fatrop'][0]:>11.0f} /"
+            f"{1e3 * med['fatrop'][1]:>9.0f} | {med['ipopt'][0] / med['fatrop'][0]:>12.1f} | "
+            f"{dev:>7.1e} | {fb}",
+            flush=True,
+        )
+    os.environ.pop("ARMLAB_SOLVER", None)
+
+
+def _jerk_value(robot, traj) -> float:
+    """The jerk objective, integral of (jerk / j_max)^2 on a fine grid (trapezoid)."""
+    t = np.linspace(traj.t[0], traj.t[-1], 20001)
+    jerk = traj.at(t)[3] / robot.limits.jerk_rad_s3
+    return float(np.trapezoid(np.sum(jerk**2, axis=1), t))
+
+
 def q(x, p) -> float:
     return float(np.percentile(np.asarray(x) * 1e3, p))
 
@@ -70,11 +146,15 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help=f"{QUICK_CASES} cases per size")
     ap.add_argument("--cache", help="compile into / load from this cache folder")
+    ap.add_argument("--variants", action="store_true", help="the variants' table (3 waypoints)")
     args = ap.parse_args()
     n = QUICK_CASES if args.quick else CASES
     cache = args.cache or tempfile.mkdtemp(prefix="armlab-bench-cache-")
     os.environ["ARMLAB_CACHE_DIR"] = cache
     robot = armlab.load_robot("teachbot6")
+    if args.variants:
+        variant_table(robot, n)
+        return
     t0, c0 = time.perf_counter(), os.times()
     _, took = fatrop_stages.compiled_library(robot)
     c1 = os.times()

@@ -1,10 +1,15 @@
 """optimal() on fatrop (compiled stage functions) against IPOPT, the reference, on teachbot6.
 
-The stage library is compiled once for this module into a temporary cache (about 17 s of gcc);
-where no compiler is found the compiled-path tests are skipped and the fallback tests still run.
+The stage libraries are compiled once for this module into a temporary cache (one per variant:
+jerk mode, acceleration mode, each with drive rows, the fixed-duration row; see
+docs/api/planning.md for the compile times), or taken from ``$ARMLAB_TEST_FATROP_CACHE`` when
+that is set (a developer's cache of compiled libraries, to rerun without compiling); where no
+compiler is found the compiled-path tests are skipped and the fallback tests still run.
 """
 
 from __future__ import annotations
+
+import os
 
 import numpy as np
 import pinocchio as pin
@@ -33,7 +38,8 @@ def robot():
 def compiled(robot, tmp_path_factory):
     """The fatrop path on, with teachbot6's library compiled once into a temporary cache."""
     with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("ARMLAB_CACHE_DIR", str(tmp_path_factory.mktemp("armlab-cache")))
+        own = os.environ.get("ARMLAB_TEST_FATROP_CACHE")
+        mp.setenv("ARMLAB_CACHE_DIR", own or str(tmp_path_factory.mktemp("armlab-cache")))
         mp.setenv("ARMLAB_SOLVER", "fatrop")
         try:
             so, _ = fatrop_stages.compiled_library(robot)
@@ -91,25 +97,94 @@ def test_fatrop_plans_as_ipopt_within_every_limit(compiled, robot, w, kw):
     np.testing.assert_allclose(fat.q[-1], w[-1], atol=1e-9)
 
 
+def _drive_ok(traj) -> bool:
+    return all(max(r) <= 1 + 1e-6 for r in traj.stats["drive_ratios"].values())
+
+
+@pytest.mark.parametrize(
+    ("w", "kw"),
+    [
+        (W3, {"j_max": False}),  # acceleration mode, torque box
+        (W3, {"j_max": False, "tau_max": False}),  # acceleration mode, v/a only
+        (W3, {"a_max": False, "j_max": False, "drive_limits": True}),  # acc., motor envelope
+        (W2, {"drive_limits": True}),  # jerk mode, motor envelope and RMS
+    ],
+)
+def test_new_variants_plan_as_ipopt(compiled, robot, w, kw):
+    """Acceleration mode and drive_limits (each its own stage library) on fatrop: the same
+    durations as IPOPT's, every limit held on the fine grid (and the motor envelope and RMS
+    rating by the independent drive check)."""
+    with pytest.MonkeyPatch.context() as mp:
+        fat = optimal(robot, w, **kw)
+        ref = _ipopt(mp, robot, w, **kw)
+    assert fat.stats["solver"] == "fatrop" and fat.stats["fallback"] == ""
+    assert fat.stats["duration_s"] == pytest.approx(ref.stats["duration_s"], rel=1e-6)
+    assert fat.stats["ok"] and fat.report.ok(1e-6)
+    if kw.get("drive_limits"):
+        assert _drive_ok(fat) and _drive_ok(ref)
+    np.testing.assert_allclose(fat.q[-1], w[-1], atol=1e-9)
+
+
+def _jerk_integral(traj, robot) -> float:
+    """Integral of the squared jerk over the jerk limit (the "jerk" objective, by the
+    trapezoid rule on a fine grid, independent of the optimiser's own sum)."""
+    t = np.linspace(traj.t[0], traj.t[-1], 20001)
+    jerk = traj.at(t)[3] / robot.limits.jerk_rad_s3
+    return float(np.trapezoid(np.sum(jerk**2, axis=1), t))
+
+
+def test_fixed_duration_plans_as_ipopt(compiled, robot):
+    """The "jerk" objective over a fixed duration (the elapsed time a state, its terminal row
+    the duration): that duration, the same minimum as IPOPT's."""
+    kw = {"objective": "jerk", "duration": 4.0}
+    with pytest.MonkeyPatch.context() as mp:
+        fat = optimal(robot, W3, **kw)
+        ref = _ipopt(mp, robot, W3, **kw)
+    assert fat.stats["solver"] == "fatrop" and fat.stats["fallback"] == ""
+    assert fat.stats["duration_s"] == pytest.approx(4.0, rel=1e-6)
+    assert _jerk_integral(fat, robot) == pytest.approx(_jerk_integral(ref, robot), rel=1e-5)
+    assert fat.stats["ok"]
+
+
 def test_the_payload_is_run_time_data(compiled, robot):
     """A payload changes the inertias, not the kinematics: the same library plans it (one
-    library in the cache) and the payload slows the plan down."""
+    library of the variant in the cache) and the payload slows the plan down."""
     light = optimal(robot, W3)
+    before = sorted(compiled.parent.iterdir())
     heavy = optimal(robot, W3, payload_kg=1.5)
     assert heavy.stats["solver"] == "fatrop"
     assert heavy.stats["duration_s"] > light.stats["duration_s"]
-    assert len(list(compiled.parent.glob("fatrop-stages-*.so"))) == 1
+    assert sorted(compiled.parent.iterdir()) == before  # nothing compiled for the payload
 
 
-def test_layout_is_the_transcriptions(robot):
-    """fatrop's light layout repeats build_structure's variable slices and row order."""
-    prob = build_optimal(robot, W3, n_intervals=4)
+@pytest.mark.parametrize(
+    ("mode", "objective", "drive", "duration"),
+    [
+        ("jerk", "time", False, False),
+        ("acceleration", "time", False, False),
+        ("acceleration", "time", True, False),
+        ("jerk", "time", True, False),
+        ("jerk", "jerk", False, True),
+    ],
+)
+def test_layout_is_the_transcriptions(robot, mode, objective, drive, duration):
+    """fatrop's light layout repeats build_structure's variable slices and row order (what
+    optimal_bounds reads), in every variant."""
+    kw = {"j_max": False} if mode == "acceleration" else {}
+    if duration:
+        kw.update(objective=objective, duration=3.0)
+    prob = build_optimal(robot, W3, n_intervals=4, drive_limits=drive, **kw)
     prob.make_warm_start()
-    real = structure(robot, 6, prob.segment_intervals, "jerk", "time", True, False, 100)
+    assert prob.mode == mode
+    real = structure(robot, 6, prob.segment_intervals, mode, objective, True, duration, 100, drive)
     light = fatrop_backend.layout_structure(prob, True)
     assert light.slices == real.slices and light.nx == real.nx
     np.testing.assert_array_equal(light.g_kind, real.g_kind)
     np.testing.assert_array_equal(light.g_joint, real.g_joint)
+    if drive:
+        np.testing.assert_array_equal(light.g_tag, real.g_tag)
+        np.testing.assert_array_equal(light.g_col, real.g_col)
+        assert light.n_drive_columns == real.n_drive_columns
 
 
 def test_no_compiler_falls_back_to_ipopt(robot, tmp_path):
@@ -129,8 +204,10 @@ def test_forced_ipopt_and_uncovered_variants_say_so(robot, monkeypatch):
     monkeypatch.setenv("ARMLAB_SOLVER", "ipopt")
     assert optimal(robot, W2).stats["fallback"] == "ARMLAB_SOLVER=ipopt"
     monkeypatch.setenv("ARMLAB_SOLVER", "fatrop")
-    acc = optimal(robot, W2, j_max=False)
-    assert acc.stats["solver"] == "ipopt" and "acceleration mode" in acc.stats["fallback"]
+    lbfgs = optimal(robot, W2, hessian="limited-memory")
+    assert lbfgs.stats["solver"] == "ipopt" and "limited-memory" in lbfgs.stats["fallback"]
+    energy = optimal(robot, W2, objective="energy", duration=4.0)
+    assert energy.stats["solver"] == "ipopt" and "energy" in energy.stats["fallback"]
 
 
 def test_watchdog_hands_the_solve_to_ipopt(compiled, robot, monkeypatch):

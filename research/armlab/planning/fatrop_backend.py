@@ -9,12 +9,15 @@ IROS 2023; the library shipped in the casadi wheel) through its C OCP interface,
 recursion costs time linear in the number of intervals. A solver instance is made per grid
 shape (intervals and segment ends) in milliseconds and reused with new data.
 
-Where fatrop is used: jerk mode (a jerk limit) with the ``"time"`` or ``"time+smooth"``
-objective, with or without torque limits, via tolerances and moving start or goal states,
-Hessian ``"partial"`` or ``"exact"``. Everything else is solved by IPOPT and ``stats["fallback"]``
-says why: acceleration mode, ``drive_limits``, the fixed-duration objectives (their duration row
-couples every stage), ``hessian="limited-memory"``, no C compiler or no fatrop in the casadi
-wheel (:class:`~armlab.planning.fatrop_stages.FatropUnavailable`), ``ARMLAB_SOLVER=ipopt`` in the
+Where fatrop is used: jerk mode (a jerk limit) and acceleration mode (none), the ``"time"`` and
+``"time+smooth"`` objectives and the fixed-duration ``"jerk"`` objective, with or without
+torque limits, with or without ``drive_limits`` (the motor envelope and RMS rows), via
+tolerances and moving start or goal states, Hessian ``"partial"`` or ``"exact"``; each
+combination of mode, drive rows and duration row is its own compiled library
+(:class:`~armlab.planning.fatrop_stages.Variant`). Everything else is solved by IPOPT and
+``stats["fallback"]`` says why: the ``"energy"`` objective, ``hessian="limited-memory"``,
+interior torque points, clearance rows, no C compiler or no fatrop in the casadi wheel
+(:class:`~armlab.planning.fatrop_stages.FatropUnavailable`), ``ARMLAB_SOLVER=ipopt`` in the
 environment, and a fatrop solve that fails (not converged within its iteration cap, NaN, or
 over its wall-time budget :func:`watchdog_budget_s`, the watchdog): that solve is repeated by
 IPOPT from the same start, so every verdict (a plan, or an error naming the limit) is IPOPT's
@@ -32,8 +35,18 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from armlab.planning import optimal_bounds
-from armlab.planning.fatrop_stages import FatropUnavailable, compiled_library, library_key
-from armlab.planning.transcription import PARTIAL_MAX_ITER, TORQUE_INTERIOR_POINTS, Structure
+from armlab.planning.fatrop_stages import (
+    FatropUnavailable,
+    Variant,
+    compiled_library,
+    library_key,
+)
+from armlab.planning.transcription import (
+    DRIVE_ROW_TAGS,
+    PARTIAL_MAX_ITER,
+    TORQUE_INTERIOR_POINTS,
+    Structure,
+)
 from armlab.robot.limits import Limits
 from armlab.robot.symbolic import dynamic_parameters
 
@@ -48,6 +61,11 @@ SOLVER_ENV = "ARMLAB_SOLVER"
 #: fatrop's options (its tolerance on the scaled KKT error, as IPOPT's 1e-9 gives durations
 #: within 1e-8 of IPOPT's, measured)
 FATROP_OPTIONS = {"print_level": 0, "tol": 1e-8, "constr_viol_tol": 1e-9}
+#: fatrop's tolerance for the fixed-duration "jerk" objective: its minimum is flat (the
+#: objective is normalised by its warm-start value), and at 1e-8 one of three random
+#: 3-waypoint cases stopped 1.2e-5 above IPOPT's minimum, at 1e-10 within 4e-7 (IPOPT's own
+#: distance to the tighter minimum, 5e-7), two iterations more (measured)
+FATROP_TOL_FIXED_DURATION = 1e-10
 #: iteration cap of a fatrop solve (exact Hessian; "partial" takes PARTIAL_MAX_ITER as IPOPT)
 FATROP_MAX_ITER = 300
 #: the watchdog's wall-time budget: this plus WATCHDOG_PER_INTERVAL_S per interval, in [s]
@@ -66,35 +84,38 @@ def watchdog_budget_s(n_intervals: int) -> float:
     return WATCHDOG_BASE_S + WATCHDOG_PER_INTERVAL_S * n_intervals
 
 
+def variant(prob: OptimalProblem) -> Variant:
+    """The stage library that solves ``prob`` (:class:`~armlab.planning.fatrop_stages.Variant`)."""
+    return Variant(prob.mode, bool(prob.drive_limits), prob.duration is not None)
+
+
 def not_covered(prob: OptimalProblem, hessian: str) -> str:
     """Why fatrop does not solve this problem ("" when it does)."""
     if os.environ.get(SOLVER_ENV, "").strip().lower() == "ipopt":
         return f"{SOLVER_ENV}=ipopt"
-    if prob.mode != "jerk":
-        return "acceleration mode (no jerk limit) is solved by IPOPT"
-    if prob.drive_limits:
-        return "drive_limits (motor-envelope rows) are solved by IPOPT"
-    if prob.duration is not None:
-        return f"the fixed-duration objective {prob.objective!r} is solved by IPOPT"
+    if prob.objective == "energy":
+        return "the energy objective is solved by IPOPT"
     if hessian not in ("exact", "partial"):
         return f"hessian={hessian!r} is solved by IPOPT"
     if TORQUE_INTERIOR_POINTS:
         return "interior torque points are solved by IPOPT"
+    if prob.clearance_rows is not None:
+        return "clearance rows are solved by IPOPT"
     return ""
 
 
 # ----------------------------------------------------------------------------- library
-def _library(robot) -> tuple[Any, str]:
-    """The loaded stage library of ``robot`` (compiled on first use) and its key; raises
-    :class:`FatropUnavailable` with the reason (remembered for the process)."""
-    key = library_key(robot)
+def _library(robot, var: Variant) -> tuple[Any, str]:
+    """The loaded stage library of ``robot`` and ``var`` (compiled on first use) and its key;
+    raises :class:`FatropUnavailable` with the reason (remembered for the process)."""
+    key = library_key(robot, var)
     got = _LIBS.get(key)
     if isinstance(got, str):
         raise FatropUnavailable(got)
     if got is not None:
         return got, key
     try:
-        so, _ = compiled_library(robot)
+        so, _ = compiled_library(robot, var)
         lib = ctypes.CDLL(str(so))
     except FatropUnavailable as exc:
         _LIBS[key] = str(exc)
@@ -102,8 +123,11 @@ def _library(robot) -> tuple[Any, str]:
     except OSError as exc:
         _LIBS[key] = f"the fatrop stage library could not be loaded: {exc}"
         raise FatropUnavailable(_LIBS[key]) from None
-    if lib.fp_nj() != robot.n_joints:
-        raise FatropUnavailable(f"{so} is built for {lib.fp_nj()} joints, not {robot.n_joints}")
+    dims = var.dims(robot.n_joints)
+    built = [lib.fp_dim(i) for i in range(5)]
+    want = [dims[k] for k in ("nx", "nu", "ng", "ngn", "npk")]
+    if lib.fp_nj() != robot.n_joints or built != want:
+        raise FatropUnavailable(f"{so} is built for other sizes ({built}, not {want})")
     dp = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
     ip = np.ctypeslib.ndpointer(dtype=np.int32, flags="C_CONTIGUOUS")
     vp, ci, cd = ctypes.c_void_p, ctypes.c_int, ctypes.c_double
@@ -122,44 +146,100 @@ def _library(robot) -> tuple[Any, str]:
 
 
 # ----------------------------------------------------------------------------- layout
-def layout_structure(prob: OptimalProblem, torque_rows: bool) -> Structure:
-    """The optimiser's variable and row layout in jerk mode (the ``slices``, ``g_kind`` and
-    ``g_joint`` of :func:`armlab.planning.transcription.build_structure`, whose order this
-    repeats) without building IPOPT's problem: the bounds and parameters of
-    :mod:`~armlab.planning.optimal_bounds` read only these."""
+def _layout(prob: OptimalProblem, torque_rows: bool, var: Variant) -> tuple[Structure, np.ndarray]:
+    """The optimiser's variable and row layout (the ``slices``, ``g_kind``, ``g_joint``,
+    ``g_tag`` and ``g_col`` of :func:`armlab.planning.transcription.build_structure`, whose
+    order this repeats) without building IPOPT's problem -- the bounds and parameters of
+    :mod:`~armlab.planning.optimal_bounds` read only these -- and where each row goes among
+    the stage rows (``N ng`` of the intervals, then ``ngn`` of the last node;
+    :meth:`~armlab.planning.fatrop_stages.Variant.dims`), -1 for the integration rows (they
+    are fatrop's dynamics)."""
     n, N, nseg = prob.n, prob.N, len(prob.segment_intervals)
-    sizes = [("q", n * (N + 1)), ("v", n * (N + 1)), ("a", n * (N + 1)), ("u", n * N)]
+    dm = var.dims(n)
+    ng, ngn = dm["ng"], dm["ngn"]
+    sizes = [("q", n * (N + 1)), ("v", n * (N + 1))]
+    sizes += [("a", n * (N + 1))] if var.jerk else []
     slices, start = {}, 0
-    for name, size in [*sizes, ("T", nseg)]:
+    for name, size in [*sizes, ("u", n * N), ("T", nseg)]:
         slices[name] = slice(start, start + size)
         start += size
-    blocks = [("dynamics", 3 * N), ("velocity", N), ("position", 2 * N)]
-    if torque_rows:
-        blocks.append(("torque", N + 1))
-    kinds = np.concatenate([np.full(cols * n, kind) for kind, cols in blocks])
-    joints = np.tile(np.arange(n), sum(cols for _, cols in blocks))
+    kinds: list[np.ndarray] = []
+    tags: list[np.ndarray] = []
+    cols: list[np.ndarray] = []
+    where: list[np.ndarray] = []
+    J = np.arange(n)
+
+    def add(kind, stages, local=0, tag="", first=0):
+        stages = np.asarray(stages)
+        local = np.broadcast_to(np.asarray(local), stages.shape)
+        m = stages.size
+        kinds.append(np.full(m * n, kind))
+        tags.append(np.full(m * n, tag))
+        cols.append(first + np.repeat(np.arange(m), n))
+        spot = stages[:, None] * ng + local[:, None] + J
+        where.append(np.where(stages[:, None] < 0, -1, spot).ravel())
+
+    ivals, nodes = np.arange(N), np.arange(N + 1)
+    for _ in range(3 if var.jerk else 2):  # q, qd (and qdd) integration: fatrop's dynamics
+        add("dynamics", np.full(N, -1))
+    if var.jerk:
+        add("velocity", ivals, n)
+        add("position", ivals, 2 * n)
+        add("position", ivals, 3 * n)
+        if torque_rows:
+            add("torque", nodes, 0)
+        if var.drive:
+            for t, name in enumerate(DRIVE_ROW_TAGS):
+                add("motor_envelope", nodes, np.where(nodes < N, 4 * n, n) + t * n, name)
+            add("motor_rms", [N], 9 * n)
+    else:
+        add("position", ivals, 2 * n)
+        if torque_rows:
+            add("torque", ivals, 0)
+            add("torque", ivals, n)
+        if var.drive:
+            for side in range(2):
+                for t, name in enumerate(DRIVE_ROW_TAGS):
+                    add("motor_envelope", ivals, (3 + 8 * side + t) * n, name, side * N)
+            add("motor_rms", [N], 0)
+    kind, tag, col, spot = (np.concatenate(z) for z in (kinds, tags, cols, where))
+    joint = np.tile(J, kind.size // n)
+    if var.duration:
+        kind, tag = np.append(kind, "duration"), np.append(tag, "")
+        col, joint = np.append(col, -1), np.append(joint, -1)
+        spot = np.append(spot, N * ng + ngn - 1)
     light = Structure(
         solver=None,  # type: ignore[arg-type]  # no IPOPT problem: fatrop solves this one
         g_fun=None,  # type: ignore[arg-type]
         n=n,
         seg_n=prob.segment_intervals,
-        mode="jerk",
+        mode=prob.mode,
         torque_rows=torque_rows,
-        g_kind=kinds,
-        g_joint=joints,
+        g_kind=kind,
+        g_joint=joint,
         n_pi=dynamic_parameters(prob.robot).size,
         nx=start,
         slices=slices,
         build_time_s=0.0,
+        drive_rows=var.drive,
+        g_tag=tag,
+        g_col=col,
+        n_drive_columns=((N + 1) if var.jerk else 2 * N) if var.drive else 0,
     )
-    return light
+    return light, spot
 
 
-def _stage_data(prob: OptimalProblem, st: Structure, limits: Limits, x0: np.ndarray):
+def layout_structure(prob: OptimalProblem, torque_rows: bool) -> Structure:
+    """The optimiser's layout for fatrop (:func:`_layout`) without the row placement."""
+    return _layout(prob, torque_rows, variant(prob))[0]
+
+
+def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, drive_scale):
     """The fatrop arrays of one solve (glue order) and the optimiser's own scaled data."""
     n, N = prob.n, prob.N
-    lbx, ubx, lbg, ubg = optimal_bounds.bounds(prob, st, limits, None)
-    p = optimal_bounds.params(prob, limits, None, st=st)
+    dm = var.dims(n)
+    lbx, ubx, lbg, ubg = optimal_bounds.bounds(prob, st, limits, drive_scale)
+    p = optimal_bounds.params(prob, limits, drive_scale, st=st)
     sv = prob._scale_vector()
     lbx, ubx = lbx / sv, ubx / sv
     xs0 = np.clip(x0 / sv, lbx, ubx)
@@ -168,41 +248,75 @@ def _stage_data(prob: OptimalProblem, st: Structure, limits: Limits, x0: np.ndar
     last = np.cumsum(prob.segment_intervals) - 1
     b = np.zeros(N, np.int32)
     b[last[:-1]] = 1
-    o = 0
-    tau = p[o : o + n]
-    w = p[o + n]
-    uref = p[o + n + 1 : o + 2 * n + 1]
+    tau, w, uref = p[:n], p[n], p[n + 1 : 2 * n + 1]
     o = 3 * n + 1  # after tau, w, uref, energy weights
     s_v, s_a, s_u = p[o : o + n], p[o + n : o + 2 * n], p[o + 2 * n : o + 3 * n]
     o += 3 * n
-    s_T, frac, pi = p[o : o + nseg], p[o + nseg : o + nseg + N], p[o + nseg + N :]
-    Pk = np.column_stack([s_T[seg] * frac, b]).astype(float)
-    pg = np.concatenate([s_v, s_a, s_u, tau, uref, [w], pi])
+    s_T, frac = p[o : o + nseg], p[o + nseg : o + nseg + N]
+    o += nseg + N
+    pi = p[o : o + st.n_pi]
+    o += st.n_pi
+    # the objective: tw T + w smooth ("jerk": the smoothness term alone, optimal_bounds.params
+    # gives it weight 0 there as transcription adds it unweighted)
+    tw, w = (0.0, 1.0) if prob.objective == "jerk" else (1.0, w)
+    s_e = float(np.sum(s_T))  # the scale of the elapsed time
     S = st.slices
+    h0 = (xs0[S["T"]] * s_T)[seg] * frac  # the warm start's intervals [s]
+    if prob.objective == "jerk":
+        # the objective over its warm-start value: the same minimiser, but fatrop's absolute
+        # KKT tolerance then means a relative one (a long fixed duration makes the jerk
+        # integral ~1e-4, and the plain sum stopped 1e-4 above IPOPT's minimum, measured)
+        u0 = xs0[S["u"]].reshape(N, n) * s_u / uref
+        w = 1.0 / max(float(np.sum(h0 * np.sum(u0**2, axis=1))), 1e-12)
+    drive: list[np.ndarray] = []
+    Pk = np.zeros((N + 1, dm["npk"]))
+    Pk[:N, 0], Pk[:N, 1] = s_T[seg] * frac, b
+    if var.drive:
+        dc = p[o : o + 9 * n]
+        o += 9 * n + n * st.n_drive_columns  # the directions, read below from their home
+        drive = [dc, p[o : o + n], p[o + n : o + 2 * n]]  # coefficients, eps, cont^2
+        sig = prob._column_directions()  # (n, columns)
+        if var.jerk:
+            Pk[:, 2:] = sig.T
+        else:
+            Pk[:N, 2:] = np.hstack([sig[:, :N].T, sig[:, N:].T])
+    pg = np.concatenate([s_v, s_a, s_u, tau, uref, [w, tw], pi, *drive])
+    if var.elapsed:
+        pg = np.append(pg, s_e)
+    te0 = np.concatenate([[0.0], np.cumsum(h0)]) / s_e
 
-    def stage(arr):
-        blk = [arr[S[k]].reshape(-1, n) for k in ("q", "v", "a", "u")]
+    def stage(arr, fill):
+        blk = [arr[S[k]].reshape(-1, n) for k in ("q", "v", "a", "u") if k in S]
         T = arr[S["T"]]
-        X = np.hstack([*blk[:3], np.append(T[seg], T[-1])[:, None]])
+        extra = np.zeros((N + 1, dm["nx"] - dm["it"] - 1))
+        if fill is not None:
+            extra[:] = fill
+        X = np.hstack([*blk[:-1], np.append(T[seg], T[-1])[:, None], extra])
         nxt = np.zeros(N)
         nxt[last[:-1]] = T[1:]
-        return X, np.hstack([blk[3], nxt[:, None]])
+        return X, np.hstack([blk[-1], nxt[:, None]])
 
-    (lX, lU), (hX, hU), (X0, U0) = stage(lbx), stage(ubx), stage(xs0)
-    lX[N, -1], hX[N, -1] = -np.inf, np.inf  # the last node's copy of T is free
-    kind = st.g_kind
+    free = np.inf
+    (lX, lU), (hX, hU) = stage(lbx, -free), stage(ubx, free)
+    X0, U0 = stage(xs0, None)
+    it = dm["it"]
+    lX[N, it], hX[N, it] = -np.inf, np.inf  # the last node's copy of T is free
+    lX[0, it + 1 :] = hX[0, it + 1 :] = 0.0  # integrals and elapsed time start at 0
+    if var.elapsed:
+        X0[:, -1] = te0
+    if var.drive:  # a guess of the RMS integrals (half the rating); hp = the last interval
+        X0[:, it + 1 : it + 1 + n] = 0.5 * te0[:, None]
+        if var.jerk:
+            X0[1:, it + 1 + n] = h0 / s_e
 
     def rows(arr, off):  # off: the bound of a row that is not there
-        G = np.full((N + 1, 4 * n), off)
-        if st.torque_rows:
-            G[:, :n] = arr[kind == "torque"].reshape(N + 1, n)
-        G[:N, n : 2 * n] = arr[kind == "velocity"].reshape(N, n)
-        pos = arr[kind == "position"].reshape(2, N, n)
-        G[:N, 2 * n : 3 * n], G[:N, 3 * n :] = pos[0], pos[1]
-        return np.concatenate([G[:N].ravel(), G[N, :n]])
+        G = np.full(N * dm["ng"] + dm["ngn"], off)
+        m = spot >= 0
+        G[spot[m]] = arr[m]
+        return G
 
     arrays = [lX, hX, lU, hU, rows(lbg, -np.inf), rows(ubg, np.inf)]
-    gmask = np.ones(N * 4 * n + n, np.int32)
+    gmask = np.ones(N * dm["ng"] + dm["ngn"], np.int32)
     data = [np.ascontiguousarray(a, float) for a in arrays]
     rest = [np.ascontiguousarray(a, float) for a in (Pk, pg, X0, U0)]
     return b, data, gmask, rest, (lbx, ubx, lbg, ubg, p, xs0), sv
@@ -223,8 +337,9 @@ class _Instance:
         self._keep = (self._keep[0], data, gmask, rest)
         return self.lib.fp_update(self.ptr, *data, gmask, *rest, int(exact)) == 0
 
-    def solve(self, max_iter: int, budget_s: float, nx: int, nu: int):
+    def solve(self, max_iter: int, budget_s: float, nx: int, nu: int, tol: float):
         self.lib.fp_set_option(self.ptr, b"max_iter", float(max_iter))
+        self.lib.fp_set_option(self.ptr, b"tol", tol)
         self.lib.fp_set_deadline(self.ptr, budget_s)
         X, U, stats = np.zeros((self.N + 1, nx)), np.zeros((self.N, nu)), np.zeros(14)
         ret = self.lib.fp_solve(self.ptr, X, U, stats)
@@ -249,20 +364,23 @@ def _instance(lib, key: str, b, data, gmask, rest, exact: bool) -> _Instance:
 
 
 # ----------------------------------------------------------------------------- solve
-def _fatrop(prob: OptimalProblem, hessian: str, limits: Limits, x0: np.ndarray):
+def _fatrop(prob: OptimalProblem, hessian: str, limits: Limits, x0: np.ndarray, drive_scale):
     """One fatrop solve: the optimiser's ``_attempt`` tuple, and a failure reason ("" if
     none)."""
-    lib, key = _library(prob.robot)
-    st = layout_structure(prob, limits.torque_Nm is not None)
-    b, data, gmask, rest, arm, sv = _stage_data(prob, st, limits, x0)
+    var = variant(prob)
+    lib, key = _library(prob.robot, var)
+    st, spot = _layout(prob, limits.torque_Nm is not None, var)
+    b, data, gmask, rest, arm, sv = _stage_data(prob, st, spot, var, limits, x0, drive_scale)
     n, N = prob.n, prob.N
-    exact = hessian == "exact" or not st.torque_rows
+    dm = var.dims(n)
+    exact = hessian == "exact" or not st.torque_rows or var.one_hessian
     cap = min(prob.max_iter, FATROP_MAX_ITER if exact else PARTIAL_MAX_ITER)
     budget = watchdog_budget_s(N)
     t0 = time.perf_counter()
     with _LOCK:
         inst = _instance(lib, key, b, data, gmask, rest, exact)
-        ret, X, U, stats = inst.solve(cap, budget, 3 * n + 1, n + 1)
+        tol = FATROP_TOL_FIXED_DURATION if var.duration else FATROP_OPTIONS["tol"]
+        ret, X, U, stats = inst.solve(cap, budget, dm["nx"], dm["nu"], tol)
         if ret != 0 or stats[13] or not np.all(np.isfinite(X)):
             # a failed or aborted instance is not reused (its state may hold NaN)
             _POOL.pop((key, tuple(b.tolist())), None)
@@ -278,9 +396,11 @@ def _fatrop(prob: OptimalProblem, hessian: str, limits: Limits, x0: np.ndarray):
         why = f"fatrop did not converge ({'iteration cap ' + str(cap) if capped else ret})"
     xs = np.zeros(st.nx)
     S = st.slices
-    xs[S["q"]], xs[S["v"]], xs[S["a"]] = (X[:, i * n : (i + 1) * n].ravel() for i in range(3))
+    names = ("q", "v", "a") if var.jerk else ("q", "v")
+    for i, name in enumerate(names):
+        xs[S[name]] = X[:, i * n : (i + 1) * n].ravel()
     xs[S["u"]] = U[:, :n].ravel()
-    xs[S["T"]] = X[prob.waypoint_nodes[:-1], -1]
+    xs[S["T"]] = X[prob.waypoint_nodes[:-1], dm["it"]]
     info = {
         "return_status": "Solve_Succeeded" if not why else why,
         "success": not why,
@@ -301,7 +421,7 @@ def attempt(prob: OptimalProblem, hessian: str, limits: Limits, x0, drive_scale,
     fatrop_time = 0.0
     if not why:
         try:
-            out, why = _fatrop(prob, hessian, limits, x0)
+            out, why = _fatrop(prob, hessian, limits, x0, drive_scale)
         except FatropUnavailable as exc:
             why = str(exc)
         else:

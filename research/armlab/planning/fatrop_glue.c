@@ -1,13 +1,15 @@
-/* armlab: fatrop OCP C-interface glue for the optimiser's stage-wise (jerk-mode) problem.
+/* armlab: fatrop OCP C-interface glue for the optimiser's stage-wise problem (every variant).
  *
- * Robot-independent; compiled ONCE per robot kinematics together with the CasADi-generated
+ * Robot-independent; compiled ONCE per robot kinematics and variant together with the CasADi-generated
  * stage functions (fo_*, armlab/planning/fatrop_stages.py) into one shared library linked
- * against libfatrop.so / libblasfeo.so of the casadi wheel. NJ (the joint count) is given
- * on the compiler's command line (-DNJ=6).
+ * against libfatrop.so / libblasfeo.so of the casadi wheel. The joint count and the sizes
+ * of the library's variant (fatrop_stages.Variant.dims) are given on the compiler's command
+ * line: -DNJ (joints), -DNX (state), -DNU (full input), -DNG (rows of a stage), -DNGN (rows
+ * of the last node), -DNPK (stage data per stage; the last node has its own).
  *
- * Stage vector in fatrop order: [u_k (nu[k]); x_k (NX)], nu[k] = NJ or NJ + 1 (NJ + 1 at the
+ * Stage vector in fatrop order: [u_k (nu[k]); x_k (NX)], nu[k] = NU - 1 or NU (NU at the
  * last interval of a segment: the next segment's duration), nu[N] = 0.
- * The generated functions use the full order [u (NJ + 1); x (3 NJ + 1)].
+ * The generated functions use the full order [u (NU); x (NX)].
  *
  * Watchdog: every evaluation hook checks a wall-clock deadline (fp_set_deadline); past it the
  * hooks return NaN, the solver stops within an iteration, and fp_solve reports it (stats[13]).
@@ -26,6 +28,12 @@ typedef long long int casadi_int;
 #define DECL(f)                                                                     \
   int f(const double **arg, double **res, casadi_int *iw, double *w, int mem);     \
   int f##_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#ifdef ONE_HESS /* one Hessian serves the exact and the "partial" solves (Variant.one_hessian) */
+#define fo_hess_p fo_hess
+#define fo_hess_p_work fo_hess_work
+#define fo_thess_p fo_thess
+#define fo_thess_p_work fo_thess_work
+#endif
 DECL(fo_eval)
 DECL(fo_jac)
 DECL(fo_hess)
@@ -39,11 +47,12 @@ DECL(fo_thess_p)
 #ifndef NJ
 #error "compile with -DNJ=<number of joints>"
 #endif
-#define NX (3 * NJ + 1)
-#define NUF (NJ + 1)
+#if !defined(NX) || !defined(NU) || !defined(NG) || !defined(NGN) || !defined(NPK)
+#error "compile with -DNX -DNU -DNG -DNGN -DNPK (fatrop_stages.Variant.dims)"
+#endif
+#define NUF NU
 #define NXU (NX + NUF)
-#define NG (4 * NJ)
-#define NGN NJ
+#define MAXG ((NG > NGN ? NG : NGN) + 1)
 #define BND 100000
 
 typedef struct
@@ -58,8 +67,8 @@ typedef struct
   casadi_int *iw;
   const double *arg[16];
   double *res[16];
-  double buf[(NXU + 1) * (NXU + 1) * 4];
-  double buf2[(NXU + 1) * (NG + NXU + 4)];
+  double buf[(NXU + 1) * (NXU + 1 + NX + MAXG)];
+  double buf2[(NXU + 1) * (MAXG + NXU + 4)];
   double ufull[NUF];
   struct FatropOcpCInterface ocp;
   struct FatropOcpCSolver *solver;
@@ -118,11 +127,11 @@ static fatrop_int full_obj(double scale, const double *primal, const double *sp,
 {
   Prob *P = (Prob *)ud;
   double tc0 = cpu_now();
-  double F[NX], g[NG], l, tot = 0.0;
+  double F[NX], g[MAXG], l, tot = 0.0;
   for (int k = 0; k < P->N; k++)
   {
     fill_u(P, ustage(primal, s, k), P->nu[k]);
-    P->arg[0] = xstage(primal, s, k); P->arg[1] = P->ufull; P->arg[2] = P->Pk + 2 * k; P->arg[3] = P->pg;
+    P->arg[0] = xstage(primal, s, k); P->arg[1] = P->ufull; P->arg[2] = P->Pk + NPK * k; P->arg[3] = P->pg;
     P->res[0] = F; P->res[1] = g; P->res[2] = &l;
     fo_eval(P->arg, P->res, P->iw, P->w, 0);
     tot += l;
@@ -142,7 +151,7 @@ static fatrop_int full_obj_grad(double scale, const double *primal, const double
   {
     int nu = P->nu[k];
     fill_u(P, ustage(primal, s, k), nu);
-    P->arg[0] = xstage(primal, s, k); P->arg[1] = P->ufull; P->arg[2] = P->Pk + 2 * k; P->arg[3] = P->pg;
+    P->arg[0] = xstage(primal, s, k); P->arg[1] = P->ufull; P->arg[2] = P->Pk + NPK * k; P->arg[3] = P->pg;
     P->res[0] = gr;
     fo_grad(P->arg, P->res, P->iw, P->w, 0);
     double *r = res + s->ux_offs[k];
@@ -160,7 +169,7 @@ static fatrop_int full_cv(const double *primal, const double *sp, const double *
 {
   Prob *P = (Prob *)ud;
   double tc0 = cpu_now();
-  double F[NX], g[NG], l;
+  double F[NX], g[MAXG], l;
   for (int k = 0; k <= P->N; k++)
   {
     int nu = P->nu[k];
@@ -168,7 +177,7 @@ static fatrop_int full_cv(const double *primal, const double *sp, const double *
     if (k < P->N)
     {
       fill_u(P, u, nu);
-      P->arg[0] = x; P->arg[1] = P->ufull; P->arg[2] = P->Pk + 2 * k; P->arg[3] = P->pg;
+      P->arg[0] = x; P->arg[1] = P->ufull; P->arg[2] = P->Pk + NPK * k; P->arg[3] = P->pg;
       P->res[0] = F; P->res[1] = g; P->res[2] = &l;
       fo_eval(P->arg, P->res, P->iw, P->w, 0);
       const double *xn = xstage(primal, s, k + 1);
@@ -176,7 +185,7 @@ static fatrop_int full_cv(const double *primal, const double *sp, const double *
     }
     else
     {
-      P->arg[0] = x; P->arg[1] = P->pg; P->res[0] = g;
+      P->arg[0] = x; P->arg[1] = P->Pk + NPK * k; P->arg[2] = P->pg; P->res[0] = g;
       fo_teval(P->arg, P->res, P->iw, P->w, 0);
     }
     int o = P->ineq_off[k];
@@ -212,7 +221,7 @@ static fatrop_int full_jac(const double *primal, const double *sp, const double 
     if (k < P->N)
     {
       fill_u(P, u, nu);
-      P->arg[0] = x; P->arg[1] = P->ufull; P->arg[2] = P->Pk + 2 * k; P->arg[3] = P->pg;
+      P->arg[0] = x; P->arg[1] = P->ufull; P->arg[2] = P->Pk + NPK * k; P->arg[3] = P->pg;
       P->res[0] = BA; P->res[1] = Gt;
       fo_jac(P->arg, P->res, P->iw, P->w, 0);
       const double *xn = xstage(primal, s, k + 1);
@@ -229,7 +238,7 @@ static fatrop_int full_jac(const double *primal, const double *sp, const double 
     }
     else
     {
-      P->arg[0] = x; P->arg[1] = P->pg; P->res[0] = Gt;
+      P->arg[0] = x; P->arg[1] = P->Pk + NPK * k; P->arg[2] = P->pg; P->res[0] = Gt;
       fo_tjac(P->arg, P->res, P->iw, P->w, 0); /* (NX+1) x NGN, rows [x; g] */
       ldg = NX + 1;
     }
@@ -289,7 +298,7 @@ static fatrop_int full_hess(double scale, const double *primal, const double *la
   double tc0 = cpu_now();
   double *H = P->buf; /* (NXU+1) x NXU full order */
   double *M = P->buf2;
-  double lamg[NG], lamF[NX];
+  double lamg[MAXG], lamF[NX];
   for (int k = 0; k <= P->N; k++)
   {
     int nu = P->nu[k], nv = nu + NX, ld;
@@ -305,7 +314,7 @@ static fatrop_int full_hess(double scale, const double *primal, const double *la
     {
       for (int i = 0; i < NX; i++) lamF[i] = lam[s->dyn_eq_offs[k] + i];
       fill_u(P, u, nu);
-      P->arg[0] = x; P->arg[1] = P->ufull; P->arg[2] = P->Pk + 2 * k; P->arg[3] = P->pg;
+      P->arg[0] = x; P->arg[1] = P->ufull; P->arg[2] = P->Pk + NPK * k; P->arg[3] = P->pg;
       P->arg[4] = lamF; P->arg[5] = lamg; P->arg[6] = &scale;
       P->res[0] = H;
       if (P->hess_exact) fo_hess(P->arg, P->res, P->iw, P->w, 0);
@@ -321,7 +330,7 @@ static fatrop_int full_hess(double scale, const double *primal, const double *la
     }
     else
     {
-      P->arg[0] = x; P->arg[1] = P->pg; P->arg[2] = lamg; P->res[0] = H;
+      P->arg[0] = x; P->arg[1] = P->Pk + NPK * k; P->arg[2] = P->pg; P->arg[3] = lamg; P->res[0] = H;
       if (P->hess_exact) fo_thess(P->arg, P->res, P->iw, P->w, 0);
       else fo_thess_p(P->arg, P->res, P->iw, P->w, 0);
       ld = NX + 1;
@@ -414,7 +423,7 @@ void *fp_create(int N, const int *b, int npg, const double *lbx, const double *u
   P->lbu = dup(lbu, sizeof(double) * N * NUF); P->ubu = dup(ubu, sizeof(double) * N * NUF);
   P->lbg = dup(lbg, sizeof(double) * (N * NG + NGN)); P->ubg = dup(ubg, sizeof(double) * (N * NG + NGN));
   P->gmask = dup(gmask, sizeof(int) * (N * NG + NGN));
-  P->Pk = dup(Pk, sizeof(double) * 2 * N); P->pg = dup(pg, sizeof(double) * npg);
+  P->Pk = dup(Pk, sizeof(double) * NPK * (N + 1)); P->pg = dup(pg, sizeof(double) * npg);
   P->x0 = dup(x0, sizeof(double) * (N + 1) * NX); P->u0 = dup(u0, sizeof(double) * N * NUF);
   build_lists(P);
   /* casadi work */
@@ -447,7 +456,7 @@ int fp_update(void *p, const double *lbx, const double *ubx, const double *lbu, 
   memcpy(P->lbu, lbu, sizeof(double) * N * NUF); memcpy(P->ubu, ubu, sizeof(double) * N * NUF);
   memcpy(P->lbg, lbg, sizeof(double) * (N * NG + NGN)); memcpy(P->ubg, ubg, sizeof(double) * (N * NG + NGN));
   memcpy(P->gmask, gmask, sizeof(int) * (N * NG + NGN));
-  memcpy(P->Pk, Pk, sizeof(double) * 2 * N); memcpy(P->pg, pg, sizeof(double) * P->npg);
+  memcpy(P->Pk, Pk, sizeof(double) * NPK * (N + 1)); memcpy(P->pg, pg, sizeof(double) * P->npg);
   memcpy(P->x0, x0, sizeof(double) * (N + 1) * NX); memcpy(P->u0, u0, sizeof(double) * N * NUF);
   P->hess_exact = hess_exact;
   return build_lists(P);
@@ -478,6 +487,13 @@ void fp_set_deadline(void *p, double budget_s)
 }
 
 int fp_nj(void) { return NJ; }
+
+/* the compiled sizes: 0 NX, 1 NU, 2 NG, 3 NGN, 4 NPK */
+int fp_dim(int which)
+{
+  const int d[5] = {NX, NU, NG, NGN, NPK};
+  return which >= 0 && which < 5 ? d[which] : -1;
+}
 
 /* solve; writes X (N+1 x NX), U (N x NUF; 0 where unused), stats[0..13] */
 int fp_solve(void *p, double *X, double *U, double *stats)
