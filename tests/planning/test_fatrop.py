@@ -148,12 +148,14 @@ def test_fixed_duration_plans_as_ipopt(compiled, robot):
 
 def test_the_payload_is_run_time_data(compiled, robot):
     """A payload changes the inertias, not the kinematics: the same library plans it (one
-    library of the variant in the cache) and the payload slows the plan down."""
+    library of the variant in the cache) and the plan carries it: the torques the plan
+    reports grow with it (W3 is speed-bound, so the duration need not change)."""
     light = optimal(robot, W3)
     before = sorted(compiled.parent.iterdir())
     heavy = optimal(robot, W3, payload_kg=1.5)
     assert heavy.stats["solver"] == "fatrop"
-    assert heavy.stats["duration_s"] > light.stats["duration_s"]
+    peak = [max(t.report.ratios["torque"]) for t in (light, heavy)]
+    assert peak[1] > 1.5 * peak[0]  # 0.30 -> 0.71 of the torque limits, measured
     assert sorted(compiled.parent.iterdir()) == before  # nothing compiled for the payload
 
 

@@ -19,7 +19,7 @@ combination of mode, drive rows and duration row is its own compiled library
 interior torque points, clearance rows, no C compiler or no fatrop in the casadi wheel
 (:class:`~armlab.planning.fatrop_stages.FatropUnavailable`), ``ARMLAB_SOLVER=ipopt`` in the
 environment, and a fatrop solve that fails (not converged within its iteration cap, NaN, or
-over its wall-time budget :func:`watchdog_budget_s`, the watchdog): that solve is repeated by
+over its CPU-time budget :func:`watchdog_budget_s`, the watchdog): that solve is repeated by
 IPOPT from the same start, so every verdict (a plan, or an error naming the limit) is IPOPT's
 wherever fatrop does not converge.
 """
@@ -61,6 +61,9 @@ SOLVER_ENV = "ARMLAB_SOLVER"
 #: fatrop's options (its tolerance on the scaled KKT error, as IPOPT's 1e-9 gives durations
 #: within 1e-8 of IPOPT's, measured)
 FATROP_OPTIONS = {"print_level": 0, "tol": 1e-8, "constr_viol_tol": 1e-9}
+#: how far inside its bounds a fatrop solve is asked to stay, relative to each bound's size
+#: (:func:`_inward`): a few times the 1e-8 overshoot measured
+BOUND_MARGIN = 3e-8
 #: fatrop's tolerance for the fixed-duration "jerk" objective: its minimum is flat (the
 #: objective is normalised by its warm-start value), and at 1e-8 one of three random
 #: 3-waypoint cases stopped 1.2e-5 above IPOPT's minimum, at 1e-10 within 4e-7 (IPOPT's own
@@ -68,8 +71,10 @@ FATROP_OPTIONS = {"print_level": 0, "tol": 1e-8, "constr_viol_tol": 1e-9}
 FATROP_TOL_FIXED_DURATION = 1e-10
 #: iteration cap of a fatrop solve (exact Hessian; "partial" takes PARTIAL_MAX_ITER as IPOPT)
 FATROP_MAX_ITER = 300
-#: the watchdog's wall-time budget: this plus WATCHDOG_PER_INTERVAL_S per interval, in [s]
-#: (measured solves take 0.15-1.2 ms per interval; a mis-posed one ran > 2 min uncapped)
+#: the watchdog's budget of the solving thread's CPU time (a machine under load does not trip
+#: it: 4 of 1000 wall-time budgets did at load 4, measured): this plus WATCHDOG_PER_INTERVAL_S
+#: per interval, in [s] (measured solves take 0.15-1.2 ms per interval; a mis-posed one ran
+#: > 2 min uncapped)
 WATCHDOG_BASE_S = 2.0
 WATCHDOG_PER_INTERVAL_S = 0.02
 
@@ -80,7 +85,7 @@ _POOL_MAX = 16
 
 
 def watchdog_budget_s(n_intervals: int) -> float:
-    """Wall-time budget of one fatrop solve on ``n_intervals`` intervals, in [s]."""
+    """CPU-time budget of one fatrop solve on ``n_intervals`` intervals, in [s]."""
     return WATCHDOG_BASE_S + WATCHDOG_PER_INTERVAL_S * n_intervals
 
 
@@ -315,11 +320,37 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
         G[spot[m]] = arr[m]
         return G
 
-    arrays = [lX, hX, lU, hU, rows(lbg, -np.inf), rows(ubg, np.inf)]
+    lG, hG = rows(lbg, -np.inf), rows(ubg, np.inf)
+    if var.duration:
+        # the duration row t_N s_e = D as a bound on the last node's elapsed time: fatrop holds
+        # a fixed state exactly (an equality), a row with equal bounds only within its bound
+        # relaxation (the plan came back 4e-8 s long, measured)
+        d = spot[st.g_kind == "duration"][0]
+        lX[N, -1] = hX[N, -1] = lG[d] / s_e
+        lG[d], hG[d] = -np.inf, np.inf
+    arrays = [*_inward(lX, hX), *_inward(lU, hU), *_inward(lG, hG)]
     gmask = np.ones(N * dm["ng"] + dm["ngn"], np.int32)
     data = [np.ascontiguousarray(a, float) for a in arrays]
     rest = [np.ascontiguousarray(a, float) for a in (Pk, pg, X0, U0)]
     return b, data, gmask, rest, (lbx, ubx, lbg, ubg, p, xs0), sv
+
+
+def _inward(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The inequality bounds ``lo <= . <= hi`` moved inside by :data:`BOUND_MARGIN` of their
+    size (``lo + m |lo|``, ``hi - m |hi|``); equalities, zero and infinite bounds unchanged.
+    fatrop's converged point may lie a few 1e-9 beyond a bound it holds (a velocity 1.03e-8
+    over its limit on a fixed-duration plan, measured, against constr_viol_tol 1e-9), which the
+    fine-grid check then removes by stretching the plan -- a fixed duration would come back
+    8e-8 s long. Moved in, the point lies within the optimiser's own bounds."""
+    lo, hi = lo.copy(), hi.copy()
+    m = BOUND_MARGIN
+    both = np.isfinite(lo) & np.isfinite(hi)
+    room = ~both | (hi - lo > 2 * m * (np.abs(lo) + np.abs(hi)))
+    ok_lo = room & np.isfinite(lo)
+    ok_hi = room & np.isfinite(hi)
+    lo[ok_lo] += m * np.abs(lo[ok_lo])
+    hi[ok_hi] -= m * np.abs(hi[ok_hi])
+    return lo, hi
 
 
 class _Instance:

@@ -11,7 +11,8 @@
  * last interval of a segment: the next segment's duration), nu[N] = 0.
  * The generated functions use the full order [u (NU); x (NX)].
  *
- * Watchdog: every evaluation hook checks a wall-clock deadline (fp_set_deadline); past it the
+ * Watchdog: every evaluation hook checks a deadline on this thread's CPU clock (fp_set_deadline:
+ * a loaded machine does not trip it, a runaway solve does); past it the
  * hooks return NaN, the solver stops within an iteration, and fp_solve reports it (stats[13]).
  */
 #include <stdlib.h>
@@ -21,7 +22,6 @@
 #include <blasfeo.h>
 #include <time.h>
 static double cpu_now(void){struct timespec t; clock_gettime(CLOCK_THREAD_CPUTIME_ID,&t); return t.tv_sec+1e-9*t.tv_nsec;}
-static double wall_now(void){struct timespec t; clock_gettime(CLOCK_MONOTONIC,&t); return t.tv_sec+1e-9*t.tv_nsec;}
 #include "fatrop/ocp/OCPCInterface.h"
 
 typedef long long int casadi_int;
@@ -73,14 +73,14 @@ typedef struct
   struct FatropOcpCInterface ocp;
   struct FatropOcpCSolver *solver;
   double t_eval[5];
-  double deadline; /* CLOCK_MONOTONIC seconds; <= 0: none */
+  double deadline; /* CLOCK_THREAD_CPUTIME_ID seconds; <= 0: none */
   int aborted;
 } Prob;
 
 /* the watchdog: 1 (and the flag set) once the deadline has passed */
 static int expired(Prob *P)
 {
-  if (!P->aborted && P->deadline > 0 && wall_now() > P->deadline) P->aborted = 1;
+  if (!P->aborted && P->deadline > 0 && cpu_now() > P->deadline) P->aborted = 1;
   return P->aborted;
 }
 
@@ -483,7 +483,7 @@ void fp_set_initial(void *p, const double *x0, const double *u0)
 void fp_set_deadline(void *p, double budget_s)
 {
   Prob *P = (Prob *)p;
-  P->deadline = budget_s > 0 ? wall_now() + budget_s : 0.0;
+  P->deadline = budget_s > 0 ? cpu_now() + budget_s : 0.0;
 }
 
 int fp_nj(void) { return NJ; }
