@@ -209,6 +209,11 @@ class OptimalProblem:
         cols = sig if self.mode == "jerk" else np.vstack([sig[:-1], sig[1:]])
         return cols.T
 
+    def column_nodes(self) -> np.ndarray:
+        """The node of each point of the drive rows (:meth:`_column_directions` order)."""
+        nodes = np.arange(self.N + 1)
+        return nodes if self.mode == "jerk" else np.concatenate([nodes[:-1], nodes[1:]])
+
     @property
     def segment_of_interval(self) -> np.ndarray:
         return np.repeat(np.arange(len(self.segment_intervals)), self.segment_intervals)
