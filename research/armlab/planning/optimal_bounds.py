@@ -133,9 +133,7 @@ def bounds(prob: OptimalProblem, st: Structure, limits: Limits, drive_scale=None
     return np.concatenate(lbx), np.concatenate(ubx), lbg, ubg
 
 
-def drive_bounds(
-    prob: OptimalProblem, st: Structure, lbg, ubg, drive_scale, v_abs=None
-) -> None:
+def drive_bounds(prob: OptimalProblem, st: Structure, lbg, ubg, drive_scale, v_abs=None) -> None:
     """Bounds of the motor-envelope and RMS rows (:data:`DRIVE_ROW_TAGS`): switched on by
     the direction of motion (upper rows of the motoring branch where ``sigma >= 0``, lower
     ones where ``sigma <= 0``, the back-driven branch always) and scaled by the back-off.
