@@ -258,7 +258,7 @@ def test_line_rows_switched_off_only_where_the_peak_binds(robot):
     prob = build_optimal(robot, W3, n_intervals=8, a_max=False, j_max=False, drive_limits=True)
     prob.make_warm_start()
     st, _ = fatrop_backend._layout(prob, False, fatrop_backend.variant(prob))
-    _, _, lbg, ubg = optimal_bounds.bounds(prob, st, prob.limits)
+    _, _, lbg, ubg = optimal_bounds.bounds(prob, st, prob.limits, implied_off=True)
     env = np.flatnonzero(st.g_kind == "motor_envelope")
     tag, j, col = st.g_tag[env].astype(str), st.g_joint[env], st.g_col[env]
     on = np.isfinite(lbg[env]) | np.isfinite(ubg[env])

@@ -55,7 +55,14 @@ def _energy_weights(robot) -> tuple[np.ndarray, str]:
     return w, "J"
 
 
-def bounds(prob: OptimalProblem, st: Structure, limits: Limits, drive_scale=None):
+def bounds(
+    prob: OptimalProblem, st: Structure, limits: Limits, drive_scale=None, implied_off=False
+):
+    """``(lbx, ubx, lbg, ubg)`` of the optimiser's problem; ``implied_off``: the voltage-line
+    rows the peak rows imply switched off (:func:`drive_bounds`; the fatrop backend's, whose
+    cost per iteration grows with the rows. IPOPT keeps every row: on a case whose
+    non-binding joints are flat in the objective its path, and so its back-off rounds,
+    changed with them -- 1 -> 4 rounds, the duration by 7.6e-6 -- measured)."""
     n, N = prob.n, prob.N
     inf = np.inf
     ls = limits
@@ -128,7 +135,7 @@ def bounds(prob: OptimalProblem, st: Structure, limits: Limits, drive_scale=None
     if np.any(m):
         lbg[m] = ubg[m] = prob.duration
     if st.drive_rows:
-        v_abs = np.maximum(np.abs(lo_v), np.abs(hi_v))  # (N + 1, n)
+        v_abs = np.maximum(np.abs(lo_v), np.abs(hi_v)) if implied_off else None  # (N + 1, n)
         drive_bounds(prob, st, lbg, ubg, drive_scale, v_abs)
     return np.concatenate(lbx), np.concatenate(ubx), lbg, ubg
 
