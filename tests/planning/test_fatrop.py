@@ -244,3 +244,38 @@ def test_cache_dir_follows_the_environment(monkeypatch, tmp_path):
     assert fatrop_stages.cache_dir() == tmp_path / "armlab"
     monkeypatch.setenv("ARMLAB_CACHE_DIR", str(tmp_path / "own"))
     assert fatrop_stages.cache_dir() == tmp_path / "own"
+
+
+def test_line_rows_switched_off_only_where_the_peak_binds(robot):
+    """drive_limits: a voltage-line row is switched off only where the velocity bounds keep the
+    motor below the speed at which its line falls under the peak torque (the drive-train
+    model's envelope is the peak there), so the feasible set is the same; at a joint whose
+    line crosses its peak within its speed limit (joint 6: at 1.3 % of its no-load speed) the
+    line rows of moving columns stay on."""
+    from armlab.planning import optimal_bounds
+    from armlab.robot import drivetrain
+
+    prob = build_optimal(robot, W3, n_intervals=8, a_max=False, j_max=False, drive_limits=True)
+    prob.make_warm_start()
+    st, _ = fatrop_backend._layout(prob, False, fatrop_backend.variant(prob))
+    _, _, lbg, ubg = optimal_bounds.bounds(prob, st, prob.limits, implied_off=True)
+    env = np.flatnonzero(st.g_kind == "motor_envelope")
+    tag, j, col = st.g_tag[env].astype(str), st.g_joint[env], st.g_col[env]
+    on = np.isfinite(lbg[env]) | np.isfinite(ubg[env])
+    line = np.char.startswith(tag, "A")
+    off = line & ~on & (np.char.find(tag, "2") == 1)  # back-driven rows: on unless implied
+    assert off.any() and (line & on).any()
+    node = prob.column_nodes()[col[off]]
+    sig = prob.node_directions()
+    top = np.where(sig[node, j[off]] == 0, 0.0, robot.limits.velocity_rad_s[j[off]])
+    train = drivetrain.drive_train(robot)
+    w_top = np.zeros((off.sum(), robot.n_joints))
+    w_top[np.arange(off.sum()), j[off]] = top * train.ratio[j[off]]
+    peak = train.peak_motor_torque_Nm[j[off]]
+    np.testing.assert_allclose(
+        drivetrain.envelope_torque(w_top, train)[np.arange(off.sum()), j[off]], peak, rtol=1e-12
+    )
+    moving = (
+        (sig[prob.column_nodes()[col], j] != 0) & (j == 5) & line & (np.char.find(tag, "2") == 1)
+    )
+    assert moving.any() and on[moving].all()

@@ -303,3 +303,34 @@ def test_drive_limits_bad_input(heavy):
     with pytest.raises(armlab.SpecError) as err:
         parse_study(doc)
     assert str(err.value).startswith("plan.drive_limits")
+
+
+def test_drive_check_from_the_limit_samples_is_the_fine_grid_check(heavy):
+    """The drive check reads its RMS grid out of the limit samples (one motor-torque pass):
+    the same numbers as the fine grid sampled and evaluated on its own (an independent
+    computation here), and the peaks over the limit samples, which hold the grid."""
+    from armlab.planning.timescale import drive_check
+    from cases import cosine_motion
+
+    traj = cosine_motion(heavy, duration_s=4.0, n=41)
+    train = dtm.drive_train(heavy)
+    dt_s = traj.duration / 500
+    smp = traj.limit_samples(dt_s, robot=heavy)
+    got = drive_check(traj, heavy, train, dt_s, smp)
+    again = drive_check(traj, heavy, train, dt_s)  # samples computed inside
+    fine = traj.sample(dt_s)
+    tau = armlab.robot.rigid_body.inverse_dynamics(heavy, fine.q, fine.qd, fine.qdd)
+    t_m, _ = dtm.motor_torque(tau, fine.qd, fine.qdd, train)
+    w = np.zeros(fine.t.size)  # trapezoidal: half of each neighbouring step
+    w[:-1] += np.diff(fine.t) / 2
+    w[1:] += np.diff(fine.t) / 2
+    rms = np.sqrt((w[:, None] * t_m**2).sum(0) / w.sum()) / train.continuous_motor_torque_Nm
+    np.testing.assert_allclose(got["motor_rms"], rms, rtol=1e-12)
+    grid_env = dtm.envelope_ratio(t_m, fine.qd * train.ratio, train).max(axis=0)
+    assert np.all(got["motor_envelope"] >= grid_env)  # the grid is among the samples
+    smp_env = dtm.envelope_ratio(
+        dtm.motor_torque(smp.tau, smp.qd, smp.qdd, train)[0], smp.qd * train.ratio, train
+    ).max(axis=0)
+    np.testing.assert_allclose(got["motor_envelope"], smp_env, rtol=1e-15)
+    for kind in got:
+        np.testing.assert_allclose(again[kind], got[kind], rtol=1e-15)

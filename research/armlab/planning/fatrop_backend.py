@@ -244,7 +244,7 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
     """The fatrop arrays of one solve (glue order) and the optimiser's own scaled data."""
     n, N = prob.n, prob.N
     dm = var.dims(n)
-    lbx, ubx, lbg, ubg = optimal_bounds.bounds(prob, st, limits, drive_scale)
+    lbx, ubx, lbg, ubg = optimal_bounds.bounds(prob, st, limits, drive_scale, implied_off=True)
     p = optimal_bounds.params(prob, limits, drive_scale, st=st)
     sv = prob._scale_vector()
     lbx, ubx = lbx / sv, ubx / sv

@@ -209,6 +209,11 @@ class OptimalProblem:
         cols = sig if self.mode == "jerk" else np.vstack([sig[:-1], sig[1:]])
         return cols.T
 
+    def column_nodes(self) -> np.ndarray:
+        """The node of each point of the drive rows (:meth:`_column_directions` order)."""
+        nodes = np.arange(self.N + 1)
+        return nodes if self.mode == "jerk" else np.concatenate([nodes[:-1], nodes[1:]])
+
     @property
     def segment_of_interval(self) -> np.ndarray:
         return np.repeat(np.arange(len(self.segment_intervals)), self.segment_intervals)
@@ -373,14 +378,15 @@ class OptimalProblem:
         def check(result) -> dict[str, np.ndarray]:
             traj = self._trajectory(result[0], result[1])
             dt = self._check_dt(traj)
-            smp = traj.limit_samples(dt, robot=self.robot if torque_on else None)
-            checked.update(x=result[1], traj=traj, samples=smp)
+            # with the drive rows, the torques serve the drive check (drive_check)
+            with_tau = torque_on or train is not None
+            smp = traj.limit_samples(dt, robot=self.robot if with_tau else None)
             ratios = traj.check_limits(
                 self.robot, dt=dt, limits=jl, torque=torque_on, samples=smp
             ).ratios
-            if train is not None:
-                ratios = {**ratios, **drive_check(traj, self.robot, train, dt)}
-            return ratios
+            drive = drive_check(traj, self.robot, train, dt, smp) if train is not None else None
+            checked.update(x=result[1], traj=traj, samples=smp, drive=drive)
+            return ratios if drive is None else {**ratios, **drive}
 
         def fail(result, info) -> NoReturn:
             st, x, data, _ = result
@@ -423,7 +429,9 @@ class OptimalProblem:
         stretch_skipped = absorbed.skipped
         drive_ratios: dict[str, np.ndarray] = {}
         if train is not None:
-            traj, k_drive, drive_ratios = absorb_drive_tolerance(traj, self.robot, train, dt)
+            # the last check's drive ratios where the plan is the one it checked, unstretched
+            last = checked.get("drive") if reuse and absorbed.traj is checked["traj"] else None
+            traj, k_drive, drive_ratios = absorb_drive_tolerance(traj, self.robot, train, dt, last)
             k_tol *= k_drive
             samples = samples if k_drive == 1.0 else None
         traj.meta["knot_times_s"] = traj.meta["knot_times_s"] * k_tol

@@ -29,7 +29,7 @@ import numpy as np
 
 from armlab.errors import InfeasibleError, LimitViolation
 from armlab.robot import drivetrain, rigid_body
-from armlab.trajectory.sampling import sample_weights
+from armlab.trajectory.sampling import sample_times, sample_weights
 
 if TYPE_CHECKING:
     from armlab.robot.drivetrain import DriveTrain
@@ -329,7 +329,7 @@ def refuse_violation(traj: Trajectory, planner: str, rounds: int) -> None:
 DriveState = tuple  # (Limits, envelope scale (n,), rms scale (n,))
 
 
-def drive_check(traj: Trajectory, robot: Robot, train: DriveTrain, dt: float) -> dict:
+def drive_check(traj: Trajectory, robot: Robot, train: DriveTrain, dt: float, samples=None) -> dict:
     """Peak ratios of a trajectory to its motors' envelope, per joint: the independent
     per-sample check of ``drive_limits`` (:func:`armlab.robot.drivetrain.drive_ratios` kinds).
 
@@ -337,21 +337,44 @@ def drive_check(traj: Trajectory, robot: Robot, train: DriveTrain, dt: float) ->
     the critical times, the uniform grid ``dt`` [s] and the refined torque peaks) with the exact
     numeric drive-train model; ``motor_rms`` on the uniform grid ``dt`` with trapezoidal
     weights (:func:`armlab.trajectory.sampling.sample_weights`).
+
+    ``samples``: ``traj``'s limit samples at ``dt`` with torques if the caller has them (not
+    computed again). The uniform grid's rows are read from them (:func:`_grid_rows`: the same
+    floats as ``traj.sample(dt)`` and its RNEA, so one motor-torque pass serves the peaks and
+    the RMS); where they are not all there, the grid is sampled and its torques computed.
     """
-    samples = traj.limit_samples(dt, robot=robot)
+    if samples is None or samples.tau is None:
+        samples = traj.limit_samples(dt, robot=robot)
     assert samples.tau is not None  # a robot was given
     t_m, _ = drivetrain.motor_torque(samples.tau, samples.qd, samples.qdd, train)
     w_m = drivetrain.motor_speed(samples.qd, train)
+    ratios = {
+        "motor_envelope": drivetrain.envelope_ratio(t_m, w_m, train).max(axis=0),
+        "motor_speed": np.abs(w_m).max(axis=0) / train.rated_speed_rad_s,
+    }
+    times, rows = _grid_rows(traj, dt, samples.t)
+    if rows is not None:  # the grid's rows of the samples: its RMS from the same motor torques
+        rms = drivetrain.rms_torque(t_m[rows], sample_weights(times))
+        ratios["motor_rms"] = rms / train.continuous_motor_torque_Nm
+        return ratios
     fine = traj.sample(dt)
     tau = rigid_body.inverse_dynamics(robot, fine.q, fine.qd, fine.qdd)
-    ratios = drivetrain.drive_ratios(tau, fine.qd, fine.qdd, sample_weights(fine.t), train)
-    ratios["motor_envelope"] = np.maximum(
-        ratios["motor_envelope"], drivetrain.envelope_ratio(t_m, w_m, train).max(axis=0)
-    )
-    ratios["motor_speed"] = np.maximum(
-        ratios["motor_speed"], np.abs(w_m).max(axis=0) / train.rated_speed_rad_s
-    )
-    return ratios
+    grid = drivetrain.drive_ratios(tau, fine.qd, fine.qdd, sample_weights(fine.t), train)
+    grid["motor_envelope"] = np.maximum(grid["motor_envelope"], ratios["motor_envelope"])
+    grid["motor_speed"] = np.maximum(grid["motor_speed"], ratios["motor_speed"])
+    return grid
+
+
+def _grid_rows(traj: Trajectory, dt: float, t_samples: np.ndarray):
+    """``(times, rows)``: the times of ``traj.sample(dt)`` and the rows of the limit samples
+    (times ``t_samples``) at them (a knot's own row: its last), or ``rows = None`` if one of
+    them is not among the samples."""
+    times = traj.t[0] + sample_times(traj.duration, dt)
+    times[-1] = traj.t[-1]  # as Trajectory.sample
+    rows = np.searchsorted(t_samples, times, "right") - 1
+    if rows.min(initial=0) < 0 or not np.array_equal(t_samples[rows], times):
+        return times, None
+    return times, rows
 
 
 def tighten_drive(state: DriveState, over: dict, rounds: int, margin: float) -> DriveState:
@@ -377,12 +400,17 @@ def tighten_drive(state: DriveState, over: dict, rounds: int, margin: float) -> 
     return limits, env, rms
 
 
-def absorb_drive_tolerance(traj: Trajectory, robot: Robot, train: DriveTrain, dt: float):
+def absorb_drive_tolerance(
+    traj: Trajectory, robot: Robot, train: DriveTrain, dt: float, ratios: dict | None = None
+):
     """``(trajectory, k, ratios)``: an excess of the motor envelope within ``CHECK_TOL`` removed
     by the smallest of a few uniform stretches (``1 + 1e-7 .. 1e-5``) that brings every drive
     ratio to 1 (slowing down does not lower every torque -- gravity stays, and it can raise
-    ``|tau|`` where the dynamic part opposes it -- so each stretch is checked again)."""
-    ratios = drive_check(traj, robot, train, dt)
+    ``|tau|`` where the dynamic part opposes it -- so each stretch is checked again).
+    ``ratios``: :func:`drive_check` of ``traj`` at ``dt`` if the caller has it (not computed
+    again)."""
+    if ratios is None:
+        ratios = drive_check(traj, robot, train, dt)
     worst = max(float(np.max(r)) for r in ratios.values())
     if worst <= 1.0 or worst > 1.0 + CHECK_TOL:
         return traj, 1.0, ratios
