@@ -30,35 +30,24 @@ import tempfile  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
-import pinocchio as pin  # noqa: E402
+from bench_trajectory import SCALING_RANGE, random_cases  # noqa: E402
 
 import armlab  # noqa: E402
 from armlab.planning import fatrop_stages  # noqa: E402
 from armlab.trajectory import optimal  # noqa: E402
 
 SEED = 20240605  # bench_trajectory.py's; its scaling cases use SEED + 5 + waypoints
-RANGE = 0.7
+RANGE = SCALING_RANGE  # bench_trajectory.py's cases (random_cases)
 WAYPOINTS = (2, 5, 10, 20)
 CASES = 10
 QUICK_CASES = 3
 SOLVERS = ("ipopt", "fatrop")
 
 
-def statically_ok(robot, q) -> bool:
-    g = pin.computeGeneralizedGravity(robot.model, robot.model.createData(), q)
-    return bool(np.all(np.abs(g) <= 0.9 * robot.limits.effort_Nm))
-
-
 def cases_for(robot, nw: int, n: int) -> list[np.ndarray]:
-    lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
-    mid, half = (lo + hi) / 2, (hi - lo) / 2 * RANGE
-    rng = np.random.default_rng(SEED + 5 + nw)
-    out: list[np.ndarray] = []
-    while len(out) < n:
-        w = mid + half * (2 * rng.random((nw, robot.n_joints)) - 1)
-        if all(statically_ok(robot, q) for q in w):
-            out.append(w)
-    return out
+    """The cases of bench_trajectory.py's section 5 (its :func:`random_cases`, seed
+    ``SEED + 5 + nw``)."""
+    return random_cases(robot, nw, n, SEED + 5 + nw)
 
 
 def one_call(robot, w, solver: str) -> tuple[float, dict]:

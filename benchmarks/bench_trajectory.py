@@ -426,8 +426,6 @@ def _scaling_ipopt(quick: bool) -> dict:
     transcription: Any = importlib.import_module("armlab.planning.transcription")
     pivot_now = transcription.MUMPS_PIVOT_ORDER
     robot = armlab.load_robot("teachbot6")
-    lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
-    mid, half = (lo + hi) / 2, (hi - lo) / 2 * SCALING_RANGE
     n_cases = 2 if quick else SCALING_CASES
     # name: (optimal() keywords, warm back-off re-solves, MUMPS ordering; 7 = MUMPS's choice)
     settings = {
@@ -448,12 +446,7 @@ def _scaling_ipopt(quick: bool) -> dict:
     results: dict = {"n_cases": n_cases}
     for kind, tau in (("v/a/j", False), ("v/a/j/tau", None)):
         for nw in SCALING_WAYPOINTS:
-            rng = np.random.default_rng(SEED + 5 + nw)
-            cases: list[np.ndarray] = []
-            while len(cases) < n_cases:
-                w = mid + half * (2 * rng.random((nw, robot.n_joints)) - 1)
-                if all(statically_ok(robot, q) for q in w):
-                    cases.append(w)
+            cases = random_cases(robot, nw, n_cases, SEED + 5 + nw)
             durations = {}
             for name, (extra, warm, pivot) in settings.items():
                 # before: a back-off re-solve started cold, as it did then
@@ -552,18 +545,26 @@ def _solvers(stats: list[dict]) -> str:
     return ", ".join(f"{k} {v}" for k, v in names.most_common())
 
 
-def calls_cases(robot, nw: int, n: int) -> list[np.ndarray]:
-    """``n`` random ``nw``-waypoint problems of section 7 (70 % of the ranges, statically
-    feasible waypoints; seed ``SEED + 7 + nw``), the same in every process."""
+def random_cases(robot, nw: int, n: int, seed: int) -> list[np.ndarray]:
+    """``n`` random ``nw``-waypoint problems: waypoints uniform in ``SCALING_RANGE`` of each
+    joint range, each statically feasible (:func:`statically_ok`), drawn from ``seed`` (the same
+    in every process). Sections 5 (seed ``SEED + 5 + nw``) and 7 (``SEED + 7 + nw``) and
+    ``bench_fatrop.py`` draw their cases here."""
     lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
     mid, half = (lo + hi) / 2, (hi - lo) / 2 * SCALING_RANGE
-    rng = np.random.default_rng(SEED + 7 + nw)
+    rng = np.random.default_rng(seed)
     cases: list[np.ndarray] = []
     while len(cases) < n:
         w = mid + half * (2 * rng.random((nw, robot.n_joints)) - 1)
         if all(statically_ok(robot, q) for q in w):
             cases.append(w)
     return cases
+
+
+def calls_cases(robot, nw: int, n: int) -> list[np.ndarray]:
+    """``n`` random ``nw``-waypoint problems of section 7 (:func:`random_cases`, seed
+    ``SEED + 7 + nw``)."""
+    return random_cases(robot, nw, n, SEED + 7 + nw)
 
 
 def first_call(nw: int, n: int) -> dict:
