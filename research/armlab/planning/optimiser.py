@@ -214,7 +214,7 @@ from armlab.planning.timescale import (
 )
 from armlab.planning.transcription import HESSIAN, HESSIANS
 from armlab.robot import drivetrain, rigid_body
-from armlab.robot.limits import LIMIT_KEYS, Limits, resolve_limits
+from armlab.robot.limits import Limits, resolve_limits
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.waypoints import (
     check_stoppable,
@@ -331,14 +331,13 @@ def build_optimal(
     # the envelope replaces the robot's torque box (module docstring)
     train, tau_max = drivetrain.planning_drive_train(robot, drive_limits, tau_max, where="optimal")
     w = _check_waypoints(robot, waypoints)
-    asked = (v_max, a_max, j_max, tau_max)
     ls = resolve_limits(
         robot,
         v_max=v_max,
         a_max=a_max,
         j_max=j_max,
         tau_max=tau_max,
-        need=[k for k, v in zip(LIMIT_KEYS, asked, strict=True) if v is None],  # the robot's
+        need="unset",  # a limit left None is the robot's own: it must be there
         where=f"optimal on {robot.name}",
     )
     if (

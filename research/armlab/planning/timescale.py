@@ -189,7 +189,9 @@ def finish(traj, robot: Robot, limits, *, torque: bool, what: str, report=None) 
     """Set ``traj.report`` and raise :class:`LimitViolation` if any limit is still broken;
     ``report``: the caller's exact report of ``traj`` (a closed form's,
     :func:`~armlab.planning.optimal_closed.exact_report`) instead of the sample check."""
-    traj.report = report or traj.check_limits(robot, torque=torque, limits=limits)
+    traj.report = (
+        report if report is not None else traj.check_limits(robot, torque=torque, limits=limits)
+    )
     bad = traj.report.violations(tol=1e-9)
     if bad:
         kind, joint, ratio, at = max(bad, key=lambda b: b[2])

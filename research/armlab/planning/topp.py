@@ -126,7 +126,7 @@ from armlab.planning.topp_path import (
 )
 from armlab.planning.topp_problem import LIMIT_MARGIN, ToppProblem
 from armlab.robot import drivetrain
-from armlab.robot.limits import LIMIT_KEYS, resolve_limits
+from armlab.robot.limits import resolve_limits
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.waypoints import validate_waypoints
 
@@ -179,14 +179,13 @@ def build_topp(
     train, tau_max = drivetrain.planning_drive_train(
         robot, drive_limits, tau_max, where="time_optimal_path"
     )
-    asked = (v_max, a_max, j_max, tau_max)
     ls = resolve_limits(
         robot,
         v_max=v_max,
         a_max=a_max,
         j_max=j_max,
         tau_max=tau_max,
-        need=[k for k, v in zip(LIMIT_KEYS, asked, strict=True) if v is None],  # the robot's
+        need="unset",  # a limit left None is the robot's own: it must be there
         where=f"time_optimal_path on {robot.name}",
     )
     if (

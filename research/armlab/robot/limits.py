@@ -557,8 +557,10 @@ def resolve_limits(
         so far, False switches it off, a value (> 0; all ``inf`` = off) replaces it -- without a
         hardware check: a call states the limits of its own request (what-if studies), and the
         plan is checked against them; only study overrides are tighten-only.
-    need : sequence of str
-        Kinds the caller cannot work without; any missing ones raise one error.
+    need : sequence of str, or "unset"
+        Kinds the caller cannot work without; any missing ones raise one error. ``"unset"``:
+        every kind whose keyword is left None (the caller then takes the robot's own, so it
+        must be there).
     where : str
         What is asking, for the messages (``"ptp_sync on teachbot6"``).
     model : pinocchio.Model, optional
@@ -612,4 +614,7 @@ def resolve_limits(
             values[name], notes[kind] = a, (f"{kw} argument",) * n
     if values:
         base = base._with(values, notes)
+    if need == "unset":
+        asked = (v_max, a_max, j_max, tau_max)
+        need = [k for k, v in zip(LIMIT_KEYS, asked, strict=True) if v is None]
     return base.require(need, where=where)
