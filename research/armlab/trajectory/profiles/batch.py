@@ -11,10 +11,11 @@ import numpy as np
 from armlab.errors import InputError
 from armlab.trajectory.profiles.motion import MotionProfile, rest_profile
 from armlab.trajectory.profiles.timing import (
-    double_s_min_times,
-    double_s_peak_speed,
-    double_s_ramp,
-    double_s_speed_for_duration,
+    _DoubleSLimits,
+    _ds_min_times,
+    _ds_peak,
+    _ds_ramp,
+    _ds_speed_for_duration,
 )
 
 __all__ = ["SCurveBatch", "synchronised_scurves"]
@@ -232,6 +233,34 @@ def _full(x: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     return out
 
 
+def _checked_shape(D: np.ndarray, v: np.ndarray, a: np.ndarray, j: np.ndarray) -> tuple:
+    """The shape of the problems: ``D``'s, or that of the limits broadcast onto it; an
+    :class:`InputError` for a distance that is not finite, a limit that is not > 0 (``j_max``
+    may be inf) or limits that do not broadcast. The common case (every value valid, limits
+    of one shape that ends ``D``'s) is one test; the rest names the first problem."""
+    try:
+        ok = (
+            bool(np.isfinite(D).all())
+            and bool((np.minimum(np.minimum(v, a), j) > 0).all())
+            and bool(np.isfinite(np.maximum(v, a)).all())
+        )
+    except ValueError:  # the limits do not broadcast together: named below
+        ok = False
+    if ok and v.shape == a.shape == j.shape and v.shape == D.shape[D.ndim - v.ndim :]:
+        return D.shape
+    if not np.isfinite(D).all():
+        raise InputError("synchronised_scurves: distances must be finite")
+    for name, x, inf_ok in (("v_max", v, False), ("a_max", a, False), ("j_max", j, True)):
+        if not (x > 0).all() or not (inf_ok or np.isfinite(x).all()):
+            raise InputError(f"synchronised_scurves: {name} must be > 0 and finite")
+    try:
+        return np.broadcast_shapes(D.shape, v.shape, a.shape, j.shape)
+    except ValueError:
+        raise InputError(
+            f"synchronised_scurves: limits do not broadcast to distances {D.shape}"
+        ) from None
+
+
 def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch:
     """Time-synchronised rest-to-rest double S profiles of many problems at once, closed form.
 
@@ -262,30 +291,25 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
     D = np.asarray(distances, float)
     if D.ndim == 0:
         raise InputError("synchronised_scurves: distances must have a joint axis (..., n_joints)")
-    if not np.isfinite(D).all():
-        raise InputError("synchronised_scurves: distances must be finite")
     v, a, j = (np.asarray(x, float) for x in (v_max, a_max, j_max))
-    for name, x, inf_ok in (("v_max", v, False), ("a_max", a, False), ("j_max", j, True)):
-        if not (x > 0).all() or not (inf_ok or np.isfinite(x).all()):
-            raise InputError(f"synchronised_scurves: {name} must be > 0 and finite")
-    try:
-        shape = np.broadcast_shapes(D.shape, v.shape, a.shape, j.shape)
-    except ValueError:
-        raise InputError(
-            f"synchronised_scurves: limits do not broadcast to distances {D.shape}"
-        ) from None
-    # every argument at the full shape once: the primitives below then skip broadcasting
-    L, v, a, j = (_full(x, shape) for x in (np.abs(D), v, a, j))
-    D = _full(D, shape)
-    peak = double_s_peak_speed(L, v, a, j)
-    t_min = double_s_min_times(L, v, a, j, peak=peak)
-    T = t_min.max(axis=-1) if t_min.shape[-1] else np.zeros(t_min.shape[:-1])
-    vp = double_s_speed_for_duration(L, _full(T[..., None], shape), a, j, v, peak=peak, t_min=t_min)
-    tj, ta = double_s_ramp(vp, a, j)
-    with np.errstate(invalid="ignore", over="ignore"):
-        ap = np.where(np.isinf(j), a, np.minimum(j * tj, a))
-        ap = np.where(vp > 0, ap, 0.0)
-    tv = np.where(vp > 0, np.maximum(T[..., None] - 2 * ta, 0.0), T[..., None])
+    shape = _checked_shape(D, v, a, j)
+    # every argument at the full shape once: same-shape numpy operations, no broadcasting
+    # (it costs more than the arithmetic on a single small problem)
+    L, D, v, a, j = (_full(x, shape) for x in (np.abs(D), D, v, a, j))
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        # the quantities that depend on the limits alone, once
+        k = _DoubleSLimits(a, j, bool(np.isfinite(j).all()))  # a is finite (checked)
+        moving = L > 0
+        peak = _ds_peak(L, v, k)
+        t_min = _ds_min_times(L, v, k, peak, moving)
+        T = t_min.max(axis=-1) if t_min.shape[-1] else np.zeros(t_min.shape[:-1])
+        Tc = _full(T[..., None], shape)
+        vp = _ds_speed_for_duration(L, Tc, v, k, peak, t_min, moving)
+        tj, ta = _ds_ramp(vp, k)
+        ap = np.minimum(j * tj, a)  # a joint at rest: tj = 0, so ap = 0 (finite j)
+        if not k.finite:
+            ap = np.where(vp > 0, np.where(k.trap, a, ap), 0.0)
+        tv = np.maximum(Tc - 2 * ta, 0.0)  # a joint at rest: ta = 0, so tv = T
     return SCurveBatch(
         duration=T, t_min=t_min, distance=D, v=vp, a=ap, j=j, tj=tj, ta=ta, tv=tv, a_max=a
     )

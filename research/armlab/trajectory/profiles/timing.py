@@ -80,6 +80,90 @@ def trapezoid_speed_for_duration(length, duration, a_acc, a_dec=None, v_max=np.i
     return np.where(L > 0, vT, 0.0)
 
 
+# ---------------------------------------------------------------------- double S kernels
+# The double S timing below is written once, as kernels on a _DoubleSLimits (the limits and
+# the quantities that depend on them alone, computed once at the limits' own shape): the
+# public primitives build one per call; synchronised_scurves builds one per batch and calls
+# the kernels under one errstate, so a single small problem costs few numpy calls and a
+# batch broadcasts the per-joint limits. ``finite`` (every a and j finite: no trapezoid and
+# no jerk-only ramp) drops the masks of those special cases; the values are the same (the
+# masked branches select the same expressions there).
+class _DoubleSLimits:
+    """``a``, ``j``, ``a / j`` (``aj_raw``; ``aj``: 0 for ``j = inf``), ``a^2``, ``a^2 / j``,
+    ``a^2 / j^2``, ``sqrt(j)``; ``finite``: every ``a`` and ``j`` finite; ``trap``:
+    ``j = inf`` (None when ``finite``)."""
+
+    __slots__ = ("a", "j", "aj_raw", "aj", "a2", "a2j", "a2jj", "sj", "finite", "trap")
+
+    def __init__(self, a, j, finite: bool | None = None):
+        self.a, self.j = a, j
+        if finite is None:
+            finite = bool(np.isfinite(a).all() and np.isfinite(j).all())
+        self.finite = finite
+        self.trap = None if finite else np.isinf(j)
+        self.aj_raw = aj = a / j
+        self.aj = aj if finite else np.where(self.trap, 0.0, aj)
+        self.a2 = a * a
+        self.a2j = self.a2 / j
+        self.a2jj = self.a2 / (j * j)
+        self.sj = np.sqrt(j)
+
+
+def _ds_ramp(v, k: _DoubleSLimits) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`double_s_ramp` on a :class:`_DoubleSLimits` (errors ignored by the caller)."""
+    a, j = k.a, k.j
+    if k.finite:  # v = 0 gives (0, 0) without the mask: sqrt(0 / j)
+        plateau = v * j >= k.a2
+        tj = np.where(plateau, k.aj, np.sqrt(v / j))
+        return tj, np.where(plateau, tj + v / a, 2 * tj)
+    plateau = k.trap | (np.isfinite(a) & (v * j >= k.a2))
+    tj = np.where(plateau, np.where(k.trap, 0.0, a / j), np.sqrt(v / j))
+    ta = np.where(plateau, tj + v / a, 2 * tj)
+    moving = v > 0
+    return np.where(moving, tj, 0.0), np.where(moving, ta, 0.0)
+
+
+def _ds_peak(L, v, k: _DoubleSLimits) -> np.ndarray:
+    """:func:`double_s_peak_speed` on a :class:`_DoubleSLimits`."""
+    a = k.a
+    plateau = a * (np.sqrt(k.a2jj + 4 * L / a) - k.aj_raw) / 2
+    vp = np.minimum(np.where(plateau >= k.a2j, plateau, (L * k.sj / 2) ** (2 / 3)), v)
+    if k.finite or not k.trap.any():
+        return vp
+    return np.where(k.trap, trapezoid_peak_speed(L, v, a), vp)
+
+
+def _ds_min_times(L, v, k: _DoubleSLimits, vp, moving) -> np.ndarray:
+    """:func:`double_s_min_times` on a :class:`_DoubleSLimits`, ``vp`` the peak speeds,
+    ``moving`` ``L > 0``."""
+    T = np.where(moving, L / vp + _ds_ramp(vp, k)[1], 0.0)
+    if k.finite or not k.trap.any():
+        return T
+    return np.where(k.trap, trapezoid_min_times(L, v, k.a), T)
+
+
+def _ds_speed_for_duration(L, T, v, k: _DoubleSLimits, v_hi, t_min, moving) -> np.ndarray:
+    """:func:`double_s_speed_for_duration` on a :class:`_DoubleSLimits`: ``v_hi``, ``t_min``
+    the peak speeds and shortest times, ``moving`` ``L > 0``."""
+    a, j = k.a, k.j
+    b = T - k.aj
+    disc = b * b - 4 * L / a
+    va = 2 * L / (b + np.sqrt(np.maximum(disc, 0.0)))
+    phi = 2 * np.arcsin(np.sqrt(np.minimum(27 * L / (j * T**3), 1.0)))
+    u0 = T / 6 + T / 3 * np.cos(phi / 3)
+    sv = 2 * T / 3 * np.sin(phi / 6) ** 2
+    u = (sv + np.sqrt(sv * sv + 2 * L / (j * u0))) / 2
+    plateau = (disc >= 0) & (b > 0) & (va * j >= k.a2)  # j = inf: always
+    vT = np.where(plateau, va, j * u * u)
+    vT = np.where(T <= t_min, v_hi, np.minimum(vT, v_hi))
+    if not k.finite and k.trap.any():  # the trapezoid's own closed form (a = inf: v = L / T)
+        vT = np.where(k.trap, trapezoid_speed_for_duration(L, T, a, a, v), vT)
+    return np.where(moving, vT, 0.0)
+
+
+_IGNORE = {"invalid": "ignore", "divide": "ignore", "over": "ignore"}
+
+
 def double_s_ramp(v, a_max, j_max) -> tuple[np.ndarray, np.ndarray]:
     """``(Tj, Ta)`` [s] of a symmetric double S accelerating from rest to ``v`` (arrays broadcast).
 
@@ -88,12 +172,8 @@ def double_s_ramp(v, a_max, j_max) -> tuple[np.ndarray, np.ndarray]:
     the trapezoid's ``(0, v / a)``, ``a = inf`` the jerk-only ramp; ``v = 0`` gives ``(0, 0)``.
     """
     v, a, j = _floats(v, a_max, j_max)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        plateau = np.isinf(j) | (np.isfinite(a) & (v * j >= a * a))
-        tj = np.where(plateau, np.where(np.isinf(j), 0.0, a / j), np.sqrt(v / j))
-        ta = np.where(plateau, tj + v / a, 2 * tj)
-    moving = v > 0
-    return np.where(moving, tj, 0.0), np.where(moving, ta, 0.0)
+    with np.errstate(**_IGNORE):
+        return _ds_ramp(v, _DoubleSLimits(a, j, False))
 
 
 def double_s_peak_speed(length, v_max, a_max, j_max) -> np.ndarray:
@@ -105,12 +185,8 @@ def double_s_peak_speed(length, v_max, a_max, j_max) -> np.ndarray:
     (:func:`trapezoid_peak_speed`). Arrays broadcast; ``a`` and ``j`` may be ``inf``.
     """
     L, v, a, j = _floats(length, v_max, a_max, j_max)
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        plateau = a * (-a / j + np.sqrt(a * a / (j * j) + 4 * L / a)) / 2
-        vp = np.where(plateau >= a * a / j, plateau, (L * np.sqrt(j) / 2) ** (2 / 3))
-    vp = np.minimum(vp, v)
-    trap = np.isinf(j)
-    return np.where(trap, trapezoid_peak_speed(L, v, a), vp) if np.any(trap) else vp
+    with np.errstate(**_IGNORE):
+        return _ds_peak(L, v, _DoubleSLimits(a, j, False))
 
 
 def double_s_min_times(length, v_max, a_max, j_max, *, peak=None) -> np.ndarray:
@@ -122,11 +198,10 @@ def double_s_min_times(length, v_max, a_max, j_max, *, peak=None) -> np.ndarray:
     limit off (not all three).
     """
     L, v, a, j = _floats(length, v_max, a_max, j_max)
-    vp = double_s_peak_speed(L, v, a, j) if peak is None else peak
-    with np.errstate(invalid="ignore", divide="ignore"):
-        T = np.where(L > 0, L / vp + double_s_ramp(vp, a, j)[1], 0.0)
-    trap = np.isinf(j)
-    return np.where(trap, trapezoid_min_times(L, v, a), T) if np.any(trap) else T
+    with np.errstate(**_IGNORE):
+        k = _DoubleSLimits(a, j, False)
+        vp = _ds_peak(L, v, k) if peak is None else peak
+        return _ds_min_times(L, v, k, vp, L > 0)
 
 
 def double_s_speed_for_duration(
@@ -156,22 +231,9 @@ def double_s_speed_for_duration(
     :func:`double_s_min_times` of the same arguments when the caller has them.
     """
     L, T, a, j, v = _floats(length, duration, a_max, j_max, v_max)
-    v_hi = double_s_peak_speed(L, v, a, j) if peak is None else peak
-    t_min = double_s_min_times(L, v, a, j, peak=v_hi) if t_min is None else t_min
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        aj = np.where(np.isinf(j), 0.0, a / j)  # 0 for the trapezoid
-        b = T - aj
-        disc = b * b - 4 * L / a
-        va = 2 * L / (b + np.sqrt(np.maximum(disc, 0.0)))
-        phi = 2 * np.arcsin(np.sqrt(np.minimum(27 * L / (j * T**3), 1.0)))
-        u0 = T / 6 + T / 3 * np.cos(phi / 3)
-        sv = 2 * T / 3 * np.sin(phi / 6) ** 2
-        u = (sv + np.sqrt(sv * sv + 2 * L / (j * u0))) / 2
-        vb = j * u * u
-        plateau = (disc >= 0) & (b > 0) & (va * j >= a * a)  # j = inf: always
-        vT = np.where(plateau, va, vb)
-    vT = np.where(T <= t_min, v_hi, np.minimum(vT, v_hi))
-    trap = np.isinf(j)
-    if np.any(trap):  # the trapezoid's own closed form (and the velocity step, a = inf)
-        vT = np.where(trap, trapezoid_speed_for_duration(L, T, a, a, v), vT)
-    return np.where(L > 0, vT, 0.0)
+    with np.errstate(**_IGNORE):
+        k = _DoubleSLimits(a, j, False)
+        v_hi = _ds_peak(L, v, k) if peak is None else peak
+        moving = L > 0
+        t_min = _ds_min_times(L, v, k, v_hi, moving) if t_min is None else t_min
+        return _ds_speed_for_duration(L, T, v, k, v_hi, t_min, moving)
