@@ -131,7 +131,7 @@ def exact_report(batch, start, goal, limits, joint_names) -> tuple[LimitReport, 
     acceleration crosses zero inside a phase (Biagiotti & Melchiorri §3.4): the ratios below
     are those of the motion, not of samples of it.
     """
-    pk = {k: x.reshape(-1) for k, x in batch.peaks().items()}
+    pk = batch.peaks_flat()
     v, a, j = limits.velocity_rad_s, limits.acceleration_rad_s2, limits.jerk_rad_s3
     L = np.abs(batch.distance.reshape(-1))
     off = [np.abs(pk["end_position"] - L) / (1.0 + L), np.abs(pk["end_velocity"]) / v]
@@ -147,7 +147,7 @@ def exact_report(batch, start, goal, limits, joint_names) -> tuple[LimitReport, 
     report.ratios["position"] = np.maximum(r0, r1)
     report.at_s["position"] = np.where(r1 > r0, T, 0.0)  # the start where both are equal
     # a trapezoid (j = inf in the batch) has no jerk signal: no jerk ratio, as for its samples
-    jerk = j if np.isfinite(batch.j).all() else None
+    jerk = j if batch._jerk_finite or np.isfinite(batch.j).all() else None
     for kind, lim in (("velocity", v), ("acceleration", a), ("jerk", jerk)):
         if lim is not None:
             report.ratios[kind] = pk[kind] / lim
@@ -186,13 +186,17 @@ def closed_form_optimal(prob: OptimalProblem) -> Trajectory:
     else:
         (traj.report, residual), check = exact, EXACT_CHECK
     T = float(batch.duration[0])
+    # the verdict (LimitReport.ok: every ratio within CHECK_TOL) and the binding limits, in
+    # one pass over the ratios
+    ratios = traj.report.ratios
+    ok = bool((np.concatenate(list(ratios.values())) <= 1.0 + CHECK_TOL).all())
     binding = [
-        (k, traj.joint_names[i], float(r[i]))
-        for k, r in traj.report.ratios.items()
-        for i in range(len(r))
-        if r[i] >= 1 - 2e-3 and k != "position"
+        (k, name, x)
+        for k, r in ratios.items()
+        if k != "position"
+        for name, x in zip(traj.joint_names, r.tolist(), strict=True)
+        if x >= 1 - 2e-3
     ]
-    ok = traj.report.ok(CHECK_TOL)
     traj.stats = {
         "method": "closed_form",
         "solver": "closed form (synchronised_scurves)",

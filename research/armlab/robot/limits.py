@@ -188,6 +188,17 @@ class Limits:
     # ------------------------------------------------------------------ derived sets
     def _with(self, values: dict, notes: dict) -> Limits:
         """A copy with ``{field: array or None}`` replaced and ``{kind: sources}`` set."""
+        if all(v is None for v in values.values()) and all(
+            len(v) == self.n_joints for v in notes.values()
+        ):
+            # kinds switched off only: every value left was checked when ``self`` was made
+            # (a copy without the checks of __post_init__: a planner's call with tau_max=False)
+            out = object.__new__(Limits)
+            out.__dict__.update(self.__dict__)
+            out.__dict__.update(values)
+            src = {k: tuple(str(s) for s in v) for k, v in notes.items()}
+            out.__dict__["sources"] = {**self.sources, **src}
+            return out
         kw = {name: getattr(self, name) for name in _LIMITS_FIELDS}
         kw.update(values)
         kw["sources"] = {**self.sources, **notes}

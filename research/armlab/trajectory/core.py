@@ -85,7 +85,7 @@ def _as_series(x, n: int, name: str, n_joints: int | None) -> np.ndarray:
     if a.ndim != 2 or a.shape[0] != n or (n_joints is not None and a.shape[1] != n_joints):
         want = f"({n}, {n_joints if n_joints is not None else 'n_joints'})"
         raise InputError(f"Trajectory {name} has shape {a.shape}, expected {want}")
-    if not np.all(np.isfinite(a)):
+    if not np.isfinite(a).all():
         bad = np.argwhere(~np.isfinite(a))[0]
         raise InputError(f"Trajectory {name} is not finite at sample {bad[0]}, joint {bad[1]}")
     return a
@@ -118,9 +118,9 @@ class Trajectory:
 
     def __init__(self, t, q, qd, qdd, qddd=None, *, joint_names=None, method: str = ""):
         t = np.asarray(t, dtype=float).reshape(-1)
-        if t.size < 1 or not np.all(np.isfinite(t)):
+        if t.size < 1 or not np.isfinite(t).all():
             raise InputError("Trajectory t must be a non-empty finite (n_samples,) array")
-        if t.size > 1 and not np.all(np.diff(t) > 0):
+        if t.size > 1 and not (t[1:] > t[:-1]).all():
             raise InputError("Trajectory t must be strictly increasing")
         n = t.size
         self.t = t

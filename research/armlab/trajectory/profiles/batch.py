@@ -23,6 +23,9 @@ __all__ = ["SCurveBatch", "synchronised_scurves"]
 #: up to this many joints x problems, :meth:`SCurveBatch.evaluate_jerk` finds each time's phase
 #: by a binary search per column (a comparison with every phase end above)
 _SEARCH_COLUMNS = 16
+#: ... and above this many times x columns (below, one comparison with every phase end is
+#: cheaper than a search per column: a single plan's switching instants)
+_COMPARE_SIZE = 256
 
 
 # ---------------------------------------------------------------------- batched, closed form
@@ -63,6 +66,8 @@ class SCurveBatch:
     tv: np.ndarray
     a_max: np.ndarray
     _bounds: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
+    #: every jerk finite (no trapezoid): set by synchronised_scurves, else tested
+    _jerk_finite: bool = field(default=False, init=False, repr=False, compare=False)
 
     def profile(self, index) -> MotionProfile:
         """The :class:`MotionProfile` of one joint of one problem, ``index`` into the
@@ -114,19 +119,18 @@ class SCurveBatch:
         if self._bounds is not None:
             return self._bounds
         ap, tj = self.a, self.tj
-        jf = np.where(np.isfinite(self.j), self.j, 0.0)  # a trapezoid has no jerk phases
-        out = np.empty((6, 7) + ap.shape)
+        jf = self.j
+        if not self._jerk_finite:
+            jf = np.where(np.isfinite(jf), jf, 0.0)  # a trapezoid has no jerk phases
+        out = np.zeros((6, 7) + ap.shape)  # t0, s0, v0 start at 0; the zero acc and jrk
         t0, s0, v0, d, acc, jrk = out
         d[0::2] = tj  # phases 0, 2, 4, 6: the jerk phases
         d[1] = d[5] = self.ta - 2 * tj  # constant acceleration
         d[3] = self.tv  # cruise
-        acc[0] = acc[3] = acc[4] = 0.0
-        acc[1:3] = ap
+        acc[1:3] = ap  # phases 0, 3, 4: 0
         acc[5:7] = -ap
-        jrk[1::2] = 0.0
-        jrk[0::6] = jf  # phases 0 and 6
+        jrk[0::6] = jf  # phases 0 and 6; 1, 3, 5: 0
         jrk[2:5:2] = -jf  # phases 2 and 4
-        t0[0] = s0[0] = v0[0] = 0.0
         np.cumsum(d[:-1], axis=0, out=t0[1:])
         np.cumsum((d * (acc + d * jrk / 2))[:-1], axis=0, out=v0[1:])
         ds = d * (v0 + d * (acc / 2 + d * jrk / 6))
@@ -157,7 +161,7 @@ class SCurveBatch:
             tt = np.broadcast_to(tt, (t.size,) + self.distance.shape).reshape(t.size, cols)
         # the phase of each time: the phase ends passed (a zero-length phase is passed with
         # its predecessor), at most the last; a binary search per joint where there are few
-        if cols <= _SEARCH_COLUMNS:
+        if cols <= _SEARCH_COLUMNS and t.size * cols > _COMPARE_SIZE:
             k = np.empty((cols, t.size), np.intp)
             for c in range(cols):
                 k[c] = np.searchsorted(ends[:, c], tt[:, c if tt.shape[1] > 1 else 0], "right")
@@ -191,25 +195,31 @@ class SCurveBatch:
             ``end_acceleration``: the state at the end of the last phase, to be compared
             with ``|distance|``, 0, 0 (a trapezoid's acceleration steps to 0 at its end: 0).
         """
+        shape = self.distance.shape
+        return {k: x.reshape(shape) for k, x in self.peaks_flat().items()}
+
+    def peaks_flat(self) -> dict[str, np.ndarray]:
+        """:meth:`peaks` with every array flat, ``(problems x n_joints,)``."""
         b = self.boundaries()
         cols = self.distance.size
         t0, s0, v0, d, acc, jrk = b.reshape(6, 7, cols)
         live = d > 0
-        a1 = acc + jrk * d  # the acceleration at each phase end
+        jd = jrk * d
+        a1 = acc + jd  # the acceleration at each phase end
         v1 = v0 + d * (acc + d * jrk / 2)
         cross = live & (acc * a1 < 0)  # the speed's extreme inside the phase
         jn = np.where(cross, jrk, 1.0)
         # candidates (21 or 14, cols): at the phase starts, the phase ends, the extremes inside
         ct = np.concatenate([t0, t0 + d, t0 - acc / jn])
         cv = np.concatenate([v0 * live, v1 * live, (v0 - acc * acc / (2 * jn)) * cross])
-        ca = np.concatenate([np.abs(acc) * live, np.abs(a1) * live])
-        cj = np.abs(jrk) * live
+        ca = np.abs(np.concatenate([acc * live, a1 * live]))
+        cj = np.abs(jrk * live)
         col = np.arange(cols)
         av = np.abs(cv)
         iv, ia, ij = av.argmax(axis=0), ca.argmax(axis=0), cj.argmax(axis=0)
-        e = d[6] * (v0[6] + d[6] * (acc[6] / 2 + d[6] * jrk[6] / 6))
-        shape = self.distance.shape
-        out = {
+        d6 = d[6]
+        e = d6 * (v0[6] + d6 * (acc[6] / 2 + d6 * jrk[6] / 6))
+        return {
             "velocity": av[iv, col],
             "velocity_at_s": ct[iv, col],
             "acceleration": ca[ia, col],
@@ -221,7 +231,6 @@ class SCurveBatch:
             "end_velocity": v1[6],
             "end_acceleration": a1[6] * live[6],
         }
-        return {k: x.reshape(shape) for k, x in out.items()}
 
 
 def _full(x: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
@@ -310,6 +319,8 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
         if not k.finite:
             ap = np.where(vp > 0, np.where(k.trap, a, ap), 0.0)
         tv = np.maximum(Tc - 2 * ta, 0.0)  # a joint at rest: ta = 0, so tv = T
-    return SCurveBatch(
+    batch = SCurveBatch(
         duration=T, t_min=t_min, distance=D, v=vp, a=ap, j=j, tj=tj, ta=ta, tv=tv, a_max=a
     )
+    batch._jerk_finite = k.finite
+    return batch
