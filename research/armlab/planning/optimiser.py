@@ -235,7 +235,7 @@ FINER_GRIDS = (2, 3)
 
 def _check_waypoints(robot, waypoints) -> np.ndarray:
     w = validate_waypoints(robot, waypoints, where="optimal waypoints")
-    same = np.flatnonzero(np.all(np.abs(np.diff(w, axis=0)) < 1e-12, axis=1))
+    same = np.flatnonzero((np.abs(w[1:] - w[:-1]) < 1e-12).all(axis=1))
     if same.size:
         raise InputError(f"waypoints {same[0]} and {same[0] + 1} coincide; remove the duplicate")
     return w
@@ -364,10 +364,10 @@ def build_optimal(
         )
     tol = np.asarray(via_tolerance, float)
     tol = np.full(robot.n_joints, float(tol)) if tol.ndim == 0 else tol
-    if tol.shape != (robot.n_joints,) or np.any(tol < 0) or not np.all(np.isfinite(tol)):
+    if tol.shape != (robot.n_joints,) or not (np.isfinite(tol) & (tol >= 0)).all():
         raise InputError(f"via_tolerance must be >= 0 rad, scalar or ({robot.n_joints},)")
     exact = np.ones(w.shape[0], bool)
-    if np.any(tol > 0):
+    if (tol > 0).any():
         exact[1:-1] = False
     mode = "jerk" if (ls.jerk_rad_s3 is not None or objective == "jerk") else "acceleration"
     # replanning from a moving state: the ptp_sync keywords, validated the same way
@@ -380,7 +380,7 @@ def build_optimal(
     qdd0 = validate_joint_state(
         robot, qdd_start, "qdd_start", ls.acceleration_rad_s2, "acceleration", where="optimal"
     )
-    moving = bool(np.any(qd0 != 0) or np.any(qdd0 != 0) or np.any(qd1 != 0))
+    moving = bool(qd0.any() or qdd0.any() or qd1.any())  # a nonzero (or NaN) entry
     states = None
     if moving:
         if train is not None:
