@@ -88,10 +88,14 @@ def trapezoid_speed_for_duration(length, duration, a_acc, a_dec=None, v_max=np.i
 # batch broadcasts the per-joint limits. ``finite`` (every a and j finite: no trapezoid and
 # no jerk-only ramp) drops the masks of those special cases; the values are the same (the
 # masked branches select the same expressions there).
+#: the trapezoid mask of limits that are all finite (never read: ``finite`` short-cuts it)
+_NONE = np.zeros(0, bool)
+
+
 class _DoubleSLimits:
     """``a``, ``j``, ``a / j`` (``aj_raw``; ``aj``: 0 for ``j = inf``), ``a^2``, ``a^2 / j``,
     ``a^2 / j^2``, ``sqrt(j)``; ``finite``: every ``a`` and ``j`` finite; ``trap``:
-    ``j = inf`` (None when ``finite``)."""
+    ``j = inf`` (an empty mask when ``finite``)."""
 
     __slots__ = ("a", "j", "aj_raw", "aj", "a2", "a2j", "a2jj", "sj", "finite", "trap")
 
@@ -100,7 +104,7 @@ class _DoubleSLimits:
         if finite is None:
             finite = bool(np.isfinite(a).all() and np.isfinite(j).all())
         self.finite = finite
-        self.trap = None if finite else np.isinf(j)
+        self.trap = _NONE if finite else np.isinf(j)
         self.aj_raw = aj = a / j
         self.aj = aj if finite else np.where(self.trap, 0.0, aj)
         self.a2 = a * a
@@ -161,9 +165,6 @@ def _ds_speed_for_duration(L, T, v, k: _DoubleSLimits, v_hi, t_min, moving) -> n
     return np.where(moving, vT, 0.0)
 
 
-_IGNORE = {"invalid": "ignore", "divide": "ignore", "over": "ignore"}
-
-
 def double_s_ramp(v, a_max, j_max) -> tuple[np.ndarray, np.ndarray]:
     """``(Tj, Ta)`` [s] of a symmetric double S accelerating from rest to ``v`` (arrays broadcast).
 
@@ -172,7 +173,7 @@ def double_s_ramp(v, a_max, j_max) -> tuple[np.ndarray, np.ndarray]:
     the trapezoid's ``(0, v / a)``, ``a = inf`` the jerk-only ramp; ``v = 0`` gives ``(0, 0)``.
     """
     v, a, j = _floats(v, a_max, j_max)
-    with np.errstate(**_IGNORE):
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         return _ds_ramp(v, _DoubleSLimits(a, j, False))
 
 
@@ -185,7 +186,7 @@ def double_s_peak_speed(length, v_max, a_max, j_max) -> np.ndarray:
     (:func:`trapezoid_peak_speed`). Arrays broadcast; ``a`` and ``j`` may be ``inf``.
     """
     L, v, a, j = _floats(length, v_max, a_max, j_max)
-    with np.errstate(**_IGNORE):
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         return _ds_peak(L, v, _DoubleSLimits(a, j, False))
 
 
@@ -198,7 +199,7 @@ def double_s_min_times(length, v_max, a_max, j_max, *, peak=None) -> np.ndarray:
     limit off (not all three).
     """
     L, v, a, j = _floats(length, v_max, a_max, j_max)
-    with np.errstate(**_IGNORE):
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         k = _DoubleSLimits(a, j, False)
         vp = _ds_peak(L, v, k) if peak is None else peak
         return _ds_min_times(L, v, k, vp, L > 0)
@@ -231,7 +232,7 @@ def double_s_speed_for_duration(
     :func:`double_s_min_times` of the same arguments when the caller has them.
     """
     L, T, a, j, v = _floats(length, duration, a_max, j_max, v_max)
-    with np.errstate(**_IGNORE):
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         k = _DoubleSLimits(a, j, False)
         v_hi = _ds_peak(L, v, k) if peak is None else peak
         moving = L > 0
