@@ -150,3 +150,27 @@ def test_zero_velocity_waypoints_are_a_batch_of_segments():
 def test_bad_input_is_one_line_error(args, match):
     with pytest.raises(InputError, match=match):
         synchronised_scurves(*args)
+
+
+def test_profile_dicts_are_the_profiles_to_dict():
+    """``SCurveBatch.profile_dicts`` (ptp_sync's ``meta["joint_profiles"]`` without building
+    the profiles) equals ``MotionProfile.to_dict`` of each joint: double S, trapezoid (``j``
+    inf), joints at rest, short moves without a plateau."""
+    rng = np.random.default_rng(23)
+    D = rng.uniform(-2.0, 2.0, (12, 6))
+    D[::3, 1] = 0.0
+    D[1::4, 3] = 1e-5
+    batch = synchronised_scurves(D, V, A, J)
+    for p in range(12):
+        ours = batch.profile_dicts(p)
+        ref = [prof.to_dict() for prof in batch.profiles(p)]
+        assert [list(x) for x in ours] == [list(x) for x in ref]  # keys, in their order
+        for x, y in zip(ours, ref, strict=True):
+            assert x["kind"] == y["kind"]
+            for key in x.keys() - {"kind"}:  # the duration: the same sum of the same phases
+                assert x[key] == pytest.approx(y[key], rel=1e-15, abs=1e-300)
+    assert {d["kind"] for p in range(12) for d in batch.profile_dicts(p)} == {
+        "double_s",
+        "trapezoid",
+        "rest",
+    }

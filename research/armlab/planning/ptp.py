@@ -307,7 +307,7 @@ def ptp_sync(
         # Jiang 1987, eq. 3-4, each joint's double S in closed form (one batch)
         batch = synchronised_scurves(D[None], v, a, jj)
         T, t_i = float(batch.duration[0]), batch.t_min[0]
-        profs = batch.profiles(0)
+        profs = None  # each joint's MotionProfile: built where the torque stretch needs them
         bj = int(np.argmax(t_i))
         # the slowest joint takes its own shortest time: its speed is its peak speed
         bkind = double_s_binding(D[bj], v[bj], a[bj], jj[bj], peak=batch.v[0, bj])
@@ -360,6 +360,9 @@ def ptp_sync(
         if k <= 1 + 1e-12:
             break
         k *= 1 + 1e-9
+        if profs is None:
+            assert batch is not None
+            profs = batch.profiles(0)
         profs = [p.stretched(k) for p in profs]
         T = T * k
         traj = build(T, np.concatenate([p.corners for p in profs]), _columns(profs))
@@ -374,7 +377,7 @@ def ptp_sync(
         binding={"joint": robot.joint_names[bj], "limit": bkind},
         q_start=q0.tolist(),
         q_goal=q1.tolist(),
-        joint_profiles=None if normalised else [p.to_dict() for p in profs],
+        joint_profiles=None if normalised else _profile_dicts(profs, batch),
         normalised_profile=profs[0].to_dict() if normalised else None,
         slowdown=slowdown,
     )
@@ -388,6 +391,12 @@ def ptp_sync(
     traj.stats["arrival_residual"] = None if exact is None else exact[1]
     report = None if exact is None else exact[0]
     return finish(traj, robot, lim, torque=torque, what=method, report=report)
+
+
+def _profile_dicts(profs, batch) -> list[dict]:
+    """Each joint's profile for ``meta["joint_profiles"]``: of its :class:`MotionProfile`, or
+    of the batch's phase data where none was built (the same dicts)."""
+    return batch.profile_dicts(0) if profs is None else [p.to_dict() for p in profs]
 
 
 def _columns(profiles):

@@ -99,6 +99,35 @@ class SCurveBatch:
                 out.append(MotionProfile(d, acc, jrk, kind="double_s", params=params))
         return out
 
+    def profile_dicts(self, problem=()) -> list[dict]:
+        """``[p.to_dict() for p in self.profiles(problem)]`` (kind, duration, length and
+        parameters of every joint's :class:`MotionProfile`) from the phase data, without
+        building the profiles: the duration is the sum of the phases of positive length in
+        their order, as :class:`MotionProfile` integrates them."""
+        at = problem if isinstance(problem, tuple) else (problem,)
+        b = self.boundaries()
+        T = float(self.duration[at])
+        d = b[(3, slice(None), *at)].T.tolist()  # per joint: the seven durations
+        a1 = b[(4, 1, *at)].tolist()  # the acceleration of the ramp
+        L, v, j = (np.asarray(x[at]).tolist() for x in (self.distance, self.v, self.j))
+        out = []
+        for Li, vi, ji, di, ai in zip(L, v, j, d, a1, strict=True):
+            Li = abs(Li)
+            if Li <= 0 or vi <= 0:  # rest_profile(T)
+                out.append({"kind": "rest", "duration_s": max(T, 0.0), "length": 0.0, "v": 0.0})
+                continue
+            t = 0.0
+            for h in di:
+                if h > 0:
+                    t += h
+            if math.isinf(ji):
+                params = {"v": vi, "a_acc": ai, "a_dec": ai, "length": Li}
+                kind = "trapezoid"
+            else:
+                params, kind = {"v": vi, "a": ai, "j": ji, "length": Li}, "double_s"
+            out.append({"kind": kind, "duration_s": t, "length": Li, **params})
+        return out
+
     def phases(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The seven phases of every joint's double S (Biagiotti & Melchiorri §3.4), unsigned:
         ``(durations, start accelerations, jerks)``, each ``(7, ..., n_joints)`` in [s],
