@@ -197,13 +197,22 @@ class SCurveBatch:
             k = k.T
         else:
             k = (tt[:, None] >= ends[None]).sum(axis=1)
-        t0, s0, v0, d, a0, j0 = np.take(b.reshape(6, 7 * cols), k * cols + np.arange(cols), axis=1)
+        # the phase table with each joint's direction in it (a sign is exact through the
+        # Taylor polynomials: no signed copy of every sample), and a0 / 2 (exact)
+        tab = np.empty((7, 7, cols))
+        tab[:6] = b.reshape(6, 7, cols)
+        sgn = np.sign(self.distance).reshape(cols)
+        tab[1:3] *= sgn
+        tab[4:6] *= sgn
+        np.multiply(tab[4], 0.5, out=tab[6])
+        t0, s0, v0, d, a0, j0, a2 = np.take(
+            tab.reshape(7, 7 * cols), k * cols + np.arange(cols), axis=1
+        )
         h = np.minimum(np.maximum(tt - t0, 0.0), d)
-        s = s0 + h * (v0 + h * (a0 / 2 + h * j0 / 6))
+        s = s0 + h * (v0 + h * (a2 + h * j0 / 6))
         v = v0 + h * (a0 + h * j0 / 2)
-        sgn = np.sign(self.distance).reshape(1, cols)
         out = (t.size,) + self.distance.shape
-        return tuple((sgn * x).reshape(out) for x in (s, v, a0 + j0 * h, j0))
+        return tuple(x.reshape(out) for x in (s, v, a0 + j0 * h, j0))
 
     def peaks(self) -> dict[str, np.ndarray]:
         """Exact extremes of every joint's motion from its phase data (:meth:`boundaries`),
