@@ -305,7 +305,8 @@ def ptp_sync(
         # a trapezoid is the double S without a jerk limit
         jj = j if profile == "scurve" and j is not None else np.full(robot.n_joints, np.inf)
         # Jiang 1987, eq. 3-4, each joint's double S in closed form (one batch)
-        batch = synchronised_scurves(D[None], v, a, jj)
+        # the signed moves: its evaluation is signed (no signed copies of the samples)
+        batch = synchronised_scurves(np.copysign(D, delta)[None], v, a, jj)
         T, t_i = float(batch.duration[0]), batch.t_min[0]
         profs = None  # each joint's MotionProfile: built where the torque stretch needs them
         bj = int(np.argmax(t_i))
@@ -326,27 +327,28 @@ def ptp_sync(
 
     normalised = profile != "velocity" and sync_used == "phase"
 
-    def build(duration, corners, evaluate) -> Trajectory:
+    def build(duration, corners, evaluate, signed: bool = False) -> Trajectory:
         # every joint's switching times are knots: each piece between knots is the Taylor
         # polynomial of its left knot (constant acceleration or jerk), evaluated exactly
         t = sample_times(duration, dt, corners)
         s, sd, sdd, sddd = evaluate(t)  # each (n_samples, n_joints)
-        # phase sync: one profile over [0, 1]; otherwise each joint's own distance
-        scale = delta if normalised else np.sign(delta)
-        q = q0 + scale * s
+        if not signed:  # phase sync: one profile over [0, 1]; else each joint's distance
+            scale = delta if normalised else np.sign(delta)
+            s, sd, sdd, sddd = scale * s, scale * sd, scale * sdd, scale * sddd
+        q = q0 + s
         q[-1] = q1  # exact arrival of every joint at the last sample
         return Trajectory(
             t,
             q,
-            scale * sd,
-            scale * sdd,
-            scale * sddd if profile == "scurve" else None,
+            sd,
+            sdd,
+            sddd if profile == "scurve" else None,
             joint_names=robot.joint_names,
             method=method,
         )
 
     if batch is not None:  # time sync: every joint at once, from the batch's phase data
-        traj = build(T, batch.boundaries()[0, 1:].reshape(-1), _batch_columns(batch))
+        traj = build(T, batch.boundaries()[0, 1:].reshape(-1), _batch_columns(batch), True)
     else:
         traj = build(T, np.concatenate([p.corners for p in profs]), _columns(profs))
     slowdown = None
