@@ -84,7 +84,7 @@ def closed_form_applies(prob: OptimalProblem) -> bool:
         and not prob.from_state
         and not prob.drive_limits
         and ls.torque_Nm is None
-        and all(x is not None and bool(np.all(np.isfinite(x))) for x in kin)
+        and all(x is not None and bool(np.isfinite(x).all()) for x in kin)
     )
 
 

@@ -362,13 +362,16 @@ def build_optimal(
             f"objective {objective!r} minimises the duration; duration= is only "
             "for the fixed-duration objectives 'jerk' and 'energy'"
         )
-    tol = np.asarray(via_tolerance, float)
-    tol = np.full(robot.n_joints, float(tol)) if tol.ndim == 0 else tol
-    if tol.shape != (robot.n_joints,) or not (np.isfinite(tol) & (tol >= 0)).all():
-        raise InputError(f"via_tolerance must be >= 0 rad, scalar or ({robot.n_joints},)")
     exact = np.ones(w.shape[0], bool)
-    if (tol > 0).any():
-        exact[1:-1] = False
+    if isinstance(via_tolerance, (int, float)) and via_tolerance == 0:  # the default: valid
+        tol = np.zeros(robot.n_joints)
+    else:
+        tol = np.asarray(via_tolerance, float)
+        tol = np.full(robot.n_joints, float(tol)) if tol.ndim == 0 else tol
+        if tol.shape != (robot.n_joints,) or not (np.isfinite(tol) & (tol >= 0)).all():
+            raise InputError(f"via_tolerance must be >= 0 rad, scalar or ({robot.n_joints},)")
+        if (tol > 0).any():
+            exact[1:-1] = False
     mode = "jerk" if (ls.jerk_rad_s3 is not None or objective == "jerk") else "acceleration"
     # replanning from a moving state: the ptp_sync keywords, validated the same way
     qd0 = validate_joint_state(
@@ -380,7 +383,9 @@ def build_optimal(
     qdd0 = validate_joint_state(
         robot, qdd_start, "qdd_start", ls.acceleration_rad_s2, "acceleration", where="optimal"
     )
-    moving = bool(qd0.any() or qdd0.any() or qd1.any())  # a nonzero (or NaN) entry
+    moving = not (qd_start is None and qdd_start is None and qd_goal is None) and bool(
+        qd0.any() or qdd0.any() or qd1.any()  # a nonzero (or NaN) entry
+    )
     states = None
     if moving:
         if train is not None:

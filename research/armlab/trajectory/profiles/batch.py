@@ -246,10 +246,16 @@ class SCurveBatch:
         a1 = acc + jd  # the acceleration at each phase end
         v1 = v0 + d * (acc + d * jrk / 2)
         cross = live & (acc * a1 < 0)  # the speed's extreme inside the phase
-        jn = np.where(cross, jrk, 1.0)
         # candidates (21 or 14, cols): at the phase starts, the phase ends, the extremes inside
-        ct = np.concatenate([t0, t0 + d, t0 - acc / jn])
-        cv = np.concatenate([v0 * live, v1 * live, (v0 - acc * acc / (2 * jn)) * cross])
+        # (where there are any: else their rows would be 0, never the first largest |speed|
+        # nor a lower speed than v0 = 0 at the start)
+        if cross.any():
+            jn = np.where(cross, jrk, 1.0)
+            ct = np.concatenate([t0, t0 + d, t0 - acc / jn])
+            cv = np.concatenate([v0 * live, v1 * live, (v0 - acc * acc / (2 * jn)) * cross])
+        else:
+            ct = np.concatenate([t0, t0 + d])
+            cv = np.concatenate([v0 * live, v1 * live])
         ca = np.abs(np.concatenate([acc * live, a1 * live]))
         cj = np.abs(jrk * live)
         col = np.arange(cols)
