@@ -356,7 +356,7 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
         peak = _ds_peak(L, v, k)
         t_min = _ds_min_times(L, v, k, peak, moving)
         T = t_min.max(axis=-1) if t_min.shape[-1] else np.zeros(t_min.shape[:-1])
-        Tc = _full(T[..., None], shape)
+        Tc = float(T.reshape(-1)[0]) if T.size == 1 else _full(T[..., None], shape)
         vp = _ds_speed_for_duration(L, Tc, v, k, peak, t_min, moving)
         tj, ta = _ds_ramp(vp, k)
         ap = np.minimum(j * tj, a)  # a joint at rest: tj = 0, so ap = 0 (finite j)
