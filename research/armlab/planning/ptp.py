@@ -255,12 +255,14 @@ def ptp_sync(
     v0 = validate_joint_state(robot, qd_start, "qd_start", v, "velocity", where="ptp_sync")
     v1 = validate_joint_state(robot, qd_goal, "qd_goal", v, "velocity", where="ptp_sync")
     a0 = validate_joint_state(robot, qdd_start, "qdd_start", a, "acceleration", where="ptp_sync")
-    if profile == "scurve":
+    rest = qd_start is None and qdd_start is None and qd_goal is None  # the common case
+    if profile == "scurve" and not rest:  # (at rest there is nothing to stop)
         assert j is not None  # resolve_limits raises when a needed limit is missing
         check_stoppable(robot, v0, a0, v, j, where="ptp_sync")
-    else:
+    elif profile != "scurve":
         a0 = np.zeros(robot.n_joints)  # a trapezoid's acceleration steps: only checked
-    from_state = bool(v0.any() or v1.any() or a0.any())  # a nonzero speed or acceleration
+    # a nonzero speed or acceleration
+    from_state = not rest and bool(v0.any() or v1.any() or a0.any())
     if from_state and (profile == "velocity" or sync != "time"):
         raise InputError(
             f"ptp_sync: qd_start/qdd_start/qd_goal (replanning from a moving state) need "
@@ -276,7 +278,7 @@ def ptp_sync(
         return _ptp_from_state(
             robot, q0, q1, v0, a0, v1, v, a, j if profile == "scurve" else None, lim, dt, torque
         )
-    if not np.any(D > 0):
+    if not (D > 0).any():
         traj = Trajectory(
             [0.0],
             q0[None],
