@@ -66,6 +66,7 @@ class SCurveBatch:
     tv: np.ndarray
     a_max: np.ndarray
     _bounds: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
+    _steps: tuple = field(default=(), init=False, repr=False, compare=False)
     #: every jerk finite (no trapezoid): set by synchronised_scurves, else tested
     _jerk_finite: bool = field(default=False, init=False, repr=False, compare=False)
 
@@ -161,10 +162,12 @@ class SCurveBatch:
         jrk[0::6] = jf  # phases 0 and 6; 1, 3, 5: 0
         jrk[2:5:2] = -jf  # phases 2 and 4
         np.cumsum(d[:-1], axis=0, out=t0[1:])
-        np.cumsum((d * (acc + d * jrk / 2))[:-1], axis=0, out=v0[1:])
+        dv = d * (acc + d * jrk / 2)
+        np.cumsum(dv[:-1], axis=0, out=v0[1:])
         ds = d * (v0 + d * (acc / 2 + d * jrk / 6))
         np.cumsum(ds[:-1], axis=0, out=s0[1:])
         self._bounds = out
+        self._steps = dv, ds  # each phase's change of speed and position (peaks)
         return out
 
     def evaluate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -241,10 +244,10 @@ class SCurveBatch:
         b = self.boundaries()
         cols = self.distance.size
         t0, s0, v0, d, acc, jrk = b.reshape(6, 7, cols)
+        dv, ds = (x.reshape(7, cols) for x in self._steps)  # integrated by boundaries()
         live = d > 0
-        jd = jrk * d
-        a1 = acc + jd  # the acceleration at each phase end
-        v1 = v0 + d * (acc + d * jrk / 2)
+        a1 = acc + jrk * d  # the acceleration at each phase end
+        v1 = v0 + dv
         cross = live & (acc * a1 < 0)  # the speed's extreme inside the phase
         # candidates (21 or 14, cols): at the phase starts, the phase ends, the extremes inside
         # (where there are any: else their rows would be 0, never the first largest |speed|
@@ -261,8 +264,6 @@ class SCurveBatch:
         col = np.arange(cols)
         av = np.abs(cv)
         iv, ia, ij = av.argmax(axis=0), ca.argmax(axis=0), cj.argmax(axis=0)
-        d6 = d[6]
-        e = d6 * (v0[6] + d6 * (acc[6] / 2 + d6 * jrk[6] / 6))
         return {
             "velocity": av[iv, col],
             "velocity_at_s": ct[iv, col],
@@ -271,7 +272,7 @@ class SCurveBatch:
             "jerk": cj[ij, col],
             "jerk_at_s": t0[ij, col],
             "reverse": np.maximum(-cv.min(axis=0), 0.0),
-            "end_position": s0[6] + e,
+            "end_position": s0[6] + ds[6],
             "end_velocity": v1[6],
             "end_acceleration": a1[6] * live[6],
         }
