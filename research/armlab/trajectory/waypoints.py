@@ -92,13 +92,13 @@ def validate_waypoints(
         return where if single else f"{where}[{k}]"
 
     bad = ~np.isfinite(W2)
-    if np.any(bad):
+    if bad.any():
         k, j = np.argwhere(bad)[0]
         raise InputError(f"{row(k)}: {names[j]} is {W2[k, j]} (not a finite number)")
     lo = np.asarray(robot.limits.lower_rad, float)
     hi = np.asarray(robot.limits.upper_rad, float)
     out = (W2 < lo - RANGE_TOL_RAD) | (W2 > hi + RANGE_TOL_RAD)
-    if np.any(out):
+    if out.any():
         k, j = np.argwhere(out)[0]
         c = _UNITS[unit]
         raise InputError(
