@@ -13,7 +13,8 @@
    random 3-waypoint requests. Goal: 100 % success, median solve < 1 s on one core.
 4. The rest-to-rest v/a/j PTP in closed form (``synchronised_scurves``) vs Ruckig: the same
    durations, time per problem (goal <= 10 x Ruckig, met by the scalar copy of the engine that
-   issue 23 removed; one numpy engine takes ~40 x) and batched rate (goal >= 100 000/s);
+   issue 23 removed; the one numpy engine took ~40 x, ~20-25 x since issue 26's kernels) and
+   batched rate (goal >= 100 000/s);
    ``--scurves-only`` runs this table alone.
 5. ``optimal`` solve time by waypoint count (2, 5, 10, 20; teachbot6, its own limits, random
    waypoints in 70 % of the ranges), v/a/j and v/a/j/tau, with the settings before issue 15

@@ -238,6 +238,36 @@ def test_per_call_keywords_share_one_rule(teachbot6):
             resolve_limits(teachbot6, v_max=bad)
 
 
+def test_switching_kinds_off_keeps_a_full_limits(teachbot6):
+    """Switching kinds off (``tau_max=False``, ``j_max=False``: the copy that skips the
+    re-checks) gives a Limits like one built from scratch: the other kinds and the range the
+    robot's, the sources saying off, and it still derives and checks as any other."""
+    lim = resolve_limits(teachbot6, tau_max=False, j_max=False)
+    base = teachbot6.limits
+    assert isinstance(lim, Limits) and lim is not base
+    assert lim.torque_Nm is None and lim.jerk_rad_s3 is None
+    assert lim.is_off("torque") and lim.is_off("jerk")
+    assert lim.sources["torque"] == ("off (tau_max=False)",) * 6
+    assert lim.sources["velocity"] == base.sources["velocity"]
+    np.testing.assert_array_equal(lim.velocity_rad_s, base.velocity_rad_s)
+    np.testing.assert_array_equal(lim.lower_rad, base.lower_rad)
+    assert base.torque_Nm is not None and not base.is_off("torque")  # the robot's unchanged
+    rebuilt = Limits(
+        joint_names=lim.joint_names,
+        lower_rad=lim.lower_rad,
+        upper_rad=lim.upper_rad,
+        velocity_rad_s=lim.velocity_rad_s,
+        acceleration_rad_s2=lim.acceleration_rad_s2,
+        sources=lim.sources,
+    )
+    assert rebuilt.to_dict() == lim.to_dict()
+    half = lim.scaled(0.5)
+    np.testing.assert_allclose(half.velocity_rad_s, 0.5 * base.velocity_rad_s, rtol=1e-15)
+    assert half.torque_Nm is None
+    with pytest.raises(InputError, match="v_max"):
+        resolve_limits(lim, v_max=-1.0)
+
+
 # ---------------------------------------------------------------------------- checkers
 def test_check_limits_takes_a_limits(teachbot6):
     traj = ptp_sync(teachbot6, np.zeros(6), np.full(6, 0.3), tau_max=False)

@@ -82,12 +82,12 @@ def trapezoid_speed_for_duration(length, duration, a_acc, a_dec=None, v_max=np.i
 
 # ---------------------------------------------------------------------- double S kernels
 # The double S timing below is written once, as kernels on a _DoubleSLimits (the limits and
-# the quantities that depend on them alone, computed once at the limits' own shape): the
-# public primitives build one per call; synchronised_scurves builds one per batch and calls
-# the kernels under one errstate, so a single small problem costs few numpy calls and a
-# batch broadcasts the per-joint limits. ``finite`` (every a and j finite: no trapezoid and
-# no jerk-only ramp) drops the masks of those special cases; the values are the same (the
-# masked branches select the same expressions there).
+# the quantities that depend on them alone, computed once): the public primitives build one
+# per call; synchronised_scurves builds one per batch, at the batch's full shape (a numpy
+# operation on equal shapes costs less than one that broadcasts, on a single small problem
+# more than the arithmetic), and calls the kernels under one errstate. ``finite`` (every a
+# and j finite: no trapezoid and no jerk-only ramp) drops the masks of those special cases;
+# the values are the same (the masked branches select the same expressions there).
 #: the trapezoid mask of limits that are all finite (never read: ``finite`` short-cuts it)
 _NONE = np.zeros(0, bool)
 
