@@ -266,6 +266,8 @@ def test_switching_kinds_off_keeps_a_full_limits(teachbot6):
     assert half.torque_Nm is None
     with pytest.raises(InputError, match="v_max"):
         resolve_limits(lim, v_max=-1.0)
+    with pytest.raises(InputError, match="lower_rad"):  # a range is never switched off
+        lim.with_values("test", lower_rad=None)
 
 
 # ---------------------------------------------------------------------------- checkers

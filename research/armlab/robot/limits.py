@@ -188,7 +188,7 @@ class Limits:
     # ------------------------------------------------------------------ derived sets
     def _with(self, values: dict, notes: dict) -> Limits:
         """A copy with ``{field: array or None}`` replaced and ``{kind: sources}`` set."""
-        if all(v is None for v in values.values()) and all(
+        if all(v is None and k not in _RANGE_FIELDS for k, v in values.items()) and all(
             len(v) == self.n_joints for v in notes.values()
         ):
             # kinds switched off only: every value left was checked when ``self`` was made
@@ -333,6 +333,8 @@ class Limits:
 
 
 _LIMITS_FIELDS = tuple(f.name for f in fields(Limits))
+#: the range: never None (a kind switched off is one of the other fields)
+_RANGE_FIELDS = ("lower_rad", "upper_rad")
 
 
 def _fields() -> tuple[str, ...]:
