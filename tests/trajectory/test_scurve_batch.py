@@ -174,3 +174,22 @@ def test_profile_dicts_are_the_profiles_to_dict():
         "trapezoid",
         "rest",
     }
+
+
+def test_one_problem_evaluates_the_same_in_any_time_order():
+    """One problem sampled at many times (in order: the counted phases of a sampled plan;
+    shuffled: a search per joint; a few: one comparison) gives each joint's MotionProfile
+    evaluation, signed by its move, at every time, including phase boundaries and the ends."""
+    rng = np.random.default_rng(29)
+    D = np.array([1.2, -0.7, 0.0, 2.0, -1e-4, 0.4])
+    batch = synchronised_scurves(D, V, A, J)
+    T = float(batch.duration)
+    corners = batch.boundaries()[0].reshape(-1)
+    t = np.sort(np.concatenate([np.linspace(-0.1, T + 0.1, 600), corners]))
+    ref = np.stack(
+        [np.sign(D[k]) * np.stack(batch.profile(k).evaluate(t)) for k in range(6)], axis=-1
+    )
+    shuffle = rng.permutation(t.size)
+    for times, order in ((t, slice(None)), (t[shuffle], shuffle), (t[:40], slice(0, 40))):
+        ours = np.stack(batch.evaluate_jerk(times))
+        np.testing.assert_allclose(ours, ref[:, order], rtol=1e-12, atol=1e-12)

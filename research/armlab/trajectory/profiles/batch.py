@@ -184,7 +184,8 @@ class SCurveBatch:
         b = self.boundaries()
         cols = self.distance.size
         ends = b[0, 1:].reshape(6, cols)  # phase k ends where phase k + 1 starts
-        if self.duration.size == 1:  # one problem: one time axis for every joint
+        one = self.duration.size == 1
+        if one:  # one problem: one time axis for every joint
             t1 = np.minimum(np.maximum(t, 0.0), float(self.duration.reshape(-1)[0]))
             tt = t1[:, None]
         else:
@@ -193,7 +194,16 @@ class SCurveBatch:
             tt = np.broadcast_to(tt, (t.size,) + self.distance.shape).reshape(t.size, cols)
         # the phase of each time: the phase ends passed (a zero-length phase is passed with
         # its predecessor), at most the last; a binary search per joint where there are few
-        if cols <= _SEARCH_COLUMNS and t.size * cols > _COMPARE_SIZE:
+        m = t.size
+        if one and m * cols > _COMPARE_SIZE and (t1[1:] >= t1[:-1]).all():
+            # one problem, many times in order (a sampled plan): time i has passed end r of
+            # joint c where i >= the number of times before that end; counted for every
+            # joint at once
+            first = np.searchsorted(t1, ends.reshape(-1), "left") * cols
+            first += np.arange(6 * cols) % cols
+            k = np.bincount(first, minlength=(m + 1) * cols)[: m * cols].reshape(m, cols)
+            k = k.cumsum(axis=0)
+        elif cols <= _SEARCH_COLUMNS and m * cols > _COMPARE_SIZE:
             k = np.empty((cols, t.size), np.intp)
             for c in range(cols):
                 k[c] = np.searchsorted(ends[:, c], tt[:, c if tt.shape[1] > 1 else 0], "right")
