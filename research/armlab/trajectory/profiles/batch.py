@@ -161,11 +161,11 @@ class SCurveBatch:
         acc[5:7] = -ap
         jrk[0::6] = jf  # phases 0 and 6; 1, 3, 5: 0
         jrk[2:5:2] = -jf  # phases 2 and 4
-        np.cumsum(d[:-1], axis=0, out=t0[1:])
+        np.add.accumulate(d[:-1], axis=0, out=t0[1:])  # cumsum, without its wrapper
         dv = d * (acc + d * jrk / 2)
-        np.cumsum(dv[:-1], axis=0, out=v0[1:])
+        np.add.accumulate(dv[:-1], axis=0, out=v0[1:])
         ds = d * (v0 + d * (acc / 2 + d * jrk / 6))
-        np.cumsum(ds[:-1], axis=0, out=s0[1:])
+        np.add.accumulate(ds[:-1], axis=0, out=s0[1:])
         self._bounds = out
         self._steps = dv, ds  # each phase's change of speed and position (peaks)
         return out

@@ -151,12 +151,13 @@ def _ds_speed_for_duration(L, T, v, k: _DoubleSLimits, v_hi, t_min, moving) -> n
     the peak speeds and shortest times, ``moving`` ``L > 0``."""
     a, j = k.a, k.j
     b = T - k.aj
-    disc = b * b - 4 * L / a
-    va = 2 * L / (b + np.sqrt(np.maximum(disc, 0.0)))
+    L2 = 2 * L
+    disc = b * b - (L2 + L2) / a  # 4 L / a: doubling is exact
+    va = L2 / (b + np.sqrt(np.maximum(disc, 0.0)))
     phi = 2 * np.arcsin(np.sqrt(np.minimum(27 * L / (j * T**3), 1.0)))
     u0 = T / 6 + T / 3 * np.cos(phi / 3)
     sv = 2 * T / 3 * np.sin(phi / 6) ** 2
-    u = (sv + np.sqrt(sv * sv + 2 * L / (j * u0))) / 2
+    u = (sv + np.sqrt(sv * sv + L2 / (j * u0))) / 2
     plateau = (disc >= 0) & (b > 0) & (va * j >= k.a2)  # j = inf: always
     vT = np.where(plateau, va, j * u * u)
     vT = np.where(T <= t_min, v_hi, np.minimum(vT, v_hi))
