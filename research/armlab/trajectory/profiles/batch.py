@@ -20,11 +20,12 @@ from armlab.trajectory.profiles.timing import (
 
 __all__ = ["SCurveBatch", "synchronised_scurves"]
 
-#: up to this many joints x problems, :meth:`SCurveBatch.evaluate_jerk` finds each time's phase
-#: by a binary search per column (a comparison with every phase end above)
+#: how SCurveBatch.evaluate_jerk finds each time's phase: above _COMPARE_SIZE times x columns,
+#: for one problem at times in order (a sampled plan) by counting the phase ends passed in
+#: one pass, else (up to _SEARCH_COLUMNS joints x problems) by a binary search per column;
+#: otherwise (a single plan's switching instants, or many columns) by one comparison with
+#: every phase end
 _SEARCH_COLUMNS = 16
-#: ... and above this many times x columns (below, one comparison with every phase end is
-#: cheaper than a search per column: a single plan's switching instants)
 _COMPARE_SIZE = 256
 
 
