@@ -45,7 +45,8 @@ step is in closed form: the peak speed for a given duration from a quadratic or 
 phases (:meth:`SCurveBatch.boundaries`, integrated once), evaluates them with the jerk
 (:meth:`SCurveBatch.evaluate_jerk`), gives each joint's exact peaks, end state and direction
 from them (:meth:`SCurveBatch.peaks`: the closed forms' limit check) and each joint's
-:class:`MotionProfile` from the same phases (:meth:`SCurveBatch.profile`).
+:class:`MotionProfile` from the same phases (:meth:`SCurveBatch.profile`; its
+``to_dict`` without building it, :meth:`SCurveBatch.profile_dicts`).
 
 From a moving state (replanning, :func:`~armlab.planning.ptp_sync` with ``qd_start``):
 :func:`trapezoid_min_time_from_state`, :func:`trapezoid_blocked_from_state`,
