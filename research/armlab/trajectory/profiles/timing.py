@@ -117,9 +117,14 @@ def _ds_ramp(v, k: _DoubleSLimits) -> tuple[np.ndarray, np.ndarray]:
     """:func:`double_s_ramp` on a :class:`_DoubleSLimits` (errors ignored by the caller)."""
     a, j = k.a, k.j
     if k.finite:  # v = 0 gives (0, 0) without the mask: sqrt(0 / j)
+        # (np.where as np.copyto into the array it would replace: the engine's arrays have
+        # one shape, and a selection in place costs less than a new array)
         plateau = v * j >= k.a2
-        tj = np.where(plateau, k.aj, np.sqrt(v / j))
-        return tj, np.where(plateau, tj + v / a, 2 * tj)
+        tj = np.sqrt(v / j)
+        np.copyto(tj, k.aj, where=plateau)
+        ta = 2 * tj
+        np.copyto(ta, tj + v / a, where=plateau)
+        return tj, ta
     plateau = k.trap | (np.isfinite(a) & (v * j >= k.a2))
     tj = np.where(plateau, np.where(k.trap, 0.0, a / j), np.sqrt(v / j))
     ta = np.where(plateau, tj + v / a, 2 * tj)
@@ -131,8 +136,12 @@ def _ds_peak(L, v, k: _DoubleSLimits) -> np.ndarray:
     """:func:`double_s_peak_speed` on a :class:`_DoubleSLimits`."""
     a = k.a
     plateau = a * (np.sqrt(k.a2jj + 4 * L / a) - k.aj_raw) / 2
-    vp = np.minimum(np.where(plateau >= k.a2j, plateau, (L * k.sj / 2) ** (2 / 3)), v)
-    if k.finite or not k.trap.any():
+    below = (L * k.sj / 2) ** (2 / 3)
+    if k.finite:  # the engine's arrays (one shape): the selection in place
+        np.copyto(below, plateau, where=plateau >= k.a2j)
+        return np.minimum(below, v)
+    vp = np.minimum(np.where(plateau >= k.a2j, plateau, below), v)
+    if not k.trap.any():
         return vp
     return np.where(k.trap, trapezoid_peak_speed(L, v, a), vp)
 
@@ -159,9 +168,15 @@ def _ds_speed_for_duration(L, T, v, k: _DoubleSLimits, v_hi, t_min, moving) -> n
     sv = 2 * T / 3 * np.sin(phi / 6) ** 2
     u = (sv + np.sqrt(sv * sv + L2 / (j * u0))) / 2
     plateau = (disc >= 0) & (b > 0) & (va * j >= k.a2)  # j = inf: always
+    if k.finite:  # the engine's arrays (one shape): the selections in place
+        vT = j * u * u
+        np.copyto(vT, va, where=plateau)
+        np.minimum(vT, v_hi, out=vT)
+        np.copyto(vT, v_hi, where=T <= t_min)
+        return np.where(moving, vT, 0.0)
     vT = np.where(plateau, va, j * u * u)
     vT = np.where(T <= t_min, v_hi, np.minimum(vT, v_hi))
-    if not k.finite and k.trap.any():  # the trapezoid's own closed form (a = inf: v = L / T)
+    if k.trap.any():  # the trapezoid's own closed form (a = inf: v = L / T)
         vT = np.where(k.trap, trapezoid_speed_for_duration(L, T, a, a, v), vT)
     return np.where(moving, vT, 0.0)
 
