@@ -88,13 +88,18 @@ def closed_form_applies(prob: OptimalProblem) -> bool:
     )
 
 
+#: relative rounding of the times (as :func:`~armlab.trajectory.sampling.sample_times`)
+_ROUNDING = 8 * float(np.finfo(float).eps)
+
+
 def _knots(t0: np.ndarray, T: float) -> np.ndarray:
     """Every joint's switching instants (the phase starts ``t0``, (7, n_joints)) and the
     ends, sorted; instants closer than the rounding of the times merge (as
     :func:`~armlab.trajectory.sampling.sample_times`)."""
     corners = t0[1:].reshape(-1)
-    tiny = 8 * np.finfo(float).eps * max(T, 1.0)
-    inner = np.sort(corners[(corners > tiny) & (corners < T - tiny)])
+    tiny = _ROUNDING * max(T, 1.0)
+    inner = corners[(corners > tiny) & (corners < T - tiny)]  # a copy: sorted in place
+    inner.sort()
     keep = np.empty(inner.size + 2, bool)  # the later of two merged instants
     keep[0] = keep[-2:] = True
     np.greater(inner[1:] - inner[:-1], tiny, out=keep[1:-2])
