@@ -80,7 +80,11 @@ def sample_times(duration: float, dt: float, knots=()) -> np.ndarray:
     right = fixed[np.clip(i, 0, fixed.size - 1)]
     near = np.minimum(np.abs(grid - left), np.abs(right - grid)) < MERGE_FRACTION * dt
     near[0] = False
-    return np.union1d(grid[~near], fixed)
+    # disjoint sorted sets (a regular sample at a fixed time is "near" it, and 0 is never
+    # fixed): their union is the sorted concatenation
+    out = np.concatenate((grid[~near], fixed))
+    out.sort()
+    return out
 
 
 @dataclass
