@@ -48,7 +48,7 @@ from armlab.planning.transcription import (
     Structure,
 )
 from armlab.robot.limits import Limits
-from armlab.robot.symbolic import dynamic_parameters
+from armlab.robot.symbolic import dynamic_parameters, parametric_inverse_dynamics_function
 
 if TYPE_CHECKING:
     from armlab.planning.optimal_problem import OptimalProblem
@@ -91,15 +91,14 @@ def watchdog_budget_s(n_intervals: int) -> float:
 
 def variant(prob: OptimalProblem) -> Variant:
     """The stage library that solves ``prob`` (:class:`~armlab.planning.fatrop_stages.Variant`)."""
-    return Variant(prob.mode, bool(prob.drive_limits), prob.duration is not None)
+    energy = prob.objective == "energy"  # always with its fixed duration (optimiser)
+    return Variant(prob.mode, bool(prob.drive_limits), prob.duration is not None, energy)
 
 
 def not_covered(prob: OptimalProblem, hessian: str) -> str:
     """Why fatrop does not solve this problem ("" when it does)."""
     if os.environ.get(SOLVER_ENV, "").strip().lower() == "ipopt":
         return f"{SOLVER_ENV}=ipopt"
-    if prob.objective == "energy":
-        return "the energy objective is solved by IPOPT"
     if hessian not in ("exact", "partial"):
         return f"hessian={hessian!r} is solved by IPOPT"
     if TORQUE_INTERIOR_POINTS:
@@ -253,7 +252,7 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
     last = np.cumsum(prob.segment_intervals) - 1
     b = np.zeros(N, np.int32)
     b[last[:-1]] = 1
-    tau, w, uref = p[:n], p[n], p[n + 1 : 2 * n + 1]
+    tau, w, uref, ew = p[:n], p[n], p[n + 1 : 2 * n + 1], p[2 * n + 1 : 3 * n + 1]
     o = 3 * n + 1  # after tau, w, uref, energy weights
     s_v, s_a, s_u = p[o : o + n], p[o + n : o + 2 * n], p[o + 2 * n : o + 3 * n]
     o += 3 * n
@@ -263,7 +262,7 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
     o += st.n_pi
     # the objective: tw T + w smooth ("jerk": the smoothness term alone, optimal_bounds.params
     # gives it weight 0 there as transcription adds it unweighted)
-    tw, w = (0.0, 1.0) if prob.objective == "jerk" else (1.0, w)
+    tw, w = (0.0, 1.0) if prob.objective in ("jerk", "energy") else (1.0, w)
     s_e = float(np.sum(s_T))  # the scale of the elapsed time
     S = st.slices
     h0 = (xs0[S["T"]] * s_T)[seg] * frac  # the warm start's intervals [s]
@@ -273,21 +272,29 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
         # integral ~1e-4, and the plain sum stopped 1e-4 above IPOPT's minimum, measured)
         u0 = xs0[S["u"]].reshape(N, n) * s_u / uref
         w = 1.0 / max(float(np.sum(h0 * np.sum(u0**2, axis=1))), 1e-12)
+    e_end = 0.0
+    if var.energy:  # the same normalisation; e_N/2 of the last node (its state is fixed)
+        e0, e_last = _warm_energy(prob, var, xs0 * sv, S, h0, pi, ew)
+        w, e_end = 1.0 / max(e0, 1e-12), e_last / 2
     drive: list[np.ndarray] = []
     Pk = np.zeros((N + 1, dm["npk"]))
     Pk[:N, 0], Pk[:N, 1] = s_T[seg] * frac, b
+    if var.energy and var.jerk:  # its last column (fatrop_stages.Variant.dims)
+        Pk[N - 1, -1] = e_end
     if var.drive:
         dc = p[o : o + 9 * n]
         o += 9 * n + n * st.n_drive_columns  # the directions, read below from their home
         drive = [dc, p[o : o + n], p[o + n : o + 2 * n]]  # coefficients, eps, cont^2
         sig = prob._column_directions()  # (n, columns)
         if var.jerk:
-            Pk[:, 2:] = sig.T
+            Pk[:, 2 : 2 + n] = sig.T
         else:
             Pk[:N, 2:] = np.hstack([sig[:, :N].T, sig[:, N:].T])
     pg = np.concatenate([s_v, s_a, s_u, tau, uref, [w, tw], pi, *drive])
     if var.elapsed:
         pg = np.append(pg, s_e)
+    if var.energy:
+        pg = np.append(pg, ew)  # the energy weights
     te0 = np.concatenate([[0.0], np.cumsum(h0)]) / s_e
 
     def stage(arr, fill):
@@ -313,6 +320,8 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
         X0[:, it + 1 : it + 1 + n] = 0.5 * te0[:, None]
         if var.jerk:
             X0[1:, it + 1 + n] = h0 / s_e
+    elif var.energy and var.jerk:  # hp, the last interval (the drive rows' when they are on)
+        X0[1:, it + 1] = h0 / s_e
 
     def rows(arr, off):  # off: the bound of a row that is not there
         G = np.full(N * dm["ng"] + dm["ngn"], off)
@@ -335,6 +344,30 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
     data = [np.ascontiguousarray(a, float) for a in arrays]
     rest = [np.ascontiguousarray(a, float) for a in (Pk, pg, X0, U0)]
     return b, data, gmask, rest, (lbx, ubx, lbg, ubg, p, xs0), sv
+
+
+def _warm_energy(prob, var: Variant, x, S, h, pi, ew) -> tuple[float, float]:
+    """The copper-loss quadrature of the transcription's ``"energy"`` objective at the
+    physical point ``x`` with intervals ``h`` (the warm start's: fatrop's stage cost is this
+    over it, so that its absolute KKT tolerance is a relative one, as for ``"jerk"``), and
+    ``e_N = sum_i ew_i tau_i^2`` at the last node (jerk mode; 0 in acceleration mode). The
+    inverse dynamics are the stage functions' own
+    (:func:`armlab.robot.symbolic.parametric_inverse_dynamics_function`, inertial parameters
+    ``pi``)."""
+    n, N = prob.n, prob.N
+    rnea = parametric_inverse_dynamics_function(prob.robot)
+    q, v = (x[S[k]].reshape(N + 1, n) for k in ("q", "v"))
+
+    def e(qq, vv, aa):  # (m,) sum_i ew_i tau_i^2 at m points
+        m = qq.shape[0]
+        tau = np.asarray(rnea.map(m)(qq.T, vv.T, aa.T, np.tile(pi[:, None], (1, m))))
+        return ew @ tau**2
+
+    if var.jerk:
+        ek = e(q, v, x[S["a"]].reshape(N + 1, n))
+        return float(np.sum(h * (ek[:-1] + ek[1:]) / 2)), float(ek[-1])
+    u = x[S["u"]].reshape(N, n)
+    return float(np.sum(h / 2 * (e(q[:-1], v[:-1], u) + e(q[1:], v[1:], u)))), 0.0
 
 
 def _inward(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
