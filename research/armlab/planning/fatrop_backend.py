@@ -9,14 +9,17 @@ IROS 2023; the library shipped in the casadi wheel) through its C OCP interface,
 recursion costs time linear in the number of intervals. A solver instance is made per grid
 shape (intervals and segment ends) in milliseconds and reused with new data.
 
-Where fatrop is used: jerk mode (a jerk limit) and acceleration mode (none), the ``"time"`` and
-``"time+smooth"`` objectives and the fixed-duration ``"jerk"`` objective, with or without
-torque limits, with or without ``drive_limits`` (the motor envelope and RMS rows), via
+Where fatrop is used: jerk mode (a jerk limit) and acceleration mode (none), every objective
+(``"time"``, ``"time+smooth"`` and the fixed-duration ``"jerk"`` and ``"energy"``), with or
+without torque limits, with or without ``drive_limits`` (the motor envelope and RMS rows), via
 tolerances and moving start or goal states, Hessian ``"partial"`` or ``"exact"``; each
-combination of mode, drive rows and duration row is its own compiled library
-(:class:`~armlab.planning.fatrop_stages.Variant`). Everything else is solved by IPOPT and
-``stats["fallback"]`` says why: the ``"energy"`` objective, ``hessian="limited-memory"``,
-interior torque points, clearance rows, no C compiler or no fatrop in the casadi wheel
+combination of mode, drive rows, duration row and energy cost is its own compiled library
+(:class:`~armlab.planning.fatrop_stages.Variant`), compiled on its first use. The energy
+objective's cost is normalised by its warm start's value (:func:`_warm_energy`), as the
+jerk objective's, and an energy solve that stops at fatrop's acceptable point is taken
+(:data:`FATROP_ACCEPTABLE`). Everything else is solved by IPOPT and ``stats["fallback"]``
+says why: ``hessian="limited-memory"``, interior torque points, clearance rows, no C
+compiler or no fatrop in the casadi wheel
 (:class:`~armlab.planning.fatrop_stages.FatropUnavailable`), ``ARMLAB_SOLVER=ipopt`` in the
 environment, and a fatrop solve that fails (not converged within its iteration cap, NaN, or
 over its CPU-time budget :func:`watchdog_budget_s`, the watchdog): that solve is repeated by
