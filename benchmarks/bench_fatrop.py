@@ -15,7 +15,17 @@ compile (wall and the compiler's CPU), then IPOPT and fatrop alternating case by
 case dropped (IPOPT builds its problem): median whole call and solve, ipopt / fatrop, the
 largest relative duration difference (for the fixed duration: of the jerk objective's value).
 
-Run:  ``.venv/bin/python benchmarks/bench_fatrop.py [--quick] [--variants] [--cache DIR]``
+With ``--energy``: the ``"energy"`` objective's stage libraries on 3- and 5-waypoint cases of
+the same draw as ``--variants``, each case over 1.5 x its own minimum duration (the
+time-optimal plan of the same request): per request (jerk or acceleration mode, torque box
+or drive_limits) IPOPT and fatrop alternating case by case, the first case dropped: median
+whole call and solve, ipopt / fatrop, the median and largest relative difference of
+``stats["energy"]``, on how many cases fatrop's energy is lower / higher than IPOPT's by more
+than 1e-6 (the problem is not convex: the two solvers can stop in different local minima),
+and fatrop's fallbacks.
+
+Run:  ``.venv/bin/python benchmarks/bench_fatrop.py [--quick] [--variants] [--energy]
+[--cache DIR]``
 """
 
 from __future__ import annotations
@@ -120,6 +130,66 @@ def variant_table(robot, n: int) -> None:
     os.environ.pop("ARMLAB_SOLVER", None)
 
 
+#: the energy objective's requests (teachbot6's own limits otherwise; the stage libraries
+#: jerk-dur-energy, acc-dur-energy, jerk-drive-dur-energy, acc-drive-dur-energy)
+ENERGY_REQUESTS = {
+    "jerk, torque box": {},
+    "acceleration, torque box": {"j_max": False},
+    "jerk, drive_limits": {"drive_limits": True},
+    "acceleration, drive_limits": {"a_max": False, "j_max": False, "drive_limits": True},
+}
+#: the energy plans' duration over the case's minimum duration
+ENERGY_SLACK = 1.5
+
+
+def energy_table(robot, n: int) -> None:
+    """``--energy`` (module docstring)."""
+    lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
+    mid, half = (lo + hi) / 2, (hi - lo) / 2 * RANGE * 0.5  # as variant_table
+    hdr = (
+        f"{'wp':>2} {'request':<26} | {'ipopt call/solve [ms]':>21} | "
+        f"{'fatrop call/solve [ms]':>22} | {'ipopt/fatrop':>12} | {'med|dE|':>7} | "
+        f"{'max|dE|':>7} | {'lower/higher':>12} | fb"
+    )
+    print(hdr)
+    print("-" * len(hdr))
+    for nw in (3, 5):
+        rng = np.random.default_rng(SEED + 79 + nw)
+        cases = [mid + half * (2 * rng.random((nw, robot.n_joints)) - 1) for _ in range(n + 1)]
+        for name, kw in ENERGY_REQUESTS.items():
+            res: dict = {s: [] for s in SOLVERS}
+            for i, w in enumerate(cases):
+                os.environ["ARMLAB_SOLVER"] = "fatrop"
+                tmin = optimal(robot, w, **kw).stats["duration_s"]
+                ekw = {**kw, "objective": "energy", "duration": ENERGY_SLACK * tmin}
+                for s in SOLVERS if i % 2 else SOLVERS[::-1]:
+                    os.environ["ARMLAB_SOLVER"] = s
+                    t1 = time.perf_counter()
+                    traj = optimal(robot, w, **ekw)
+                    if i:
+                        res[s].append((time.perf_counter() - t1, traj.stats))
+            e = {s: np.array([st["energy"] for _, st in res[s]]) for s in SOLVERS}
+            rel = e["fatrop"] / e["ipopt"] - 1  # local minima: who found the lower one
+            lower, higher = int(np.sum(rel < -1e-6)), int(np.sum(rel > 1e-6))
+            med = {
+                s: (
+                    np.median([c for c, _ in res[s]]),
+                    np.median([st["solve_time_s"] for _, st in res[s]]),
+                )
+                for s in SOLVERS
+            }
+            fb = sum(st["solver"] != "fatrop" for _, st in res["fatrop"])
+            print(
+                f"{nw:>2} {name:<26} | {1e3 * med['ipopt'][0]:>10.0f} /"
+                f"{1e3 * med['ipopt'][1]:>9.0f} | {1e3 * med['fatrop'][0]:>11.0f} /"
+                f"{1e3 * med['fatrop'][1]:>9.0f} | {med['ipopt'][0] / med['fatrop'][0]:>12.1f} | "
+                f"{np.median(np.abs(rel)):>7.1e} | {np.max(np.abs(rel)):>7.1e} | "
+                f"{lower:>5d} /{higher:>5d} | {fb}",
+                flush=True,
+            )
+    os.environ.pop("ARMLAB_SOLVER", None)
+
+
 def _jerk_value(robot, traj) -> float:
     """The jerk objective, integral of (jerk / j_max)^2 on a fine grid (trapezoid)."""
     t = np.linspace(traj.t[0], traj.t[-1], 20001)
@@ -136,6 +206,7 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help=f"{QUICK_CASES} cases per size")
     ap.add_argument("--cache", help="compile into / load from this cache folder")
     ap.add_argument("--variants", action="store_true", help="the variants' table (3 waypoints)")
+    ap.add_argument("--energy", action="store_true", help="the energy objective (3, 5 waypoints)")
     args = ap.parse_args()
     n = QUICK_CASES if args.quick else CASES
     cache = args.cache or tempfile.mkdtemp(prefix="armlab-bench-cache-")
@@ -143,6 +214,9 @@ def main() -> None:
     robot = armlab.load_robot("teachbot6")
     if args.variants:
         variant_table(robot, n)
+        return
+    if args.energy:
+        energy_table(robot, n)
         return
     t0, c0 = time.perf_counter(), os.times()
     _, took = fatrop_stages.compiled_library(robot)

@@ -1,16 +1,18 @@
 """optimal() on fatrop (compiled stage functions) against IPOPT, the reference, on teachbot6.
 
 The stage libraries are compiled once for this module into a temporary cache (one per variant:
-jerk mode, acceleration mode, each with drive rows, the fixed-duration row; see
-docs/api/planning.md for the compile times), or taken from ``$ARMLAB_TEST_FATROP_CACHE`` when
-that is set (a developer's cache of compiled libraries, to rerun without compiling); where no
-compiler is found the compiled-path tests are skipped and the fallback tests still run.
+jerk mode, acceleration mode, each with drive rows, the fixed-duration row, the energy
+objective in jerk mode; see docs/api/planning.md for the compile times), or taken from
+``$ARMLAB_TEST_FATROP_CACHE`` when that is set (a developer's cache of compiled libraries, to
+rerun without compiling); where no compiler is found the compiled-path tests are skipped and
+the fallback tests still run.
 """
 
 from __future__ import annotations
 
 import os
 
+import casadi as ca
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -146,6 +148,101 @@ def test_fixed_duration_plans_as_ipopt(compiled, robot):
     assert fat.stats["ok"]
 
 
+@pytest.mark.parametrize(
+    ("w", "kw"),
+    [
+        (W3, {}),  # jerk mode on the robot's torque box
+        (W2, {"payload_kg": 1.0, "tau_max": False}),  # no torque rows: the same library
+    ],
+)
+def test_energy_plans_as_ipopt(compiled, robot, w, kw):
+    """The "energy" objective (copper losses over a fixed duration) on fatrop: exactly that
+    duration, the same minimum as IPOPT's (stats["energy"], the fine-grid trapezoid of
+    optimal_problem, not the solver's own sum), every limit held on the fine grid."""
+    kw = {"objective": "energy", "duration": 4.0, **kw}
+    with pytest.MonkeyPatch.context() as mp:
+        fat = optimal(robot, w, **kw)
+        ref = _ipopt(mp, robot, w, **kw)
+    assert fat.stats["solver"] == "fatrop" and fat.stats["fallback"] == ""
+    assert fat.stats["duration_s"] == pytest.approx(4.0, abs=1e-9)
+    # IPOPT's plan may be stretched by its tolerance (4.0000000073 s, measured), its energy
+    # then that much lower: within 1e-8 relative on W3 (measured)
+    assert fat.stats["energy"] == pytest.approx(ref.stats["energy"], rel=1e-6)
+    assert fat.stats["ok"] and fat.report.ok(1e-6)
+    np.testing.assert_allclose(fat.q[-1], w[-1], atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {},
+        {"j_max": False},
+        {"drive_limits": True},
+        {"a_max": False, "j_max": False, "drive_limits": True},
+    ],
+)
+def test_energy_stage_cost_is_the_transcriptions(robot, kw):
+    """The energy variants' stage costs (symbolic, nothing compiled) summed over the stages
+    equal IPOPT's objective (build_structure's copper-loss quadrature) times fatrop's weight,
+    at a point away from the warm start (inputs and durations perturbed; in jerk mode the
+    interior nodes too, the last node's state fixed as its bounds fix it; in acceleration
+    mode the nodes integrated from the inputs, as the dynamics hold them)."""
+    prob = build_optimal(robot, W3, n_intervals=4, objective="energy", duration=3.0, **kw)
+    prob.make_warm_start()
+    var = fatrop_backend.variant(prob)
+    assert var.energy and var.duration
+    st, spot = fatrop_backend._layout(prob, True, var)
+    _, _, _, (Pk, pg, _, _), arm, _ = fatrop_backend._stage_data(
+        prob, st, spot, var, prob.limits, prob.x0, None
+    )
+    p, xs = arm[4], arm[5].copy()
+    n, N, S = prob.n, prob.N, st.slices
+    rng = np.random.default_rng(3)
+    for name in ("q", "v", "a"):  # interior nodes
+        if name in S:
+            block = xs[S[name]].reshape(N + 1, n)
+            block[1:-1] += 0.1 * rng.standard_normal((N - 1, n))
+    xs[S["u"]] += 0.1 * rng.standard_normal(N * n)
+    xs[S["T"]] *= 1 + 0.1 * rng.random(len(prob.segment_intervals))
+    seg = prob.segment_of_interval
+    nseg = len(prob.segment_intervals)
+    o = 3 * n + 1  # the scales in p (optimal_bounds.params)
+    s_v, s_u, s_T = p[o : o + n], p[o + 2 * n : o + 3 * n], p[o + 3 * n : o + 3 * n + nseg]
+    Ts = xs[S["T"]]
+    h = (Ts * s_T)[seg] * prob.fractions
+    if not var.jerk:
+        # acceleration mode: the interval's right end is the next node in the transcription,
+        # the integration of the left one in the stage; equal on the dynamics, so integrate
+        q, v = xs[S["q"]].reshape(N + 1, n), xs[S["v"]].reshape(N + 1, n) * s_v
+        u = xs[S["u"]].reshape(N, n) * s_u
+        for k in range(N):
+            q[k + 1] = q[k] + h[k] * v[k] + h[k] ** 2 / 2 * u[k]
+            v[k + 1] = v[k] + h[k] * u[k]
+        xs[S["q"]], xs[S["v"]] = q.ravel(), (v / s_v).ravel()
+    # the stage vectors of that point (fatrop_stages' module docstring)
+    s_e = float(np.sum(s_T))
+    dm = var.dims(n)
+    X = np.zeros((N + 1, dm["nx"]))
+    for i, name in enumerate(k for k in ("q", "v", "a") if k in S):
+        X[:, i * n : (i + 1) * n] = xs[S[name]].reshape(N + 1, n)
+    X[:, dm["it"]] = np.append(Ts[seg], Ts[-1])
+    X[:, -1] = np.concatenate([[0.0], np.cumsum(h)]) / s_e  # elapsed time
+    if var.jerk:  # hp, the last interval, after the drive rows' RMS integrals
+        X[1:, dm["it"] + 1 + (n if var.drive else 0)] = h / s_e
+    U = np.zeros((N, dm["nu"]))
+    U[:, :n] = xs[S["u"]].reshape(N, n)
+    stage = fatrop_stages._symbolic_stage(robot, var)
+    cost = ca.Function("cost", [stage[k] for k in ("x", "u", "pk", "pg")], [stage["cost"]])
+    fatrop_sum = sum(float(cost(X[k], U[k], Pk[k], pg)) for k in range(N))
+    real = structure(
+        robot, 6, prob.segment_intervals, prob.mode, "energy", True, True, 100, var.drive
+    )
+    f = ca.Function("f", [real.nlp["x"], real.nlp["p"]], [real.nlp["f"]])
+    weight = pg[5 * n]  # 1 over the warm start's energy
+    assert fatrop_sum == pytest.approx(weight * float(f(xs, p)), rel=1e-12)
+    assert abs(fatrop_sum - 1.0) > 1e-3  # away from the warm start (where it is 1)
+
+
 def test_the_payload_is_run_time_data(compiled, robot):
     """A payload changes the inertias, not the kinematics: the same library plans it (one
     library of the variant in the cache) and the plan carries it: the torques the plan
@@ -167,6 +264,8 @@ def test_the_payload_is_run_time_data(compiled, robot):
         ("acceleration", "time", True, False),
         ("jerk", "time", True, False),
         ("jerk", "jerk", False, True),
+        ("jerk", "energy", False, True),
+        ("acceleration", "energy", True, True),
     ],
 )
 def test_layout_is_the_transcriptions(robot, mode, objective, drive, duration):
@@ -189,16 +288,19 @@ def test_layout_is_the_transcriptions(robot, mode, objective, drive, duration):
         assert light.n_drive_columns == real.n_drive_columns
 
 
-def test_no_compiler_falls_back_to_ipopt(robot, tmp_path):
+@pytest.mark.parametrize("kw", [{}, {"objective": "energy", "duration": 4.0}])
+def test_no_compiler_falls_back_to_ipopt(robot, tmp_path, kw):
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("ARMLAB_CACHE_DIR", str(tmp_path))
         mp.setenv("ARMLAB_SOLVER", "fatrop")
         mp.setenv("CC", "/nonexistent/cc")
-        traj = optimal(robot, W2)
-        ref = _ipopt(mp, robot, W2)
+        traj = optimal(robot, W2, **kw)
+        ref = _ipopt(mp, robot, W2, **kw)
     assert traj.stats["solver"] == "ipopt"
     assert "no C compiler" in traj.stats["fallback"]
     assert traj.stats["duration_s"] == pytest.approx(ref.stats["duration_s"], rel=1e-9)
+    if "energy" in kw:
+        assert traj.stats["energy"] == pytest.approx(ref.stats["energy"], rel=1e-9)
     assert not list(tmp_path.iterdir())  # nothing half-built left behind
 
 
@@ -208,8 +310,6 @@ def test_forced_ipopt_and_uncovered_variants_say_so(robot, monkeypatch):
     monkeypatch.setenv("ARMLAB_SOLVER", "fatrop")
     lbfgs = optimal(robot, W2, hessian="limited-memory")
     assert lbfgs.stats["solver"] == "ipopt" and "limited-memory" in lbfgs.stats["fallback"]
-    energy = optimal(robot, W2, objective="energy", duration=4.0)
-    assert energy.stats["solver"] == "ipopt" and "energy" in energy.stats["fallback"]
 
 
 def test_watchdog_hands_the_solve_to_ipopt(compiled, robot, monkeypatch):

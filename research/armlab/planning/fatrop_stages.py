@@ -42,6 +42,16 @@ Other variants (:class:`Variant`, each its own library):
   node, ``E_N / t_N <= 1``. ``E`` and ``t`` are scaled by ``s_e = sum s_T``.
 * **fixed duration** (``duration=``, the ``"jerk"`` objective): the elapsed time as a state
   and the last node's row ``t_N = D``.
+* **energy** (the ``"energy"`` objective, always with the fixed duration, with or without
+  drive rows): the stage cost is the transcription's copper-loss quadrature, ``e(tau) =
+  sum_i ew_i tau_i^2`` (``ew`` the energy weights
+  :func:`armlab.planning.optimal_bounds._energy_weights`, appended to ``pg``): in acceleration
+  mode ``l = t_w h + w h/2 (e(tau_a) + e(tau_b))`` (the interval's two ends), in jerk mode the
+  trapezoid over the nodes, node ``k`` weighted ``(h_{k-1} + h_k)/2``: ``l = t_w h + w (e(tau_k)
+  (h_{k-1} + h_k)/2 + e_end h)``, ``h_{k-1}`` carried as the state ``hp`` (as the RMS row's, over
+  ``s_e``; ``hp_0 = 0``) and the last node's ``e_N h_{N-1}/2`` -- its state is fixed, so
+  ``e_N`` is a number -- as the stage data ``e_end = e_N/2`` at the last interval (0 elsewhere).
+  Its sum over the stages is the transcription's objective times ``w``.
 
 The functions and their first and second derivatives (exact Hessian of the Lagrangian, and the
 "partial" one without the torque-box rows' curvature,
@@ -134,6 +144,8 @@ class Variant:
     mode: str = "jerk"
     drive: bool = False
     duration: bool = False
+    #: the ``"energy"`` objective (copper losses, fixed duration): its own stage cost
+    energy: bool = False
 
     @property
     def jerk(self) -> bool:
@@ -148,8 +160,10 @@ class Variant:
     def one_hessian(self) -> bool:
         """One Hessian function: with drive rows the "partial" Hessian (without the torque
         box's curvature) keeps the inverse dynamics' curvature through the envelope rows, so
-        it costs as much as the exact one; the exact one serves both (the same KKT point)."""
-        return self.drive
+        it costs as much as the exact one; the exact one serves both (the same KKT point).
+        So with the energy objective: its cost carries the inverse dynamics' curvature in
+        every stage whichever Hessian is asked for."""
+        return self.drive or self.energy
 
     @property
     def cflags(self) -> tuple[str, ...]:
@@ -160,7 +174,7 @@ class Variant:
     def tag(self) -> str:
         """Short name (file names, progress lines): ``jerk``, ``acc-drive``, ``jerk-dur``..."""
         parts = ["jerk" if self.jerk else "acc"]
-        parts += ["drive"] * self.drive + ["dur"] * self.duration
+        parts += ["drive"] * self.drive + ["dur"] * self.duration + ["energy"] * self.energy
         return "-".join(parts)
 
     def dims(self, n: int) -> dict[str, int]:
@@ -176,11 +190,13 @@ class Variant:
         if self.drive:
             nx += n + (1 if self.jerk else 0)  # RMS integrals (+ the last interval's h)
             ngn += n
+        if self.energy and self.jerk and not self.drive:
+            nx += 1  # the last interval's h (the energy's node weight; drive rows carry it)
         if self.elapsed:
             nx += 1
         if self.duration:
             ngn += 1
-        npk = 2 + (nsig if self.drive else 0)
+        npk = 2 + (nsig if self.drive else 0) + (1 if self.energy and self.jerk else 0)
         ntau, ntau_n = (n, n) if self.jerk else (2 * n, 0)
         return {
             "nx": nx, "nu": n + 1, "ng": ng, "ngn": ngn, "npk": npk, "it": it,
@@ -277,21 +293,23 @@ def _symbolic_stage(robot, var: Variant = JERK) -> dict[str, Any]:
     as_ = SX.sym("as", n) if var.jerk else SX.zeros(0)
     Ts = SX.sym("Ts")
     Es = SX.sym("Es", n) if var.drive else SX.zeros(0)
-    hp = SX.sym("hp") if var.drive and var.jerk else SX.zeros(0)
+    hp = SX.sym("hp") if var.jerk and (var.drive or var.energy) else SX.zeros(0)
     te = SX.sym("te") if var.elapsed else SX.zeros(0)
     x = ca.vertcat(q, vs, as_, Ts, Es, hp, te)
     us, Tn = SX.sym("us", n), SX.sym("Tn")
     u = ca.vertcat(us, Tn)
     c, b = SX.sym("c"), SX.sym("b")
     sig = SX.sym("sig", n, 1 if var.jerk else 2) if var.drive else SX.zeros(n, 0)
-    pk = ca.vertcat(c, b, ca.vec(sig))
+    e_end = SX.sym("e_end") if var.energy and var.jerk else SX.zeros(0)
+    pk = ca.vertcat(c, b, ca.vec(sig), e_end)
     s_v, s_a, s_u, p_tau, uref = (SX.sym(nm, n) for nm in ("s_v", "s_a", "s_u", "tau", "uref"))
     w, tw = SX.sym("w"), SX.sym("tw")
     pi = SX.sym("pi", rnea.size1_in(3))
     dc = SX.sym("dc", N_DRIVE_COEFFS * n) if var.drive else SX.zeros(0)
     eps, cont2 = (SX.sym(nm, n) if var.drive else SX.zeros(0) for nm in ("eps", "cont2"))
     s_e = SX.sym("s_e") if var.elapsed else SX.zeros(0)
-    pg = ca.vertcat(s_v, s_a, s_u, p_tau, uref, w, tw, pi, dc, eps, cont2, s_e)
+    ew = SX.sym("ew", n) if var.energy else SX.zeros(0)
+    pg = ca.vertcat(s_v, s_a, s_u, p_tau, uref, w, tw, pi, dc, eps, cont2, s_e, ew)
     h = Ts * c
     v, j = vs * s_v, us * s_u
 
@@ -316,6 +334,13 @@ def _symbolic_stage(robot, var: Variant = JERK) -> dict[str, Any]:
             # trapezoid: node k stands for (h_{k-1} + h_k) / 2, h_{k-1} carried as hp
             F += [Es + (hp + h / s_e) / 2 * tm2 / cont2, h / s_e]
             gN.append((Es + hp / 2 * tm2 / cont2) / te)
+        elif var.energy:
+            F.append(h / s_e)  # hp: the energy's node weight needs the last interval
+        if var.energy:
+            # transcription's trapezoid over the nodes, node k weighted (h_{k-1} + h_k)/2
+            # (h_{-1} = 0); the last node's state is fixed, its term e_N h_{N-1}/2 enters
+            # the last interval through e_end = e_N/2 (stage data, 0 elsewhere)
+            integral = ca.dot(ew, tau**2) * (hp * s_e + h) / 2 + e_end * h
     else:
         F = [q + h * v + h**2 / 2 * j, (v + h * j) / s_v, (1 - b) * Ts + b * Tn]
         qb, vb = q + h * v + h**2 / 2 * j, v + h * j
@@ -327,11 +352,16 @@ def _symbolic_stage(robot, var: Variant = JERK) -> dict[str, Any]:
             g += [r[0] for r in rows]
             F.append(Es + tm2 / cont2 / s_e)
             gN.append(Es / te)
+        if var.energy:  # transcription's mean of the interval's two ends
+            integral = h / 2 * (ca.dot(ew, tau_a**2) + ca.dot(ew, tau_b**2))
     if var.elapsed:
         F.append(te + h / s_e)
     if var.duration:
         gN.append(te * s_e)
-    cost = tw * h + w * h * ca.sumsqr(j / uref)
+    if var.energy:  # the copper losses (w: 1 over the warm start's, fatrop_backend)
+        cost = tw * h + w * integral
+    else:
+        cost = tw * h + w * h * ca.sumsqr(j / uref)
     S = {"n": n, "x": x, "u": u, "pk": pk, "pg": pg, "F": ca.vertcat(*F), "g": ca.vertcat(*g)}
     S.update(gN=ca.vertcat(*gN) if gN else SX.zeros(0), cost=cost, dims=dm)
     for key, size in (("x", dm["nx"]), ("g", dm["ng"]), ("gN", dm["ngn"]), ("pk", dm["npk"])):

@@ -161,8 +161,8 @@ too), refitted to be an exact piecewise polynomial on the node grid
 (:mod:`armlab.planning.warmstart`) and slowed down uniformly until its torques fit.
 (``armlab.trajectory.ptp_sync`` is not used: sampled on our grid its profile does not satisfy
 the integration equations, and an inconsistent start measurably slowed IPOPT down.) The solver
-is fatrop on stage functions compiled once per robot kinematics where it applies (jerk mode,
-the time objectives; :mod:`armlab.planning.fatrop_backend`, ``stats["solver"]`` and
+is fatrop on stage functions compiled once per robot kinematics where it applies (jerk and
+acceleration mode, every objective; :mod:`armlab.planning.fatrop_backend`, ``stats["solver"]`` and
 ``stats["fallback"]``), else IPOPT (CasADi SX) with the exact Hessian, by default without
 the curvature of the torque-limit rows (``hessian="partial"``,
 :data:`armlab.planning.transcription.HESSIANS`; where the time goes and what was measured:
