@@ -27,6 +27,7 @@ wherever fatrop does not converge.
 from __future__ import annotations
 
 import ctypes
+import functools
 import os
 import threading
 import time
@@ -34,6 +35,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from armlab._lazy import lazy_import
 from armlab.planning import optimal_bounds
 from armlab.planning.fatrop_stages import (
     FatropUnavailable,
@@ -46,12 +48,18 @@ from armlab.planning.transcription import (
     PARTIAL_MAX_ITER,
     TORQUE_INTERIOR_POINTS,
     Structure,
+    _drive_rows,
 )
+from armlab.robot import rigid_body
 from armlab.robot.limits import Limits
 from armlab.robot.symbolic import dynamic_parameters
 
 if TYPE_CHECKING:
+    import casadi as ca
+
     from armlab.planning.optimal_problem import OptimalProblem
+else:
+    ca = lazy_import("casadi")
 
 __all__ = ["attempt", "not_covered", "watchdog_budget_s", "SOLVER_ENV", "FATROP_OPTIONS"]
 
@@ -76,6 +84,11 @@ FATROP_MAX_ITER = 300
 #: per interval, in [s] (measured solves take 0.15-1.2 ms per interval; a mis-posed one ran
 #: > 2 min uncapped)
 WATCHDOG_BASE_S = 2.0
+#: ``drive_limits`` plans are solved without the RMS row first, and with it only where it does
+#: not hold there (:func:`_fatrop`; False: with it from the start). The RMS integral costs 7
+#: states a stage on six joints (their derivatives 36 % of the Hessian's instructions): a
+#: teachbot6 iteration 3.7 -> 2.3 ms, 3-waypoint plans 148 -> ~90 ms (measured)
+DRIVE_RMS_LAST = True
 WATCHDOG_PER_INTERVAL_S = 0.02
 
 _LOCK = threading.Lock()
@@ -89,9 +102,10 @@ def watchdog_budget_s(n_intervals: int) -> float:
     return WATCHDOG_BASE_S + WATCHDOG_PER_INTERVAL_S * n_intervals
 
 
-def variant(prob: OptimalProblem) -> Variant:
-    """The stage library that solves ``prob`` (:class:`~armlab.planning.fatrop_stages.Variant`)."""
-    return Variant(prob.mode, bool(prob.drive_limits), prob.duration is not None)
+def variant(prob: OptimalProblem, rms: bool = True) -> Variant:
+    """The stage library that solves ``prob`` (:class:`~armlab.planning.fatrop_stages.Variant`);
+    ``rms=False``: with ``drive_limits``, the one without the RMS row (:func:`_fatrop`)."""
+    return Variant(prob.mode, bool(prob.drive_limits), prob.duration is not None, rms)
 
 
 def not_covered(prob: OptimalProblem, hessian: str) -> str:
@@ -196,7 +210,7 @@ def _layout(prob: OptimalProblem, torque_rows: bool, var: Variant) -> tuple[Stru
         if var.drive:
             for t, name in enumerate(DRIVE_ROW_TAGS):
                 add("motor_envelope", nodes, np.where(nodes < N, 4 * n, n) + t * n, name)
-            add("motor_rms", [N], 9 * n)
+            add("motor_rms", [N if var.has_rms else -1], 9 * n)
     else:
         add("position", ivals, 2 * n)
         if torque_rows:
@@ -206,7 +220,7 @@ def _layout(prob: OptimalProblem, torque_rows: bool, var: Variant) -> tuple[Stru
             for side in range(2):
                 for t, name in enumerate(DRIVE_ROW_TAGS):
                     add("motor_envelope", ivals, (3 + 8 * side + t) * n, name, side * N)
-            add("motor_rms", [N], 0)
+            add("motor_rms", [N if var.has_rms else -1], 0)
     kind, tag, col, spot = (np.concatenate(z) for z in (kinds, tags, cols, where))
     joint = np.tile(J, kind.size // n)
     if var.duration:
@@ -280,6 +294,7 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
         dc = p[o : o + 9 * n]
         o += 9 * n + n * st.n_drive_columns  # the directions, read below from their home
         drive = [dc, p[o : o + n], p[o + n : o + 2 * n]]  # coefficients, eps, cont^2
+        drive = drive if var.has_rms else drive[:1]
         sig = prob._column_directions()  # (n, columns)
         if var.jerk:
             Pk[:, 2:] = sig.T
@@ -309,7 +324,7 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
     lX[0, it + 1 :] = hX[0, it + 1 :] = 0.0  # integrals and elapsed time start at 0
     if var.elapsed:
         X0[:, -1] = te0
-    if var.drive:  # a guess of the RMS integrals (half the rating); hp = the last interval
+    if var.has_rms:  # a guess of the RMS integrals (half the rating); hp = the last interval
         X0[:, it + 1 : it + 1 + n] = 0.5 * te0[:, None]
         if var.jerk:
             X0[1:, it + 1 + n] = h0 / s_e
@@ -402,8 +417,75 @@ def _instance(lib, key: str, b, data, gmask, rest, exact: bool) -> _Instance:
 # ----------------------------------------------------------------------------- solve
 def _fatrop(prob: OptimalProblem, hessian: str, limits: Limits, x0: np.ndarray, drive_scale):
     """One fatrop solve: the optimiser's ``_attempt`` tuple, and a failure reason ("" if
-    none)."""
+    none).
+
+    With ``drive_limits`` the problem is first solved without its RMS row (the variant
+    ``rms=False``: no RMS integral states and elapsed time, 7 states fewer a stage on six
+    joints). If the
+    RMS row holds at that optimum (:func:`rms_row`, the row's own expression at the
+    solution), the optimum is the full problem's: it is feasible for it, and optimal for a
+    problem with fewer rows (its KKT point, the RMS multiplier 0). Otherwise the full problem
+    is solved from there. ``info["drive_rms"]`` says which (``"inactive, checked"``, or
+    ``"re-solved with the RMS row"``)."""
     var = variant(prob)
+    if not (var.drive and DRIVE_RMS_LAST):
+        return _solve_variant(prob, hessian, limits, x0, drive_scale, var)
+    out, why = _solve_variant(prob, hessian, limits, x0, drive_scale, variant(prob, rms=False))
+    if why:
+        return out, why
+    st, x, info, arm, _ = out
+    ratio = rms_row(prob, st, x, arm[4])
+    if float(np.max(ratio)) <= 1.0:
+        info["drive_rms"] = "inactive, checked"
+        return out, why
+    out2, why = _solve_variant(prob, hessian, limits, x, drive_scale, var)
+    out2[2]["iterations"] += info["iterations"]
+    out2[2]["solve_time_s"] += info["solve_time_s"]
+    out2[2]["drive_rms"] = "re-solved with the RMS row"
+    return out2, why
+
+
+@functools.lru_cache(maxsize=8)
+def _rms_point(n: int) -> ca.Function:
+    """``(tau, qd, qdd, w, dc, sigma, eps) -> w T_m^2`` (n,) at one point: the numerator of the
+    RMS row (:func:`armlab.planning.transcription._drive_rows`, the same expression)."""
+    SX = ca.SX
+    tau, v, a, dc = SX.sym("tau", n), SX.sym("v", n), SX.sym("a", n), SX.sym("dc", 9 * n)
+    w, sig, eps = SX.sym("w"), SX.sym("sig", n), SX.sym("eps", n)
+    _, num = _drive_rows([(tau, v, a)], [w], dc, sig, eps, n)
+    return ca.Function("rms_point", [tau, v, a, w, dc, sig, eps], [num])
+
+
+def rms_row(prob: OptimalProblem, st: Structure, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """The RMS row of ``drive_limits`` at the plan ``x`` (unscaled variables), per joint:
+    ``sum_k w_k T_m,k^2 / (cont^2 sum h)`` with the trapezoid weights ``w_k`` of its points
+    (the nodes in jerk mode, both ends of every interval in acceleration mode) and the bound's
+    back-off scale in ``cont^2`` (the parameters ``p``, :func:`~armlab.planning.optimal_bounds
+    .params`); the row holds where it is <= 1. The torques are the rigid-body model's
+    (:func:`armlab.robot.rigid_body.inverse_dynamics`, the same model as the rows')."""
+    n, N = prob.n, prob.N
+    q, v, a, u, h = prob._unpack(st, x)
+    sig = prob._column_directions()
+    dc, eps, cont2 = p[-sig.size - 11 * n : -sig.size - 2 * n], p[-2 * n : -n], p[-n:]
+    if prob.mode == "jerk":
+        Q, V, A = q, v, a
+        w = np.zeros(N + 1)
+        w[:-1] += h / 2
+        w[1:] += h / 2
+    else:  # the left and then the right end of every interval, its acceleration u
+        Q, V, A = np.vstack([q[:-1], q[1:]]), np.vstack([v[:-1], v[1:]]), np.vstack([u, u])
+        w = np.concatenate([h, h]) / 2
+    tau = rigid_body.inverse_dynamics(prob.robot, Q, V, A)
+    m = w.size
+    f = _rms_point(n).map(m)
+    num = np.asarray(
+        f(tau.T, V.T, A.T, w[None, :], np.tile(dc[:, None], m), sig, np.tile(eps[:, None], m))
+    )
+    return num.sum(axis=1) / (cont2 * float(np.sum(h)))
+
+
+def _solve_variant(prob: OptimalProblem, hessian: str, limits: Limits, x0, drive_scale, var):
+    """One fatrop solve with the stage library ``var``: as :func:`_fatrop`."""
     lib, key = _library(prob.robot, var)
     st, spot = _layout(prob, limits.torque_Nm is not None, var)
     b, data, gmask, rest, arm, sv = _stage_data(prob, st, spot, var, limits, x0, drive_scale)
