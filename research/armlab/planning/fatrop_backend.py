@@ -84,6 +84,13 @@ FATROP_MAX_ITER = 300
 #: per interval, in [s] (measured solves take 0.15-1.2 ms per interval; a mis-posed one ran
 #: > 2 min uncapped)
 WATCHDOG_BASE_S = 2.0
+#: fatrop's initial barrier parameter (its default) and the one of a drive-limited solve that
+#: starts from a converged plan (a back-off re-solve, or the RMS row added; fatrop's C
+#: interface takes no multipliers): from 0.1 such a re-solve took as many iterations as a cold
+#: solve or more (70, 82 and 64 + 52 on three teachbot6 3-waypoint cases), from 1e-5 22, 31 and
+#: 56 + 44 (measured; 1e-3: 33, 46, 38 + 40)
+MU_INIT = 0.1
+WARM_MU_INIT = 1e-5
 #: ``drive_limits`` plans are solved without the RMS row first, and with it only where it does
 #: not hold there (:func:`_fatrop`; False: with it from the start). The RMS integral costs 7
 #: states a stage on six joints (their derivatives 36 % of the Hessian's instructions): a
@@ -343,7 +350,8 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
         d = spot[st.g_kind == "duration"][0]
         lX[N, -1] = hX[N, -1] = lG[d] / s_e
         lG[d], hG[d] = -np.inf, np.inf
-        # and every other bound moved in, so no tolerance stretch lengthens the plan
+    if var.duration or var.drive:
+        # every other bound moved in, so no tolerance stretch lengthens the plan (_inward)
         (lX, hX), (lU, hU), (lG, hG) = _inward(lX, hX), _inward(lU, hU), _inward(lG, hG)
     arrays = [lX, hX, lU, hU, lG, hG]
     gmask = np.ones(N * dm["ng"] + dm["ngn"], np.int32)
@@ -361,7 +369,11 @@ def _inward(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     that fraction, which a fixed duration must not be; so a fixed-duration solve gets its bounds
     moved in by a little more than the relaxation. (A time-optimal solve keeps its bounds: moved
     in, 20-waypoint solves took 5 % more iterations and 9 % more time, measured, for a stretch
-    of 1e-8 it no longer needs.)"""
+    of 1e-8 it no longer needs.) A drive-limited solve gets them moved in too: its iterations
+    did not change (23, 26, 25, 18 against 23, 26, 24, 18 on four 3-waypoint cases), and where
+    the stretch was needed (4 of 8 cases) the plan's fine-grid samples and drive check were
+    computed twice more (after the stretch), 10 of ~85 ms a plan (measured); the plans are
+    1e-8 to 2e-8 longer."""
     lo, hi = lo.copy(), hi.copy()
     m = BOUND_MARGIN
     d_lo, d_hi = m * np.maximum(np.abs(lo), 1.0), m * np.maximum(np.abs(hi), 1.0)
@@ -438,7 +450,7 @@ def _fatrop(prob: OptimalProblem, hessian: str, limits: Limits, x0: np.ndarray, 
     if float(np.max(ratio)) <= 1.0:
         info["drive_rms"] = "inactive, checked"
         return out, why
-    out2, why = _solve_variant(prob, hessian, limits, x, drive_scale, var)
+    out2, why = _solve_variant(prob, hessian, limits, x, drive_scale, var, True)
     out2[2]["iterations"] += info["iterations"]
     out2[2]["solve_time_s"] += info["solve_time_s"]
     out2[2]["drive_rms"] = "re-solved with the RMS row"
@@ -484,8 +496,20 @@ def rms_row(prob: OptimalProblem, st: Structure, x: np.ndarray, p: np.ndarray) -
     return num.sum(axis=1) / (cont2 * float(np.sum(h)))
 
 
-def _solve_variant(prob: OptimalProblem, hessian: str, limits: Limits, x0, drive_scale, var):
-    """One fatrop solve with the stage library ``var``: as :func:`_fatrop`."""
+def _resolve(prob: OptimalProblem, limits: Limits, drive_scale) -> bool:
+    """Whether this solve is a back-off re-solve (tightened limits or drive scales: it starts
+    from the last plan, :func:`armlab.planning.timescale.backoff_solve`)."""
+    if limits is not prob.limits:
+        return True
+    return drive_scale is not None and any(np.any(np.asarray(z) != 1.0) for z in drive_scale)
+
+
+def _solve_variant(
+    prob: OptimalProblem, hessian: str, limits: Limits, x0, drive_scale, var, from_plan=False
+):
+    """One fatrop solve with the stage library ``var``: as :func:`_fatrop`; ``from_plan``: ``x0``
+    is a converged plan (of the problem without the RMS row). A drive-limited solve from a
+    plan (that, or a back-off re-solve) starts its barrier at :data:`WARM_MU_INIT`."""
     lib, key = _library(prob.robot, var)
     st, spot = _layout(prob, limits.torque_Nm is not None, var)
     b, data, gmask, rest, arm, sv = _stage_data(prob, st, spot, var, limits, x0, drive_scale)
@@ -498,7 +522,12 @@ def _solve_variant(prob: OptimalProblem, hessian: str, limits: Limits, x0, drive
     with _LOCK:
         inst = _instance(lib, key, b, data, gmask, rest, exact)
         tol = FATROP_TOL_FIXED_DURATION if var.duration else FATROP_OPTIONS["tol"]
+        warm = var.drive and (from_plan or _resolve(prob, limits, drive_scale))
+        if warm:
+            lib.fp_set_option(inst.ptr, b"mu_init", WARM_MU_INIT)
         ret, X, U, stats = inst.solve(cap, budget, dm["nx"], dm["nu"], tol)
+        if warm:
+            lib.fp_set_option(inst.ptr, b"mu_init", MU_INIT)
         if ret != 0 or stats[13] or not np.all(np.isfinite(X)):
             # a failed or aborted instance is not reused (its state may hold NaN)
             _POOL.pop((key, tuple(b.tolist())), None)
