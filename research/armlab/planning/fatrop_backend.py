@@ -11,7 +11,8 @@ shape (intervals and segment ends) in milliseconds and reused with new data.
 
 Where fatrop is used: jerk mode (a jerk limit) and acceleration mode (none), the ``"time"`` and
 ``"time+smooth"`` objectives and the fixed-duration ``"jerk"`` objective, with or without
-torque limits, with or without ``drive_limits`` (the motor envelope and RMS rows), via
+torque limits, with or without ``drive_limits`` (the motor envelope rows, and the RMS row
+only where it binds: :func:`_fatrop`), via
 tolerances and moving start or goal states, Hessian ``"partial"`` or ``"exact"``; each
 combination of mode, drive rows and duration row is its own compiled library
 (:class:`~armlab.planning.fatrop_stages.Variant`). Everything else is solved by IPOPT and
@@ -94,7 +95,8 @@ WARM_MU_INIT = 1e-5
 #: ``drive_limits`` plans are solved without the RMS row first, and with it only where it does
 #: not hold there (:func:`_fatrop`; False: with it from the start). The RMS integral costs 7
 #: states a stage on six joints (their derivatives 36 % of the Hessian's instructions): a
-#: teachbot6 iteration 3.7 -> 2.3 ms, 3-waypoint plans 148 -> ~90 ms (measured)
+#: teachbot6 iteration 3.7 -> 2.3 ms, 3-waypoint plans 141 -> 90 ms (median of the 5 moves of
+#: bench_trajectory.py --calls-only, measured)
 DRIVE_RMS_LAST = True
 WATCHDOG_PER_INTERVAL_S = 0.02
 

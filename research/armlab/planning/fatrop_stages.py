@@ -40,6 +40,8 @@ Other variants (:class:`Variant`, each its own library):
   in jerk mode the node weight ``(h_{k-1} + h_k)/2`` needs the last interval, carried as one
   more state) with the elapsed time ``t`` (``t_{k+1} = t_k + h``) and checked at the last
   node, ``E_N / t_N <= 1``. ``E`` and ``t`` are scaled by ``s_e = sum s_T``.
+* **drive rows without the RMS row** (``rms=False``): the envelope rows alone, no ``E``, no
+  ``t`` (what :func:`armlab.planning.fatrop_backend._fatrop` solves first).
 * **fixed duration** (``duration=``, the ``"jerk"`` objective): the elapsed time as a state
   and the last node's row ``t_N = D``.
 
@@ -127,7 +129,8 @@ FUNCTION_NAMES = (
 @dataclass(frozen=True)
 class Variant:
     """Which stage library: the mode (``"jerk"`` or ``"acceleration"``), the motor-envelope
-    and RMS rows (``drive``) and the fixed-duration row (``duration``). Each variant is its
+    and RMS rows (``drive``; ``rms=False``: the envelope rows without the RMS row) and the
+    fixed-duration row (``duration``). Each variant is its
     own compiled library (:func:`compiled_library`): the demo's (jerk, no drive rows, no
     duration row) stays as small and as fast to compile as before."""
 
