@@ -200,6 +200,55 @@ def test_drive_plan_with_a_binding_rms_row_is_the_full_problems(compiled, robot)
     assert 0.99 < rms[j] <= 1 + 1e-6
 
 
+def _rms_row_by_hand(robot, prob, x) -> np.ndarray:
+    """The RMS row of a plan written out here: the trapezoid sum of the smoothed motor torque
+    squared over its points (both ends of every interval in acceleration mode, the knots in
+    jerk mode), over the elapsed time and the continuous rating squared
+    (transcription._drive_rows' formula: ``T_m = tau_out / N (eta_b + (1 / eta - eta_b) p) +
+    J N qdd + b_m N qd``, ``tau_out = tau + F_c s + F_v qd``, ``p = 1 - s^2 (1 - logistic(s
+    tau_out / eps))``, ``eps`` 1 % of the available joint torque)."""
+    from armlab.robot import drivetrain, rigid_body
+
+    n = prob.n
+    st = fatrop_backend.layout_structure(prob, torque_rows=True)
+    q, v, a, u, h = prob._unpack(st, x)
+    s = prob.node_directions()  # (N + 1, n)
+    if prob.mode == "jerk":
+        Q, V, A, S = q, v, a, s
+        w = np.append(h, 0.0) / 2 + np.insert(h, 0, 0.0) / 2
+    else:
+        Q, V, A = np.vstack([q[:-1], q[1:]]), np.vstack([v[:-1], v[1:]]), np.vstack([u, u])
+        S, w = np.vstack([s[:-1], s[1:]]), np.concatenate([h, h]) / 2
+    train = drivetrain.drive_train(robot)
+    ratio, eta, eta_b, J, b_m, f_c, f_v = train.symbolic_coefficients()[:, :7].T
+    eps = 1e-2 * train.available_joint_torque_Nm
+    tau_out = rigid_body.inverse_dynamics(robot, Q, V, A) + f_c * S + f_v * V
+    p = 1 - S**2 * (1 - 1 / (1 + np.exp(-S * tau_out / eps)))
+    t_m = tau_out / ratio * (eta_b + (1 / eta - eta_b) * p) + J * ratio * A + b_m * ratio * V
+    assert t_m.shape == (w.size, n)
+    return (w @ t_m**2) / (h.sum() * train.continuous_motor_torque_Nm**2)
+
+
+@pytest.mark.parametrize(("w", "kw"), [(W3, DRIVE_ACC), (W2, {"drive_limits": True})])
+def test_rms_row_is_the_rows_formula(compiled, robot, w, kw):
+    """The RMS row the optimum without it is checked with (``fatrop_backend.rms_row``, from
+    the row's own CasADi expression) against the row written out by hand, in both modes;
+    the RMS rating enters squared, so a back-off scale of the rating s divides it by s^2."""
+    from armlab.planning import optimal_bounds
+
+    prob = build_optimal(robot, w, **kw)
+    prob.solve()
+    x = prob.solution_x
+    st = fatrop_backend.layout_structure(prob, torque_rows=True)
+    ones = np.ones(prob.n)
+    p = optimal_bounds.params(prob, prob.limits, (ones, ones), st=st)
+    row = fatrop_backend.rms_row(prob, st, x, p)
+    np.testing.assert_allclose(row, _rms_row_by_hand(robot, prob, x), rtol=1e-9)
+    assert 0.01 < float(np.max(row)) < 1  # a plan well inside the rating (0.07 of it squared)
+    half = optimal_bounds.params(prob, prob.limits, (ones, 0.5 * ones), st=st)
+    np.testing.assert_allclose(fatrop_backend.rms_row(prob, st, x, half), 4 * row, rtol=1e-12)
+
+
 def _jerk_integral(traj, robot) -> float:
     """Integral of the squared jerk over the jerk limit (the "jerk" objective, by the
     trapezoid rule on a fine grid, independent of the optimiser's own sum)."""

@@ -449,7 +449,7 @@ def _fatrop(prob: OptimalProblem, hessian: str, limits: Limits, x0: np.ndarray, 
         return out, why
     st, x, info, arm, _ = out
     ratio = rms_row(prob, st, x, arm[4])
-    if float(np.max(ratio)) <= 1.0:
+    if float(np.max(ratio)) <= 1.0 - BOUND_MARGIN:  # the row's bound as its solve has it
         info["drive_rms"] = "inactive, checked"
         return out, why
     out2, why = _solve_variant(prob, hessian, limits, x, drive_scale, var, True)
