@@ -92,6 +92,11 @@ WATCHDOG_BASE_S = 2.0
 #: 56 + 44 (measured; 1e-3: 33, 46, 38 + 40)
 MU_INIT = 0.1
 WARM_MU_INIT = 1e-5
+#: and the one of a drive-limited solve from the warm start: from 0.1 four 3-waypoint
+#: teachbot6 cases without a back-off round took 23, 26, 25 and 18 iterations, from 1e-3 16,
+#: 23, 21 and 16, their durations 0.3-1.6e-8 closer to IPOPT's (measured; 1e-4 about the
+#: same, 1e-2 and 1 no fewer)
+DRIVE_MU_INIT = 1e-3
 #: ``drive_limits`` plans are solved without the RMS row first, and with it only where it does
 #: not hold there (:func:`_fatrop`; False: with it from the start). The RMS integral costs 7
 #: states a stage on six joints (their derivatives 36 % of the Hessian's instructions): a
@@ -528,8 +533,9 @@ def _solve_variant(
     prob: OptimalProblem, hessian: str, limits: Limits, x0, drive_scale, var, from_plan=False
 ):
     """One fatrop solve with the stage library ``var``: as :func:`_fatrop`; ``from_plan``: ``x0``
-    is a converged plan (of the problem without the RMS row). A drive-limited solve from a
-    plan (that, or a back-off re-solve) starts its barrier at :data:`WARM_MU_INIT`."""
+    is a converged plan (of the problem without the RMS row). A drive-limited solve starts its
+    barrier at :data:`DRIVE_MU_INIT`, from a plan (that, or a back-off re-solve) at
+    :data:`WARM_MU_INIT`."""
     lib, key = _library(prob.robot, var)
     st, spot = _layout(prob, limits.torque_Nm is not None, var)
     b, data, gmask, rest, arm, sv = _stage_data(prob, st, spot, var, limits, x0, drive_scale)
@@ -542,11 +548,12 @@ def _solve_variant(
     with _LOCK:
         inst = _instance(lib, key, b, data, gmask, rest, exact)
         tol = FATROP_TOL_FIXED_DURATION if var.duration else FATROP_OPTIONS["tol"]
-        warm = var.drive and (from_plan or _resolve(prob, limits, drive_scale))
-        if warm:
-            lib.fp_set_option(inst.ptr, b"mu_init", WARM_MU_INIT)
+        if var.drive:
+            warm = from_plan or _resolve(prob, limits, drive_scale)
+            mu = WARM_MU_INIT if warm else DRIVE_MU_INIT
+            lib.fp_set_option(inst.ptr, b"mu_init", mu)
         ret, X, U, stats = inst.solve(cap, budget, dm["nx"], dm["nu"], tol)
-        if warm:
+        if var.drive:
             lib.fp_set_option(inst.ptr, b"mu_init", MU_INIT)
         if ret != 0 or stats[13] or not np.all(np.isfinite(X)):
             # a failed or aborted instance is not reused (its state may hold NaN)
