@@ -85,17 +85,16 @@ FATROP_MAX_ITER = 300
 #: per interval, in [s] (measured solves take 0.15-1.2 ms per interval; a mis-posed one ran
 #: > 2 min uncapped)
 WATCHDOG_BASE_S = 2.0
-#: fatrop's initial barrier parameter (its default) and the one of a drive-limited solve that
-#: starts from a converged plan (a back-off re-solve, or the RMS row added; fatrop's C
-#: interface takes no multipliers): from 0.1 such a re-solve took as many iterations as a cold
-#: solve or more (70, 82 and 64 + 52 on three teachbot6 3-waypoint cases), from 1e-5 22, 31 and
-#: 56 + 44 (measured; 1e-3: 33, 46, 38 + 40)
+#: fatrop's initial barrier parameter (its default), and the one of a drive-limited solve from
+#: the warm start (the first of a plan): from 0.1 four 3-waypoint teachbot6 cases without a
+#: back-off round took 23, 26, 25 and 18 iterations, from 1e-3 16, 23, 21 and 16, durations
+#: 0.3-1.6e-8 closer to IPOPT's (measured; 1e-4 about the same, 1e-2 and 1 no fewer). A
+#: re-solve from a converged plan (a back-off round, the RMS row added) keeps the default:
+#: started at 1e-5 they took half the iterations, but on 15 cases (bench_drive_limits and
+#: bench_trajectory moves) one ended after 4 back-off rounds instead of 1, 5.6e-6 longer than
+#: IPOPT's plan, and with 0.1 for every solve one failed (measured); with 0.1 for re-solves
+#: every duration within 1.6e-6 of IPOPT's, the same iterations in all (744 against 733)
 MU_INIT = 0.1
-WARM_MU_INIT = 1e-5
-#: and the one of a drive-limited solve from the warm start: from 0.1 four 3-waypoint
-#: teachbot6 cases without a back-off round took 23, 26, 25 and 18 iterations, from 1e-3 16,
-#: 23, 21 and 16, their durations 0.3-1.6e-8 closer to IPOPT's (measured; 1e-4 about the
-#: same, 1e-2 and 1 no fewer)
 DRIVE_MU_INIT = 1e-3
 #: ``drive_limits`` plans are solved without the RMS row first, and with it only where it does
 #: not hold there (:func:`_fatrop`; False: with it from the start). The RMS integral costs 7
@@ -533,9 +532,9 @@ def _solve_variant(
     prob: OptimalProblem, hessian: str, limits: Limits, x0, drive_scale, var, from_plan=False
 ):
     """One fatrop solve with the stage library ``var``: as :func:`_fatrop`; ``from_plan``: ``x0``
-    is a converged plan (of the problem without the RMS row). A drive-limited solve starts its
-    barrier at :data:`DRIVE_MU_INIT`, from a plan (that, or a back-off re-solve) at
-    :data:`WARM_MU_INIT`."""
+    is a converged plan (of the problem without the RMS row). The first drive-limited solve
+    of a plan starts its barrier at :data:`DRIVE_MU_INIT`; one from a converged plan (that, or
+    a back-off re-solve) at fatrop's default :data:`MU_INIT`."""
     lib, key = _library(prob.robot, var)
     st, spot = _layout(prob, limits.torque_Nm is not None, var)
     b, data, gmask, rest, arm, sv = _stage_data(prob, st, spot, var, limits, x0, drive_scale)
@@ -548,12 +547,11 @@ def _solve_variant(
     with _LOCK:
         inst = _instance(lib, key, b, data, gmask, rest, exact)
         tol = FATROP_TOL_FIXED_DURATION if var.duration else FATROP_OPTIONS["tol"]
-        if var.drive:
-            warm = from_plan or _resolve(prob, limits, drive_scale)
-            mu = WARM_MU_INIT if warm else DRIVE_MU_INIT
-            lib.fp_set_option(inst.ptr, b"mu_init", mu)
+        first = var.drive and not (from_plan or _resolve(prob, limits, drive_scale))
+        if first:
+            lib.fp_set_option(inst.ptr, b"mu_init", DRIVE_MU_INIT)
         ret, X, U, stats = inst.solve(cap, budget, dm["nx"], dm["nu"], tol)
-        if var.drive:
+        if first:
             lib.fp_set_option(inst.ptr, b"mu_init", MU_INIT)
         if ret != 0 or stats[13] or not np.all(np.isfinite(X)):
             # a failed or aborted instance is not reused (its state may hold NaN)
