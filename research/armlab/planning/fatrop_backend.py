@@ -85,15 +85,19 @@ FATROP_MAX_ITER = 300
 #: per interval, in [s] (measured solves take 0.15-1.2 ms per interval; a mis-posed one ran
 #: > 2 min uncapped)
 WATCHDOG_BASE_S = 2.0
+WATCHDOG_PER_INTERVAL_S = 0.02
 #: fatrop's initial barrier parameter (its default), and the one of a drive-limited solve from
 #: the warm start (the first of a plan): from 0.1 four 3-waypoint teachbot6 cases without a
 #: back-off round took 23, 26, 25 and 18 iterations, from 1e-3 16, 23, 21 and 16, durations
 #: 0.3-1.6e-8 closer to IPOPT's (measured; 1e-4 about the same, 1e-2 and 1 no fewer). A
 #: re-solve from a converged plan (a back-off round, the RMS row added) keeps the default:
-#: started at 1e-5 they took half the iterations, but on 15 cases (bench_drive_limits and
-#: bench_trajectory moves) one ended after 4 back-off rounds instead of 1, 5.6e-6 longer than
-#: IPOPT's plan, and with 0.1 for every solve one failed (measured); with 0.1 for re-solves
-#: every duration within 1.6e-6 of IPOPT's, the same iterations in all (744 against 733)
+#: from 1e-5 re-solves took half the iterations, but of 15 acceleration-mode cases
+#: (bench_drive_limits --quick, bench_trajectory's drive moves) one then ended after 4 back-off
+#: rounds instead of 1, 5.6e-6 longer than IPOPT's plan (and failed with 0.1 for the first
+#: solve); as set, every duration within 1.6e-6 of IPOPT's, 744 iterations in all against 733
+#: (measured). Where a back-off round is needed the first plan's excess between the knots
+#: sets the tightened problem, so another start can end in another local optimum: one of six
+#: jerk-mode cases 4.1e-5 shorter than IPOPT's (3.6e-6 with 0.1 for the first solve)
 MU_INIT = 0.1
 DRIVE_MU_INIT = 1e-3
 #: ``drive_limits`` plans are solved without the RMS row first, and with it only where it does
@@ -102,7 +106,6 @@ DRIVE_MU_INIT = 1e-3
 #: teachbot6 iteration 3.7 -> 2.3 ms, 3-waypoint plans 141 -> 90 ms (median of the 5 moves of
 #: bench_trajectory.py --calls-only, measured)
 DRIVE_RMS_LAST = True
-WATCHDOG_PER_INTERVAL_S = 0.02
 
 _LOCK = threading.Lock()
 _LIBS: dict[str, Any] = {}  # library key -> ctypes.CDLL, or the FatropUnavailable reason
@@ -457,12 +460,11 @@ def _fatrop(prob: OptimalProblem, hessian: str, limits: Limits, x0: np.ndarray, 
 
     With ``drive_limits`` the problem is first solved without its RMS row (the variant
     ``rms=False``: no RMS integral states and elapsed time, 7 states fewer a stage on six
-    joints). If the
-    RMS row holds at that optimum (:func:`rms_row`, the row's own expression at the
-    solution), the optimum is the full problem's: it is feasible for it, and optimal for a
-    problem with fewer rows (its KKT point, the RMS multiplier 0). Otherwise the full problem
-    is solved from there. ``info["drive_rms"]`` says which (``"inactive, checked"``, or
-    ``"re-solved with the RMS row"``)."""
+    joints). If the RMS row holds at that optimum (:func:`rms_row`, the row's own expression
+    at the solution), the optimum is the full problem's: it is feasible for it, and optimal
+    for a problem with fewer rows (its KKT point, the RMS multiplier 0). Otherwise the full
+    problem is solved from there. ``info["drive_rms"]`` says which (``"inactive, checked"``,
+    or ``"re-solved with the RMS row"``)."""
     var = variant(prob)
     if not (var.drive and DRIVE_RMS_LAST):
         return _solve_variant(prob, hessian, limits, x0, drive_scale, var)
