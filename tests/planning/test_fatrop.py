@@ -127,6 +127,130 @@ def test_new_variants_plan_as_ipopt(compiled, robot, w, kw):
     np.testing.assert_allclose(fat.q[-1], w[-1], atol=1e-9)
 
 
+DRIVE_ACC = {"a_max": False, "j_max": False, "drive_limits": True, "n_intervals": 8}
+
+
+def _three_ways(robot, w, **kw):
+    """The plan of fatrop as it runs (the RMS row checked after a solve without it), of fatrop
+    with the RMS row from the start, and of IPOPT."""
+    with pytest.MonkeyPatch.context() as mp:
+        fat = optimal(robot, w, **kw)
+        mp.setattr(fatrop_backend, "DRIVE_RMS_LAST", False)
+        full = optimal(robot, w, **kw)
+        ref = _ipopt(mp, robot, w, **kw)
+    for plan in (fat, full):
+        assert plan.stats["solver"] == "fatrop" and plan.stats["fallback"] == ""
+    return fat, full, ref
+
+
+def test_drive_plan_without_a_binding_rms_row_is_the_full_problems(compiled, robot):
+    """teachbot6's motors run far below their RMS rating on W3 (0.25 of it, measured): the
+    plan solved without the RMS row, the row checked at its optimum, has the duration of the
+    full problem's plan (fatrop with the row, and IPOPT), within the envelope and the
+    rating by the independent drive check."""
+    fat, full, ref = _three_ways(robot, W3, **DRIVE_ACC)
+    assert fat.stats["drive_rms"] == "inactive, checked"
+    assert full.stats["drive_rms"] == ref.stats["drive_rms"] == "solved with the RMS row"
+    for other in (full, ref):
+        assert fat.stats["duration_s"] == pytest.approx(other.stats["duration_s"], rel=1e-6)
+    assert fat.stats["ok"] and fat.report.ok(1e-6) and _drive_ok(fat)
+    assert max(fat.stats["drive_ratios"]["motor_rms"]) < 0.5
+
+
+def _weak_rms(robot, plan, factor: float):
+    """``robot`` with the continuous rating of the motor that ``plan`` loads most (RMS over
+    rating) lowered to ``1 / factor`` of that plan's RMS torque; the peak rating kept (the
+    envelope unchanged): on ``plan``'s path the RMS row then binds."""
+    import dataclasses
+
+    rms = np.asarray(plan.stats["drive_ratios"]["motor_rms"])
+    j = int(np.argmax(rms))
+    name = robot.joint_names[j]
+    d = robot.drives[name]
+    motor = dataclasses.replace(
+        d.motor,
+        stall_torque_Nm=d.motor.stall_torque_Nm * rms[j] / factor,
+        peak_torque_Nm=d.peak_motor_torque_rating_Nm,
+    )
+    weak = robot.copy()
+    weak.drives = {**robot.drives, name: dataclasses.replace(d, motor=motor)}
+    assert weak.drives[name].peak_motor_torque_Nm == pytest.approx(d.peak_motor_torque_Nm)
+    return weak, j
+
+
+def test_drive_plan_with_a_binding_rms_row_is_the_full_problems(compiled, robot):
+    """A motor whose RMS rating the plan without the RMS row would exceed by 10 %: the plan
+    is re-solved with the row (stats say so) and is the full problem's (fatrop with the row
+    from the start, IPOPT): the same duration, the RMS at its rating (the row binds) and
+    every limit held by the independent drive check. (At 30 % over, IPOPT's back-off ends
+    in another local optimum, 1.2e-4 longer than both fatrop plans, which agree to 1.5e-8,
+    measured.)"""
+    from armlab.planning.timescale import drive_check
+    from armlab.robot import drivetrain
+
+    base = optimal(robot, W3, **DRIVE_ACC)
+    weak, j = _weak_rms(robot, base, 1.1)
+    train = drivetrain.drive_train(weak)
+    over = drive_check(base, weak, train, base.duration / 4000)["motor_rms"][j]
+    assert over == pytest.approx(1.1, rel=1e-3)  # the optimum without the row breaks it
+    fat, full, ref = _three_ways(weak, W3, **DRIVE_ACC)
+    assert fat.stats["drive_rms"] == "re-solved with the RMS row"
+    for other in (full, ref):
+        assert fat.stats["duration_s"] == pytest.approx(other.stats["duration_s"], rel=1e-6)
+    assert fat.stats["ok"] and fat.report.ok(1e-6) and _drive_ok(fat)
+    rms = drive_check(fat, weak, train, fat.duration / 4000)["motor_rms"]
+    assert 0.99 < rms[j] <= 1 + 1e-6
+
+
+def _rms_row_by_hand(robot, prob, x) -> np.ndarray:
+    """The RMS row of a plan written out here: the trapezoid sum of the smoothed motor torque
+    squared over its points (both ends of every interval in acceleration mode, the knots in
+    jerk mode), over the elapsed time and the continuous rating squared
+    (transcription._drive_rows' formula: ``T_m = tau_out / N (eta_b + (1 / eta - eta_b) p) +
+    J N qdd + b_m N qd``, ``tau_out = tau + F_c s + F_v qd``, ``p = 1 - s^2 (1 - logistic(s
+    tau_out / eps))``, ``eps`` 1 % of the available joint torque)."""
+    from armlab.robot import drivetrain, rigid_body
+
+    n = prob.n
+    st = fatrop_backend.layout_structure(prob, torque_rows=True)
+    q, v, a, u, h = prob._unpack(st, x)
+    s = prob.node_directions()  # (N + 1, n)
+    if prob.mode == "jerk":
+        Q, V, A, S = q, v, a, s
+        w = np.append(h, 0.0) / 2 + np.insert(h, 0, 0.0) / 2
+    else:
+        Q, V, A = np.vstack([q[:-1], q[1:]]), np.vstack([v[:-1], v[1:]]), np.vstack([u, u])
+        S, w = np.vstack([s[:-1], s[1:]]), np.concatenate([h, h]) / 2
+    train = drivetrain.drive_train(robot)
+    ratio, eta, eta_b, J, b_m, f_c, f_v = train.symbolic_coefficients()[:, :7].T
+    eps = 1e-2 * train.available_joint_torque_Nm
+    tau_out = rigid_body.inverse_dynamics(robot, Q, V, A) + f_c * S + f_v * V
+    p = 1 - S**2 * (1 - 1 / (1 + np.exp(-S * tau_out / eps)))
+    t_m = tau_out / ratio * (eta_b + (1 / eta - eta_b) * p) + J * ratio * A + b_m * ratio * V
+    assert t_m.shape == (w.size, n)
+    return (w @ t_m**2) / (h.sum() * train.continuous_motor_torque_Nm**2)
+
+
+@pytest.mark.parametrize(("w", "kw"), [(W3, DRIVE_ACC), (W2, {"drive_limits": True})])
+def test_rms_row_is_the_rows_formula(compiled, robot, w, kw):
+    """The RMS row the optimum without it is checked with (``fatrop_backend.rms_row``, from
+    the row's own CasADi expression) against the row written out by hand, in both modes;
+    the RMS rating enters squared, so a back-off scale of the rating s divides it by s^2."""
+    from armlab.planning import optimal_bounds
+
+    prob = build_optimal(robot, w, **kw)
+    prob.solve()
+    x = prob.solution_x
+    st = fatrop_backend.layout_structure(prob, torque_rows=True)
+    ones = np.ones(prob.n)
+    p = optimal_bounds.params(prob, prob.limits, (ones, ones), st=st)
+    row = fatrop_backend.rms_row(prob, st, x, p)
+    np.testing.assert_allclose(row, _rms_row_by_hand(robot, prob, x), rtol=1e-9)
+    assert 0.01 < float(np.max(row)) < 1  # a plan well inside the rating (0.07 of it squared)
+    half = optimal_bounds.params(prob, prob.limits, (ones, 0.5 * ones), st=st)
+    np.testing.assert_allclose(fatrop_backend.rms_row(prob, st, x, half), 4 * row, rtol=1e-12)
+
+
 def _jerk_integral(traj, robot) -> float:
     """Integral of the squared jerk over the jerk limit (the "jerk" objective, by the
     trapezoid rule on a fine grid, independent of the optimiser's own sum)."""

@@ -11,7 +11,8 @@ shape (intervals and segment ends) in milliseconds and reused with new data.
 
 Where fatrop is used: jerk mode (a jerk limit) and acceleration mode (none), every objective
 (``"time"``, ``"time+smooth"`` and the fixed-duration ``"jerk"`` and ``"energy"``), with or
-without torque limits, with or without ``drive_limits`` (the motor envelope and RMS rows), via
+without torque limits, with or without ``drive_limits`` (the motor envelope rows, and the RMS
+row only where it binds: :func:`_fatrop`), via
 tolerances and moving start or goal states, Hessian ``"partial"`` or ``"exact"``; each
 combination of mode, drive rows, duration row and energy cost is its own compiled library
 (:class:`~armlab.planning.fatrop_stages.Variant`), compiled on its first use. The energy
@@ -30,6 +31,7 @@ wherever fatrop does not converge.
 from __future__ import annotations
 
 import ctypes
+import functools
 import os
 import threading
 import time
@@ -37,6 +39,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from armlab._lazy import lazy_import
 from armlab.planning import optimal_bounds
 from armlab.planning.fatrop_stages import (
     FatropUnavailable,
@@ -49,12 +52,18 @@ from armlab.planning.transcription import (
     PARTIAL_MAX_ITER,
     TORQUE_INTERIOR_POINTS,
     Structure,
+    _drive_rows,
 )
+from armlab.robot import rigid_body
 from armlab.robot.limits import Limits
 from armlab.robot.symbolic import dynamic_parameters, parametric_inverse_dynamics_function
 
 if TYPE_CHECKING:
+    import casadi as ca
+
     from armlab.planning.optimal_problem import OptimalProblem
+else:
+    ca = lazy_import("casadi")
 
 __all__ = ["attempt", "not_covered", "watchdog_budget_s", "SOLVER_ENV", "FATROP_OPTIONS"]
 
@@ -89,6 +98,26 @@ FATROP_MAX_ITER = 300
 #: > 2 min uncapped)
 WATCHDOG_BASE_S = 2.0
 WATCHDOG_PER_INTERVAL_S = 0.02
+#: fatrop's initial barrier parameter (its default), and the one of a drive-limited solve from
+#: the warm start (the first of a plan): from 0.1 four 3-waypoint teachbot6 cases without a
+#: back-off round took 23, 26, 25 and 18 iterations, from 1e-3 16, 23, 21 and 16, durations
+#: 0.3-1.6e-8 closer to IPOPT's (measured; 1e-4 about the same, 1e-2 and 1 no fewer). A
+#: re-solve from a converged plan (a back-off round, the RMS row added) keeps the default:
+#: from 1e-5 re-solves took half the iterations, but of 15 acceleration-mode cases
+#: (bench_drive_limits --quick, bench_trajectory's drive moves) one then ended after 4 back-off
+#: rounds instead of 1, 5.6e-6 longer than IPOPT's plan (and failed with 0.1 for the first
+#: solve); as set, every duration within 1.6e-6 of IPOPT's, 744 iterations in all against 733
+#: (measured). Where a back-off round is needed the first plan's excess between the knots
+#: sets the tightened problem, so another start can end in another local optimum: one of six
+#: jerk-mode cases 4.1e-5 shorter than IPOPT's (3.6e-6 with 0.1 for the first solve)
+MU_INIT = 0.1
+DRIVE_MU_INIT = 1e-3
+#: ``drive_limits`` plans are solved without the RMS row first, and with it only where it does
+#: not hold there (:func:`_fatrop`; False: with it from the start). The RMS integral costs 7
+#: states a stage on six joints (their derivatives 36 % of the Hessian's instructions): a
+#: teachbot6 iteration 3.7 -> 2.3 ms, 3-waypoint plans 141 -> 90 ms (median of the 5 moves of
+#: bench_trajectory.py --calls-only, measured)
+DRIVE_RMS_LAST = True
 
 _LOCK = threading.Lock()
 _LIBS: dict[str, Any] = {}  # library key -> ctypes.CDLL, or the FatropUnavailable reason
@@ -101,10 +130,13 @@ def watchdog_budget_s(n_intervals: int) -> float:
     return WATCHDOG_BASE_S + WATCHDOG_PER_INTERVAL_S * n_intervals
 
 
-def variant(prob: OptimalProblem) -> Variant:
-    """The stage library that solves ``prob`` (:class:`~armlab.planning.fatrop_stages.Variant`)."""
+def variant(prob: OptimalProblem, rms: bool = True) -> Variant:
+    """The stage library that solves ``prob`` (:class:`~armlab.planning.fatrop_stages.Variant`);
+    ``rms=False``: with ``drive_limits``, the one without the RMS row (:func:`_fatrop`)."""
     energy = prob.objective == "energy"  # always with its fixed duration (optimiser)
-    return Variant(prob.mode, bool(prob.drive_limits), prob.duration is not None, energy)
+    return Variant(
+        prob.mode, bool(prob.drive_limits), prob.duration is not None, energy=energy, rms=rms
+    )
 
 
 def not_covered(prob: OptimalProblem, hessian: str) -> str:
@@ -207,7 +239,7 @@ def _layout(prob: OptimalProblem, torque_rows: bool, var: Variant) -> tuple[Stru
         if var.drive:
             for t, name in enumerate(DRIVE_ROW_TAGS):
                 add("motor_envelope", nodes, np.where(nodes < N, 4 * n, n) + t * n, name)
-            add("motor_rms", [N], 9 * n)
+            add("motor_rms", [N if var.has_rms else -1], 9 * n)
     else:
         add("position", ivals, 2 * n)
         if torque_rows:
@@ -217,7 +249,7 @@ def _layout(prob: OptimalProblem, torque_rows: bool, var: Variant) -> tuple[Stru
             for side in range(2):
                 for t, name in enumerate(DRIVE_ROW_TAGS):
                     add("motor_envelope", ivals, (3 + 8 * side + t) * n, name, side * N)
-            add("motor_rms", [N], 0)
+            add("motor_rms", [N if var.has_rms else -1], 0)
     kind, tag, col, spot = (np.concatenate(z) for z in (kinds, tags, cols, where))
     joint = np.tile(J, kind.size // n)
     if var.duration:
@@ -297,6 +329,7 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
         dc = p[o : o + 9 * n]
         o += 9 * n + n * st.n_drive_columns  # the directions, read below from their home
         drive = [dc, p[o : o + n], p[o + n : o + 2 * n]]  # coefficients, eps, cont^2
+        drive = drive if var.has_rms else drive[:1]
         sig = prob._column_directions()  # (n, columns)
         if var.jerk:
             Pk[:, 2 : 2 + n] = sig.T
@@ -328,7 +361,7 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
     lX[0, it + 1 :] = hX[0, it + 1 :] = 0.0  # integrals and elapsed time start at 0
     if var.elapsed:
         X0[:, -1] = te0
-    if var.drive:  # a guess of the RMS integrals (half the rating); hp = the last interval
+    if var.has_rms:  # a guess of the RMS integrals (half the rating); hp = the last interval
         X0[:, it + 1 : it + 1 + n] = 0.5 * te0[:, None]
         if var.jerk:
             X0[1:, it + 1 + n] = h0 / s_e
@@ -342,6 +375,8 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
         return G
 
     lG, hG = rows(lbg, -np.inf), rows(ubg, np.inf)
+    if var.drive:
+        _merge_peak_rows(prob, st, spot, lG, hG)
     if var.duration:
         # the duration row t_N s_e = D as a bound on the last node's elapsed time: fatrop holds
         # a fixed state exactly (an equality), a row with equal bounds only within its bound
@@ -349,7 +384,8 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
         d = spot[st.g_kind == "duration"][0]
         lX[N, -1] = hX[N, -1] = lG[d] / s_e
         lG[d], hG[d] = -np.inf, np.inf
-        # and every other bound moved in, so no tolerance stretch lengthens the plan
+    if var.duration or var.drive:
+        # every other bound moved in, so no tolerance stretch lengthens the plan (_inward)
         (lX, hX), (lU, hU), (lG, hG) = _inward(lX, hX), _inward(lU, hU), _inward(lG, hG)
     arrays = [lX, hX, lU, hU, lG, hG]
     gmask = np.ones(N * dm["ng"] + dm["ngn"], np.int32)
@@ -382,6 +418,22 @@ def _warm_energy(prob, var: Variant, x, S, h, pi, ew) -> tuple[float, float]:
     return float(np.sum(h / 2 * (e(q[:-1], v[:-1], u) + e(q[1:], v[1:], u)))), 0.0
 
 
+def _merge_peak_rows(prob: OptimalProblem, st: Structure, spot, lG, hG) -> None:
+    """The back-driven branch's peak rows ``P2+`` (``e_2 <= T_p``) and ``P2-`` (``e_2 >=
+    -T_p``) made one two-sided row where the joint moves (``sigma != 0``: there the two rows are
+    the same expression, :func:`armlab.planning.transcription._drive_rows`), in place: 12 of
+    ~83 rows a stage fewer on six joints, 3-8 % less solve time, the same iterations and
+    durations on four 3-waypoint teachbot6 cases (measured; IPOPT keeps both rows)."""
+    assert st.g_tag is not None and st.g_col is not None
+    up, lo = np.flatnonzero(st.g_tag == "P2+"), np.flatnonzero(st.g_tag == "P2-")
+    assert np.array_equal(st.g_col[up], st.g_col[lo])
+    assert np.array_equal(st.g_joint[up], st.g_joint[lo])
+    sig = prob._column_directions()[st.g_joint[up], st.g_col[up]]
+    m = (sig != 0) & (spot[up] >= 0) & (spot[lo] >= 0)
+    su, sl = spot[up][m], spot[lo][m]
+    lG[su], lG[sl], hG[sl] = lG[sl], -np.inf, np.inf
+
+
 def _inward(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The inequality bounds ``lo <= . <= hi`` moved inside by :data:`BOUND_MARGIN` x
     ``max(|bound|, 1)``; equalities, zero and infinite bounds unchanged. fatrop relaxes every
@@ -391,7 +443,11 @@ def _inward(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     that fraction, which a fixed duration must not be; so a fixed-duration solve gets its bounds
     moved in by a little more than the relaxation. (A time-optimal solve keeps its bounds: moved
     in, 20-waypoint solves took 5 % more iterations and 9 % more time, measured, for a stretch
-    of 1e-8 it no longer needs.)"""
+    of 1e-8 it no longer needs.) A drive-limited solve gets them moved in too: its iterations
+    did not change (23, 26, 25, 18 against 23, 26, 24, 18 on four 3-waypoint cases), and where
+    the stretch was needed (4 of 8 cases) the plan's fine-grid samples and drive check were
+    computed twice more (after the stretch), 10 of ~85 ms a plan (measured); the plans are
+    1e-8 to 2e-8 longer."""
     lo, hi = lo.copy(), hi.copy()
     m = BOUND_MARGIN
     d_lo, d_hi = m * np.maximum(np.abs(lo), 1.0), m * np.maximum(np.abs(hi), 1.0)
@@ -447,8 +503,87 @@ def _instance(lib, key: str, b, data, gmask, rest, exact: bool) -> _Instance:
 # ----------------------------------------------------------------------------- solve
 def _fatrop(prob: OptimalProblem, hessian: str, limits: Limits, x0: np.ndarray, drive_scale):
     """One fatrop solve: the optimiser's ``_attempt`` tuple, and a failure reason ("" if
-    none)."""
+    none).
+
+    With ``drive_limits`` the problem is first solved without its RMS row (the variant
+    ``rms=False``: no RMS integral states and elapsed time, 7 states fewer a stage on six
+    joints). If the RMS row holds at that optimum (:func:`rms_row`, the row's own expression
+    at the solution), the optimum is the full problem's: it is feasible for it, and optimal
+    for a problem with fewer rows (its KKT point, the RMS multiplier 0). Otherwise the full
+    problem is solved from there. ``info["drive_rms"]`` says which (``"inactive, checked"``,
+    or ``"re-solved with the RMS row"``)."""
     var = variant(prob)
+    if not (var.drive and DRIVE_RMS_LAST):
+        return _solve_variant(prob, hessian, limits, x0, drive_scale, var)
+    out, why = _solve_variant(prob, hessian, limits, x0, drive_scale, variant(prob, rms=False))
+    if why:
+        return out, why
+    st, x, info, arm, _ = out
+    ratio = rms_row(prob, st, x, arm[4])
+    if float(np.max(ratio)) <= 1.0 - BOUND_MARGIN:  # the row's bound as its solve has it
+        info["drive_rms"] = "inactive, checked"
+        return out, why
+    out2, why = _solve_variant(prob, hessian, limits, x, drive_scale, var, True)
+    out2[2]["iterations"] += info["iterations"]
+    out2[2]["solve_time_s"] += info["solve_time_s"]
+    out2[2]["drive_rms"] = "re-solved with the RMS row"
+    return out2, why
+
+
+@functools.lru_cache(maxsize=8)
+def _rms_point(n: int) -> ca.Function:
+    """``(tau, qd, qdd, w, dc, sigma, eps) -> w T_m^2`` (n,) at one point: the numerator of the
+    RMS row (:func:`armlab.planning.transcription._drive_rows`, the same expression)."""
+    SX = ca.SX
+    tau, v, a, dc = SX.sym("tau", n), SX.sym("v", n), SX.sym("a", n), SX.sym("dc", 9 * n)
+    w, sig, eps = SX.sym("w"), SX.sym("sig", n), SX.sym("eps", n)
+    _, num = _drive_rows([(tau, v, a)], [w], dc, sig, eps, n)
+    return ca.Function("rms_point", [tau, v, a, w, dc, sig, eps], [num])
+
+
+def rms_row(prob: OptimalProblem, st: Structure, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """The RMS row of ``drive_limits`` at the plan ``x`` (unscaled variables), per joint:
+    ``sum_k w_k T_m,k^2 / (cont^2 sum h)`` with the trapezoid weights ``w_k`` of its points
+    (the nodes in jerk mode, both ends of every interval in acceleration mode) and the bound's
+    back-off scale in ``cont^2`` (the parameters ``p``, :func:`~armlab.planning.optimal_bounds
+    .params`); the row holds where it is <= 1. The torques are the rigid-body model's
+    (:func:`armlab.robot.rigid_body.inverse_dynamics`, the same model as the rows')."""
+    n, N = prob.n, prob.N
+    q, v, a, u, h = prob._unpack(st, x)
+    sig = prob._column_directions()
+    dc, eps, cont2 = p[-sig.size - 11 * n : -sig.size - 2 * n], p[-2 * n : -n], p[-n:]
+    if prob.mode == "jerk":
+        Q, V, A = q, v, a
+        w = np.zeros(N + 1)
+        w[:-1] += h / 2
+        w[1:] += h / 2
+    else:  # the left and then the right end of every interval, its acceleration u
+        Q, V, A = np.vstack([q[:-1], q[1:]]), np.vstack([v[:-1], v[1:]]), np.vstack([u, u])
+        w = np.concatenate([h, h]) / 2
+    tau = rigid_body.inverse_dynamics(prob.robot, Q, V, A)
+    m = w.size
+    f = _rms_point(n).map(m)
+    num = np.asarray(
+        f(tau.T, V.T, A.T, w[None, :], np.tile(dc[:, None], m), sig, np.tile(eps[:, None], m))
+    )
+    return num.sum(axis=1) / (cont2 * float(np.sum(h)))
+
+
+def _resolve(prob: OptimalProblem, limits: Limits, drive_scale) -> bool:
+    """Whether this solve is a back-off re-solve (tightened limits or drive scales: it starts
+    from the last plan, :func:`armlab.planning.timescale.backoff_solve`)."""
+    if limits is not prob.limits:
+        return True
+    return drive_scale is not None and any(np.any(np.asarray(z) != 1.0) for z in drive_scale)
+
+
+def _solve_variant(
+    prob: OptimalProblem, hessian: str, limits: Limits, x0, drive_scale, var, from_plan=False
+):
+    """One fatrop solve with the stage library ``var``: as :func:`_fatrop`; ``from_plan``: ``x0``
+    is a converged plan (of the problem without the RMS row). The first drive-limited solve
+    of a plan starts its barrier at :data:`DRIVE_MU_INIT`; one from a converged plan (that, or
+    a back-off re-solve) at fatrop's default :data:`MU_INIT`."""
     lib, key = _library(prob.robot, var)
     st, spot = _layout(prob, limits.torque_Nm is not None, var)
     b, data, gmask, rest, arm, sv = _stage_data(prob, st, spot, var, limits, x0, drive_scale)
@@ -461,9 +596,14 @@ def _fatrop(prob: OptimalProblem, hessian: str, limits: Limits, x0: np.ndarray, 
     with _LOCK:
         inst = _instance(lib, key, b, data, gmask, rest, exact)
         tol = FATROP_TOL_FIXED_DURATION if var.duration else FATROP_OPTIONS["tol"]
+        first = var.drive and not (from_plan or _resolve(prob, limits, drive_scale))
+        if first:
+            lib.fp_set_option(inst.ptr, b"mu_init", DRIVE_MU_INIT)
         ret, X, U, stats = inst.solve(cap, budget, dm["nx"], dm["nu"], tol)
         if ret != 0 and var.energy and int(stats[7]) == FATROP_ACCEPTABLE:
             ret = 0  # an energy solve at fatrop's acceptable point (FATROP_ACCEPTABLE)
+        if first:
+            lib.fp_set_option(inst.ptr, b"mu_init", MU_INIT)
         if ret != 0 or stats[13] or not np.all(np.isfinite(X)):
             # a failed or aborted instance is not reused (its state may hold NaN)
             _POOL.pop((key, tuple(b.tolist())), None)

@@ -40,6 +40,8 @@ Other variants (:class:`Variant`, each its own library):
   in jerk mode the node weight ``(h_{k-1} + h_k)/2`` needs the last interval, carried as one
   more state) with the elapsed time ``t`` (``t_{k+1} = t_k + h``) and checked at the last
   node, ``E_N / t_N <= 1``. ``E`` and ``t`` are scaled by ``s_e = sum s_T``.
+* **drive rows without the RMS row** (``rms=False``): the envelope rows alone, no ``E``, no
+  ``t`` (what :func:`armlab.planning.fatrop_backend._fatrop` solves first).
 * **fixed duration** (``duration=``, the ``"jerk"`` objective): the elapsed time as a state
   and the last node's row ``t_N = D``.
 * **energy** (the ``"energy"`` objective, always with the fixed duration, with or without
@@ -137,7 +139,8 @@ FUNCTION_NAMES = (
 @dataclass(frozen=True)
 class Variant:
     """Which stage library: the mode (``"jerk"`` or ``"acceleration"``), the motor-envelope
-    and RMS rows (``drive``) and the fixed-duration row (``duration``). Each variant is its
+    and RMS rows (``drive``; ``rms=False``: the envelope rows without the RMS row) and the
+    fixed-duration row (``duration``). Each variant is its
     own compiled library (:func:`compiled_library`): the demo's (jerk, no drive rows, no
     duration row) stays as small and as fast to compile as before."""
 
@@ -146,15 +149,21 @@ class Variant:
     duration: bool = False
     #: the ``"energy"`` objective (copper losses, fixed duration): its own stage cost
     energy: bool = False
+    rms: bool = True
 
     @property
     def jerk(self) -> bool:
         return self.mode == "jerk"
 
     @property
+    def has_rms(self) -> bool:
+        """The RMS row and its integral states (``drive`` with ``rms``)."""
+        return self.drive and self.rms
+
+    @property
     def elapsed(self) -> bool:
         """The elapsed time is a state (the RMS row's denominator, the duration row)."""
-        return self.drive or self.duration
+        return self.has_rms or self.duration
 
     @property
     def one_hessian(self) -> bool:
@@ -162,7 +171,9 @@ class Variant:
         box's curvature) keeps the inverse dynamics' curvature through the envelope rows, so
         it costs as much as the exact one; the exact one serves both (the same KKT point).
         So with the energy objective: its cost carries the inverse dynamics' curvature in
-        every stage whichever Hessian is asked for."""
+        every stage whichever Hessian is asked for. (Without the envelope rows' curvature too,
+        5 of 8 random 3-waypoint plans without the RMS row did not converge within 100
+        iterations, measured.)"""
         return self.drive or self.energy
 
     @property
@@ -174,7 +185,8 @@ class Variant:
     def tag(self) -> str:
         """Short name (file names, progress lines): ``jerk``, ``acc-drive``, ``jerk-dur``..."""
         parts = ["jerk" if self.jerk else "acc"]
-        parts += ["drive"] * self.drive + ["dur"] * self.duration + ["energy"] * self.energy
+        parts += ["drive"] * self.drive + ["norms"] * (self.drive and not self.rms)
+        parts += ["dur"] * self.duration + ["energy"] * self.energy
         return "-".join(parts)
 
     def dims(self, n: int) -> dict[str, int]:
@@ -187,11 +199,11 @@ class Variant:
         else:
             nx, ng, ngn, nsig = 2 * n + 1, 3 * n + 2 * nd, 0, 2 * n
         it = nx - 1
-        if self.drive:
+        if self.has_rms:
             nx += n + (1 if self.jerk else 0)  # RMS integrals (+ the last interval's h)
             ngn += n
-        if self.energy and self.jerk and not self.drive:
-            nx += 1  # the last interval's h (the energy's node weight; drive rows carry it)
+        if self.energy and self.jerk and not self.has_rms:
+            nx += 1  # the last interval's h (the energy's node weight; the RMS rows carry it)
         if self.elapsed:
             nx += 1
         if self.duration:
@@ -292,8 +304,9 @@ def _symbolic_stage(robot, var: Variant = JERK) -> dict[str, Any]:
     q, vs = SX.sym("q", n), SX.sym("vs", n)
     as_ = SX.sym("as", n) if var.jerk else SX.zeros(0)
     Ts = SX.sym("Ts")
-    Es = SX.sym("Es", n) if var.drive else SX.zeros(0)
-    hp = SX.sym("hp") if var.jerk and (var.drive or var.energy) else SX.zeros(0)
+    Es = SX.sym("Es", n) if var.has_rms else SX.zeros(0)
+    # h_{k-1}: the RMS row's and the energy's node weight in jerk mode
+    hp = SX.sym("hp") if var.jerk and (var.has_rms or var.energy) else SX.zeros(0)
     te = SX.sym("te") if var.elapsed else SX.zeros(0)
     x = ca.vertcat(q, vs, as_, Ts, Es, hp, te)
     us, Tn = SX.sym("us", n), SX.sym("Tn")
@@ -306,7 +319,7 @@ def _symbolic_stage(robot, var: Variant = JERK) -> dict[str, Any]:
     w, tw = SX.sym("w"), SX.sym("tw")
     pi = SX.sym("pi", rnea.size1_in(3))
     dc = SX.sym("dc", N_DRIVE_COEFFS * n) if var.drive else SX.zeros(0)
-    eps, cont2 = (SX.sym(nm, n) if var.drive else SX.zeros(0) for nm in ("eps", "cont2"))
+    eps, cont2 = (SX.sym(nm, n) if var.has_rms else SX.zeros(0) for nm in ("eps", "cont2"))
     s_e = SX.sym("s_e") if var.elapsed else SX.zeros(0)
     ew = SX.sym("ew", n) if var.energy else SX.zeros(0)
     pg = ca.vertcat(s_v, s_a, s_u, p_tau, uref, w, tw, pi, dc, eps, cont2, s_e, ew)
@@ -314,7 +327,7 @@ def _symbolic_stage(robot, var: Variant = JERK) -> dict[str, Any]:
     v, j = vs * s_v, us * s_u
 
     def drive(cols, weights):  # transcription's envelope rows and RMS numerator, one point
-        return _drive_rows(cols, weights, dc, sig, eps, n)
+        return _drive_rows(cols, weights, dc, sig, eps if var.has_rms else SX.ones(n), n)
 
     if var.jerk:
         a = as_ * s_a
@@ -331,6 +344,7 @@ def _symbolic_stage(robot, var: Variant = JERK) -> dict[str, Any]:
             rows, tm2 = drive([(tau, v, a)], [SX(1)])
             g += [r[0] for r in rows]
             gN += [r[0] for r in rows]
+        if var.has_rms:
             # trapezoid: node k stands for (h_{k-1} + h_k) / 2, h_{k-1} carried as hp
             F += [Es + (hp + h / s_e) / 2 * tm2 / cont2, h / s_e]
             gN.append((Es + hp / 2 * tm2 / cont2) / te)
@@ -350,6 +364,7 @@ def _symbolic_stage(robot, var: Variant = JERK) -> dict[str, Any]:
         if var.drive:
             rows, tm2 = drive([(tau_a, v, j), (tau_b, vb, j)], [h / 2, h / 2])
             g += [r[0] for r in rows]
+        if var.has_rms:
             F.append(Es + tm2 / cont2 / s_e)
             gN.append(Es / te)
         if var.energy:  # transcription's mean of the interval's two ends

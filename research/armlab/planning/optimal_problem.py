@@ -475,6 +475,8 @@ class OptimalProblem:
         }
         if train is not None:
             stats["drive_ratios"] = {k: r.tolist() for k, r in drive_ratios.items()}
+            # how the RMS row was met (fatrop_backend._fatrop; IPOPT solves it with the rest)
+            stats["drive_rms"] = info.get("drive_rms", "solved with the RMS row")
         if self.objective == "energy" or torque_on:
             stats["energy"], stats["energy_unit"] = _fine_energy(traj, self.robot, dt, samples)
         self.stats = stats
