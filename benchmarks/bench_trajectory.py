@@ -849,11 +849,14 @@ def calls_row(res: dict) -> None:
     b = BEFORE_91F2439
     readme_row(
         __file__,
-        "`optimal` whole call by waypoint count (teachbot6, v/a/j/tau, median of "
-        f"{res['n_cases']}; issue 26 goals, before = 91f2439: "
+        "`optimal` whole call by waypoint count (teachbot6, v/a/j/tau, each case's fastest of "
+        f"{CALLS_REPEATS} runs, median of {res['n_cases']}; issue 26 goals, before = 91f2439: "
         + ", ".join(f"{nw} wp {b['call_ms'][nw]:.0f} ms" for nw in SCALING_WAYPOINTS)
         + ")",
-        f"{cells} ({'; '.join(solvers)}); {goals}",
+        f"{cells} ({'; '.join(solvers)}); {goals}; 2 wp v/a/j per call: optimal() "
+        f"{1e3 * res['ptp']['optimal_ms']:.0f} us, ptp_sync {1e3 * res['ptp']['ptp_ms']:.0f} us "
+        f"(at 91f2439 {1e3 * b['optimal_2wp_ms']:.0f} and {1e3 * b['ptp_sync_ms']:.0f} us, "
+        f"against Ruckig's single run {b['ruckig_us']} us)",
         f"TOPP-RA (v/a/torque) {peer}; Ruckig {res['ptp']['ruckig_us']:.1f} us per case",
     )
 
