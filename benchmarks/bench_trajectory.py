@@ -949,6 +949,8 @@ def success_case(robot, i: int, solver: str = "fatrop") -> dict:
         out["solve_s"] = tr.stats["solve_time_s"]
         out["T_s"] = tr.duration
         out["backoff_rounds"] = tr.stats["backoff_rounds"]
+        raised = tr.stats.get("n_intervals_raised")  # the plan of a finer grid (optimiser)
+        out["intervals"] = "" if not raised else f", grid raised {raised['from']} -> {raised['to']}"
         out["used"] = str(tr.stats.get("solver", "ipopt"))
         out["fallback"] = str(tr.stats.get("fallback", ""))
         rep = tr.check_limits(robot, dt=tr.duration / CHECK_SAMPLES)
@@ -1110,8 +1112,8 @@ def success_print(res: dict) -> None:
         if both and abs(a["T_s"] - b["T_s"]) > DURATION_GOAL_S:
             print(
                 f"  case {a['case']}: T fatrop ({a['used']}) {a['T_s']:.6f} s, "
-                f"{a['backoff_rounds']} back-off rounds; IPOPT {b['T_s']:.6f} s, "
-                f"{b['backoff_rounds']}"
+                f"{a['backoff_rounds']} back-off rounds{a.get('intervals', '')}; IPOPT "
+                f"{b['T_s']:.6f} s, {b['backoff_rounds']}{b.get('intervals', '')}"
             )
     gap, case, over = res["gap"]
     print(
