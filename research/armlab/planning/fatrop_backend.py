@@ -304,22 +304,10 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
     o += nseg + N
     pi = p[o : o + st.n_pi]
     o += st.n_pi
-    # the objective: tw T + w smooth ("jerk": the smoothness term alone, optimal_bounds.params
-    # gives it weight 0 there as transcription adds it unweighted)
-    tw, w = (0.0, 1.0) if prob.objective in ("jerk", "energy") else (1.0, w)
     s_e = float(np.sum(s_T))  # the scale of the elapsed time
     S = st.slices
     h0 = (xs0[S["T"]] * s_T)[seg] * frac  # the warm start's intervals [s]
-    if prob.objective == "jerk":
-        # the objective over its warm-start value: the same minimiser, but fatrop's absolute
-        # KKT tolerance then means a relative one (a long fixed duration makes the jerk
-        # integral ~1e-4, and the plain sum stopped 1e-4 above IPOPT's minimum, measured)
-        u0 = xs0[S["u"]].reshape(N, n) * s_u / uref
-        w = 1.0 / max(float(np.sum(h0 * np.sum(u0**2, axis=1))), 1e-12)
-    e_end = 0.0
-    if var.energy:  # the same normalisation; e_N/2 of the last node (its state is fixed)
-        e0, e_last = _warm_energy(prob, var, xs0 * sv, S, h0, pi, ew)
-        w, e_end = 1.0 / max(e0, 1e-12), e_last / 2
+    tw, w, e_end = _objective_weights(prob, var, w, xs0, sv, S, h0, (s_u, uref, pi, ew))
     drive: list[np.ndarray] = []
     Pk = np.zeros((N + 1, dm["npk"]))
     Pk[:N, 0], Pk[:N, 1] = s_T[seg] * frac, b
@@ -392,6 +380,24 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
     data = [np.ascontiguousarray(a, float) for a in arrays]
     rest = [np.ascontiguousarray(a, float) for a in (Pk, pg, X0, U0)]
     return b, data, gmask, rest, (lbx, ubx, lbg, ubg, p, xs0), sv
+
+
+def _objective_weights(prob, var: Variant, w, xs0, sv, S, h0, data) -> tuple[float, float, float]:
+    """The stage cost's weights ``(tw, w, e_end)``: ``tw T + w smooth`` for ``"time"`` and
+    ``"time+smooth"`` (``w`` the request's); the smoothness or energy term alone, over its value
+    at the warm start ``xs0`` (scaled, intervals ``h0``), for the fixed-duration objectives: the
+    same minimiser, but fatrop's absolute KKT tolerance then means a relative one (a long fixed
+    duration makes the jerk integral ~1e-4, and the plain sum stopped 1e-4 above IPOPT's
+    minimum, measured); ``e_end``: the energy's ``e_N/2`` of the last node (its state is fixed;
+    0 otherwise). ``data``: ``(s_u, uref, pi, ew)`` of :func:`optimal_bounds.params`."""
+    s_u, uref, pi, ew = data
+    if prob.objective not in ("jerk", "energy"):
+        return 1.0, float(w), 0.0
+    if prob.objective == "jerk":  # params gives it weight 0: transcription adds it unweighted
+        u0 = xs0[S["u"]].reshape(prob.N, prob.n) * s_u / uref
+        return 0.0, 1.0 / max(float(np.sum(h0 * np.sum(u0**2, axis=1))), 1e-12), 0.0
+    e0, e_last = _warm_energy(prob, var, xs0 * sv, S, h0, pi, ew)
+    return 0.0, 1.0 / max(e0, 1e-12), e_last / 2
 
 
 def _warm_energy(prob, var: Variant, x, S, h, pi, ew) -> tuple[float, float]:
