@@ -11,9 +11,11 @@ Goals (issue 26): durations within 1e-6 of IPOPT's; first call <= 3 x a repeat.
 
 With ``--variants``: the other stage libraries (issue 26) on 3-waypoint cases of the same
 draw (the middle half of each range, as ``bench_trajectory.py``'s drive row): per variant the
-compile (wall and the compiler's CPU), then IPOPT and fatrop alternating case by case, the first
-case dropped (IPOPT builds its problem): median whole call and solve, ipopt / fatrop, the
-largest relative duration difference (for the fixed duration: of the jerk objective's value).
+compile (wall and the compiler's CPU; with drive rows of both libraries, the one without the
+RMS row that every drive plan solves first and the one with it), then IPOPT and fatrop
+alternating case by case, the first case dropped (IPOPT builds its problem): median whole
+call and solve, ipopt / fatrop, the largest relative duration difference (for the fixed
+duration: of the jerk objective's value).
 
 With ``--energy``: the ``"energy"`` objective's stage libraries on 3- and 5-waypoint cases of
 the same draw as ``--variants``, each case over 1.5 x its own minimum duration (the
@@ -81,6 +83,14 @@ VARIANTS = {
 }
 
 
+def _libraries(var: tuple) -> list:
+    """The stage libraries of a variant row: with drive rows the one without the RMS row (every
+    drive plan solves it first) and the one with it (a plan whose RMS row binds)."""
+    mode, drive, duration = var
+    full = fatrop_stages.Variant(mode, drive, duration)
+    return [fatrop_stages.Variant(mode, drive, duration, rms=False), full] if drive else [full]
+
+
 def variant_table(robot, n: int) -> None:
     """``--variants`` (module docstring)."""
     lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
@@ -95,7 +105,8 @@ def variant_table(robot, n: int) -> None:
     print("-" * len(hdr))
     for name, (kw, var) in VARIANTS.items():
         t0, c0 = time.perf_counter(), os.times()
-        fatrop_stages.compiled_library(robot, fatrop_stages.Variant(*var))
+        for lib in _libraries(var):
+            fatrop_stages.compiled_library(robot, lib)
         c1 = os.times()
         cpu = (c1.children_user + c1.children_system) - (c0.children_user + c0.children_system)
         wall_c = time.perf_counter() - t0
