@@ -218,8 +218,9 @@ def main() -> None:
           f"the box plan did not: {len(failed)}; moves no planner can hold at a waypoint "
           f"(gravity above the motor's rating at rest): {len(hold)}")  # fmt: skip
     walls = np.array([[r[10], r[11], r[12]] for r in rows])
-    print(f"    wall per plan, median [s]: box {np.median(walls[:, 0]):.2f}, safe box "
-          f"{np.median(walls[:, 1]):.2f}, drive {np.median(walls[:, 2]):.2f}")  # fmt: skip
+    ms = 1e3 * np.median(walls, axis=0)
+    print(f"    wall per plan, median [ms]: box {ms[0]:.0f}, safe box {ms[1]:.0f}, drive "
+          f"{ms[2]:.0f}")  # fmt: skip
     demo_text = (
         f", demo cycle {demo[4].duration:.2f} -> {demo[7].duration:.2f} s"
         if demo[4] is not None and demo[7] is not None
@@ -234,7 +235,7 @@ def main() -> None:
         f"{max((r[3] for r in box_ok), default=np.nan):.3g}); (b) drive-limited plans "
         f"{100 * np.median(gains):.1f} % faster (median over {gains.size}) than the constant box "
         f"safe at top speed{demo_text}; {len(viol)} envelope violations; median "
-        f"{np.median(walls[:, 2]):.1f} s per plan",
+        f"{ms[2]:.0f} ms per drive plan (box {ms[0]:.0f} ms)",
         "no peer plans in the motor's voltage envelope",
     )
 
