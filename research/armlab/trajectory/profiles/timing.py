@@ -83,18 +83,34 @@ def trapezoid_speed_for_duration(length, duration, a_acc, a_dec=None, v_max=np.i
 # ---------------------------------------------------------------------- double S kernels
 # The double S timing below is written once, as kernels on a _DoubleSLimits (the limits and
 # the quantities that depend on them alone, computed once): the public primitives build one
-# per call; synchronised_scurves builds one per batch, at the batch's full shape (a numpy
-# operation on equal shapes costs less than one that broadcasts, on a single small problem
-# more than the arithmetic), and calls the kernels under one errstate. ``finite`` (every a
-# and j finite: no trapezoid and no jerk-only ramp) drops the masks of those special cases;
-# the values are the same (the masked branches select the same expressions there).
-#: the trapezoid mask of limits that are all finite (never read: ``finite`` short-cuts it)
+# per call (their arguments broadcast to one shape by _floats); synchronised_scurves builds one
+# per batch, at the batch's full shape (a numpy operation on equal shapes costs less than one
+# that broadcasts, on a single small problem more than the arithmetic), and calls the kernels
+# under one errstate. Each kernel is one path: the special limits fall out of the same
+# expressions (``j = inf``, the trapezoid: ``v / j = 0`` and ``aj = 0``; ``a = inf``, the
+# jerk-only ramp: no plateau), except where the trapezoid has a closed form of its own, which
+# replaces the values of its joints only where there are any (``finite``: none).
+
+
+#: the trapezoid mask of limits whose jerks are all finite (never read: ``traps()`` is False)
 _NONE = np.zeros(0, bool)
+
+
+def _flat(*xs) -> tuple[tuple[int, ...], list[np.ndarray]]:
+    """The arguments broadcast (:func:`_floats`) and raveled, with their common shape: the
+    kernels select in place, which needs arrays, not the scalars a 0-d operation returns."""
+    arrs = _floats(*xs)
+    return arrs[0].shape, [x.reshape(-1) for x in arrs]
+
+
+def _given(x, shape: tuple[int, ...]) -> np.ndarray:
+    """A caller's precomputed ``peak`` / ``t_min`` of the arguments' ``shape``, raveled."""
+    return np.broadcast_to(np.asarray(x, float), shape).reshape(-1)
 
 
 class _DoubleSLimits:
     """``a``, ``j``, ``a / j`` (``aj_raw``; ``aj``: 0 for ``j = inf``), ``a^2``, ``a^2 / j``,
-    ``a^2 / j^2``, ``sqrt(j)``; ``finite``: every ``a`` and ``j`` finite; ``trap``:
+    ``a^2 / j^2``, ``sqrt(j)``; ``finite``: every ``j`` finite (no trapezoid); ``trap``:
     ``j = inf`` (an empty mask when ``finite``)."""
 
     __slots__ = ("a", "j", "aj_raw", "aj", "a2", "a2j", "a2jj", "sj", "finite", "trap")
@@ -102,57 +118,54 @@ class _DoubleSLimits:
     def __init__(self, a, j, finite: bool | None = None):
         self.a, self.j = a, j
         if finite is None:
-            finite = bool(np.isfinite(a).all() and np.isfinite(j).all())
+            finite = bool(np.isfinite(j).all())
         self.finite = finite
         self.trap = _NONE if finite else np.isinf(j)
         self.aj_raw = aj = a / j
-        self.aj = aj if finite else np.where(self.trap, 0.0, aj)
+        self.aj = aj if finite else np.where(self.trap, 0.0, aj)  # a = j = inf: inf / inf
         self.a2 = a * a
         self.a2j = self.a2 / j
         self.a2jj = self.a2 / (j * j)
         self.sj = np.sqrt(j)
 
+    def traps(self) -> bool:
+        """Some joint is a trapezoid (``j = inf``)."""
+        return not self.finite and bool(self.trap.any())
+
 
 def _ds_ramp(v, k: _DoubleSLimits) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`double_s_ramp` on a :class:`_DoubleSLimits` (errors ignored by the caller)."""
-    a, j = k.a, k.j
-    if k.finite:  # v = 0 gives (0, 0) without the mask: sqrt(0 / j)
-        # (np.where as np.copyto into the array it would replace: the engine's arrays have
-        # one shape, and a selection in place costs less than a new array)
-        plateau = v * j >= k.a2
-        tj = np.sqrt(v / j)
-        np.copyto(tj, k.aj, where=plateau)
-        ta = 2 * tj
-        np.copyto(ta, tj + v / a, where=plateau)
-        return tj, ta
-    plateau = k.trap | (np.isfinite(a) & (v * j >= k.a2))
-    tj = np.where(plateau, np.where(k.trap, 0.0, a / j), np.sqrt(v / j))
-    ta = np.where(plateau, tj + v / a, 2 * tj)
-    moving = v > 0
-    return np.where(moving, tj, 0.0), np.where(moving, ta, 0.0)
+    """:func:`double_s_ramp` on a :class:`_DoubleSLimits` (errors ignored by the caller), for
+    ``v >= 0``: the plateau ``(a / j, a / j + v / a)`` where ``v j >= a^2``, else ``(sqrt(v /
+    j), 2 sqrt(v / j))`` -- ``j = inf`` gives the trapezoid's ``(0, v / a)``, ``a = inf`` the
+    jerk-only ramp, ``v = 0`` ``(0, 0)``. The selections are made in place (``np.copyto``): a
+    new array costs more than the selection on a small problem."""
+    plateau = v * k.j >= k.a2
+    tj = np.sqrt(v / k.j)
+    np.copyto(tj, k.aj, where=plateau)
+    ta = 2 * tj
+    np.copyto(ta, tj + v / k.a, where=plateau)
+    return tj, ta
 
 
 def _ds_peak(L, v, k: _DoubleSLimits) -> np.ndarray:
     """:func:`double_s_peak_speed` on a :class:`_DoubleSLimits`."""
     a = k.a
     plateau = a * (np.sqrt(k.a2jj + 4 * L / a) - k.aj_raw) / 2
-    below = (L * k.sj / 2) ** (2 / 3)
-    if k.finite:  # the engine's arrays (one shape): the selection in place
-        np.copyto(below, plateau, where=plateau >= k.a2j)
-        return np.minimum(below, v)
-    vp = np.minimum(np.where(plateau >= k.a2j, plateau, below), v)
-    if not k.trap.any():
-        return vp
-    return np.where(k.trap, trapezoid_peak_speed(L, v, a), vp)
+    vp = (L * k.sj / 2) ** (2 / 3)
+    np.copyto(vp, plateau, where=plateau >= k.a2j)
+    np.minimum(vp, v, out=vp)
+    if k.traps():
+        return np.where(k.trap, trapezoid_peak_speed(L, v, a), vp)
+    return vp
 
 
 def _ds_min_times(L, v, k: _DoubleSLimits, vp, moving) -> np.ndarray:
     """:func:`double_s_min_times` on a :class:`_DoubleSLimits`, ``vp`` the peak speeds,
     ``moving`` ``L > 0``."""
     T = np.where(moving, L / vp + _ds_ramp(vp, k)[1], 0.0)
-    if k.finite or not k.trap.any():
-        return T
-    return np.where(k.trap, trapezoid_min_times(L, v, k.a), T)
+    if k.traps():
+        return np.where(k.trap, trapezoid_min_times(L, v, k.a), T)
+    return T
 
 
 def _ds_speed_for_duration(L, T, v, k: _DoubleSLimits, v_hi, t_min, moving) -> np.ndarray:
@@ -168,15 +181,11 @@ def _ds_speed_for_duration(L, T, v, k: _DoubleSLimits, v_hi, t_min, moving) -> n
     sv = 2 * T / 3 * np.sin(phi / 6) ** 2
     u = (sv + np.sqrt(sv * sv + L2 / (j * u0))) / 2
     plateau = (disc >= 0) & (b > 0) & (va * j >= k.a2)  # j = inf: always
-    if k.finite:  # the engine's arrays (one shape): the selections in place
-        vT = j * u * u
-        np.copyto(vT, va, where=plateau)
-        np.minimum(vT, v_hi, out=vT)
-        np.copyto(vT, v_hi, where=T <= t_min)
-        return np.where(moving, vT, 0.0)
-    vT = np.where(plateau, va, j * u * u)
-    vT = np.where(T <= t_min, v_hi, np.minimum(vT, v_hi))
-    if k.trap.any():  # the trapezoid's own closed form (a = inf: v = L / T)
+    vT = j * u * u
+    np.copyto(vT, va, where=plateau)
+    np.minimum(vT, v_hi, out=vT)
+    np.copyto(vT, v_hi, where=T <= t_min)
+    if k.traps():  # the trapezoid's own closed form (a = inf: v = L / T)
         vT = np.where(k.trap, trapezoid_speed_for_duration(L, T, a, a, v), vT)
     return np.where(moving, vT, 0.0)
 
@@ -188,9 +197,11 @@ def double_s_ramp(v, a_max, j_max) -> tuple[np.ndarray, np.ndarray]:
     acceleration limit is reached); else ``Tj = sqrt(v / j)``, ``Ta = 2 Tj``. ``j = inf`` gives
     the trapezoid's ``(0, v / a)``, ``a = inf`` the jerk-only ramp; ``v = 0`` gives ``(0, 0)``.
     """
-    v, a, j = _floats(v, a_max, j_max)
+    shape, (v, a, j) = _flat(v, a_max, j_max)
+    v = np.where(v > 0, v, 0.0)  # not moving: (0, 0)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        return _ds_ramp(v, _DoubleSLimits(a, j, False))
+        tj, ta = _ds_ramp(v, _DoubleSLimits(a, j))
+    return tj.reshape(shape), ta.reshape(shape)
 
 
 def double_s_peak_speed(length, v_max, a_max, j_max) -> np.ndarray:
@@ -201,9 +212,9 @@ def double_s_peak_speed(length, v_max, a_max, j_max) -> np.ndarray:
     ``2 v sqrt(v / j) = L``, i.e. ``v = (L sqrt(j) / 2)^(2/3)``. ``j = inf`` is the trapezoid
     (:func:`trapezoid_peak_speed`). Arrays broadcast; ``a`` and ``j`` may be ``inf``.
     """
-    L, v, a, j = _floats(length, v_max, a_max, j_max)
+    shape, (L, v, a, j) = _flat(length, v_max, a_max, j_max)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        return _ds_peak(L, v, _DoubleSLimits(a, j, False))
+        return _ds_peak(L, v, _DoubleSLimits(a, j)).reshape(shape)
 
 
 def double_s_min_times(length, v_max, a_max, j_max, *, peak=None) -> np.ndarray:
@@ -214,11 +225,11 @@ def double_s_min_times(length, v_max, a_max, j_max, *, peak=None) -> np.ndarray:
     :func:`trapezoid_min_times` where ``j = inf``; ``0`` for ``L <= 0``. ``inf`` switches a
     limit off (not all three).
     """
-    L, v, a, j = _floats(length, v_max, a_max, j_max)
+    shape, (L, v, a, j) = _flat(length, v_max, a_max, j_max)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        k = _DoubleSLimits(a, j, False)
-        vp = _ds_peak(L, v, k) if peak is None else peak
-        return _ds_min_times(L, v, k, vp, L > 0)
+        k = _DoubleSLimits(a, j)
+        vp = _ds_peak(L, v, k) if peak is None else _given(peak, shape)
+        return _ds_min_times(L, v, k, vp, L > 0).reshape(shape)
 
 
 def double_s_speed_for_duration(
@@ -247,10 +258,10 @@ def double_s_speed_for_duration(
     within 1e-9 relative. ``peak`` and ``t_min``: :func:`double_s_peak_speed` and
     :func:`double_s_min_times` of the same arguments when the caller has them.
     """
-    L, T, a, j, v = _floats(length, duration, a_max, j_max, v_max)
+    shape, (L, T, a, j, v) = _flat(length, duration, a_max, j_max, v_max)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        k = _DoubleSLimits(a, j, False)
-        v_hi = _ds_peak(L, v, k) if peak is None else peak
+        k = _DoubleSLimits(a, j)
+        v_hi = _ds_peak(L, v, k) if peak is None else _given(peak, shape)
         moving = L > 0
-        t_min = _ds_min_times(L, v, k, v_hi, moving) if t_min is None else t_min
-        return _ds_speed_for_duration(L, T, v, k, v_hi, t_min, moving)
+        t_min = _ds_min_times(L, v, k, v_hi, moving) if t_min is None else _given(t_min, shape)
+        return _ds_speed_for_duration(L, T, v, k, v_hi, t_min, moving).reshape(shape)
