@@ -152,7 +152,7 @@ def exact_report(batch, start, goal, limits, joint_names) -> tuple[LimitReport, 
     report.ratios["position"] = np.maximum(r0, r1)
     report.at_s["position"] = np.where(r1 > r0, T, 0.0)  # the start where both are equal
     # a trapezoid (j = inf in the batch) has no jerk signal: no jerk ratio, as for its samples
-    jerk = j if batch._jerk_finite or np.isfinite(batch.j).all() else None
+    jerk = j if batch.jerk_finite else None
     for kind, lim in (("velocity", v), ("acceleration", a), ("jerk", jerk)):
         if lim is not None:
             report.ratios[kind] = pk[kind] / lim
@@ -190,11 +190,8 @@ def closed_form_optimal(prob: OptimalProblem) -> Trajectory:
         check, residual = SAMPLE_CHECK, None
     else:
         (traj.report, residual), check = exact, EXACT_CHECK
-    T = float(batch.duration[0])
-    # the verdict (LimitReport.ok: every ratio within CHECK_TOL) and the binding limits, in
-    # one pass over the ratios
+    ok = traj.report.ok(CHECK_TOL)
     ratios = traj.report.ratios
-    ok = bool((np.concatenate(list(ratios.values())) <= 1.0 + CHECK_TOL).all())
     binding = [
         (k, name, x)
         for k, r in ratios.items()

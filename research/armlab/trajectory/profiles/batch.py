@@ -71,6 +71,12 @@ class SCurveBatch:
     #: every jerk finite (no trapezoid): set by synchronised_scurves, else tested
     _jerk_finite: bool = field(default=False, init=False, repr=False, compare=False)
 
+    @property
+    def jerk_finite(self) -> bool:
+        """Every joint's jerk is finite (no trapezoid): known from :func:`synchronised_scurves`,
+        else tested."""
+        return self._jerk_finite or bool(np.isfinite(self.j).all())
+
     def profile(self, index) -> MotionProfile:
         """The :class:`MotionProfile` of one joint of one problem, ``index`` into the
         ``(..., n_joints)`` arrays (e.g. ``(problem, joint)``), over ``|distance|``."""
@@ -151,7 +157,7 @@ class SCurveBatch:
             return self._bounds
         ap, tj = self.a, self.tj
         jf = self.j
-        if not self._jerk_finite:
+        if not self.jerk_finite:
             jf = np.where(np.isfinite(jf), jf, 0.0)  # a trapezoid has no jerk phases
         out = np.zeros((6, 7) + ap.shape)  # t0, s0, v0 start at 0; the zero acc and jrk
         t0, s0, v0, d, acc, jrk = out
