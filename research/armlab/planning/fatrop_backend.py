@@ -303,7 +303,6 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
     s_T, frac = p[o : o + nseg], p[o + nseg : o + nseg + N]
     o += nseg + N
     pi = p[o : o + st.n_pi]
-    o += st.n_pi
     s_e = float(np.sum(s_T))  # the scale of the elapsed time
     S = st.slices
     h0 = (xs0[S["T"]] * s_T)[seg] * frac  # the warm start's intervals [s]
@@ -314,10 +313,8 @@ def _stage_data(prob, st: Structure, spot, var: Variant, limits: Limits, x0, dri
     if var.energy and var.jerk:  # its last column (fatrop_stages.Variant.dims)
         Pk[N - 1, -1] = e_end
     if var.drive:
-        dc = p[o : o + 9 * n]
-        o += 9 * n + n * st.n_drive_columns  # the directions, read below from their home
-        drive = [dc, p[o : o + n], p[o + n : o + 2 * n]]  # coefficients, eps, cont^2
-        drive = drive if var.has_rms else drive[:1]
+        dc, _, eps, cont2 = optimal_bounds.drive_params(p, n, st.n_drive_columns)
+        drive = [dc, eps, cont2] if var.has_rms else [dc]  # the directions are stage data
         sig = prob._column_directions()  # (n, columns)
         if var.jerk:
             Pk[:, 2 : 2 + n] = sig.T
@@ -557,7 +554,7 @@ def rms_row(prob: OptimalProblem, st: Structure, x: np.ndarray, p: np.ndarray) -
     n, N = prob.n, prob.N
     q, v, a, u, h = prob._unpack(st, x)
     sig = prob._column_directions()
-    dc, eps, cont2 = p[-sig.size - 11 * n : -sig.size - 2 * n], p[-2 * n : -n], p[-n:]
+    dc, _, eps, cont2 = optimal_bounds.drive_params(p, n, sig.shape[1])
     if prob.mode == "jerk":
         Q, V, A = q, v, a
         w = np.zeros(N + 1)

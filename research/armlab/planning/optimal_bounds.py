@@ -215,3 +215,13 @@ def params(
     return np.concatenate(
         [tau, [w], ref, ew, sc["v"], sc["a"], sc["u"], sc["T"], prob.fractions, pi, *drive]
     )
+
+
+def drive_params(p: np.ndarray, n: int, n_columns: int) -> tuple[np.ndarray, ...]:
+    """The drive part of a :func:`params` vector (its tail, with ``drive_limits``): the
+    envelope coefficients (``9 n``, coefficient-major), the directions (``n x n_columns``,
+    column-major), the RMS row's blend widths ``eps`` (``n``) and its bounds ``cont^2``
+    (``n``, the back-off scale in them)."""
+    k = n * n_columns
+    tail = p[p.size - 11 * n - k :]
+    return tail[: 9 * n], tail[9 * n : 9 * n + k], tail[-2 * n : -n], tail[-n:]
