@@ -363,15 +363,12 @@ def build_optimal(
             "for the fixed-duration objectives 'jerk' and 'energy'"
         )
     exact = np.ones(w.shape[0], bool)
-    if isinstance(via_tolerance, (int, float)) and via_tolerance == 0:  # the default: valid
-        tol = np.zeros(robot.n_joints)
-    else:
-        tol = np.asarray(via_tolerance, float)
-        tol = np.full(robot.n_joints, float(tol)) if tol.ndim == 0 else tol
-        if tol.shape != (robot.n_joints,) or not (np.isfinite(tol) & (tol >= 0)).all():
-            raise InputError(f"via_tolerance must be >= 0 rad, scalar or ({robot.n_joints},)")
-        if (tol > 0).any():
-            exact[1:-1] = False
+    tol = np.asarray(via_tolerance, float)
+    tol = np.full(robot.n_joints, float(tol)) if tol.ndim == 0 else tol
+    if tol.shape != (robot.n_joints,) or not (np.isfinite(tol) & (tol >= 0)).all():
+        raise InputError(f"via_tolerance must be >= 0 rad, scalar or ({robot.n_joints},)")
+    if (tol > 0).any():
+        exact[1:-1] = False
     mode = "jerk" if (ls.jerk_rad_s3 is not None or objective == "jerk") else "acceleration"
     # replanning from a moving state: the ptp_sync keywords, validated the same way
     qd0 = validate_joint_state(
