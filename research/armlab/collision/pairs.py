@@ -31,7 +31,6 @@ clearance checks every pair that came within 60 mm.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -39,6 +38,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pinocchio as pin
 
+from armlab._cache import cache_dir
 from armlab.errors import InputError
 from armlab.io import atomic_write
 from armlab.tomlfile import read_toml
@@ -102,15 +102,6 @@ class DisabledPairs:
     def counts(self) -> dict[str, int]:
         """Number of pairs per reason."""
         return {r: sum(1 for v in self.pairs.values() if v[0] == r) for r in REASONS}
-
-
-def cache_dir() -> Path:
-    """``$ARMLAB_CACHE_DIR``, else ``$XDG_CACHE_HOME/armlab``, else ``~/.cache/armlab``."""
-    env = os.environ.get("ARMLAB_CACHE_DIR")
-    if env:
-        return Path(env)
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    return (Path(xdg) if xdg else Path.home() / ".cache") / "armlab"
 
 
 def _link_pairs(gm: pin.GeometryModel, link_of: dict[str, str]) -> dict[tuple[str, str], list[int]]:

@@ -80,8 +80,6 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import os
-import shutil
 import subprocess
 import sys
 import tempfile
@@ -91,6 +89,8 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from armlab import _cache
+from armlab._cache import CompilerUnavailable, cache_dir
 from armlab._lazy import lazy_import
 from armlab.errors import ArmlabError
 from armlab.io.atomic import atomic_write
@@ -226,38 +226,17 @@ class FatropUnavailable(ArmlabError):
     ``stats["fallback"]``."""
 
 
-def cache_dir() -> Path:
-    """The folder of armlab's compiled artefacts: ``$ARMLAB_CACHE_DIR``, else
-    ``$XDG_CACHE_HOME/armlab``, else ``~/.cache/armlab``."""
-    own = os.environ.get("ARMLAB_CACHE_DIR")
-    if own:
-        return Path(own).expanduser()
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    return (Path(xdg).expanduser() if xdg else Path.home() / ".cache") / "armlab"
-
-
 def casadi_dir() -> Path:
     """The casadi package folder (``libfatrop``, ``libblasfeo`` and ``include/`` live there)."""
     return Path(ca.__file__).parent
 
 
 def compiler() -> str:
-    """The C compiler: ``$CC`` if set, else ``gcc`` or ``cc`` on the path.
-
-    Raises
-    ------
-    FatropUnavailable
-        None found (``$CC`` set to a missing program included).
-    """
-    cc = os.environ.get("CC")
-    names = [cc] if cc else ["gcc", "cc"]
-    for name in names:
-        found = shutil.which(name)
-        if found:
-            return found
-    raise FatropUnavailable(
-        f"no C compiler ({'CC=' + cc if cc else 'gcc or cc'} not found) to build the fatrop stages"
-    )
+    """:func:`armlab._cache.compiler`, its error as :class:`FatropUnavailable`."""
+    try:
+        return _cache.compiler()
+    except CompilerUnavailable as exc:
+        raise FatropUnavailable(f"{exc} to build the fatrop stages") from None
 
 
 def check_library() -> Path:

@@ -9,7 +9,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from armlab.errors import InputError
+from armlab.trajectory.profiles import graph
 from armlab.trajectory.profiles.motion import MotionProfile, rest_profile
+from armlab.trajectory.profiles.ops import NP
 from armlab.trajectory.profiles.timing import (
     _DoubleSLimits,
     _ds_min_times,
@@ -19,6 +21,20 @@ from armlab.trajectory.profiles.timing import (
 )
 
 __all__ = ["SCurveBatch", "synchronised_scurves"]
+
+#: the keys of SCurveBatch.peaks_flat(), in the graph's order
+PEAK_KEYS = (
+    "velocity",
+    "velocity_at_s",
+    "acceleration",
+    "acceleration_at_s",
+    "jerk",
+    "jerk_at_s",
+    "reverse",
+    "end_position",
+    "end_velocity",
+    "end_acceleration",
+)
 
 #: how SCurveBatch.evaluate_jerk finds each time's phase: above _COMPARE_SIZE times x columns,
 #: for one problem at times in order (a sampled plan) by counting the phase ends passed in
@@ -68,6 +84,8 @@ class SCurveBatch:
     a_max: np.ndarray
     _bounds: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
     _steps: tuple = field(default=(), init=False, repr=False, compare=False)
+    #: peaks_flat() when the graph computed it with the rest (one problem, finite jerks)
+    _peaks: dict | None = field(default=None, init=False, repr=False, compare=False)
     #: every jerk finite (no trapezoid): set by synchronised_scurves, else tested
     _jerk_finite: bool = field(default=False, init=False, repr=False, compare=False)
 
@@ -155,26 +173,13 @@ class SCurveBatch:
         """
         if self._bounds is not None:
             return self._bounds
-        ap, tj = self.a, self.tj
         jf = self.j
         if not self.jerk_finite:
             jf = np.where(np.isfinite(jf), jf, 0.0)  # a trapezoid has no jerk phases
-        out = np.zeros((6, 7) + ap.shape)  # t0, s0, v0 start at 0; the zero acc and jrk
-        t0, s0, v0, d, acc, jrk = out
-        d[0::2] = tj  # phases 0, 2, 4, 6: the jerk phases
-        d[1] = d[5] = self.ta - 2 * tj  # constant acceleration
-        d[3] = self.tv  # cruise
-        acc[1:3] = ap  # phases 0, 3, 4: 0
-        acc[5:7] = -ap
-        jrk[0::6] = jf  # phases 0 and 6; 1, 3, 5: 0
-        jrk[2:5:2] = -jf  # phases 2 and 4
-        np.add.accumulate(d[:-1], axis=0, out=t0[1:])  # cumsum, without its wrapper
-        dv = d * (acc + d * jrk / 2)
-        np.add.accumulate(dv[:-1], axis=0, out=v0[1:])
-        ds = d * (v0 + d * (acc / 2 + d * jrk / 6))
-        np.add.accumulate(ds[:-1], axis=0, out=s0[1:])
+        out = np.empty((6, 7) + self.a.shape)
+        steps = _phase_table(NP, self.tj, self.ta, self.tv, self.a, jf, out)
         self._bounds = out
-        self._steps = dv, ds  # each phase's change of speed and position (peaks)
+        self._steps = steps  # each phase's change of speed and position (peaks)
         return out
 
     def evaluate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -258,41 +263,89 @@ class SCurveBatch:
 
     def peaks_flat(self) -> dict[str, np.ndarray]:
         """:meth:`peaks` with every array flat, ``(problems x n_joints,)``."""
+        if self._peaks is not None:
+            return dict(self._peaks)
         b = self.boundaries()
         cols = self.distance.size
-        t0, s0, v0, d, acc, jrk = b.reshape(6, 7, cols)
         dv, ds = (x.reshape(7, cols) for x in self._steps)  # integrated by boundaries()
-        live = d > 0
-        a1 = acc + jrk * d  # the acceleration at each phase end
-        v1 = v0 + dv
-        cross = live & (acc * a1 < 0)  # the speed's extreme inside the phase
-        # candidates (21 or 14, cols): at the phase starts, the phase ends, the extremes inside
-        # (where there are any: else their rows would be 0, never the first largest |speed|
-        # nor a lower speed than v0 = 0 at the start)
-        if cross.any():
-            jn = np.where(cross, jrk, 1.0)
-            ct = np.concatenate([t0, t0 + d, t0 - acc / jn])
-            cv = np.concatenate([v0 * live, v1 * live, (v0 - acc * acc / (2 * jn)) * cross])
-        else:
-            ct = np.concatenate([t0, t0 + d])
-            cv = np.concatenate([v0 * live, v1 * live])
-        ca = np.abs(np.concatenate([acc * live, a1 * live]))
-        cj = np.abs(jrk * live)
-        col = np.arange(cols)
-        av = np.abs(cv)
-        iv, ia, ij = av.argmax(axis=0), ca.argmax(axis=0), cj.argmax(axis=0)
-        return {
-            "velocity": av[iv, col],
-            "velocity_at_s": ct[iv, col],
-            "acceleration": ca[ia, col],
-            "acceleration_at_s": ct[ia, col],
-            "jerk": cj[ij, col],
-            "jerk_at_s": t0[ij, col],
-            "reverse": np.maximum(-cv.min(axis=0), 0.0),
-            "end_position": s0[6] + ds[6],
-            "end_velocity": v1[6],
-            "end_acceleration": a1[6] * live[6],
-        }
+        t0, s0, v0, d, acc, jrk = b.reshape(6, 7, cols)
+        return _peak_table(NP, t0, s0, v0, d, acc, jrk, dv, ds)
+
+
+# ---------------------------------------------------------------------- the engine's formulas
+# Written once against a backend ``ops`` (:mod:`.ops`): numpy (NP; batches, trapezoids) and
+# CasADi SX (the graph of one problem, :mod:`.graph`). Per joint the arguments are numpy
+# arrays (..., n_joints) or SX columns (n, 1); a phase table is (7, ...) or SX (7, n).
+def _synchronise(L, v, a, j, k: _DoubleSLimits, moving) -> tuple:
+    """``(T, t_min, v, a, tj, ta, tv)`` of the synchronised profiles (:func:`synchronised_scurves`):
+    each joint's shortest time, the common duration ``T`` (their largest), each joint's peak
+    speed for ``T`` and its ramps; ``L = |D|`` and ``moving = L > 0`` at the full shape."""
+    ops = k.ops
+    peak = _ds_peak(L, v, k)
+    t_min = _ds_min_times(L, v, k, peak, moving)
+    T = ops.joint_max(t_min)
+    Tc = ops.per_joint(T, t_min)
+    vp = _ds_speed_for_duration(L, Tc, v, k, peak, t_min, moving)
+    tj, ta = _ds_ramp(vp, k)
+    ap = ops.fmin(j * tj, a)  # a joint at rest: tj = 0, so ap = 0 (finite j)
+    if not k.finite:
+        ap = np.where(vp > 0, np.where(k.trap, a, ap), 0.0)
+    tv = ops.fmax(Tc - 2 * ta, 0.0)  # a joint at rest: ta = 0, so tv = T
+    return T, t_min, vp, ap, tj, ta, tv
+
+
+def _phase_table(ops, tj, ta, tv, ap, jf, out=None) -> tuple:
+    """The seven phases (:meth:`SCurveBatch.phases`) and their starts integrated from rest
+    (:meth:`SCurveBatch.boundaries`): the rows ``t0, s0, v0, d, acc, jrk`` into ``out``
+    (numpy: ``(6, 7, ...)``; SX: a list), and the steps ``(dv, ds)`` of each phase."""
+    if out is None:
+        out = [None] * 6
+    zero = ops.zero(tj)
+    c = ta - 2 * tj  # constant acceleration
+    d = out[3] = ops.rows([tj, c, tj, tv, tj, c, tj], out[3])
+    acc = out[4] = ops.rows([zero, ap, ap, zero, zero, -ap, -ap], out[4])
+    jrk = out[5] = ops.rows([jf, zero, -jf, zero, -jf, zero, jf], out[5])
+    out[0] = ops.accumulate(d, out[0])
+    dv = d * (acc + d * jrk / 2)
+    v0 = out[2] = ops.accumulate(dv, out[2])
+    ds = d * (v0 + d * (acc / 2 + d * jrk / 6))
+    out[1] = ops.accumulate(ds, out[1])
+    return dv, ds
+
+
+def _peak_table(ops, t0, s0, v0, d, acc, jrk, dv, ds) -> dict:
+    """:meth:`SCurveBatch.peaks_flat` from the phase table ``(7, cols)`` and its steps."""
+    live = d > 0
+    a1 = acc + jrk * d  # the acceleration at each phase end
+    v1 = v0 + dv
+    cross = ops.and_(live, acc * a1 < 0)  # the speed's extreme inside the phase
+    # candidates (21 or 14, cols): at the phase starts, the phase ends, the extremes inside
+    # (where there are any: else their rows would be 0, never the first largest |speed|
+    # nor a lower speed than v0 = 0 at the start)
+    if ops.any(cross):
+        jn = ops.where(cross, jrk, 1.0)
+        ct = ops.concat([t0, t0 + d, t0 - acc / jn])
+        cv = ops.concat([v0 * live, v1 * live, (v0 - acc * acc / (2 * jn)) * cross])
+    else:
+        ct = ops.concat([t0, t0 + d])
+        cv = ops.concat([v0 * live, v1 * live])
+    ca = abs(ops.concat([acc * live, a1 * live]))
+    cj = abs(jrk * live)
+    pv, pvt = ops.argmax_first(abs(cv), ct)
+    pa, pat = ops.argmax_first(ca, ct)
+    pj, pjt = ops.argmax_first(cj, t0)
+    return {
+        "velocity": pv,
+        "velocity_at_s": pvt,
+        "acceleration": pa,
+        "acceleration_at_s": pat,
+        "jerk": pj,
+        "jerk_at_s": pjt,
+        "reverse": ops.fmax(-ops.row_min(cv), 0.0),
+        "end_position": s0[6, :] + ds[6, :],
+        "end_velocity": v1[6, :],
+        "end_acceleration": a1[6, :] * live[6, :],
+    }
 
 
 def _full(x: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
@@ -366,23 +419,45 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
     shape = _checked_shape(D, v, a, j)
     # every argument at the full shape once: same-shape numpy operations, no broadcasting
     # (it costs more than the arithmetic on a single small problem)
-    L, D, v, a, j = (_full(x, shape) for x in (np.abs(D), D, v, a, j))
+    D, v, a, j = (_full(x, shape) for x in (D, v, a, j))
+    finite = bool(np.isfinite(j).all())  # a is finite (checked)
+    if finite and D.size == shape[-1] and graph.available():
+        return _one_problem(D, v, a, j)
+    L = np.abs(D)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         # the quantities that depend on the limits alone, once
-        k = _DoubleSLimits(a, j, bool(np.isfinite(j).all()))  # a is finite (checked)
-        moving = L > 0
-        peak = _ds_peak(L, v, k)
-        t_min = _ds_min_times(L, v, k, peak, moving)
-        T = t_min.max(axis=-1) if t_min.shape[-1] else np.zeros(t_min.shape[:-1])
-        Tc = float(T.reshape(-1)[0]) if T.size == 1 else _full(T[..., None], shape)
-        vp = _ds_speed_for_duration(L, Tc, v, k, peak, t_min, moving)
-        tj, ta = _ds_ramp(vp, k)
-        ap = np.minimum(j * tj, a)  # a joint at rest: tj = 0, so ap = 0 (finite j)
-        if not k.finite:
-            ap = np.where(vp > 0, np.where(k.trap, a, ap), 0.0)
-        tv = np.maximum(Tc - 2 * ta, 0.0)  # a joint at rest: ta = 0, so tv = T
+        k = _DoubleSLimits(a, j, finite)
+        T, t_min, vp, ap, tj, ta, tv = _synchronise(L, v, a, j, k, L > 0)
     batch = SCurveBatch(
         duration=T, t_min=t_min, distance=D, v=vp, a=ap, j=j, tj=tj, ta=ta, tv=tv, a_max=a
     )
     batch._jerk_finite = k.finite
+    return batch
+
+
+def _one_problem(D, v, a, j) -> SCurveBatch:
+    """:func:`synchronised_scurves` of one problem with finite jerks (``D`` of ``n`` joints,
+    any leading axes of size 1): every result, the phase table and the peaks by one evaluation
+    of the graph (:func:`armlab.trajectory.profiles.graph.evaluate`)."""
+    shape = D.shape
+    n = shape[-1]
+    r = graph.evaluate(D, v, a, j)  # a fresh array: the batch's arrays are views of it
+    t_min, vp, ap, tj, ta, tv = r[1 : 1 + 6 * n].reshape((6,) + shape)
+    batch = SCurveBatch(
+        duration=r[0:1].reshape(shape[:-1]),
+        t_min=t_min,
+        distance=D,
+        v=vp,
+        a=ap,
+        j=j,
+        tj=tj,
+        ta=ta,
+        tv=tv,
+        a_max=a,
+    )
+    batch._jerk_finite = True
+    batch._bounds = r[1 + 6 * n : 1 + 48 * n].reshape((6, 7) + shape)
+    dv, ds = r[1 + 48 * n : 1 + 62 * n].reshape((2, 7) + shape)
+    batch._steps = dv, ds
+    batch._peaks = dict(zip(PEAK_KEYS, r[1 + 62 * n :].reshape(10, n), strict=True))
     return batch

@@ -3,7 +3,11 @@ implementation of that timing (Biagiotti & Melchiorri §3.2, §3.4; SHU controll
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+
+from armlab.trajectory.profiles.ops import NP
 
 __all__ = [
     "trapezoid_ramp_length",
@@ -111,14 +115,15 @@ def _given(x, shape: tuple[int, ...]) -> np.ndarray:
 class _DoubleSLimits:
     """``a``, ``j``, ``a / j`` (``aj_raw``; ``aj``: 0 for ``j = inf``), ``a^2``, ``a^2 / j``,
     ``a^2 / j^2``, ``sqrt(j)``; ``finite``: every ``j`` finite (no trapezoid); ``trap``:
-    ``j = inf`` (an empty mask when ``finite``)."""
+    ``j = inf`` (an empty mask when ``finite``); ``ops``: the backend (:mod:`.ops`; the SX
+    graph is built for finite jerks only)."""
 
-    __slots__ = ("a", "j", "aj_raw", "aj", "a2", "a2j", "a2jj", "sj", "finite", "trap")
+    __slots__ = ("a", "j", "aj_raw", "aj", "a2", "a2j", "a2jj", "sj", "finite", "trap", "ops")
 
-    def __init__(self, a, j, finite: bool | None = None):
-        self.a, self.j = a, j
+    def __init__(self, a, j, finite: bool | None = None, ops=NP):
+        self.a, self.j, self.ops = a, j, ops
         if finite is None:
-            finite = bool(np.isfinite(j).all())
+            finite = ops.symbolic or bool(np.isfinite(j).all())
         self.finite = finite
         self.trap = _NONE if finite else np.isinf(j)
         self.aj_raw = aj = a / j
@@ -126,68 +131,65 @@ class _DoubleSLimits:
         self.a2 = a * a
         self.a2j = self.a2 / j
         self.a2jj = self.a2 / (j * j)
-        self.sj = np.sqrt(j)
+        self.sj = ops.sqrt(j)
 
     def traps(self) -> bool:
         """Some joint is a trapezoid (``j = inf``)."""
         return not self.finite and bool(self.trap.any())
 
 
-def _ds_ramp(v, k: _DoubleSLimits) -> tuple[np.ndarray, np.ndarray]:
+def _ds_ramp(v, k: _DoubleSLimits) -> tuple[Any, Any]:
     """:func:`double_s_ramp` on a :class:`_DoubleSLimits` (errors ignored by the caller), for
     ``v >= 0``: the plateau ``(a / j, a / j + v / a)`` where ``v j >= a^2``, else ``(sqrt(v /
     j), 2 sqrt(v / j))`` -- ``j = inf`` gives the trapezoid's ``(0, v / a)``, ``a = inf`` the
-    jerk-only ramp, ``v = 0`` ``(0, 0)``. The selections are made in place (``np.copyto``): a
-    new array costs more than the selection on a small problem."""
+    jerk-only ramp, ``v = 0`` ``(0, 0)``."""
+    ops = k.ops
     plateau = v * k.j >= k.a2
-    tj = np.sqrt(v / k.j)
-    np.copyto(tj, k.aj, where=plateau)
-    ta = 2 * tj
-    np.copyto(ta, tj + v / k.a, where=plateau)
+    tj = ops.select(plateau, k.aj, ops.sqrt(v / k.j))
+    ta = ops.select(plateau, tj + v / k.a, 2 * tj)
     return tj, ta
 
 
-def _ds_peak(L, v, k: _DoubleSLimits) -> np.ndarray:
+def _ds_peak(L, v, k: _DoubleSLimits) -> Any:
     """:func:`double_s_peak_speed` on a :class:`_DoubleSLimits`."""
-    a = k.a
-    plateau = a * (np.sqrt(k.a2jj + 4 * L / a) - k.aj_raw) / 2
-    vp = (L * k.sj / 2) ** (2 / 3)
-    np.copyto(vp, plateau, where=plateau >= k.a2j)
-    np.minimum(vp, v, out=vp)
+    ops, a = k.ops, k.a
+    plateau = a * (ops.sqrt(k.a2jj + 4 * L / a) - k.aj_raw) / 2
+    vp = ops.select(plateau >= k.a2j, plateau, (L * k.sj / 2) ** (2 / 3))
+    vp = ops.fmin(vp, v)
     if k.traps():
         return np.where(k.trap, trapezoid_peak_speed(L, v, a), vp)
     return vp
 
 
-def _ds_min_times(L, v, k: _DoubleSLimits, vp, moving) -> np.ndarray:
+def _ds_min_times(L, v, k: _DoubleSLimits, vp, moving) -> Any:
     """:func:`double_s_min_times` on a :class:`_DoubleSLimits`, ``vp`` the peak speeds,
-    ``moving`` ``L > 0``."""
-    T = np.where(moving, L / vp + _ds_ramp(vp, k)[1], 0.0)
+    ``moving`` ``L > 0`` (``L / vp`` is ``0 / 0`` at rest: in the branch not taken)."""
+    T = k.ops.where(moving, L / vp + _ds_ramp(vp, k)[1], 0.0)
     if k.traps():
         return np.where(k.trap, trapezoid_min_times(L, v, k.a), T)
     return T
 
 
-def _ds_speed_for_duration(L, T, v, k: _DoubleSLimits, v_hi, t_min, moving) -> np.ndarray:
+def _ds_speed_for_duration(L, T, v, k: _DoubleSLimits, v_hi, t_min, moving) -> Any:
     """:func:`double_s_speed_for_duration` on a :class:`_DoubleSLimits`: ``v_hi``, ``t_min``
     the peak speeds and shortest times, ``moving`` ``L > 0``."""
-    a, j = k.a, k.j
+    ops, a, j = k.ops, k.a, k.j
     b = T - k.aj
     L2 = 2 * L
     disc = b * b - (L2 + L2) / a  # 4 L / a: doubling is exact
-    va = L2 / (b + np.sqrt(np.maximum(disc, 0.0)))
-    phi = 2 * np.arcsin(np.sqrt(np.minimum(27 * L / (j * T**3), 1.0)))
-    u0 = T / 6 + T / 3 * np.cos(phi / 3)
-    sv = 2 * T / 3 * np.sin(phi / 6) ** 2
-    u = (sv + np.sqrt(sv * sv + L2 / (j * u0))) / 2
-    plateau = (disc >= 0) & (b > 0) & (va * j >= k.a2)  # j = inf: always
-    vT = j * u * u
-    np.copyto(vT, va, where=plateau)
-    np.minimum(vT, v_hi, out=vT)
-    np.copyto(vT, v_hi, where=T <= t_min)
+    va = L2 / (b + ops.sqrt(ops.fmax(disc, 0.0)))
+    # T = 0 only where no joint moves (then 'moving' masks the result)
+    phi = 2 * ops.asin(ops.sqrt(ops.fmin(27 * L / (j * T**3), 1.0)))
+    u0 = T / 6 + T / 3 * ops.cos(phi / 3)
+    sv = 2 * T / 3 * ops.sin(phi / 6) ** 2
+    u = (sv + ops.sqrt(sv * sv + L2 / (j * u0))) / 2
+    plateau = ops.and_(ops.and_(disc >= 0, b > 0), va * j >= k.a2)  # j = inf: always
+    vT = ops.select(plateau, va, j * u * u)
+    vT = ops.fmin(vT, v_hi)
+    vT = ops.select(T <= t_min, v_hi, vT)
     if k.traps():  # the trapezoid's own closed form (a = inf: v = L / T)
         vT = np.where(k.trap, trapezoid_speed_for_duration(L, T, a, a, v), vT)
-    return np.where(moving, vT, 0.0)
+    return ops.where(moving, vT, 0.0)
 
 
 def double_s_ramp(v, a_max, j_max) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,272 @@
+"""The synchronised double S engine of ONE problem as a CasADi SX graph, run by CasADi's virtual
+machine or, where a C compiler exists, compiled once per joint count and cached on disk.
+
+:func:`armlab.trajectory.profiles.synchronised_scurves` of one problem (``n`` joints, every
+jerk finite) is a few hundred numpy calls on arrays of ``n`` values: about 100 us with the
+phase table and the peak check, for a few microseconds of arithmetic. This module evaluates the
+same formulas -- the engine's own functions (``_synchronise``, ``_phase_table``,
+``_peak_table`` of :mod:`.batch`, the kernels of :mod:`.timing`), written once against a
+backend (:mod:`.ops`) and here given CasADi SX symbols instead of arrays -- as one
+:class:`casadi.Function` per ``n``, through :meth:`casadi.Function.buffer` (bound numpy arrays,
+no conversion per call).
+
+Input ``x (4, n)``: ``D, v_max, a_max, j_max``. Output, one flat array of ``1 + 72 n``:
+
+* ``T`` (1); ``t_min, v, a, tj, ta, tv`` (``6 n``);
+* the phase table of :meth:`.SCurveBatch.boundaries` (``6 x 7 x n``, C order);
+* the steps ``dv, ds`` of each phase (``2 x 7 x n``);
+* :meth:`.SCurveBatch.peaks_flat` (``10 x n``, keys in :data:`.batch.PEAK_KEYS` order).
+
+The numbers equal the numpy evaluation's to round-off (within 1e-15 of each quantity's scale
+in the tests, not bit for bit: glibc's ``pow`` and ``asin`` differ from numpy's by an ulp at
+times).
+
+How the graph is run (``$ARMLAB_SCURVE_GRAPH``, read at import and by :func:`reset`):
+
+* ``auto`` (default): the compiled library of ``n`` joints if the cache holds it (loaded in
+  milliseconds); else the graph is built (30-60 ms for 6 joints, once per process) and run by
+  the VM (about 10 us per problem), and a background thread generates its C code and compiles
+  it (``gcc -O1``, about 1.2 s for 6 joints, once per machine; the gcc process runs beside the
+  caller), after which calls use it (about 3 us). Background, so no call waits for the compiler:
+  the first call of a process costs the graph's build, never the compile;
+* ``vm``: the VM only (no compile);
+* ``off``: no graph; the numpy evaluation for one problem too.
+
+Where no compiler exists (:func:`armlab._cache.compiler`) or the compile fails, the VM stays in
+use (:func:`status` says why). The library is keyed by everything its code depends on (the
+source of the formulas' modules, the casadi version, the compiler, the flags, the platform,
+``n``) and written atomically (compiled into a temporary folder in the cache, then renamed), so
+parallel processes never load a half-written file.
+
+Each thread has its own bound buffers (a ``threading.local``): Dask's threads may call at once.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from armlab import _cache
+from armlab._lazy import lazy_import
+
+if TYPE_CHECKING:
+    import casadi as ca
+else:
+    ca = lazy_import("casadi")
+
+__all__ = [
+    "CFLAGS",
+    "available",
+    "build",
+    "compile_library",
+    "evaluate",
+    "library_path",
+    "load_compiled",
+    "reset",
+    "status",
+]
+
+#: compiler flags of the graph's library (-O2/-O3 measured no faster than -O1: 3.2/3.3 us
+#: against 2.8 us per 6-joint problem, prototype in notes/casadi-engine)
+CFLAGS = ("-O1", "-fPIC", "-shared")
+#: the modules whose source the graph is generated from (its cache key hashes them)
+_SOURCES = ("ops.py", "timing.py", "batch.py", "graph.py")
+_MODES = ("auto", "vm", "off")
+
+_LOCK = threading.Lock()
+_ACTIVE: dict[int, Any] = {}  # n -> the Function in use (VM or compiled)
+_STATUS: dict[int, str] = {}
+_VM: dict[int, Any] = {}  # n -> the graph, built once per process
+_LOCAL = threading.local()  # per thread: n -> (function, trigger, input, output, buffer)
+_mode = "auto"
+
+
+def reset() -> None:
+    """Forget the functions in use and read ``$ARMLAB_SCURVE_GRAPH`` again (tests)."""
+    global _mode
+    mode = os.environ.get("ARMLAB_SCURVE_GRAPH", "auto").strip().lower() or "auto"
+    with _LOCK:
+        _mode = mode if mode in _MODES else "auto"
+        _ACTIVE.clear()
+        _STATUS.clear()
+    _LOCAL.__dict__.clear()
+
+
+def available() -> bool:
+    """Whether one problem is evaluated by the graph (``$ARMLAB_SCURVE_GRAPH`` is not ``off``)."""
+    return _mode != "off"
+
+
+def status(n: int) -> str:
+    """How problems of ``n`` joints are evaluated: ``"compiled"``, ``"vm"`` (with the reason
+    where the compile failed, or ``"vm, compiling"``), or ``"unused"``."""
+    return _STATUS.get(n, "unused")
+
+
+def build(n: int):
+    """The graph of ``n`` joints (module docstring) run by CasADi's VM, built once per process."""
+    with _LOCK:
+        f = _VM.get(n)
+        if f is None:
+            f = _VM[n] = _build(n)
+    return f
+
+
+def _build(n: int):
+    from armlab.trajectory.profiles.batch import (
+        PEAK_KEYS,
+        _peak_table,
+        _phase_table,
+        _synchronise,
+    )
+    from armlab.trajectory.profiles.ops import SX
+    from armlab.trajectory.profiles.timing import _DoubleSLimits
+
+    x = ca.SX.sym("x", n, 4)  # column-major: the rows of a C-ordered (4, n) array
+    D, v, a, j = (x[:, c] for c in range(4))
+    L = ca.fabs(D)
+    k = _DoubleSLimits(a, j, True, SX)
+    T, t_min, vp, ap, tj, ta, tv = _synchronise(L, v, a, j, k, L > 0)
+    table: list = [None] * 6
+    steps = _phase_table(SX, tj, ta, tv, ap, j, table)
+    peaks = _peak_table(SX, *table, *steps)
+    out = [T, t_min, vp, ap, tj, ta, tv]
+    out += [ca.vec(m.T) for m in (*table, *steps)]  # (7, n) in C order
+    out += [peaks[key].T for key in PEAK_KEYS]
+    return ca.Function(f"armlab_scurve_{n}", [x], [ca.vertcat(*out)], ["x"], ["out"])
+
+
+@functools.lru_cache(maxsize=1)
+def _source_hash() -> str:
+    here = Path(__file__).parent
+    h = hashlib.sha256()
+    for name in _SOURCES:
+        h.update((here / name).read_bytes())
+    return h.hexdigest()
+
+
+def library_path(n: int, cc: str) -> Path:
+    """Where the compiled graph of ``n`` joints built by ``cc`` lives in the cache."""
+    h = hashlib.sha256()
+    for part in (_source_hash(), ca.__version__, cc, " ".join(CFLAGS), sys.platform, str(n)):  # type: ignore[attr-defined]
+        h.update(part.encode())
+        h.update(b"\0")
+    return _cache.cache_dir() / "scurve" / f"scurve-graph-{n}-{h.hexdigest()[:20]}.so"
+
+
+def compile_library(n: int) -> Path:
+    """The compiled graph of ``n`` joints, built now unless the cache holds it (about 1.2 s
+    for 6 joints); the path of the library.
+
+    Raises
+    ------
+    armlab._cache.CompilerUnavailable
+        No C compiler, or the compile failed.
+    """
+    cc = _cache.compiler()
+    so = library_path(n, cc)
+    if so.exists():
+        return so
+    f = build(n)
+    name = f.name()
+    cg = ca.CodeGenerator(name + ".c", {"with_header": False})
+    cg.add(f)
+    code = cg.dump()
+    so.parent.mkdir(parents=True, exist_ok=True)
+    # compiled in a temporary folder beside the target and renamed: never half written
+    with tempfile.TemporaryDirectory(dir=so.parent, prefix=".build-") as tmp:
+        src, out = Path(tmp) / (name + ".c"), Path(tmp) / (name + ".so")
+        src.write_text(code)
+        cmd = [cc, *CFLAGS, str(src), "-o", str(out), "-lm"]
+        try:
+            r = subprocess.run(cmd, capture_output=True, text=True, check=False)
+        except OSError as exc:
+            raise _cache.CompilerUnavailable(f"the C compiler {cc} could not run: {exc}") from None
+        if r.returncode:
+            last = (r.stderr.strip().splitlines() or ["(no message)"])[-1]
+            raise _cache.CompilerUnavailable(f"compiling the S-curve graph failed: {last}")
+        os.replace(out, so)
+    return so
+
+
+def load_compiled(n: int, so: Path):
+    """The compiled graph of ``n`` joints from its library ``so``."""
+    return ca.external(f"armlab_scurve_{n}", str(so))
+
+
+def _activate(n: int):
+    """The function of ``n`` joints chosen by the mode (module docstring), set in use."""
+    f = _ACTIVE.get(n)
+    if f is not None:
+        return f
+    if _mode == "auto":
+        try:
+            so = library_path(n, _cache.compiler())
+            if so.exists():
+                f = load_compiled(n, so)
+                with _LOCK:
+                    _ACTIVE[n], _STATUS[n] = f, "compiled"
+                return f
+        except Exception:  # noqa: BLE001 - no compiler, a damaged file: the VM below
+            pass
+    f = build(n)
+    start = False
+    with _LOCK:
+        if n not in _ACTIVE:
+            _ACTIVE[n] = f
+            start = _mode == "auto"
+            _STATUS[n] = "vm, compiling" if start else "vm"
+        f = _ACTIVE[n]
+    if start:
+        threading.Thread(target=_compile_in_background, args=(n,), daemon=True).start()
+    return f
+
+
+def _compile_in_background(n: int) -> None:
+    """Compile the graph of ``n`` joints and put it in use; on failure say why in the status."""
+    try:
+        f = load_compiled(n, compile_library(n))
+    except Exception as exc:  # noqa: BLE001 - the VM stays in use, the reason is kept
+        with _LOCK:
+            _STATUS[n] = f"vm ({exc})"
+        return
+    with _LOCK:
+        if n in _ACTIVE:  # not reset meanwhile
+            _ACTIVE[n], _STATUS[n] = f, "compiled"
+
+
+def evaluate(D, v, a, j) -> np.ndarray:
+    """The graph's output (module docstring) for one problem, a fresh array of ``1 + 72 n``;
+    ``D, v, a, j`` contiguous float arrays of ``n`` joints (leading axes of size 1 allowed),
+    every ``j`` finite."""
+    n = D.shape[-1]
+    f = _ACTIVE.get(n) or _activate(n)
+    slot = _LOCAL.__dict__.get(n)
+    if slot is None or slot[0] is not f:
+        slot = _LOCAL.__dict__[n] = _bind(f, n)
+    _, trigger, x, out, _ = slot
+    x[0], x[1], x[2], x[3] = D, v, a, j
+    trigger()
+    return out.copy()
+
+
+def _bind(f, n: int) -> tuple:
+    """A buffer of ``f`` with numpy arrays bound to its input and output (kept alive with
+    it)."""
+    buf, trigger = f.buffer()
+    x, out = np.zeros((4, n)), np.zeros(1 + 72 * n)
+    buf.set_arg(0, x.data)
+    buf.set_res(0, out.data)
+    return f, trigger, x, out, buf
+
+
+reset()
