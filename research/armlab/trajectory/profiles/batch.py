@@ -84,8 +84,11 @@ class SCurveBatch:
     a_max: np.ndarray
     _bounds: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
     _steps: tuple = field(default=(), init=False, repr=False, compare=False)
-    #: peaks_flat() when the graph computed it with the rest (one problem, finite jerks)
-    _peaks: dict | None = field(default=None, init=False, repr=False, compare=False)
+    #: peaks_flat() when the graph computed it with the rest (one problem, finite jerks): its
+    #: rows (10, n_joints), keys PEAK_KEYS
+    _peaks: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
+    #: the (tj, ta, tv, a, j) arrays the phase table was made from
+    _made_from: tuple = field(default=(), init=False, repr=False, compare=False)
     #: every jerk finite (no trapezoid): set by synchronised_scurves, else tested
     _jerk_finite: bool = field(default=False, init=False, repr=False, compare=False)
 
@@ -171,8 +174,9 @@ class SCurveBatch:
             t0[k+1] = t0[k] + d_k,   v0[k+1] = v0[k] + a_k d_k + j_k d_k^2 / 2,
             s0[k+1] = s0[k] + v0[k] d_k + a_k d_k^2 / 2 + j_k d_k^3 / 6
         """
-        if self._bounds is not None:
+        if self._bounds is not None and self._current():
             return self._bounds
+        self._peaks = None  # made from other phase data
         jf = self.j
         if not self.jerk_finite:
             jf = np.where(np.isfinite(jf), jf, 0.0)  # a trapezoid has no jerk phases
@@ -180,7 +184,14 @@ class SCurveBatch:
         steps = _phase_table(NP, self.tj, self.ta, self.tv, self.a, jf, out)
         self._bounds = out
         self._steps = steps  # each phase's change of speed and position (peaks)
+        self._made_from = (self.tj, self.ta, self.tv, self.a, self.j)
         return out
+
+    def _current(self) -> bool:
+        """The phase table was made from the arrays the batch holds now (a caller may replace
+        one, e.g. to test a check on altered phase data)."""
+        tj, ta, tv, a, j = self._made_from
+        return tj is self.tj and ta is self.ta and tv is self.tv and a is self.a and j is self.j
 
     def evaluate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(q, qd, qdd)`` displacements from the start at times ``t`` (m,) [s]: arrays
@@ -263,8 +274,8 @@ class SCurveBatch:
 
     def peaks_flat(self) -> dict[str, np.ndarray]:
         """:meth:`peaks` with every array flat, ``(problems x n_joints,)``."""
-        if self._peaks is not None:
-            return dict(self._peaks)
+        if self._peaks is not None and self._current():  # the graph's rows
+            return dict(zip(PEAK_KEYS, self._peaks, strict=True))
         b = self.boundaries()
         cols = self.distance.size
         dv, ds = (x.reshape(7, cols) for x in self._steps)  # integrated by boundaries()
@@ -416,13 +427,21 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
     if D.ndim == 0:
         raise InputError("synchronised_scurves: distances must have a joint axis (..., n_joints)")
     v, a, j = (np.asarray(x, float) for x in (v_max, a_max, j_max))
+    shape = D.shape
+    if (
+        D.size == shape[-1]
+        and v.shape == a.shape == j.shape == shape[D.ndim - v.ndim :]
+        and graph.available()
+    ):  # one problem: the graph, unless it finds an invalid value or an infinite jerk
+        D, v, a, j = (_full(x, shape) for x in (D, v, a, j))
+        batch = _one_problem(D, v, a, j)
+        if batch is not None:
+            return batch
     shape = _checked_shape(D, v, a, j)
     # every argument at the full shape once: same-shape numpy operations, no broadcasting
     # (it costs more than the arithmetic on a single small problem)
     D, v, a, j = (_full(x, shape) for x in (D, v, a, j))
     finite = bool(np.isfinite(j).all())  # a is finite (checked)
-    if finite and D.size == shape[-1] and graph.available():
-        return _one_problem(D, v, a, j)
     L = np.abs(D)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         # the quantities that depend on the limits alone, once
@@ -435,29 +454,23 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
     return batch
 
 
-def _one_problem(D, v, a, j) -> SCurveBatch:
-    """:func:`synchronised_scurves` of one problem with finite jerks (``D`` of ``n`` joints,
-    any leading axes of size 1): every result, the phase table and the peaks by one evaluation
-    of the graph (:func:`armlab.trajectory.profiles.graph.evaluate`)."""
+def _one_problem(D, v, a, j) -> SCurveBatch | None:
+    """:func:`synchronised_scurves` of one problem (``D`` of ``n`` joints, any leading axes of
+    size 1): every result, the phase table and the peaks by one evaluation of the graph
+    (:func:`armlab.trajectory.profiles.graph.evaluate`); ``None`` where a value is not valid
+    or a jerk is infinite (the graph's last output: the numpy path names the error or builds
+    the trapezoid)."""
     shape = D.shape
     n = shape[-1]
     r = graph.evaluate(D, v, a, j)  # a fresh array: the batch's arrays are views of it
+    if not r[-1]:
+        return None
     t_min, vp, ap, tj, ta, tv = r[1 : 1 + 6 * n].reshape((6,) + shape)
-    batch = SCurveBatch(
-        duration=r[0:1].reshape(shape[:-1]),
-        t_min=t_min,
-        distance=D,
-        v=vp,
-        a=ap,
-        j=j,
-        tj=tj,
-        ta=ta,
-        tv=tv,
-        a_max=a,
-    )
+    batch = SCurveBatch(r[0:1].reshape(shape[:-1]), t_min, D, vp, ap, j, tj, ta, tv, a)
     batch._jerk_finite = True
     batch._bounds = r[1 + 6 * n : 1 + 48 * n].reshape((6, 7) + shape)
     dv, ds = r[1 + 48 * n : 1 + 62 * n].reshape((2, 7) + shape)
     batch._steps = dv, ds
-    batch._peaks = dict(zip(PEAK_KEYS, r[1 + 62 * n :].reshape(10, n), strict=True))
+    batch._made_from = (tj, ta, tv, ap, j)
+    batch._peaks = r[1 + 62 * n : 1 + 72 * n].reshape(10, n)
     return batch

@@ -10,12 +10,14 @@ backend (:mod:`.ops`) and here given CasADi SX symbols instead of arrays -- as o
 :class:`casadi.Function` per ``n``, through :meth:`casadi.Function.buffer` (bound numpy arrays,
 no conversion per call).
 
-Input ``x (4, n)``: ``D, v_max, a_max, j_max``. Output, one flat array of ``1 + 72 n``:
+Input ``x (4, n)``: ``D, v_max, a_max, j_max``. Output, one flat array of ``2 + 72 n``:
 
 * ``T`` (1); ``t_min, v, a, tj, ta, tv`` (``6 n``);
 * the phase table of :meth:`.SCurveBatch.boundaries` (``6 x 7 x n``, C order);
 * the steps ``dv, ds`` of each phase (``2 x 7 x n``);
-* :meth:`.SCurveBatch.peaks_flat` (``10 x n``, keys in :data:`.batch.PEAK_KEYS` order).
+* :meth:`.SCurveBatch.peaks_flat` (``10 x n``, keys in :data:`.batch.PEAK_KEYS` order);
+* 1 if every input is valid (``D`` finite, limits finite and > 0), else 0 (the caller then
+  takes the numpy path, which names the error, or builds the trapezoids of ``j = inf``).
 
 The numbers equal the numpy evaluation's to round-off (within 1e-15 of each quantity's scale
 in the tests, not bit for bit: glibc's ``pow`` and ``asin`` differ from numpy's by an ulp at
@@ -142,6 +144,10 @@ def _build(n: int):
     out = [T, t_min, vp, ap, tj, ta, tv]
     out += [ca.vec(m.T) for m in (*table, *steps)]  # (7, n) in C order
     out += [peaks[key].T for key in PEAK_KEYS]
+    # 1 where every value is valid and every jerk finite (comparisons with NaN are false)
+    inf = ca.inf
+    ok = [ca.fabs(D) < inf] + [ca.logic_and(x > 0, x < inf) for x in (v, a, j)]
+    out.append(ca.mmin(ca.vertcat(*ok)))
     return ca.Function(f"armlab_scurve_{n}", [x], [ca.vertcat(*out)], ["x"], ["out"])
 
 
@@ -245,9 +251,8 @@ def _compile_in_background(n: int) -> None:
 
 
 def evaluate(D, v, a, j) -> np.ndarray:
-    """The graph's output (module docstring) for one problem, a fresh array of ``1 + 72 n``;
-    ``D, v, a, j`` contiguous float arrays of ``n`` joints (leading axes of size 1 allowed),
-    every ``j`` finite."""
+    """The graph's output (module docstring) for one problem, a fresh array of ``2 + 72 n``;
+    ``D, v, a, j`` float arrays of ``n`` joints (leading axes of size 1 allowed)."""
     n = D.shape[-1]
     f = _ACTIVE.get(n) or _activate(n)
     slot = _LOCAL.__dict__.get(n)
@@ -263,7 +268,7 @@ def _bind(f, n: int) -> tuple:
     """A buffer of ``f`` with numpy arrays bound to its input and output (kept alive with
     it)."""
     buf, trigger = f.buffer()
-    x, out = np.zeros((4, n)), np.zeros(1 + 72 * n)
+    x, out = np.zeros((4, n)), np.zeros(2 + 72 * n)
     buf.set_arg(0, x.data)
     buf.set_res(0, out.data)
     return f, trigger, x, out, buf
