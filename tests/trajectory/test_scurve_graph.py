@@ -110,6 +110,7 @@ def compare_singles(D, v, a, j):
 
 def test_vm_matches_the_numpy_evaluation(mode):
     mode("vm")
+    assert graph.prepare(6) == "vm"
     D, v, a, j = problems(2000, 6, seed=1)
     compare_singles(D, v, a, j)
     assert graph.status(6) == "vm"
@@ -126,6 +127,7 @@ def test_vm_matches_the_numpy_evaluation(mode):
 def test_vm_on_other_joint_counts(mode):
     mode("vm")
     for n in (1, 2, 7):
+        assert graph.prepare(n) == "vm"
         compare_singles(*problems(200, n, seed=n))
 
 
@@ -134,6 +136,7 @@ def test_hand_checked_problem(mode):
     = 4), Ta = 0.2 + 1/2 = 0.7 s, T = L / v + Ta = 1.7 s (Biagiotti & Melchiorri §3.4), the
     cruise T - 2 Ta = 0.3 s; the peaks are v, a, j, and the end is at 1 rad at rest."""
     mode("vm")
+    graph.prepare(1)
     b = synchronised_scurves([1.0], [1.0], [2.0], [10.0])
     assert graph.status(1) == "vm"
     assert b.duration == pytest.approx(1.7, abs=1e-14)
@@ -149,6 +152,8 @@ def test_hand_checked_problem(mode):
 
 def test_trapezoids_and_bad_input_take_the_numpy_path(mode):
     mode("vm")
+    graph.prepare(2)
+    graph.prepare(1)
     b = synchronised_scurves([1.0, 0.5], [1.0, 1.0], [2.0, 2.0], [np.inf, 10.0])
     assert not b.jerk_finite
     assert b.duration == pytest.approx(1.5, abs=1e-14)  # the trapezoid: L / v + v / a
@@ -163,6 +168,7 @@ def test_trapezoids_and_bad_input_take_the_numpy_path(mode):
 def test_threads_get_their_own_buffers(mode):
     """Four threads evaluating different problems at once each get their own results."""
     mode("vm")
+    graph.prepare(6)
     D, v, a, j = problems(40, 6, seed=7)
     want = quantities(synchronised_scurves(D, v, a, j))
     errors: list = []
@@ -182,16 +188,17 @@ def test_threads_get_their_own_buffers(mode):
     assert not errors, errors[0]
 
 
-def wait_status(n, timeout=60.0):
-    """The status of ``n`` joints once it is no longer ``vm, compiling``."""
+def wait_status(n, busy=("loading", "vm, compiling"), timeout=60.0):
+    """The status of ``n`` joints once it is no longer one of ``busy``."""
     end = time.monotonic() + timeout
-    while graph.status(n) == "vm, compiling" and time.monotonic() < end:
+    while graph.status(n) in busy and time.monotonic() < end:
         time.sleep(0.05)
     return graph.status(n)
 
 
 def test_without_a_compiler_the_vm_is_used(mode, tmp_path):
     mode("auto", CC=str(tmp_path / "no-such-cc"), ARMLAB_CACHE_DIR=str(tmp_path / "cache"))
+    assert graph.prepare(3).startswith("vm")  # the compile fails in the background
     D, v, a, j = problems(50, 3, seed=3)
     compare_singles(D, v, a, j)
     status = wait_status(3)
@@ -217,9 +224,8 @@ def compiled_cache(tmp_path_factory):
 
 def test_compiled_matches_the_numpy_evaluation(compiled_cache, mode, monkeypatch):
     mode("auto", ARMLAB_CACHE_DIR=str(compiled_cache.parent.parent))
+    assert graph.prepare(4) == "compiled"  # loaded from the cache, not built again
     D, v, a, j = problems(1000, 4, seed=11)
-    synchronised_scurves(D[0], v[0], a[0], j[0])
-    assert graph.status(4) == "compiled"  # loaded from the cache, not built again
     compare_singles(D, v, a, j)
 
 
@@ -237,6 +243,20 @@ def test_the_cache_holds_one_finished_library(compiled_cache, monkeypatch):
     assert graph.library_path(4, compiler()) == compiled_cache
     assert graph.library_path(5, compiler()) != compiled_cache
     assert graph.library_path(4, compiler() + "x") != compiled_cache
+
+
+def test_first_problem_by_numpy_while_the_graph_loads(mode):
+    """Unprepared, the first problem of a joint count is evaluated by numpy (the batch's
+    numbers) while a background thread makes the graph ready; later problems use it."""
+    mode("vm")
+    D, v, a, j = problems(20, 5, seed=5)
+    ref = quantities(synchronised_scurves(D, v, a, j))
+    first = quantities(synchronised_scurves(D[0], v[0], a[0], j[0]))
+    assert graph.status(5) in ("loading", "vm")
+    for k, x in first.items():  # numpy both: the same operations on the same values
+        np.testing.assert_allclose(x, ref[k][:1], rtol=0, atol=0, err_msg=k)
+    assert wait_status(5, busy=("loading",)) == "vm"
+    assert_close(singles(D, v, a, j), ref)
 
 
 def test_off_evaluates_one_problem_with_numpy(mode):

@@ -25,14 +25,21 @@ times).
 
 How the graph is run (``$ARMLAB_SCURVE_GRAPH``, read at import and by :func:`reset`):
 
-* ``auto`` (default): the compiled library of ``n`` joints if the cache holds it (loaded in
-  milliseconds); else the graph is built (30-60 ms for 6 joints, once per process) and run by
-  the VM (about 10 us per problem), and a background thread generates its C code and compiles
-  it (``gcc -O1``, about 1.2 s for 6 joints, once per machine; the gcc process runs beside the
-  caller), after which calls use it (about 3 us). Background, so no call waits for the compiler:
-  the first call of a process costs the graph's build, never the compile;
+* ``auto`` (default): the compiled library of ``n`` joints if the cache holds it; else the
+  graph run by CasADi's VM (about 10 us per problem), while its C code is generated and
+  compiled (``gcc -O1``, about 1.1 s for 6 joints, once per machine, the gcc process beside the
+  caller), after which calls use the library (about 4 us);
 * ``vm``: the VM only (no compile);
 * ``off``: no graph; the numpy evaluation for one problem too.
+
+No call waits for the graph: the first problem of ``n`` joints in a process starts a
+background thread that loads the library (0.9 ms: the key, ``dlopen`` through
+:func:`casadi.external`) or builds the graph (20-25 ms for 6 joints) and then compiles it, and
+that problem -- and any other until the graph is ready -- is evaluated by numpy (the same
+formulas; the two agree within 1e-15 of each quantity's scale). So the first closed-form
+``optimal()`` of a process costs what it cost before the graph (measured: 2.5x a repeat), not
+the 1.4 ms of loading in the call (6x). :func:`prepare` makes the graph ready in the calling
+thread instead (tests, benchmarks, or a caller that wants every problem by the graph).
 
 Where no compiler exists (:func:`armlab._cache.compiler`) or the compile fails, the VM stays in
 use (:func:`status` says why). The library is keyed by everything its code depends on (the
@@ -73,6 +80,7 @@ __all__ = [
     "evaluate",
     "library_path",
     "load_compiled",
+    "prepare",
     "reset",
     "status",
 ]
@@ -87,19 +95,25 @@ _MODES = ("auto", "vm", "off")
 _LOCK = threading.Lock()
 _ACTIVE: dict[int, Any] = {}  # n -> the Function in use (VM or compiled)
 _STATUS: dict[int, str] = {}
+_STARTED: set[int] = set()  # joint counts whose function is being made ready
+_COMPILING: set[int] = set()
 _VM: dict[int, Any] = {}  # n -> the graph, built once per process
 _LOCAL = threading.local()  # per thread: n -> (function, trigger, input, output, buffer)
 _mode = "auto"
+_generation = 0  # bumped by reset(): a background thread of an earlier one changes nothing
 
 
 def reset() -> None:
     """Forget the functions in use and read ``$ARMLAB_SCURVE_GRAPH`` again (tests)."""
-    global _mode
+    global _mode, _generation
     mode = os.environ.get("ARMLAB_SCURVE_GRAPH", "auto").strip().lower() or "auto"
     with _LOCK:
         _mode = mode if mode in _MODES else "auto"
+        _generation += 1
         _ACTIVE.clear()
         _STATUS.clear()
+        _STARTED.clear()
+        _COMPILING.clear()
     _LOCAL.__dict__.clear()
 
 
@@ -110,8 +124,19 @@ def available() -> bool:
 
 def status(n: int) -> str:
     """How problems of ``n`` joints are evaluated: ``"compiled"``, ``"vm"`` (with the reason
-    where the compile failed, or ``"vm, compiling"``), or ``"unused"``."""
+    where the compile failed, or ``"vm, compiling"``), ``"loading"`` (numpy meanwhile), or
+    ``"unused"``."""
     return _STATUS.get(n, "unused")
+
+
+def prepare(n: int) -> str:
+    """Make the graph of ``n`` joints ready now, in this thread (the compiled library if the
+    cache holds it, else the VM, with the compile started in the background); its
+    :func:`status`. Without it the first problem of ``n`` joints of a process starts this in
+    a background thread and is evaluated by numpy (module docstring)."""
+    if _mode != "off":
+        _activate(n, _generation, compile_here=False)
+    return status(n)
 
 
 def build(n: int):
@@ -209,52 +234,71 @@ def load_compiled(n: int, so: Path):
     return ca.external(f"armlab_scurve_{n}", str(so))
 
 
-def _activate(n: int):
-    """The function of ``n`` joints chosen by the mode (module docstring), set in use."""
-    f = _ACTIVE.get(n)
-    if f is not None:
-        return f
+def _activate(n: int, generation: int, compile_here: bool) -> None:
+    """Put the function of ``n`` joints in use (module docstring): the cached library, else
+    the VM and (``auto``) the compile, here or in a new thread."""
+    if n in _ACTIVE:
+        return
+    f, compiled = None, False
     if _mode == "auto":
         try:
             so = library_path(n, _cache.compiler())
             if so.exists():
-                f = load_compiled(n, so)
-                with _LOCK:
-                    _ACTIVE[n], _STATUS[n] = f, "compiled"
-                return f
+                f, compiled = load_compiled(n, so), True
         except Exception:  # noqa: BLE001 - no compiler, a damaged file: the VM below
             pass
-    f = build(n)
-    start = False
+    if f is None:
+        f = build(n)
     with _LOCK:
-        if n not in _ACTIVE:
-            _ACTIVE[n] = f
-            start = _mode == "auto"
-            _STATUS[n] = "vm, compiling" if start else "vm"
-        f = _ACTIVE[n]
-    if start:
-        threading.Thread(target=_compile_in_background, args=(n,), daemon=True).start()
-    return f
+        if generation != _generation or n in _ACTIVE:
+            return
+        compile_now = _mode == "auto" and not compiled and n not in _COMPILING
+        if compile_now:
+            _COMPILING.add(n)
+        _ACTIVE[n] = f
+        _STATUS[n] = "compiled" if compiled else "vm, compiling" if compile_now else "vm"
+    if not compile_now:
+        return
+    if compile_here:
+        _compile(n, generation)
+    else:
+        threading.Thread(target=_compile, args=(n, generation), daemon=True).start()
 
 
-def _compile_in_background(n: int) -> None:
+def _compile(n: int, generation: int) -> None:
     """Compile the graph of ``n`` joints and put it in use; on failure say why in the status."""
     try:
         f = load_compiled(n, compile_library(n))
     except Exception as exc:  # noqa: BLE001 - the VM stays in use, the reason is kept
         with _LOCK:
-            _STATUS[n] = f"vm ({exc})"
+            if generation == _generation:
+                _STATUS[n] = f"vm ({exc})"
         return
     with _LOCK:
-        if n in _ACTIVE:  # not reset meanwhile
+        if generation == _generation:
             _ACTIVE[n], _STATUS[n] = f, "compiled"
 
 
-def evaluate(D, v, a, j) -> np.ndarray:
+def _start(n: int) -> None:
+    """Make the function of ``n`` joints ready in a background thread (once)."""
+    with _LOCK:
+        if n in _STARTED or n in _ACTIVE:
+            return
+        _STARTED.add(n)
+        _STATUS.setdefault(n, "loading")
+    threading.Thread(target=_activate, args=(n, _generation, True), daemon=True).start()
+
+
+def evaluate(D, v, a, j) -> np.ndarray | None:
     """The graph's output (module docstring) for one problem, a fresh array of ``2 + 72 n``;
-    ``D, v, a, j`` float arrays of ``n`` joints (leading axes of size 1 allowed)."""
+    ``D, v, a, j`` float arrays of ``n`` joints (leading axes of size 1 allowed). ``None``
+    while the graph of ``n`` joints is not ready (being loaded in the background: the caller
+    evaluates with numpy)."""
     n = D.shape[-1]
-    f = _ACTIVE.get(n) or _activate(n)
+    f = _ACTIVE.get(n)
+    if f is None:
+        _start(n)
+        return None
     slot = _LOCAL.__dict__.get(n)
     if slot is None or slot[0] is not f:
         slot = _LOCAL.__dict__[n] = _bind(f, n)

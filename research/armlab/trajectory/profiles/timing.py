@@ -93,7 +93,10 @@ def trapezoid_speed_for_duration(length, duration, a_acc, a_dec=None, v_max=np.i
 # under one errstate. Each kernel is one path: the special limits fall out of the same
 # expressions (``j = inf``, the trapezoid: ``v / j = 0`` and ``aj = 0``; ``a = inf``, the
 # jerk-only ramp: no plateau), except where the trapezoid has a closed form of its own, which
-# replaces the values of its joints only where there are any (``finite``: none).
+# replaces the values of its joints only where there are any (``finite``: none). The kernels
+# are written against a backend (``k.ops``, :mod:`.ops`): numpy arrays here, and CasADi SX
+# columns in the graph of one problem (:mod:`.graph`; finite jerks only, so the trapezoid
+# branches, numpy-only, never run there).
 
 
 #: the trapezoid mask of limits whose jerks are all finite (never read: ``traps()`` is False)
