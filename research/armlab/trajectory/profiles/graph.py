@@ -59,6 +59,7 @@ import subprocess
 import sys
 import tempfile
 import threading
+import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -91,6 +92,9 @@ CFLAGS = ("-O1", "-fPIC", "-shared")
 #: the modules whose source the graph is generated from (its cache key hashes them)
 _SOURCES = ("ops.py", "timing.py", "batch.py", "graph.py")
 _MODES = ("auto", "vm", "off")
+#: how long the background thread lets its starter run first [s]: longer than one public call
+#: (a first closed-form optimal() is about 1 ms)
+_DELAY_S = 0.005
 
 _LOCK = threading.Lock()
 _ACTIVE: dict[int, Any] = {}  # n -> the Function in use (VM or compiled)
@@ -286,7 +290,14 @@ def _start(n: int) -> None:
             return
         _STARTED.add(n)
         _STATUS.setdefault(n, "loading")
-    threading.Thread(target=_activate, args=(n, _generation, True), daemon=True).start()
+    threading.Thread(target=_activate_later, args=(n, _generation), daemon=True).start()
+
+
+def _activate_later(n: int, generation: int) -> None:
+    """:func:`_activate` after :data:`_DELAY_S`: the call that started the thread finishes
+    before the load competes with it for the interpreter lock."""
+    time.sleep(_DELAY_S)
+    _activate(n, generation, True)
 
 
 def evaluate(D, v, a, j) -> np.ndarray | None:
