@@ -352,7 +352,7 @@ def bench_scurve_batch(quick: bool = False) -> list[dict]:
     from ruckig import InputParameter, Ruckig
     from ruckig import Trajectory as RTrajectory
 
-    from armlab.trajectory.profiles import synchronised_scurves
+    from armlab.trajectory.profiles import graph, synchronised_scurves
 
     n_single = 40 if quick else SCURVE_PROBLEMS
     n_batch = 10_000 if quick else SCURVE_BATCH
@@ -370,6 +370,7 @@ def bench_scurve_batch(quick: bool = False) -> list[dict]:
         robot, extra = load(name)
         v, a, j, _ = limits_of(robot, extra)
         nj = robot.n_joints
+        graph.prepare(nj)  # the one-problem graph ready, as a process' repeat calls find it
         rng = np.random.default_rng(SEED + 4)
         W = np.array([[draw_q(robot, rng), draw_q(robot, rng)] for _ in range(n_single)])
         otg, inp, rt = Ruckig(nj), InputParameter(nj), RTrajectory(nj)
