@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import os
 import shutil
+from collections.abc import Mapping
 from pathlib import Path
 
 from armlab.errors import ArmlabError
@@ -18,28 +19,32 @@ class CompilerUnavailable(ArmlabError):
     """No C compiler here (``$CC`` set to a missing program included)."""
 
 
-def cache_dir() -> Path:
+def cache_dir(environ: Mapping[str, str] | None = None) -> Path:
     """The folder of armlab's cached artefacts: ``$ARMLAB_CACHE_DIR``, else
-    ``$XDG_CACHE_HOME/armlab``, else ``~/.cache/armlab``."""
-    own = os.environ.get("ARMLAB_CACHE_DIR")
+    ``$XDG_CACHE_HOME/armlab``, else ``~/.cache/armlab`` (of ``environ``: a snapshot a
+    background thread was given; default the process' environment)."""
+    env = os.environ if environ is None else environ
+    own = env.get("ARMLAB_CACHE_DIR")
     if own:
         return Path(own).expanduser()
-    xdg = os.environ.get("XDG_CACHE_HOME")
+    xdg = env.get("XDG_CACHE_HOME")
     return (Path(xdg).expanduser() if xdg else Path.home() / ".cache") / "armlab"
 
 
-def compiler() -> str:
-    """The C compiler: ``$CC`` if set, else ``gcc`` or ``cc`` on the path.
+def compiler(environ: Mapping[str, str] | None = None) -> str:
+    """The C compiler: ``$CC`` if set, else ``gcc`` or ``cc`` on the path (of ``environ``, as
+    :func:`cache_dir`).
 
     Raises
     ------
     CompilerUnavailable
         None found (``$CC`` set to a missing program included).
     """
-    cc = os.environ.get("CC")
+    env = os.environ if environ is None else environ
+    cc = env.get("CC")
     names = [cc] if cc else ["gcc", "cc"]
     for name in names:
-        found = shutil.which(name)
+        found = shutil.which(name, path=env.get("PATH"))
         if found:
             return found
     raise CompilerUnavailable(f"no C compiler ({'CC=' + cc if cc else 'gcc or cc'} not found)")

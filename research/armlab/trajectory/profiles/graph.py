@@ -61,6 +61,7 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -140,7 +141,7 @@ def prepare(n: int) -> str:
     :func:`status`. Without it the first problem of ``n`` joints of a process starts this in
     a background thread and is evaluated by numpy (module docstring)."""
     if _mode != "off":
-        _activate(n, _generation, compile_here=False)
+        _activate(n, _generation, dict(os.environ), compile_here=False)
     return status(n)
 
 
@@ -190,26 +191,30 @@ def _source_hash() -> str:
     return h.hexdigest()
 
 
-def library_path(n: int, cc: str) -> Path:
-    """Where the compiled graph of ``n`` joints built by ``cc`` lives in the cache."""
+def library_path(n: int, cc: str, root: Path | None = None) -> Path:
+    """Where the compiled graph of ``n`` joints built by ``cc`` lives in the cache (``root``:
+    :func:`armlab._cache.cache_dir`)."""
     h = hashlib.sha256()
     for part in (_source_hash(), ca.__version__, cc, " ".join(CFLAGS), sys.platform, str(n)):  # type: ignore[attr-defined]
         h.update(part.encode())
         h.update(b"\0")
-    return _cache.cache_dir() / "scurve" / f"scurve-graph-{n}-{h.hexdigest()[:20]}.so"
+    root = _cache.cache_dir() if root is None else root
+    return root / "scurve" / f"scurve-graph-{n}-{h.hexdigest()[:20]}.so"
 
 
-def compile_library(n: int) -> Path:
+def compile_library(n: int, environ: Mapping[str, str] | None = None) -> Path:
     """The compiled graph of ``n`` joints, built now unless the cache holds it (about 1.2 s
-    for 6 joints); the path of the library.
+    for 6 joints); the path of the library. ``environ``: the environment whose compiler and
+    cache folder are used (a snapshot taken by the caller of a background thread; default
+    the process').
 
     Raises
     ------
     armlab._cache.CompilerUnavailable
         No C compiler, or the compile failed.
     """
-    cc = _cache.compiler()
-    so = library_path(n, cc)
+    cc = _cache.compiler(environ)
+    so = library_path(n, cc, _cache.cache_dir(environ))
     if so.exists():
         return so
     f = build(n)
@@ -249,15 +254,17 @@ def load_compiled(n: int, so: Path):
     return ca.external(f"armlab_scurve_{n}", str(so))
 
 
-def _activate(n: int, generation: int, compile_here: bool) -> None:
+def _activate(n: int, generation: int, environ: dict, compile_here: bool) -> None:
     """Put the function of ``n`` joints in use (module docstring): the cached library, else
-    the VM and (``auto``) the compile, here or in a new thread."""
+    the VM and (``auto``) the compile, here or in a new thread; the compiler and the cache
+    folder of ``environ``, the environment when the graph was asked for (a test may change
+    the process' meanwhile)."""
     if n in _ACTIVE:
         return
     f, compiled = None, False
     if _mode == "auto":
         try:
-            so = library_path(n, _cache.compiler())
+            so = library_path(n, _cache.compiler(environ), _cache.cache_dir(environ))
             if so.exists():
                 f, compiled = load_compiled(n, so), True
         except Exception:  # noqa: BLE001 - no compiler, a damaged file: the VM below
@@ -275,15 +282,15 @@ def _activate(n: int, generation: int, compile_here: bool) -> None:
     if not compile_now:
         return
     if compile_here:
-        _compile(n, generation)
+        _compile(n, generation, environ)
     else:
-        threading.Thread(target=_compile, args=(n, generation), daemon=True).start()
+        threading.Thread(target=_compile, args=(n, generation, environ), daemon=True).start()
 
 
-def _compile(n: int, generation: int) -> None:
+def _compile(n: int, generation: int, environ: dict) -> None:
     """Compile the graph of ``n`` joints and put it in use; on failure say why in the status."""
     try:
-        f = load_compiled(n, compile_library(n))
+        f = load_compiled(n, compile_library(n, environ))
     except Exception as exc:  # noqa: BLE001 - the VM stays in use, the reason is kept
         with _LOCK:
             if generation == _generation:
@@ -301,14 +308,15 @@ def _start(n: int) -> None:
             return
         _STARTED.add(n)
         _STATUS.setdefault(n, "loading")
-    threading.Thread(target=_activate_later, args=(n, _generation), daemon=True).start()
+    args = (n, _generation, dict(os.environ))
+    threading.Thread(target=_activate_later, args=args, daemon=True).start()
 
 
-def _activate_later(n: int, generation: int) -> None:
+def _activate_later(n: int, generation: int, environ: dict) -> None:
     """:func:`_activate` after :data:`_DELAY_S`: the call that started the thread finishes
     before the load competes with it for the interpreter lock."""
     time.sleep(_DELAY_S)
-    _activate(n, generation, True)
+    _activate(n, generation, environ, True)
 
 
 def evaluate(D, v, a, j) -> np.ndarray | None:
