@@ -4,6 +4,7 @@ threads, and where no compiler exists."""
 
 from __future__ import annotations
 
+import multiprocessing
 import threading
 import time
 
@@ -257,6 +258,22 @@ def test_first_problem_by_numpy_while_the_graph_loads(mode):
         np.testing.assert_allclose(x, ref[k][:1], rtol=0, atol=0, err_msg=k)
     assert wait_status(5, busy=("loading",)) == "vm"
     assert_close(singles(D, v, a, j), ref)
+
+
+def _child_duration(args):
+    return float(synchronised_scurves(*args).duration)
+
+
+def test_a_forked_worker_evaluates_with_the_graph(mode):
+    """A process forked while the graph of its joint count is loading (multiprocessing,
+    Dask's process workers) gets its own and the same numbers."""
+    mode("vm")
+    args = ([1.0, 0.3], [1.0, 1.0], [2.0, 2.0], [10.0, 10.0])
+    synchronised_scurves(*args)  # starts the background load
+    ctx = multiprocessing.get_context("fork")
+    with ctx.Pool(1) as pool:
+        T = pool.map(_child_duration, [args] * 3)
+    assert T == pytest.approx([1.7] * 3, abs=1e-14)  # as test_hand_checked_problem
 
 
 def test_off_evaluates_one_problem_with_numpy(mode):

@@ -147,10 +147,11 @@ def prepare(n: int) -> str:
 
 def build(n: int):
     """The graph of ``n`` joints (module docstring) run by CasADi's VM, built once per process."""
-    with _LOCK:
-        f = _VM.get(n)
-        if f is None:
-            f = _VM[n] = _build(n)
+    f = _VM.get(n)
+    if f is None:  # built outside the lock (20-25 ms); two threads at once build twice
+        f = _build(n)
+        with _LOCK:
+            f = _VM.setdefault(n, f)
     return f
 
 
@@ -348,4 +349,19 @@ def _bind(f, n: int) -> tuple:
     return f, trigger, x, out, buf
 
 
+def _after_fork() -> None:
+    """In a forked child: a new lock (the parent's may have been held by a thread that does
+    not exist here), and the loads and compiles under way forgotten (their threads are gone)."""
+    global _LOCK
+    _LOCK = threading.Lock()
+    for n in _STARTED - set(_ACTIVE):
+        _STARTED.discard(n)
+        _STATUS.pop(n, None)
+    for n in _COMPILING:
+        if _STATUS.get(n) == "vm, compiling":
+            _STATUS[n] = "vm"
+    _COMPILING.clear()
+
+
+os.register_at_fork(after_in_child=_after_fork)
 reset()
