@@ -407,6 +407,13 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
     stops (zero-velocity waypoints) is a batch of its segments:
     ``synchronised_scurves(np.diff(waypoints, axis=0), v, a, j)``.
 
+    The formulas are written once (:mod:`.ops`) and evaluated by numpy for batches and
+    trapezoids, and for ONE problem with finite jerks (``distances`` of shape ``(n,)`` or
+    ``(1, n)``) as one CasADi graph (:mod:`.graph`: compiled once per joint count and cached,
+    or CasADi's VM), which also gives the batch's :meth:`~SCurveBatch.boundaries` and
+    :meth:`~SCurveBatch.peaks_flat` in the same evaluation: 13 us in all against 110 us with
+    numpy (6 joints). The two agree within 1e-15 of each quantity's scale.
+
     Parameters
     ----------
     distances : array (..., n_joints)
