@@ -281,3 +281,16 @@ def test_off_evaluates_one_problem_with_numpy(mode):
     b = synchronised_scurves([1.0], [1.0], [2.0], [10.0])
     assert graph.status(1) == "unused"
     assert b.duration == pytest.approx(1.7, abs=1e-14)
+
+
+def test_no_joints_and_scalar_limits(mode):
+    """No joints: the numpy path's empty profiles (duration 0); scalar limits broadcast onto
+    the joints as in a batch (two joints of 1 and 2 rad at v = a = j = 1: the 2-rad joint sets
+    T = L / v + Ta, Ta = a / j + v / a = 2 s, so T = 4 s)."""
+    mode("vm")
+    graph.prepare(2)
+    b = synchronised_scurves(np.zeros((1, 0)), 1.0, 1.0, 1.0)
+    assert b.duration.shape == (1,) and b.duration[0] == 0.0
+    b = synchronised_scurves([1.0, 2.0], 1.0, 1.0, 1.0)
+    assert b.duration == pytest.approx(4.0, abs=1e-14)
+    assert b.j.shape == b.a_max.shape == (2,)

@@ -436,7 +436,7 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
     v, a, j = (np.asarray(x, float) for x in (v_max, a_max, j_max))
     shape = D.shape
     if (
-        D.size == shape[-1]
+        D.size == shape[-1] > 0
         and v.shape == a.shape == j.shape == shape[D.ndim - v.ndim :]
         and graph.available()
     ):  # one problem: the graph, unless it finds an invalid value or an infinite jerk
