@@ -433,14 +433,15 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
     D = np.asarray(distances, float)
     if D.ndim == 0:
         raise InputError("synchronised_scurves: distances must have a joint axis (..., n_joints)")
-    v, a, j = (np.asarray(x, float) for x in (v_max, a_max, j_max))
+    v, a, j = np.asarray(v_max, float), np.asarray(a_max, float), np.asarray(j_max, float)
     shape = D.shape
     if (
         D.size == shape[-1] > 0
         and v.shape == a.shape == j.shape == shape[D.ndim - v.ndim :]
         and graph.available()
     ):  # one problem: the graph, unless it finds an invalid value or an infinite jerk
-        D, v, a, j = (_full(x, shape) for x in (D, v, a, j))
+        if v.shape != shape:
+            v, a, j = _full(v, shape), _full(a, shape), _full(j, shape)
         batch = _one_problem(D, v, a, j)
         if batch is not None:
             return batch
