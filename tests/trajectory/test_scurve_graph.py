@@ -166,11 +166,10 @@ def test_trapezoids_and_bad_input_take_the_numpy_path(mode):
         synchronised_scurves([1.0], [1.0], [np.inf], [1.0])
 
 
-def test_threads_get_their_own_buffers(mode):
-    """Four threads evaluating different problems at once each get their own results."""
-    mode("vm")
-    graph.prepare(6)
-    D, v, a, j = problems(40, 6, seed=7)
+def run_in_threads(n):
+    """Four threads evaluating different problems of ``n`` joints at once: each gets its own
+    results (a shared buffer would hand one thread another's problem)."""
+    D, v, a, j = problems(40, n, seed=7)
     want = quantities(synchronised_scurves(D, v, a, j))
     errors: list = []
 
@@ -187,6 +186,12 @@ def test_threads_get_their_own_buffers(mode):
     for t in threads:
         t.join()
     assert not errors, errors[0]
+
+
+def test_threads_get_their_own_buffers(mode):
+    mode("vm")
+    graph.prepare(6)
+    run_in_threads(6)
 
 
 def wait_status(n, busy=("loading", "vm, compiling"), timeout=60.0):
@@ -228,6 +233,12 @@ def test_compiled_matches_the_numpy_evaluation(compiled_cache, mode, monkeypatch
     assert graph.prepare(4) == "compiled"  # loaded from the cache, not built again
     D, v, a, j = problems(1000, 4, seed=11)
     compare_singles(D, v, a, j)
+
+
+def test_threads_on_the_compiled_graph(compiled_cache, mode):
+    mode("auto", ARMLAB_CACHE_DIR=str(compiled_cache.parent.parent))
+    assert graph.prepare(4) == "compiled"
+    run_in_threads(4)
 
 
 def test_the_cache_holds_one_finished_library(compiled_cache, monkeypatch):
