@@ -467,11 +467,11 @@ def _one_problem(D, v, a, j) -> SCurveBatch | None:
     size 1): every result, the phase table and the peaks by one evaluation of the graph
     (:func:`armlab.trajectory.profiles.graph.evaluate`); ``None`` where a value is not valid
     or a jerk is infinite (the graph's last output: the numpy path names the error or builds
-    the trapezoid), or while the graph is being loaded (the numpy path meanwhile)."""
+    the trapezoid)."""
     shape = D.shape
     n = shape[-1]
     r = graph.evaluate(D, v, a, j)  # a fresh array: the batch's arrays are views of it
-    if r is None or not r[-1]:  # not ready yet (loading), or a value the numpy path names
+    if r is None or not r[-1]:  # a value the numpy path names (or the graph was reset)
         return None
     t_min, vp, ap, tj, ta, tv = r[1 : 1 + 6 * n].reshape((6,) + shape)
     batch = SCurveBatch(r[0:1].reshape(shape[:-1]), t_min, D, vp, ap, j, tj, ta, tv, a)

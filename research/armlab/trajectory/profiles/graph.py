@@ -32,14 +32,17 @@ How the graph is run (``$ARMLAB_SCURVE_GRAPH``, read at import and by :func:`res
 * ``vm``: the VM only (no compile);
 * ``off``: no graph; the numpy evaluation for one problem too.
 
-No call waits for the graph: the first problem of ``n`` joints in a process starts a
-background thread that loads the library (0.9 ms: the key, ``dlopen`` through
-:func:`casadi.external`) or builds the graph (20-25 ms for 6 joints) and then compiles it, and
-that problem -- and any other until the graph is ready -- is evaluated by numpy (the same
-formulas; the two agree within 1e-15 of each quantity's scale). So the first closed-form
-``optimal()`` of a process costs what it cost before the graph (measured: 2.5x a repeat), not
-the 1.4 ms of loading in the call (6x). :func:`prepare` makes the graph ready in the calling
-thread instead (tests, benchmarks, or a caller that wants every problem by the graph).
+Every problem of ``n`` joints with finite jerks is evaluated by the graph, the first one too,
+so a result never depends on when it was asked for: the first problem of ``n`` joints in a
+process makes the graph ready in the call -- it loads the compiled library (about 1 ms: the
+key, ``dlopen`` through :func:`casadi.external`) or builds the graph for the VM (20-25 ms for 6
+joints, once per process) and starts the compile in a background thread, after which calls use
+the library. The VM and the library give the same values (measured: 2000 random 6-joint
+problems, every output equal, signed zeros aside), so the switch changes no number. An
+earlier version evaluated the first problems by numpy while the graph loaded: the same
+formulas, but equal only to round-off, so two runs of one study could differ in the last bits
+depending on a thread's timing. :func:`prepare` makes the graph ready ahead of a first call
+(benchmarks).
 
 Where no compiler exists (:func:`armlab._cache.compiler`) or the compile fails, the VM stays in
 use (:func:`status` says why). The library is keyed by everything its code depends on (the
@@ -60,7 +63,6 @@ import subprocess
 import sys
 import tempfile
 import threading
-import time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -94,14 +96,9 @@ CFLAGS = ("-O1", "-fPIC", "-shared")
 #: the modules whose source the graph is generated from (its cache key hashes them)
 _SOURCES = ("ops.py", "timing.py", "batch.py", "graph.py")
 _MODES = ("auto", "vm", "off")
-#: how long the background thread lets its starter run first [s]: longer than one public call
-#: (a first closed-form optimal() is about 1 ms)
-_DELAY_S = 0.005
-
 _LOCK = threading.Lock()
 _ACTIVE: dict[int, Any] = {}  # n -> the Function in use (VM or compiled)
 _STATUS: dict[int, str] = {}
-_STARTED: set[int] = set()  # joint counts whose function is being made ready
 _COMPILING: set[int] = set()
 _VM: dict[int, Any] = {}  # n -> the graph, built once per process
 _LOCAL = threading.local()  # per thread: n -> (function, trigger, input, output, buffer)
@@ -118,7 +115,6 @@ def reset() -> None:
         _generation += 1
         _ACTIVE.clear()
         _STATUS.clear()
-        _STARTED.clear()
         _COMPILING.clear()
     _LOCAL.__dict__.clear()
 
@@ -130,16 +126,14 @@ def available() -> bool:
 
 def status(n: int) -> str:
     """How problems of ``n`` joints are evaluated: ``"compiled"``, ``"vm"`` (with the reason
-    where the compile failed, or ``"vm, compiling"``), ``"loading"`` (numpy meanwhile), or
-    ``"unused"``."""
+    where the compile failed, or ``"vm, compiling"``), or ``"unused"``."""
     return _STATUS.get(n, "unused")
 
 
 def prepare(n: int) -> str:
-    """Make the graph of ``n`` joints ready now, in this thread (the compiled library if the
-    cache holds it, else the VM, with the compile started in the background); its
-    :func:`status`. Without it the first problem of ``n`` joints of a process starts this in
-    a background thread and is evaluated by numpy (module docstring)."""
+    """Make the graph of ``n`` joints ready now (the compiled library if the cache holds it,
+    else the VM, with the compile started in the background); its :func:`status`. The first
+    problem of ``n`` joints of a process does this too (module docstring)."""
     if _mode != "off":
         _activate(n, _generation, dict(os.environ), compile_here=False)
     return status(n)
@@ -302,34 +296,17 @@ def _compile(n: int, generation: int, environ: dict) -> None:
             _ACTIVE[n], _STATUS[n] = f, "compiled"
 
 
-def _start(n: int) -> None:
-    """Make the function of ``n`` joints ready in a background thread (once)."""
-    with _LOCK:
-        if n in _STARTED or n in _ACTIVE:
-            return
-        _STARTED.add(n)
-        _STATUS.setdefault(n, "loading")
-    args = (n, _generation, dict(os.environ))
-    threading.Thread(target=_activate_later, args=args, daemon=True).start()
-
-
-def _activate_later(n: int, generation: int, environ: dict) -> None:
-    """:func:`_activate` after :data:`_DELAY_S`: the call that started the thread finishes
-    before the load competes with it for the interpreter lock."""
-    time.sleep(_DELAY_S)
-    _activate(n, generation, environ, True)
-
-
 def evaluate(D, v, a, j) -> np.ndarray | None:
     """The graph's output (module docstring) for one problem, a fresh array of ``2 + 72 n``;
-    ``D, v, a, j`` float arrays of ``n`` joints (leading axes of size 1 allowed). ``None``
-    while the graph of ``n`` joints is not ready (being loaded in the background: the caller
-    evaluates with numpy)."""
+    ``D, v, a, j`` float arrays of ``n`` joints (leading axes of size 1 allowed); the graph
+    of ``n`` joints made ready first if it is not (:func:`prepare`)."""
     n = D.shape[-1]
     f = _ACTIVE.get(n)
     if f is None:
-        _start(n)
-        return None
+        _activate(n, _generation, dict(os.environ), compile_here=False)
+        f = _ACTIVE.get(n)
+        if f is None:  # a reset() meanwhile (tests): the numpy evaluation this once
+            return None
     slot = _LOCAL.__dict__.get(n)
     if slot is None or slot[0] is not f:
         slot = _LOCAL.__dict__[n] = _bind(f, n)
@@ -351,12 +328,9 @@ def _bind(f, n: int) -> tuple:
 
 def _after_fork() -> None:
     """In a forked child: a new lock (the parent's may have been held by a thread that does
-    not exist here), and the loads and compiles under way forgotten (their threads are gone)."""
+    not exist here), and the compiles under way forgotten (their threads are gone)."""
     global _LOCK
     _LOCK = threading.Lock()
-    for n in _STARTED - set(_ACTIVE):
-        _STARTED.discard(n)
-        _STATUS.pop(n, None)
     for n in _COMPILING:
         if _STATUS.get(n) == "vm, compiling":
             _STATUS[n] = "vm"
