@@ -139,15 +139,19 @@ def exact_report(batch, start, goal, limits, joint_names) -> tuple[LimitReport, 
     pk = batch.peaks_flat()
     v, a, j = limits.velocity_rad_s, limits.acceleration_rad_s2, limits.jerk_rad_s3
     L = np.abs(batch.distance.reshape(-1))
-    off = [np.abs(pk["end_position"] - L) / (1.0 + L), np.abs(pk["end_velocity"]) / v]
+    # the largest of the three relative residuals (position, speed, acceleration): maxima of
+    # maxima, NaN kept
+    off = np.abs(pk["end_position"] - L)
+    off /= 1.0 + L
+    np.maximum(off, np.abs(pk["end_velocity"]) / v, out=off)
     if a is not None:
-        off.append(np.abs(pk["end_acceleration"]) / a)
-    residual = float(np.concatenate(off).max())
+        np.maximum(off, np.abs(pk["end_acceleration"]) / a, out=off)
+    residual = float(off.max())
     if residual > ARRIVAL_TOL or (pk["reverse"] > ARRIVAL_TOL * v).any():
         return None
     T = float(batch.duration.reshape(-1)[0])
     report = LimitReport(list(joint_names))
-    centre, half = limits.centre_rad, 0.5 * (limits.upper_rad - limits.lower_rad)
+    centre, half = limits.centre_half_rad()
     r0, r1 = np.abs(start - centre) / half, np.abs(goal - centre) / half
     report.ratios["position"] = np.maximum(r0, r1)
     report.at_s["position"] = np.where(r1 > r0, T, 0.0)  # the start where both are equal
@@ -171,16 +175,18 @@ def closed_form_optimal(prob: OptimalProblem) -> Trajectory:
     ls = prob.limits
     w = prob.waypoints
     batch = synchronised_scurves(
-        np.diff(w, axis=0), ls.velocity_rad_s, ls.acceleration_rad_s2, ls.jerk_rad_s3
+        w[1:] - w[:-1], ls.velocity_rad_s, ls.acceleration_rad_s2, ls.jerk_rad_s3
     )
     T = float(batch.duration[0])
     t = _knots(batch.boundaries()[0, :, 0], T)
     # the phase data at every switching instant: each piece between knots is one phase of
     # every joint (constant jerk, the one of the phase that starts at its left knot)
     q, qd, qdd, J = (x[:, 0] for x in batch.evaluate_jerk(t))
-    q = w[0] + q
+    q += w[0]  # (the evaluation's own arrays)
     q[-1], qd[-1], qdd[-1], J[-1] = w[-1], 0.0, 0.0, 0.0  # the goal at rest exactly
-    traj = Trajectory(t, q, qd, qdd, J, joint_names=prob.robot.joint_names, method="optimal")
+    # arrays made here: float64 (m, n_joints), finite (the phase data of finite moves under
+    # finite limits > 0), t strictly increasing from 0 to T (_knots)
+    traj = Trajectory._from_checked(t, q, qd, qdd, J, prob.robot.joint_names, "optimal")
     solve_time = _time.perf_counter() - t0
     exact = None  # a grid asked for (check_dt): the samples
     if prob.check_dt is None:

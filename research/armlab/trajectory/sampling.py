@@ -204,7 +204,7 @@ class LimitReport:
 
     def ok(self, tol: float = 1e-9) -> bool:
         """True if every ratio is <= 1 + tol."""
-        return all(bool(np.all(r <= 1.0 + tol)) for r in self.ratios.values())
+        return all(bool((r <= 1.0 + tol).all()) for r in self.ratios.values())
 
     def violations(self, tol: float = 1e-9) -> list[tuple[str, str, float, float]]:
         """(kind, joint, ratio, time in [s]) of every ratio above 1 + tol."""
