@@ -50,6 +50,7 @@ solves the same problem by transcription.
 
 from __future__ import annotations
 
+import math
 import time as _time
 from typing import TYPE_CHECKING
 
@@ -58,7 +59,7 @@ import numpy as np
 from armlab.planning.timescale import CHECK_TOL
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import synchronised_scurves
-from armlab.trajectory.sampling import LimitReport
+from armlab.trajectory.sampling import ROUNDING, LimitReport
 
 if TYPE_CHECKING:
     from armlab.planning.optimal_problem import OptimalProblem
@@ -76,7 +77,6 @@ def closed_form_applies(prob: OptimalProblem) -> bool:
     """True where the closed form is the optimum of ``prob`` (module docstring): the time
     objective, two waypoints at rest, finite v/a/j limits, no torque limit, no drive limits."""
     ls = prob.limits
-    kin = (ls.velocity_rad_s, ls.acceleration_rad_s2, ls.jerk_rad_s3)
     return (
         prob.objective == "time"
         and prob.waypoints.shape[0] == 2
@@ -84,12 +84,15 @@ def closed_form_applies(prob: OptimalProblem) -> bool:
         and not prob.from_state
         and not prob.drive_limits
         and ls.torque_Nm is None
-        and all(x is not None and bool(np.isfinite(x).all()) for x in kin)
+        and ls.derived("finite v/a/j", _finite_vaj)
     )
 
 
-#: relative rounding of the times (as :func:`~armlab.trajectory.sampling.sample_times`)
-_ROUNDING = 8 * float(np.finfo(float).eps)
+def _finite_vaj(ls) -> bool:
+    """Velocity, acceleration and jerk limits given and finite for every joint (kept with
+    the Limits: :meth:`~armlab.robot.Limits.derived`)."""
+    kin = (ls.velocity_rad_s, ls.acceleration_rad_s2, ls.jerk_rad_s3)
+    return all(x is not None and bool(np.isfinite(x).all()) for x in kin)
 
 
 def _knots(t0: np.ndarray, T: float) -> np.ndarray:
@@ -97,7 +100,7 @@ def _knots(t0: np.ndarray, T: float) -> np.ndarray:
     ends, sorted; instants closer than the rounding of the times merge (as
     :func:`~armlab.trajectory.sampling.sample_times`)."""
     corners = t0[1:].reshape(-1)
-    tiny = _ROUNDING * max(T, 1.0)
+    tiny = ROUNDING * max(T, 1.0)
     inner = corners[(corners > tiny) & (corners < T - tiny)]  # a copy: sorted in place
     inner.sort()
     keep = np.empty(inner.size + 2, bool)  # the later of two merged instants
@@ -138,23 +141,35 @@ def exact_report(batch, start, goal, limits, joint_names) -> tuple[LimitReport, 
     """
     pk = batch.peaks_flat()
     v, a, j = limits.velocity_rad_s, limits.acceleration_rad_s2, limits.jerk_rad_s3
-    L = np.abs(batch.distance.reshape(-1))
-    # the largest of the three relative residuals (position, speed, acceleration): maxima of
-    # maxima, NaN kept
-    off = np.abs(pk["end_position"] - L)
-    off /= 1.0 + L
-    np.maximum(off, np.abs(pk["end_velocity"]) / v, out=off)
+    # the arrival residuals and the reverse speeds, one value per joint: as Python floats
+    # (the same IEEE operations as numpy's, without a numpy call per step)
+    vs = v.tolist()
+    off = [
+        abs(p - abs(d)) / (1.0 + abs(d))
+        for p, d in zip(
+            pk["end_position"].tolist(), batch.distance.reshape(-1).tolist(), strict=True
+        )
+    ]
+    off += [abs(x) / y for x, y in zip(pk["end_velocity"].tolist(), vs, strict=True)]
     if a is not None:
-        np.maximum(off, np.abs(pk["end_acceleration"]) / a, out=off)
-    residual = float(off.max())
-    if residual > ARRIVAL_TOL or (pk["reverse"] > ARRIVAL_TOL * v).any():
+        off += [
+            abs(x) / y for x, y in zip(pk["end_acceleration"].tolist(), a.tolist(), strict=True)
+        ]
+    residual = math.nan if any(x != x for x in off) else max(off)  # NaN kept, as numpy's max
+    if residual > ARRIVAL_TOL or any(
+        r > ARRIVAL_TOL * y for r, y in zip(pk["reverse"].tolist(), vs, strict=True)
+    ):
         return None
     T = float(batch.duration.reshape(-1)[0])
     report = LimitReport(list(joint_names))
+    # position: the larger ratio of the two ends (rows start, goal)
     centre, half = limits.centre_half_rad()
-    r0, r1 = np.abs(start - centre) / half, np.abs(goal - centre) / half
-    report.ratios["position"] = np.maximum(r0, r1)
-    report.at_s["position"] = np.where(r1 > r0, T, 0.0)  # the start where both are equal
+    r = np.array((start, goal), dtype=float)
+    r -= centre
+    np.abs(r, out=r)
+    r /= half
+    report.ratios["position"] = r.max(axis=0)
+    report.at_s["position"] = np.where(r[1] > r[0], T, 0.0)  # the start where both are equal
     # a trapezoid (j = inf in the batch) has no jerk signal: no jerk ratio, as for its samples
     jerk = j if batch.jerk_finite else None
     for kind, lim in (("velocity", v), ("acceleration", a), ("jerk", jerk)):

@@ -95,8 +95,8 @@ class _ReadOnlyDict(dict):
             "Limits.sources is read-only; make a new Limits (Limits.with_values, resolve_limits)"
         )
 
-    __setitem__ = __delitem__ = __ior__ = _refuse  # type: ignore[assignment]
-    clear = pop = popitem = setdefault = update = _refuse  # type: ignore[assignment]
+    __setitem__ = __delitem__ = __ior__ = _refuse
+    clear = pop = popitem = setdefault = update = _refuse
 
     def __reduce__(self):
         return (_ReadOnlyDict, (dict(self),))
@@ -710,7 +710,8 @@ def resolve_limits(
 def _keyword_layer(base: Limits, asked: tuple) -> Limits:
     """Layer 5 (module docstring): ``asked = (v_max, a_max, j_max, tau_max)`` onto ``base``."""
     n = base.n_joints
-    values, notes = {}, {}
+    values: dict[str, np.ndarray | None] = {}
+    notes: dict[str, tuple[str, ...]] = {}
     for kind, value in zip(LIMIT_KEYS, asked, strict=True):
         if value is None:
             continue
@@ -724,4 +725,3 @@ def _keyword_layer(base: Limits, asked: tuple) -> Limits:
         else:
             values[name], notes[kind] = a, (f"{kw} argument",) * n
     return base._with(values, notes) if values else base
-

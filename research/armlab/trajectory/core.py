@@ -141,7 +141,14 @@ class Trajectory:
 
     @classmethod
     def _from_checked(
-        cls, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, qddd, joint_names, method
+        cls,
+        t: np.ndarray,
+        q: np.ndarray,
+        qd: np.ndarray,
+        qdd: np.ndarray,
+        qddd: np.ndarray | None,
+        joint_names,
+        method: str,
     ) -> Trajectory:
         """The :class:`Trajectory` of arrays a planner of this package built itself and knows
         to be valid, without the constructor's checks (a closed-form plan's knots: issue 26).
