@@ -339,14 +339,10 @@ def ptp_sync(
             s, sd, sdd, sddd = scale * s, scale * sd, scale * sdd, scale * sddd
         q = q0 + s
         q[-1] = q1  # exact arrival of every joint at the last sample
-        return Trajectory(
-            t,
-            q,
-            sd,
-            sdd,
-            sddd if profile == "scurve" else None,
-            joint_names=robot.joint_names,
-            method=method,
+        # arrays made here: float64 (n_samples, n_joints), finite (closed-form profiles of
+        # finite moves under finite limits > 0), t strictly increasing (sample_times)
+        return Trajectory._from_checked(
+            t, q, sd, sdd, sddd if profile == "scurve" else None, robot.joint_names, method
         )
 
     if batch is not None:  # time sync: every joint at once, from the batch's phase data

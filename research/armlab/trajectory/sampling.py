@@ -223,9 +223,12 @@ class LimitReport:
     def violations(self, tol: float = 1e-9) -> list[tuple[str, str, float, float]]:
         """(kind, joint, ratio, time in [s]) of every ratio above 1 + tol."""
         out = []
+        top = 1.0 + tol
         for kind, r in self.ratios.items():
-            for j in np.flatnonzero(r > 1.0 + tol):
-                out.append((kind, self.joint_names[j], float(r[j]), float(self.at_s[kind][j])))
+            # a few values per kind (one per joint): as Python floats
+            for j, x in enumerate(r.ravel().tolist()):
+                if x > top:
+                    out.append((kind, self.joint_names[j], x, float(self.at_s[kind][j])))
         return out
 
     def to_dict(self) -> dict[str, dict[str, float]]:
