@@ -187,7 +187,7 @@ class Limits:
         set_(self, "sources", _ReadOnlyDict(src))
 
     # ------------------------------------------------------------------ derived data, once
-    def derived(self, key: str, make):
+    def derived(self, key, make):
         """``make(self)``, computed once per Limits and kept with it (a planner's per-call data:
         the centre and half range, the JSON form, the limits of a request).
 
@@ -695,15 +695,16 @@ def resolve_limits(
         base = base._with(values, {k: tuple(v) for k, v in src.items()})
     base = base.scaled(speed_scale)
     asked = (v_max, a_max, j_max, tau_max)
-    if any(x is False for x in asked) and all(x is None or x is False for x in asked):
+    off = (v_max is False, a_max is False, j_max is False, tau_max is False)
+    unset = (v_max is None, a_max is None, j_max is None, tau_max is None)
+    if True in off and sum(off) + sum(unset) == 4:
         # kinds switched off only (a planner's tau_max=False): the same (immutable) Limits for
         # every such call, made once per base (Limits.derived)
-        key = "keywords " + "".join("-" if x is None else "0" for x in asked)
-        base = base.derived(key, lambda lim: _keyword_layer(lim, asked))
+        base = base.derived(("keywords off", off), lambda lim: _keyword_layer(lim, asked))
     else:
         base = _keyword_layer(base, asked)
     if need == "unset":
-        need = [k for k, v in zip(LIMIT_KEYS, asked, strict=True) if v is None]
+        need = [k for k, u in zip(LIMIT_KEYS, unset, strict=True) if u]
     return base.require(need, where=where)
 
 
