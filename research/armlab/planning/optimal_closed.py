@@ -155,7 +155,9 @@ def exact_report(batch, start, goal, limits, joint_names) -> tuple[LimitReport, 
         off += [
             abs(x) / y for x, y in zip(pk["end_acceleration"].tolist(), a.tolist(), strict=True)
         ]
-    residual = math.nan if any(x != x for x in off) else max(off)  # NaN kept, as numpy's max
+    # numpy's max keeps a NaN, Python's need not: their sum has it (every term >= 0)
+    total = sum(off)
+    residual = max(off) if total == total else math.nan
     if residual > ARRIVAL_TOL or any(
         r > ARRIVAL_TOL * y for r, y in zip(pk["reverse"].tolist(), vs, strict=True)
     ):

@@ -85,7 +85,7 @@ def sample_times(duration: float, dt: float, knots=()) -> np.ndarray:
     # the fixed times on both sides of every regular sample (none: -inf, inf, never near)
     around = np.empty(fixed.size + 2)
     around[0], around[1:-1], around[-1] = -np.inf, fixed, np.inf
-    i = np.searchsorted(fixed, grid)
+    i = fixed.searchsorted(grid)
     near = np.minimum(grid - around[i], around[i + 1] - grid) < MERGE_FRACTION * dt
     near[0] = False
     # disjoint sorted sets (a regular sample at a fixed time is "near" it, and 0 is never
