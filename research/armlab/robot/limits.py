@@ -127,9 +127,11 @@ class Limits:
         Per kind (``position``, ``velocity``, ``acceleration``, ``jerk``, ``torque``), per joint:
         where the value came from (``"motor rated speed / ratio (drives.toml)"``,
         ``"study [limits] velocity_rad_s x speed_scale 0.8"``, ``"unknown"``,
-        ``"off (j_max=False)"``).
+        ``"off (j_max=False)"``); read-only (a change is a new Limits).
 
-    Build one with :func:`resolve_limits` (or :func:`description_limits`).
+    Build one with :func:`resolve_limits` (or :func:`description_limits`). A Limits is
+    immutable, so what a planner derives from it per call (the JSON form, the centre and half
+    range, a request's limits) is made once and kept with it (:meth:`derived`).
     """
 
     joint_names: tuple[str, ...]
