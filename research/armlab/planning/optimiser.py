@@ -370,9 +370,10 @@ def build_optimal(
     tol = np.asarray(via_tolerance, float)
     tol = np.full(robot.n_joints, float(tol)) if tol.ndim == 0 else tol
     # one value per joint: as Python floats (NaN fails the test)
-    if tol.shape != (robot.n_joints,) or not all(0.0 <= x < math.inf for x in tol.tolist()):
+    values = tol.tolist() if tol.shape == (robot.n_joints,) else [math.nan]
+    if not all(0.0 <= x < math.inf for x in values):
         raise InputError(f"via_tolerance must be >= 0 rad, scalar or ({robot.n_joints},)")
-    if any(x > 0.0 for x in tol.tolist()):
+    if any(x > 0.0 for x in values):
         exact[1:-1] = False
     mode = "jerk" if (ls.jerk_rad_s3 is not None or objective == "jerk") else "acceleration"
     # replanning from a moving state: the ptp_sync keywords, validated the same way
