@@ -92,3 +92,25 @@ def test_the_planners_on_the_trusted_path_hand_out_valid_arrays(teachbot6, seed)
     _valid(plan)
     for profile, sync in [("scurve", "time"), ("trapezoid", "time"), ("scurve", "phase")]:
         _valid(ptp_sync(teachbot6, w[0], w[1], profile, sync=sync, tau_max=False))
+
+
+def test_sample_times_equals_the_straightforward_form_bit_for_bit():
+    from armlab.trajectory.sampling import sample_times
+    from oracles.sample_times_unique import sample_times as reference
+
+    rng = np.random.default_rng(26)
+    for i in range(600):
+        T = float(10 ** rng.uniform(-4, 1.5)) if i % 50 else [0.0, 1e-12, 0.3][i % 3]
+        dt = float(10 ** rng.uniform(-3, 0)) if i % 7 else max(T, 1e-3) / rng.integers(1, 40)
+        k = rng.uniform(-0.2, 1.2, rng.integers(0, 40)) * T
+        if i % 5 == 0 and k.size:  # repeated knots, knots a rounding apart, at the ends
+            k = np.concatenate([k, k[:3], k[:2] + 1e-17, [T, 0.0, T * (1 - 1e-16)]])
+        if i % 11 == 0 and k.size > 2:
+            k[1] = np.nan
+        if i % 13 == 0:  # knots on the regular grid
+            k = np.round(k / dt) * dt
+        if i % 17 == 0:  # knots near it
+            k = k + dt * 1e-3 * rng.standard_normal(k.size)
+        got, want = sample_times(T, dt, k), reference(T, dt, k)
+        assert got.shape == want.shape and np.array_equal(got, want), (i, T, dt)
+        assert got.size == 1 or (np.diff(got) > 0).all()
