@@ -82,11 +82,12 @@ def sample_times(duration: float, dt: float, knots=()) -> np.ndarray:
     keep[-1] = True
     np.greater(fixed[1:] - fixed[:-1], tiny, out=keep[:-1])
     fixed = fixed[keep]
-    # the fixed times on both sides of every regular sample (none: -inf, inf, never near)
-    around = np.empty(fixed.size + 2)
-    around[0], around[1:-1], around[-1] = -np.inf, fixed, np.inf
-    i = fixed.searchsorted(grid)
-    near = np.minimum(grid - around[i], around[i + 1] - grid) < MERGE_FRACTION * dt
+    # a regular sample within MERGE_FRACTION dt of a fixed time: the grid is dt apart, so
+    # only the one nearest to each fixed time can be (at most n: the grid ends there)
+    j = np.rint(fixed / dt).astype(np.intp)
+    np.minimum(j, n, out=j)
+    near = np.zeros(n + 1, bool)
+    near[j[np.abs(grid[j] - fixed) < MERGE_FRACTION * dt]] = True
     near[0] = False
     # disjoint sorted sets (a regular sample at a fixed time is "near" it, and 0 is never
     # fixed): their union is the sorted concatenation
