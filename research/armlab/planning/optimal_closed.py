@@ -164,14 +164,13 @@ def exact_report(batch, start, goal, limits, joint_names) -> tuple[LimitReport, 
         return None
     T = float(batch.duration.reshape(-1)[0])
     report = LimitReport(list(joint_names))
-    # position: the larger ratio of the two ends (rows start, goal)
+    # position: the larger ratio of the two ends
     centre, half = limits.centre_half_rad()
-    r = np.array((start, goal), dtype=float)
-    r -= centre
-    np.abs(r, out=r)
-    r /= half
-    report.ratios["position"] = r.max(axis=0)
-    report.at_s["position"] = np.where(r[1] > r[0], T, 0.0)  # the start where both are equal
+    r0, r1 = np.abs(start - centre), np.abs(goal - centre)
+    r0 /= half
+    r1 /= half
+    report.ratios["position"] = np.maximum(r0, r1)
+    report.at_s["position"] = np.where(r1 > r0, T, 0.0)  # the start where both are equal
     # a trapezoid (j = inf in the batch) has no jerk signal: no jerk ratio, as for its samples
     jerk = j if batch.jerk_finite else None
     for kind, lim in (("velocity", v), ("acceleration", a), ("jerk", jerk)):
