@@ -311,3 +311,86 @@ def test_limits_type_contract(teachbot6):
     assert sub.joint_names == ("joint3", "joint1")
     assert sub.velocity_rad_s.tolist() == [lim.velocity_rad_s[2], lim.velocity_rad_s[0]]
     assert lim.effort_Nm is lim.torque_Nm
+
+
+def test_a_limits_is_immutable_so_what_is_derived_from_it_is_kept(teachbot6):
+    lim = teachbot6.limits
+    with pytest.raises(TypeError, match="read-only"):
+        lim.sources["velocity"] = ("mine",) * lim.n_joints
+    with pytest.raises(TypeError, match="read-only"):
+        lim.sources.update(velocity=("mine",) * lim.n_joints)
+    assert isinstance(lim.sources, dict)
+    json.dumps(lim.sources)
+    # to_dict is kept with the Limits and handed out as a copy: changing one does not change
+    # the next (nor a planner's meta["limits"])
+    d = lim.to_dict()
+    d["velocity_rad_s"]["joint1"] = 99.0
+    d["sources"]["velocity"]["joint1"] = "mine"
+    d["joint_names"].append("joint7")
+    fresh = lim.to_dict()
+    assert fresh["velocity_rad_s"]["joint1"] == float(lim.velocity_rad_s[0])
+    assert fresh["sources"]["velocity"]["joint1"] == lim.sources["velocity"][0]
+    assert fresh["joint_names"] == list(lim.joint_names)
+    # centre and half range: the properties' values, read-only
+    centre, half = lim.centre_half_rad()
+    np.testing.assert_array_equal(centre, 0.5 * (lim.lower_rad + lim.upper_rad))
+    np.testing.assert_array_equal(half, 0.5 * (lim.upper_rad - lim.lower_rad))
+    with pytest.raises(ValueError):
+        centre[0] = 1.0
+
+
+def test_copies_and_derived_limits_make_their_own_derived_data(teachbot6):
+    import copy
+    import pickle
+
+    lim = teachbot6.limits
+    request = resolve_limits(teachbot6, tau_max=False)
+    assert request is resolve_limits(teachbot6, tau_max=False)  # kept with the robot's limits
+    for other in (pickle.loads(pickle.dumps(lim)), copy.copy(lim), copy.deepcopy(lim)):
+        assert other.to_dict() == lim.to_dict()
+        again = resolve_limits(other, tau_max=False)
+        assert again is not request and again.to_dict() == request.to_dict()
+        with pytest.raises(TypeError, match="read-only"):
+            other.sources["torque"] = ()
+    # a kind switched off (the copy without re-checks) does not take over the derived data
+    # of the Limits it was made from
+    no_jerk = lim.with_values("test", jerk_rad_s3=None)
+    assert lim.to_dict()["jerk_rad_s3"] is not None
+    assert no_jerk.to_dict()["jerk_rad_s3"] is None
+    assert no_jerk.to_dict()["sources"]["jerk"]["joint1"] == "unknown"
+    assert request.to_dict()["torque_Nm"] is None
+    assert request.to_dict()["sources"]["torque"]["joint1"] == "off (tau_max=False)"
+    assert lim.to_dict()["torque_Nm"] is not None
+
+
+def test_a_changed_robot_is_not_served_the_old_limits(teachbot6):
+    robot = teachbot6.copy()
+    lo, hi = robot.limits.lower_rad, robot.limits.upper_rad
+    w = np.stack([lo + 0.3 * (hi - lo), lo + 0.7 * (hi - lo)])
+    before = optimal(robot, w, tau_max=False)
+    old_request = resolve_limits(robot, tau_max=False)
+    # half the speed, acceleration and jerk: the same motion twice as long (time scaling
+    # t -> 2t: v/2, a/4, j/8)
+    lim = robot.limits
+    robot.limits = lim.with_values(
+        "test",
+        velocity_rad_s=lim.velocity_rad_s / 2,
+        acceleration_rad_s2=lim.acceleration_rad_s2 / 4,
+        jerk_rad_s3=lim.jerk_rad_s3 / 8,
+    )
+    request = resolve_limits(robot, tau_max=False)
+    assert request is not old_request
+    np.testing.assert_array_equal(request.velocity_rad_s, lim.velocity_rad_s / 2)
+    after = optimal(robot, w, tau_max=False)
+    assert after.duration == pytest.approx(2 * before.duration, rel=1e-9)
+    assert after.meta["limits"]["velocity_rad_s"]["joint1"] == float(lim.velocity_rad_s[0] / 2)
+    assert after.meta["limits"]["sources"]["velocity"]["joint1"] == "test"
+    assert after.report.ratios["velocity"].max() <= 1 + 1e-9
+    slow = ptp_sync(robot, w[0], w[1], "scurve", tau_max=False)
+    assert slow.duration == pytest.approx(after.duration, rel=1e-12)
+    # a narrower range refuses a waypoint the old one took
+    robot.limits = robot.limits.with_values("test", upper_rad=np.maximum(lo, w[1] - 0.01))
+    with pytest.raises(InputError, match=r"waypoints\[1\]: joint1 = .* is outside its range"):
+        optimal(robot, w, tau_max=False)
+    with pytest.raises(InputError, match="ptp_sync q_goal: joint1 = .* is outside its range"):
+        ptp_sync(robot, w[0], w[1], "scurve", tau_max=False)

@@ -50,6 +50,7 @@ solves the same problem by transcription.
 
 from __future__ import annotations
 
+import math
 import time as _time
 from typing import TYPE_CHECKING
 
@@ -58,7 +59,7 @@ import numpy as np
 from armlab.planning.timescale import CHECK_TOL
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import synchronised_scurves
-from armlab.trajectory.sampling import LimitReport
+from armlab.trajectory.sampling import ROUNDING, LimitReport
 
 if TYPE_CHECKING:
     from armlab.planning.optimal_problem import OptimalProblem
@@ -76,7 +77,6 @@ def closed_form_applies(prob: OptimalProblem) -> bool:
     """True where the closed form is the optimum of ``prob`` (module docstring): the time
     objective, two waypoints at rest, finite v/a/j limits, no torque limit, no drive limits."""
     ls = prob.limits
-    kin = (ls.velocity_rad_s, ls.acceleration_rad_s2, ls.jerk_rad_s3)
     return (
         prob.objective == "time"
         and prob.waypoints.shape[0] == 2
@@ -84,12 +84,15 @@ def closed_form_applies(prob: OptimalProblem) -> bool:
         and not prob.from_state
         and not prob.drive_limits
         and ls.torque_Nm is None
-        and all(x is not None and bool(np.isfinite(x).all()) for x in kin)
+        and ls.derived("finite v/a/j", _finite_vaj)
     )
 
 
-#: relative rounding of the times (as :func:`~armlab.trajectory.sampling.sample_times`)
-_ROUNDING = 8 * float(np.finfo(float).eps)
+def _finite_vaj(ls) -> bool:
+    """Velocity, acceleration and jerk limits given and finite for every joint (kept with
+    the Limits: :meth:`~armlab.robot.Limits.derived`)."""
+    kin = (ls.velocity_rad_s, ls.acceleration_rad_s2, ls.jerk_rad_s3)
+    return all(x is not None and bool(np.isfinite(x).all()) for x in kin)
 
 
 def _knots(t0: np.ndarray, T: float) -> np.ndarray:
@@ -97,7 +100,7 @@ def _knots(t0: np.ndarray, T: float) -> np.ndarray:
     ends, sorted; instants closer than the rounding of the times merge (as
     :func:`~armlab.trajectory.sampling.sample_times`)."""
     corners = t0[1:].reshape(-1)
-    tiny = _ROUNDING * max(T, 1.0)
+    tiny = ROUNDING * max(T, 1.0)
     inner = corners[(corners > tiny) & (corners < T - tiny)]  # a copy: sorted in place
     inner.sort()
     keep = np.empty(inner.size + 2, bool)  # the later of two merged instants
@@ -138,17 +141,34 @@ def exact_report(batch, start, goal, limits, joint_names) -> tuple[LimitReport, 
     """
     pk = batch.peaks_flat()
     v, a, j = limits.velocity_rad_s, limits.acceleration_rad_s2, limits.jerk_rad_s3
-    L = np.abs(batch.distance.reshape(-1))
-    off = [np.abs(pk["end_position"] - L) / (1.0 + L), np.abs(pk["end_velocity"]) / v]
+    # the arrival residuals and the reverse speeds, one value per joint: as Python floats
+    # (the same IEEE operations as numpy's, without a numpy call per step)
+    vs = v.tolist()
+    off = [
+        abs(p - abs(d)) / (1.0 + abs(d))
+        for p, d in zip(
+            pk["end_position"].tolist(), batch.distance.reshape(-1).tolist(), strict=True
+        )
+    ]
+    off += [abs(x) / y for x, y in zip(pk["end_velocity"].tolist(), vs, strict=True)]
     if a is not None:
-        off.append(np.abs(pk["end_acceleration"]) / a)
-    residual = float(np.concatenate(off).max())
-    if residual > ARRIVAL_TOL or (pk["reverse"] > ARRIVAL_TOL * v).any():
+        off += [
+            abs(x) / y for x, y in zip(pk["end_acceleration"].tolist(), a.tolist(), strict=True)
+        ]
+    # numpy's max keeps a NaN, Python's need not: their sum has it (every term >= 0)
+    total = sum(off)
+    residual = max(off) if total == total else math.nan
+    if residual > ARRIVAL_TOL or any(
+        r > ARRIVAL_TOL * y for r, y in zip(pk["reverse"].tolist(), vs, strict=True)
+    ):
         return None
     T = float(batch.duration.reshape(-1)[0])
     report = LimitReport(list(joint_names))
-    centre, half = limits.centre_rad, 0.5 * (limits.upper_rad - limits.lower_rad)
-    r0, r1 = np.abs(start - centre) / half, np.abs(goal - centre) / half
+    # position: the larger ratio of the two ends
+    centre, half = limits.centre_half_rad()
+    r0, r1 = np.abs(start - centre), np.abs(goal - centre)
+    r0 /= half
+    r1 /= half
     report.ratios["position"] = np.maximum(r0, r1)
     report.at_s["position"] = np.where(r1 > r0, T, 0.0)  # the start where both are equal
     # a trapezoid (j = inf in the batch) has no jerk signal: no jerk ratio, as for its samples
@@ -171,16 +191,18 @@ def closed_form_optimal(prob: OptimalProblem) -> Trajectory:
     ls = prob.limits
     w = prob.waypoints
     batch = synchronised_scurves(
-        np.diff(w, axis=0), ls.velocity_rad_s, ls.acceleration_rad_s2, ls.jerk_rad_s3
+        w[1:] - w[:-1], ls.velocity_rad_s, ls.acceleration_rad_s2, ls.jerk_rad_s3
     )
     T = float(batch.duration[0])
     t = _knots(batch.boundaries()[0, :, 0], T)
     # the phase data at every switching instant: each piece between knots is one phase of
     # every joint (constant jerk, the one of the phase that starts at its left knot)
     q, qd, qdd, J = (x[:, 0] for x in batch.evaluate_jerk(t))
-    q = w[0] + q
+    q += w[0]  # (the evaluation's own arrays)
     q[-1], qd[-1], qdd[-1], J[-1] = w[-1], 0.0, 0.0, 0.0  # the goal at rest exactly
-    traj = Trajectory(t, q, qd, qdd, J, joint_names=prob.robot.joint_names, method="optimal")
+    # arrays made here: float64 (m, n_joints), finite (the phase data of finite moves under
+    # finite limits > 0), t strictly increasing from 0 to T (_knots)
+    traj = Trajectory._from_checked(t, q, qd, qdd, J, prob.robot.joint_names, "optimal")
     solve_time = _time.perf_counter() - t0
     exact = None  # a grid asked for (check_dt): the samples
     if prob.check_dt is None:

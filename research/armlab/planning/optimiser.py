@@ -196,6 +196,7 @@ Kröger, "Jerk-limited real-time trajectory generation with arbitrary target sta
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -235,9 +236,12 @@ FINER_GRIDS = (2, 3)
 
 def _check_waypoints(robot, waypoints) -> np.ndarray:
     w = validate_waypoints(robot, waypoints, where="optimal waypoints")
-    same = np.flatnonzero((np.abs(w[1:] - w[:-1]) < 1e-12).all(axis=1))
-    if same.size:
-        raise InputError(f"waypoints {same[0]} and {same[0] + 1} coincide; remove the duplicate")
+    # consecutive waypoints within 1e-12 rad in every joint (as Python floats: a few rows,
+    # and a pair is told apart by its first differing joint)
+    rows = w.tolist()
+    for k in range(len(rows) - 1):
+        if all(abs(b - a) < 1e-12 for a, b in zip(rows[k], rows[k + 1], strict=True)):
+            raise InputError(f"waypoints {k} and {k + 1} coincide; remove the duplicate")
     return w
 
 
@@ -365,9 +369,11 @@ def build_optimal(
     exact = np.ones(w.shape[0], bool)
     tol = np.asarray(via_tolerance, float)
     tol = np.full(robot.n_joints, float(tol)) if tol.ndim == 0 else tol
-    if tol.shape != (robot.n_joints,) or not (np.isfinite(tol) & (tol >= 0)).all():
+    # one value per joint: as Python floats (NaN fails the test)
+    values = tol.tolist() if tol.shape == (robot.n_joints,) else [math.nan]
+    if not all(0.0 <= x < math.inf for x in values):
         raise InputError(f"via_tolerance must be >= 0 rad, scalar or ({robot.n_joints},)")
-    if (tol > 0).any():
+    if any(x > 0.0 for x in values):
         exact[1:-1] = False
     mode = "jerk" if (ls.jerk_rad_s3 is not None or objective == "jerk") else "acceleration"
     # replanning from a moving state: the ptp_sync keywords, validated the same way

@@ -90,6 +90,12 @@ __all__ = ["ptp_sync", "PTP_PROFILES"]
 
 PTP_PROFILES = ("trapezoid", "scurve", "velocity")
 _DEFAULT_DT = {"trapezoid": 0.01, "scurve": 0.01, "velocity": 0.1}
+#: the limit kinds each profile needs
+_NEEDS = {
+    "trapezoid": ("velocity", "acceleration"),
+    "scurve": ("velocity", "acceleration", "jerk"),
+    "velocity": ("velocity",),
+}
 
 
 def _velocity_profiles(D, v, a, dt):
@@ -235,18 +241,13 @@ def ptp_sync(
     dt = _DEFAULT_DT[profile] if dt is None else float(dt)
     if not math.isfinite(dt) or dt <= 0:
         raise InputError(f"dt must be a positive number of seconds, not {dt!r}")
-    need = {
-        "trapezoid": ("velocity", "acceleration"),
-        "scurve": ("velocity", "acceleration", "jerk"),
-        "velocity": ("velocity",),
-    }[profile]
     lim = resolve_limits(
         robot,
         v_max=v_max,
         a_max=a_max,
         j_max=j_max,
         tau_max=tau_max,
-        need=need,
+        need=_NEEDS[profile],
         where=f"ptp_sync {profile}",
     )
     torque = lim.torque_Nm is not None  # tau_max=False switched it off in resolve_limits
@@ -311,7 +312,7 @@ def ptp_sync(
         batch = synchronised_scurves(np.copysign(D, delta)[None], v, a, jj)
         T, t_i = float(batch.duration[0]), batch.t_min[0]
         profs = None  # each joint's MotionProfile: built where the torque stretch needs them
-        bj = int(np.argmax(t_i))
+        bj = int(t_i.argmax())
         # the slowest joint takes its own shortest time: its speed is its peak speed
         bkind = double_s_binding(D[bj], v[bj], a[bj], jj[bj], peak=batch.v[0, bj])
         if sync == "phase":
@@ -339,14 +340,10 @@ def ptp_sync(
             s, sd, sdd, sddd = scale * s, scale * sd, scale * sdd, scale * sddd
         q = q0 + s
         q[-1] = q1  # exact arrival of every joint at the last sample
-        return Trajectory(
-            t,
-            q,
-            sd,
-            sdd,
-            sddd if profile == "scurve" else None,
-            joint_names=robot.joint_names,
-            method=method,
+        # arrays made here: float64 (n_samples, n_joints), finite (closed-form profiles of
+        # finite moves under finite limits > 0), t strictly increasing (sample_times)
+        return Trajectory._from_checked(
+            t, q, sd, sdd, sddd if profile == "scurve" else None, robot.joint_names, method
         )
 
     if batch is not None:  # time sync: every joint at once, from the batch's phase data

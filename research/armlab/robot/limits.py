@@ -81,6 +81,27 @@ _UNKNOWN = "unknown"
 _OFF = "off"
 
 
+#: the key in a :class:`Limits`' ``__dict__`` of what is derived from its fields
+#: (:meth:`Limits.derived`): never copied to another Limits
+_CACHE = "_derived_cache"
+
+
+class _ReadOnlyDict(dict):
+    """A dict that refuses every change: :attr:`Limits.sources`, so that a Limits is
+    immutable as a whole (what is derived from it can be kept, :meth:`Limits.derived`)."""
+
+    def _refuse(self, *args, **kwargs):
+        raise TypeError(
+            "Limits.sources is read-only; make a new Limits (Limits.with_values, resolve_limits)"
+        )
+
+    __setitem__ = __delitem__ = __ior__ = _refuse
+    clear = pop = popitem = setdefault = update = _refuse
+
+    def __reduce__(self):
+        return (_ReadOnlyDict, (dict(self),))
+
+
 def _readonly(a) -> np.ndarray:
     if isinstance(a, np.ndarray) and a.dtype == np.float64 and not a.flags.writeable:
         return a  # already one (another Limits' array): nobody can change it
@@ -106,9 +127,11 @@ class Limits:
         Per kind (``position``, ``velocity``, ``acceleration``, ``jerk``, ``torque``), per joint:
         where the value came from (``"motor rated speed / ratio (drives.toml)"``,
         ``"study [limits] velocity_rad_s x speed_scale 0.8"``, ``"unknown"``,
-        ``"off (j_max=False)"``).
+        ``"off (j_max=False)"``); read-only (a change is a new Limits).
 
-    Build one with :func:`resolve_limits` (or :func:`description_limits`).
+    Build one with :func:`resolve_limits` (or :func:`description_limits`). A Limits is
+    immutable, so what a planner derives from it per call (the JSON form, the centre and half
+    range, a request's limits) is made once and kept with it (:meth:`derived`).
     """
 
     joint_names: tuple[str, ...]
@@ -163,7 +186,44 @@ class Limits:
             if len(given) != n:
                 raise InputError(f"limits sources[{kind!r}]: {len(given)} entries for {n} joints")
             src[kind] = given
-        set_(self, "sources", src)
+        set_(self, "sources", _ReadOnlyDict(src))
+
+    # ------------------------------------------------------------------ derived data, once
+    def derived(self, key, make):
+        """``make(self)``, computed once per Limits and kept with it (a planner's per-call data:
+        the centre and half range, the JSON form, the limits of a request).
+
+        A Limits is immutable -- arrays read-only, names a tuple, ``sources`` a read-only
+        dict of tuples, a frozen dataclass -- so a value derived from its fields holds as long
+        as the object; a changed limit is a new Limits (:func:`resolve_limits`,
+        :meth:`with_values`, ``robot.limits = ...``), which starts without any. Kept in
+        ``__dict__`` under its own key, which no copy takes over (:meth:`_with`, ``copy``,
+        ``pickle``). ``make`` must return a value nobody changes (read-only arrays, a
+        Limits, tuples; a dict is copied by its reader) and depend on the Limits only (the
+        key names everything else it depends on).
+        """
+        cache = self.__dict__.get(_CACHE)
+        if cache is None:
+            cache = self.__dict__[_CACHE] = {}  # frozen: not through __setattr__
+        try:
+            return cache[key]
+        except KeyError:
+            value = cache[key] = make(self)
+            return value
+
+    def __getstate__(self) -> dict:
+        """The fields, without the derived data (:meth:`derived`): a copy or an unpickled
+        Limits makes its own."""
+        state = dict(self.__dict__)
+        state.pop(_CACHE, None)
+        return state
+
+    def centre_half_rad(self) -> tuple[np.ndarray, np.ndarray]:
+        """(:attr:`centre_rad`, half range ``(upper - lower) / 2``) in [rad], read-only, made
+        once (:meth:`derived`): the position ratio ``|q - centre| / half`` of a limit check
+        (``inf`` half range for an unbounded joint: ratio 0)."""
+
+        return self.derived("centre_half", _centre_half)
 
     # ------------------------------------------------------------------ access
     @property
@@ -195,9 +255,10 @@ class Limits:
             # (a copy without the checks of __post_init__: a planner's call with tau_max=False)
             out = object.__new__(Limits)
             out.__dict__.update(self.__dict__)
+            out.__dict__.pop(_CACHE, None)  # derived from self: made again for out
             out.__dict__.update(values)
             src = {k: tuple(str(s) for s in v) for k, v in notes.items()}
-            out.__dict__["sources"] = {**self.sources, **src}
+            out.__dict__["sources"] = _ReadOnlyDict({**self.sources, **src})
             return out
         kw = {name: getattr(self, name) for name in _LIMITS_FIELDS}
         kw.update(values)
@@ -318,8 +379,11 @@ class Limits:
         return 0.5 * (self.sample_lower_rad + self.sample_upper_rad)
 
     def to_dict(self) -> dict:
-        """JSON-able: ``{field: {joint: value} or None, "sources": {kind: {joint: source}}}``."""
+        """JSON-able: ``{field: {joint: value} or None, "sources": {kind: {joint: source}}}``
+        (a new dict each call; made once, :meth:`derived`, and copied)."""
+        return _copy_dict(self.derived("to_dict", Limits._make_dict))
 
+    def _make_dict(self) -> dict:
         def arr(x):
             return None if x is None else dict(zip(self.joint_names, x.tolist(), strict=True))
 
@@ -330,6 +394,26 @@ class Limits:
             k: dict(zip(self.joint_names, v, strict=True)) for k, v in self.sources.items()
         }
         return out
+
+
+def _centre_half(lim: Limits) -> tuple[np.ndarray, np.ndarray]:
+    """:meth:`Limits.centre_half_rad`, made once."""
+    c, h = lim.centre_rad, 0.5 * (lim.upper_rad - lim.lower_rad)
+    c.flags.writeable = h.flags.writeable = False
+    return c, h
+
+
+def _copy_dict(d: dict) -> dict:
+    """A copy of a :meth:`Limits.to_dict` dict down to its leaves (strings, floats, None):
+    its lists and dicts, and the dicts in ``sources``."""
+    out = d.copy()
+    for k, v in out.items():  # (values replaced in place: the keys stay)
+        if v is not None:
+            out[k] = v.copy()
+    src = out["sources"]
+    for k, v in src.items():
+        src[k] = v.copy()
+    return out
 
 
 _LIMITS_FIELDS = tuple(f.name for f in fields(Limits))
@@ -612,8 +696,26 @@ def resolve_limits(
         values = {LIMIT_KEYS[k][0]: (None if np.any(np.isnan(a)) else a) for k, a in cur.items()}
         base = base._with(values, {k: tuple(v) for k, v in src.items()})
     base = base.scaled(speed_scale)
-    values, notes = {}, {}
-    for kind, value in zip(LIMIT_KEYS, (v_max, a_max, j_max, tau_max), strict=True):
+    asked = (v_max, a_max, j_max, tau_max)
+    off = (v_max is False, a_max is False, j_max is False, tau_max is False)
+    unset = (v_max is None, a_max is None, j_max is None, tau_max is None)
+    if True in off and sum(off) + sum(unset) == 4:
+        # kinds switched off only (a planner's tau_max=False): the same (immutable) Limits for
+        # every such call, made once per base (Limits.derived)
+        base = base.derived(("keywords off", off), lambda lim: _keyword_layer(lim, asked))
+    else:
+        base = _keyword_layer(base, asked)
+    if need == "unset":
+        need = [k for k, u in zip(LIMIT_KEYS, unset, strict=True) if u]
+    return base.require(need, where=where)
+
+
+def _keyword_layer(base: Limits, asked: tuple) -> Limits:
+    """Layer 5 (module docstring): ``asked = (v_max, a_max, j_max, tau_max)`` onto ``base``."""
+    n = base.n_joints
+    values: dict[str, np.ndarray | None] = {}
+    notes: dict[str, tuple[str, ...]] = {}
+    for kind, value in zip(LIMIT_KEYS, asked, strict=True):
         if value is None:
             continue
         name, _, kw, _ = LIMIT_KEYS[kind]
@@ -625,9 +727,4 @@ def resolve_limits(
             values[name], notes[kind] = None, (f"{_OFF} ({kw}=inf)",) * n
         else:
             values[name], notes[kind] = a, (f"{kw} argument",) * n
-    if values:
-        base = base._with(values, notes)
-    if need == "unset":
-        asked = (v_max, a_max, j_max, tau_max)
-        need = [k for k, v in zip(LIMIT_KEYS, asked, strict=True) if v is None]
-    return base.require(need, where=where)
+    return base._with(values, notes) if values else base

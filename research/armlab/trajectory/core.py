@@ -139,6 +139,35 @@ class Trajectory:
         self.stats: dict[str, Any] = {}
         self.meta: dict[str, Any] = {}
 
+    @classmethod
+    def _from_checked(
+        cls,
+        t: np.ndarray,
+        q: np.ndarray,
+        qd: np.ndarray,
+        qdd: np.ndarray,
+        qddd: np.ndarray | None,
+        joint_names,
+        method: str,
+    ) -> Trajectory:
+        """The :class:`Trajectory` of arrays a planner of this package built itself and knows
+        to be valid, without the constructor's checks (a closed-form plan's knots: issue 26).
+
+        The caller guarantees what the constructor would check: ``t`` a float64 array
+        ``(n,)``, finite and strictly increasing; ``q``, ``qd``, ``qdd`` (and ``qddd`` unless
+        None) float64 arrays ``(n, n_joints)``, finite; ``joint_names`` a sequence of
+        ``n_joints`` names. The result is then the constructor's on the same arrays (tested);
+        anything from outside the package goes through the constructor.
+        """
+        self = cls.__new__(cls)
+        self.t, self.q, self.qd, self.qdd, self.qddd = t, q, qd, qdd, qddd
+        self.joint_names = list(joint_names)
+        self.method = method
+        self.report = None
+        self.stats = {}
+        self.meta = {}
+        return self
+
     # ------------------------------------------------------------------ facts
     @property
     def n_samples(self) -> int:

@@ -86,6 +86,12 @@ def validate_waypoints(
             f"for {robot.name}"
         )
     W2 = W.reshape(-1, n)
+    # one test that every value is a number within its range (NaN fails a comparison; an
+    # infinite value passes only an unbounded joint's range, so with one, finiteness too);
+    # where it fails, the checks below name the first problem
+    lo_tol, hi_tol, bounded = robot.limits.derived("waypoint range", _range_with_tolerance)
+    if ((W2 >= lo_tol) & (W2 <= hi_tol)).all() and (bounded or np.isfinite(W2).all()):
+        return W
     names = robot.joint_names
 
     def row(k: int) -> str:
@@ -106,6 +112,15 @@ def validate_waypoints(
             f"[{lo[j] * c:.6g}, {hi[j] * c:.6g}] {unit}"
         )
     return W
+
+
+def _range_with_tolerance(limits) -> tuple[np.ndarray, np.ndarray, bool]:
+    """``(lower - RANGE_TOL_RAD, upper + RANGE_TOL_RAD, every joint bounded)`` of a
+    :class:`~armlab.robot.Limits` (kept with it: :meth:`~armlab.robot.Limits.derived`)."""
+    lo = np.asarray(limits.lower_rad, float) - RANGE_TOL_RAD
+    hi = np.asarray(limits.upper_rad, float) + RANGE_TOL_RAD
+    lo.flags.writeable = hi.flags.writeable = False
+    return lo, hi, bool(np.isfinite(lo).all() and np.isfinite(hi).all())
 
 
 def validate_joint_state(robot: Robot, x, name: str, limit, kind: str, *, where: str) -> np.ndarray:
