@@ -235,6 +235,19 @@ def test_compiled_matches_the_numpy_evaluation(compiled_cache, mode, monkeypatch
     compare_singles(D, v, a, j)
 
 
+def test_compiled_gives_the_vms_values(compiled_cache, mode):
+    """The VM and the library evaluate the same graph: equal values (signed zeros aside), so
+    the switch from the VM to the library when its compile ends changes no result (no
+    floating-point contraction in the library: ``-ffp-contract=off``)."""
+    D, v, a, j = problems(300, 4, seed=12)
+    mode("vm")
+    vm = [graph.evaluate(*x) for x in zip(D, v, a, j, strict=True)]
+    mode("auto", ARMLAB_CACHE_DIR=str(compiled_cache.parent.parent))
+    assert graph.prepare(4) == "compiled"
+    for i, x in enumerate(zip(D, v, a, j, strict=True)):
+        np.testing.assert_array_equal(graph.evaluate(*x), vm[i], err_msg=f"problem {i}")
+
+
 def test_threads_on_the_compiled_graph(compiled_cache, mode):
     mode("auto", ARMLAB_CACHE_DIR=str(compiled_cache.parent.parent))
     assert graph.prepare(4) == "compiled"
