@@ -12,9 +12,11 @@
 3. The full problem with all four limits (no peer does it): success rate and solve time over
    random 3-waypoint requests. Goal: 100 % success, median solve < 1 s on one core.
 4. The rest-to-rest v/a/j PTP in closed form (``synchronised_scurves``) vs Ruckig: the same
-   durations, time per problem (goal <= 10 x Ruckig, met by the scalar copy of the engine that
-   issue 23 removed; the one numpy engine took ~40 x, ~20-25 x since issue 26's kernels) and
-   batched rate (goal >= 100 000/s);
+   durations, time per problem (goal <= 10 x Ruckig: met by the scalar copy of the engine that
+   issue 23 removed; the one numpy engine took ~40 x, ~20-25 x with issue 26's kernels, and
+   4-6 x since one problem is one CasADi graph of the same formulas, ``profiles.graph``,
+   compiled first: :func:`graph_ready`) and batched rate (goal >= 100 000/s; each case's fastest
+   of ``CALLS_REPEATS`` runs);
    ``--scurves-only`` runs this table alone.
 5. ``optimal`` solve time by waypoint count (2, 5, 10, 20; teachbot6, its own limits, random
    waypoints in 70 % of the ranges), v/a/j and v/a/j/tau, with the settings before issue 15
@@ -410,9 +412,8 @@ def bench_scurve_batch(quick: bool = False) -> list[dict]:
             peer_T.append(rt.duration)
         D = np.concatenate([W[:, 1] - W[:, 0]] * (n_batch // n_single + 1))[:n_batch]
         synchronised_scurves(D[:100], v, a, j)
-        t0 = time.perf_counter()
-        synchronised_scurves(D, v, a, j)
-        batch_rate = n_batch / (time.perf_counter() - t0)
+        args = (D, v, a, j)
+        batch_rate = n_batch / _fastest(lambda args=args: synchronised_scurves(*args))[0]
         t0 = time.perf_counter()
         for w in W:
             inp.current_position, inp.target_position = w[0].tolist(), w[1].tolist()
@@ -1483,7 +1484,10 @@ def scurve_row(res: list[dict]) -> None:
         "time-synchronised rest-to-rest S-curves, v/a/j, closed form "
         "(`synchronised_scurves`): one 6-joint problem; a batch",
         f"{min(ours):.0f}-{max(ours):.0f} us per problem ({min(ratio):.0f}-{max(ratio):.0f}x "
-        f"Ruckig); {sig(min(batch))}-{sig(max(batch))} problems/s batched; durations equal to "
+        "Ruckig; since issue 26 one problem is one CasADi graph of the engine's own formulas, "
+        "with the phase table and the exact peaks in the same evaluation, gcc-compiled once "
+        "per joint count and cached; 56-61 us for the engine alone with numpy before); "
+        f"{sig(min(batch))}-{sig(max(batch))} problems/s batched (numpy); durations equal to "
         f"Ruckig's within {max(r['dev'] for r in res):.1e}",
         f"Ruckig {min(peer):.1f}-{max(peer):.1f} us per problem",
     )
