@@ -56,7 +56,7 @@ start state needs), and a speed that cannot be braked within the joint's range e
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -232,6 +232,70 @@ def ptp_sync(
         Gravity alone above a torque limit; from a moving state, the start state's own
         torque above it, or a speed that cannot be braked within the joint range.
     """
+    req = _request(
+        robot, q_start, q_goal, profile, sync, dt, (v_max, a_max, j_max, tau_max),
+        (qd_start, qdd_start, qd_goal),
+    )  # fmt: skip
+    q0, q1, lim, torque = req.q0, req.q1, req.lim, req.torque
+    v, a, j = lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3
+    delta = q1 - q0
+    D = np.abs(delta)
+    D[D < 1e-12] = 0.0
+    method = f"ptp_{profile}"
+    if req.from_state:
+        assert v is not None and a is not None
+        return _ptp_from_state(
+            robot, q0, q1, req.v0, req.a0, req.v1, v, a, j if profile == "scurve" else None,
+            lim, req.dt, torque,
+        )  # fmt: skip
+    if not (D > 0).any():
+        return _zero_length(robot, q0, q1, profile, sync, lim, torque)
+    sy = _synchronise(robot, D, delta, profile, sync, lim, req.dt)
+    traj, T, profs, slowdown = _sampled(robot, req, delta, profile, sy)
+    normalised = profile != "velocity" and sy.sync == "phase"
+    traj.meta.update(
+        profile=profile,
+        sync=sy.sync,
+        duration_s=float(T),
+        dt_s=req.dt,
+        binding={"joint": robot.joint_names[sy.joint], "limit": sy.kind},
+        q_start=q0.tolist(),
+        q_goal=q1.tolist(),
+        joint_profiles=None if normalised else _profile_dicts(profs, sy.batch),
+        normalised_profile=profs[0].to_dict() if normalised else None,
+        slowdown=slowdown,
+    )
+    traj.stats.update(method="closed_form", duration_s=float(T), torque_stretch=T / sy.T)
+    # without torque and unstretched, the exact check of the phase data (optimal_closed);
+    # otherwise (or where the phase data do not show it) the samples
+    exact = None
+    if not torque and slowdown is None and sy.batch is not None:
+        exact = exact_report(sy.batch, q0, q1, lim, robot.joint_names)
+    traj.stats["limit_check"] = SAMPLE_CHECK if exact is None else EXACT_CHECK
+    traj.stats["arrival_residual"] = None if exact is None else exact[1]
+    report = None if exact is None else exact[0]
+    return finish(traj, robot, lim, torque=torque, what=method, report=report)
+
+
+class _Request(NamedTuple):
+    """A :func:`ptp_sync` request, validated: the start and goal, the sample period, the
+    resolved limits (``torque``: a torque limit applies), the start and goal states and
+    whether the arm moves at the start or must move at the goal (``from_state``)."""
+
+    q0: np.ndarray
+    q1: np.ndarray
+    dt: float
+    lim: Any
+    torque: bool
+    v0: np.ndarray
+    a0: np.ndarray
+    v1: np.ndarray
+    from_state: bool
+
+
+def _request(robot, q_start, q_goal, profile, sync, dt, limits, states) -> _Request:
+    """:func:`ptp_sync`'s arguments checked where they enter (its ``Raises``): ``limits``
+    ``(v_max, a_max, j_max, tau_max)``, ``states`` ``(qd_start, qdd_start, qd_goal)``."""
     if profile not in PTP_PROFILES:
         raise InputError(f"unknown PTP profile {profile!r}; use one of {PTP_PROFILES}")
     if sync not in ("time", "phase"):
@@ -241,6 +305,7 @@ def ptp_sync(
     dt = _DEFAULT_DT[profile] if dt is None else float(dt)
     if not math.isfinite(dt) or dt <= 0:
         raise InputError(f"dt must be a positive number of seconds, not {dt!r}")
+    v_max, a_max, j_max, tau_max = limits
     lim = resolve_limits(
         robot,
         v_max=v_max,
@@ -250,9 +315,9 @@ def ptp_sync(
         need=_NEEDS[profile],
         where=f"ptp_sync {profile}",
     )
-    torque = lim.torque_Nm is not None  # tau_max=False switched it off in resolve_limits
     v, a, j = lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3
     assert v is not None  # resolve_limits raises when a needed limit is missing
+    qd_start, qdd_start, qd_goal = states
     v0 = validate_joint_state(robot, qd_start, "qd_start", v, "velocity", where="ptp_sync")
     v1 = validate_joint_state(robot, qd_goal, "qd_goal", v, "velocity", where="ptp_sync")
     a0 = validate_joint_state(robot, qdd_start, "qdd_start", a, "acceleration", where="ptp_sync")
@@ -270,94 +335,113 @@ def ptp_sync(
             f"profile='trapezoid' or 'scurve' and sync='time', not profile={profile!r}, "
             f"sync={sync!r}"
         )
-    delta = q1 - q0
-    D = np.abs(delta)
-    D[D < 1e-12] = 0.0
-    method = f"ptp_{profile}"
-    if from_state:
-        assert a is not None
-        return _ptp_from_state(
-            robot, q0, q1, v0, a0, v1, v, a, j if profile == "scurve" else None, lim, dt, torque
-        )
-    if not (D > 0).any():
-        traj = Trajectory(
-            [0.0],
-            q0[None],
-            np.zeros((1, robot.n_joints)),
-            np.zeros((1, robot.n_joints)),
-            np.zeros((1, robot.n_joints)) if profile == "scurve" else None,
-            joint_names=robot.joint_names,
-            method=method,
-        )
-        traj.meta.update(
-            profile=profile,
-            sync=sync,
-            duration_s=0.0,
-            zero_length=True,
-            q_start=q0.tolist(),
-            q_goal=q1.tolist(),
-        )
-        return finish(traj, robot, lim, torque=torque, what=method)
+    # tau_max=False switched the torque limit off in resolve_limits
+    return _Request(q0, q1, dt, lim, lim.torque_Nm is not None, v0, a0, v1, from_state)
 
-    batch: SCurveBatch | None = None
+
+def _zero_length(robot, q0, q1, profile, sync, lim, torque) -> Trajectory:
+    """The result of a move of zero length: one sample at rest."""
+    method = f"ptp_{profile}"
+    z = np.zeros((1, robot.n_joints))
+    traj = Trajectory(
+        [0.0],
+        q0[None],
+        z,
+        z.copy(),
+        z.copy() if profile == "scurve" else None,
+        joint_names=robot.joint_names,
+        method=method,
+    )
+    traj.meta.update(
+        profile=profile,
+        sync=sync,
+        duration_s=0.0,
+        zero_length=True,
+        q_start=q0.tolist(),
+        q_goal=q1.tolist(),
+    )
+    return finish(traj, robot, lim, torque=torque, what=method)
+
+
+class _Synchronised(NamedTuple):
+    """The synchronised profiles of a move: the batch of every joint's double S (time sync)
+    or the profiles (``profs``: phase sync, the velocity profile), the duration ``T``, the
+    joint that sets it and its binding limit (``kind``), the synchronisation used."""
+
+    batch: SCurveBatch | None
+    profs: list | None
+    T: float
+    joint: int
+    kind: str
+    sync: str
+
+
+def _synchronise(robot, D, delta, profile, sync, lim, dt) -> _Synchronised:
+    """Every joint's profile of a move from rest to rest (module docstring; Jiang 1987,
+    eq. 3-4): ``D`` the distances, ``delta`` the signed moves."""
+    v, a, j = lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3
     if profile == "velocity":
         profs, T, (bkind, bj) = _velocity_profiles(D, v, a, dt)
-        sync_used = "phase"
+        return _Synchronised(None, profs, T, bj, bkind, "phase")
+    assert a is not None  # needed by the trapezoid and S-curve profiles
+    # a trapezoid is the double S without a jerk limit
+    jj = j if profile == "scurve" and j is not None else np.full(robot.n_joints, np.inf)
+    # Jiang 1987, eq. 3-4, each joint's double S in closed form (one batch)
+    # the signed moves: its evaluation is signed (no signed copies of the samples)
+    batch = synchronised_scurves(np.copysign(D, delta)[None], v, a, jj)
+    T, t_i = float(batch.duration[0]), batch.t_min[0]
+    bj = int(t_i.argmax())
+    # the slowest joint takes its own shortest time: its speed is its peak speed
+    bkind = double_s_binding(D[bj], v[bj], a[bj], jj[bj], peak=batch.v[0, bj])
+    if sync != "phase":  # each joint's MotionProfile: built where the torque stretch needs them
+        return _Synchronised(batch, None, T, bj, bkind, sync)
+    moving = D > 0
+    vs = float(np.min(v[moving] / D[moving]))
+    as_ = float(np.min(a[moving] / D[moving]))
+    if profile == "trapezoid":
+        base = trapezoid_profile(1.0, vs, as_)
     else:
-        assert a is not None  # needed by the trapezoid and S-curve profiles
-        # a trapezoid is the double S without a jerk limit
-        jj = j if profile == "scurve" and j is not None else np.full(robot.n_joints, np.inf)
-        # Jiang 1987, eq. 3-4, each joint's double S in closed form (one batch)
-        # the signed moves: its evaluation is signed (no signed copies of the samples)
-        batch = synchronised_scurves(np.copysign(D, delta)[None], v, a, jj)
-        T, t_i = float(batch.duration[0]), batch.t_min[0]
-        profs = None  # each joint's MotionProfile: built where the torque stretch needs them
-        bj = int(t_i.argmax())
-        # the slowest joint takes its own shortest time: its speed is its peak speed
-        bkind = double_s_binding(D[bj], v[bj], a[bj], jj[bj], peak=batch.v[0, bj])
-        if sync == "phase":
-            moving = D > 0
-            vs = float(np.min(v[moving] / D[moving]))
-            as_ = float(np.min(a[moving] / D[moving]))
-            if profile == "trapezoid":
-                base = trapezoid_profile(1.0, vs, as_)
-            else:
-                base = double_s_profile(1.0, vs, as_, float(np.min(jj[moving] / D[moving])))
-            T = base.duration
-            profs = [base] * robot.n_joints
-            batch = None  # one normalised profile: not the batch's
-        sync_used = sync
+        base = double_s_profile(1.0, vs, as_, float(np.min(jj[moving] / D[moving])))
+    # one normalised profile: not the batch's
+    return _Synchronised(None, [base] * robot.n_joints, base.duration, bj, bkind, sync)
 
-    normalised = profile != "velocity" and sync_used == "phase"
+
+def _sampled(robot, req: _Request, delta, profile, sy: _Synchronised) -> tuple:
+    """The sampled motion of the synchronised profiles ``sy``, stretched in time where a
+    torque limit needs it: ``(Trajectory, T, profiles, slowdown)`` (``profiles`` None where
+    the batch's phase data served)."""
+    normalised = profile != "velocity" and sy.sync == "phase"
+    method = f"ptp_{profile}"
 
     def build(duration, corners, evaluate, signed: bool = False) -> Trajectory:
         # every joint's switching times are knots: each piece between knots is the Taylor
         # polynomial of its left knot (constant acceleration or jerk), evaluated exactly
-        t = sample_times(duration, dt, corners)
+        t = sample_times(duration, req.dt, corners)
         s, sd, sdd, sddd = evaluate(t)  # each (n_samples, n_joints)
         if not signed:  # phase sync: one profile over [0, 1]; else each joint's distance
             scale = delta if normalised else np.sign(delta)
             s, sd, sdd, sddd = scale * s, scale * sd, scale * sdd, scale * sddd
-        q = q0 + s
-        q[-1] = q1  # exact arrival of every joint at the last sample
+        q = req.q0 + s
+        q[-1] = req.q1  # exact arrival of every joint at the last sample
         # arrays made here: float64 (n_samples, n_joints), finite (closed-form profiles of
         # finite moves under finite limits > 0), t strictly increasing (sample_times)
         return Trajectory._from_checked(
             t, q, sd, sdd, sddd if profile == "scurve" else None, robot.joint_names, method
         )
 
+    T, profs, batch = sy.T, sy.profs, sy.batch
     if batch is not None:  # time sync: every joint at once, from the batch's phase data
         traj = build(T, batch.boundaries()[0, 1:].reshape(-1), _batch_columns(batch), True)
     else:
+        assert profs is not None
         traj = build(T, np.concatenate([p.corners for p in profs]), _columns(profs))
-    slowdown = None
-    T0 = T
+    slowdown: dict | None = None
     # without a torque limit the closed-form profiles are within every limit by construction
     # (the check below says so, exactly from the phase data where it can): no stretch rounds
-    for _ in range(10 if torque else 0):  # torque peaks move between samples: iterate
+    for _ in range(10 if req.torque else 0):  # torque peaks move between samples: iterate
         # on the evaluation's peaks (knots, left limits, interior extremes, refined torques)
-        check = traj.limit_samples(robot=robot if torque else None)
-        k, kind, joint = stretch_needed(check, robot, lim, torque=torque)
+        check = traj.limit_samples(robot=robot if req.torque else None)
+        k, kind, joint = stretch_needed(check, robot, req.lim, torque=req.torque)
         if k <= 1 + 1e-12:
             break
         k *= 1 + 1e-9
@@ -369,29 +453,8 @@ def ptp_sync(
         traj = build(T, np.concatenate([p.corners for p in profs]), _columns(profs))
         if slowdown is None:
             slowdown = {"kind": kind, "joint": joint}
-        slowdown["factor"] = T / T0
-    traj.meta.update(
-        profile=profile,
-        sync=sync_used,
-        duration_s=float(T),
-        dt_s=dt,
-        binding={"joint": robot.joint_names[bj], "limit": bkind},
-        q_start=q0.tolist(),
-        q_goal=q1.tolist(),
-        joint_profiles=None if normalised else _profile_dicts(profs, batch),
-        normalised_profile=profs[0].to_dict() if normalised else None,
-        slowdown=slowdown,
-    )
-    traj.stats.update(method="closed_form", duration_s=float(T), torque_stretch=T / T0)
-    # without torque and unstretched, the exact check of the phase data (optimal_closed);
-    # otherwise (or where the phase data do not show it) the samples
-    exact = None
-    if not torque and slowdown is None and batch is not None:
-        exact = exact_report(batch, q0, q1, lim, robot.joint_names)
-    traj.stats["limit_check"] = SAMPLE_CHECK if exact is None else EXACT_CHECK
-    traj.stats["arrival_residual"] = None if exact is None else exact[1]
-    report = None if exact is None else exact[0]
-    return finish(traj, robot, lim, torque=torque, what=method, report=report)
+        slowdown["factor"] = T / sy.T
+    return traj, T, profs, slowdown
 
 
 def _profile_dicts(profs, batch) -> list[dict]:
