@@ -69,9 +69,10 @@ demo's variant) are listed in ``docs/api/planning.md``.
 The library is cached on disk (:func:`cache_dir`: ``$ARMLAB_CACHE_DIR``, else
 ``$XDG_CACHE_HOME/armlab``, else ``~/.cache/armlab``) under a key of everything it depends on:
 the kinematics hash, the variant, the casadi version, the glue's and this module's generator
-version, the compiler and its flags. It is written atomically
-(:func:`armlab.io.atomic.atomic_write`): two processes that compile at once each write a
-complete file and the last rename wins. The compile prints one line on stderr before and one
+version, the compiler and its flags. It is built atomically
+(:func:`armlab._cache.build_library`, as the S-curve graph's): compiled in a folder beside it
+and renamed, so two processes that compile at once each install a complete file and the
+last rename wins. The compile prints one line on stderr before and one
 after (how long). Generic flags (no ``-march=native``: a cache folder may be shared between
 machines).
 """
@@ -80,9 +81,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import subprocess
 import sys
-import tempfile
 import time
 from dataclasses import dataclass
 from importlib import resources
@@ -90,10 +89,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from armlab import _cache
-from armlab._cache import CompilerUnavailable, cache_dir
+from armlab._cache import CompilerUnavailable, build_library, cache_dir
 from armlab._lazy import lazy_import
 from armlab.errors import ArmlabError
-from armlab.io.atomic import atomic_write
 from armlab.planning.transcription import N_DRIVE_COEFFS, _drive_rows
 from armlab.robot.symbolic import kinematics_key, parametric_inverse_dynamics_function
 
@@ -424,8 +422,8 @@ def _build(robot, var: Variant, so: Path, cc: str, casadi: Path) -> float:
     dims = var.dims(robot.n_joints)
     defs = [f"-D{k.upper()}={dims[k]}" for k in ("nx", "nu", "ng", "ngn", "npk")]
     defs += ["-DONE_HESS"] if var.one_hessian else []
-    with tempfile.TemporaryDirectory(prefix="armlab-fatrop-") as tmp:
-        src = Path(tmp)
+
+    def sources(src: Path) -> list[str]:
         gen = ca.CodeGenerator(
             "fo_funcs.c",
             {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"},
@@ -435,9 +433,7 @@ def _build(robot, var: Variant, so: Path, cc: str, casadi: Path) -> float:
                 gen.add(fns[name])
         gen.generate(str(src) + "/")
         (src / "fatrop_glue.c").write_text(_glue_source())
-        out = src / "stages.so"
-        cmd = [
-            cc,
+        return [
             *var.cflags,
             f"-DNJ={robot.n_joints}",
             *defs,
@@ -449,18 +445,12 @@ def _build(robot, var: Variant, so: Path, cc: str, casadi: Path) -> float:
             "-lblasfeo",
             "-lm",
             f"-Wl,-rpath,{casadi}",
-            "-o",
-            str(out),
         ]
-        try:
-            r = subprocess.run(cmd, capture_output=True, text=True, check=False)
-        except OSError as exc:
-            raise FatropUnavailable(f"the C compiler {cc} could not run: {exc}") from None
-        if r.returncode:
-            last = (r.stderr.strip().splitlines() or ["(no message)"])[-1]
-            raise FatropUnavailable(f"compiling the fatrop stages failed: {last}")
-        so.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write(so, out.read_bytes())
+
+    try:
+        build_library(so, cc, sources, "the fatrop stages")
+    except CompilerUnavailable as exc:
+        raise FatropUnavailable(str(exc)) from None
     took = time.perf_counter() - t0
     print(
         f"armlab: fatrop stages ({var.tag}) compiled in {took:.1f} s ({so.name})",

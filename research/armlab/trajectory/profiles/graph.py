@@ -58,10 +58,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
-import shutil
-import subprocess
 import sys
-import tempfile
 import threading
 from collections.abc import Mapping
 from pathlib import Path
@@ -217,34 +214,16 @@ def compile_library(n: int, environ: Mapping[str, str] | None = None) -> Path:
         return so
     f = build(n)
     name = f.name()
-    cg = ca.CodeGenerator(name + ".c", {"with_header": False})
-    cg.add(f)
-    code = cg.dump()
-    so.parent.mkdir(parents=True, exist_ok=True)
-    # compiled in a temporary folder beside the target and renamed (mv within one file
-    # system is rename(2)): never half written. The shell renames and cleans up, so a compile
-    # started by a process that exits meanwhile (a background compile of a short script)
-    # still finishes and is cached.
-    tmp = Path(tempfile.mkdtemp(dir=so.parent, prefix=".build-"))
-    src, out = tmp / (name + ".c"), tmp / (name + ".so")
-    src.write_text(code)
-    cmd = ["sh", "-c", _FINISH, "sh", str(out), str(so), str(tmp)]
-    cmd += [cc, *CFLAGS, str(src), "-o", str(out), "-lm"]
-    try:
-        r = subprocess.run(cmd, capture_output=True, text=True, check=False)
-    except OSError as exc:
-        raise _cache.CompilerUnavailable(f"the C compiler {cc} could not run: {exc}") from None
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-    if r.returncode or not so.exists():
-        last = (r.stderr.strip().splitlines() or ["(no message)"])[-1]
-        raise _cache.CompilerUnavailable(f"compiling the S-curve graph failed: {last}")
+
+    def sources(folder: Path) -> list[str]:
+        cg = ca.CodeGenerator(name + ".c", {"with_header": False})
+        cg.add(f)
+        src = folder / (name + ".c")
+        src.write_text(cg.dump())
+        return [*CFLAGS, str(src), "-lm"]
+
+    _cache.build_library(so, cc, sources, "the S-curve graph")
     return so
-
-
-#: the compile command's shell: run the compiler (arguments 4...), rename its output (1) to
-#: the library (2), remove the build folder (3)
-_FINISH = 'out=$1 so=$2 tmp=$3; shift 3; "$@" && mv -f "$out" "$so"; rc=$?; rm -rf "$tmp"; exit $rc'
 
 
 def load_compiled(n: int, so: Path):
