@@ -4,6 +4,7 @@ held, and stats that say which method planned."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -150,6 +151,5 @@ def test_exact_report_refuses_phase_data_that_do_not_arrive(teachbot6):
     args = (np.diff(w, axis=0), lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3)
     good = synchronised_scurves(*args)
     assert exact_report(good, w[0], w[1], lim, teachbot6.joint_names) is not None
-    bad = synchronised_scurves(*args)
-    bad.tv = bad.tv * 1.01
+    bad = dataclasses.replace(synchronised_scurves(*args), tv=good.tv * 1.01)
     assert exact_report(bad, w[0], w[1], lim, teachbot6.joint_names) is None

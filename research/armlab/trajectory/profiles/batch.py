@@ -46,7 +46,7 @@ _COMPARE_SIZE = 256
 
 
 # ---------------------------------------------------------------------- batched, closed form
-@dataclass
+@dataclass(frozen=True)
 class SCurveBatch:
     """Time-synchronised rest-to-rest double S profiles of many problems (see
     :func:`synchronised_scurves`). Shapes: ``(..., n_joints)`` per joint, ``(...)`` per
@@ -69,7 +69,9 @@ class SCurveBatch:
     a_max : array (..., n_joints)
         The acceleration limit of each joint.
 
-    The phase data (:meth:`boundaries`) are computed once, on first use.
+    A result: frozen (a changed field is a new batch, :func:`dataclasses.replace`), so the
+    phase data (:meth:`boundaries`) and the peaks, computed once on first use or given by the
+    graph of one problem, always belong to its fields.
     """
 
     duration: np.ndarray
@@ -87,8 +89,6 @@ class SCurveBatch:
     #: peaks_flat() when the graph computed it with the rest (one problem, finite jerks): its
     #: rows (10, n_joints), keys PEAK_KEYS
     _peaks: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
-    #: the (tj, ta, tv, a, j) arrays the phase table was made from
-    _made_from: tuple = field(default=(), init=False, repr=False, compare=False)
     #: every jerk finite (no trapezoid): set by synchronised_scurves, else tested
     _jerk_finite: bool = field(default=False, init=False, repr=False, compare=False)
 
@@ -174,24 +174,15 @@ class SCurveBatch:
             t0[k+1] = t0[k] + d_k,   v0[k+1] = v0[k] + a_k d_k + j_k d_k^2 / 2,
             s0[k+1] = s0[k] + v0[k] d_k + a_k d_k^2 / 2 + j_k d_k^3 / 6
         """
-        if self._bounds is not None and self._current():
+        if self._bounds is not None:
             return self._bounds
-        self._peaks = None  # made from other phase data
         jf = self.j
         if not self.jerk_finite:
             jf = np.where(np.isfinite(jf), jf, 0.0)  # a trapezoid has no jerk phases
         out = np.empty((6, 7) + self.a.shape)
         steps = _phase_table(NP, self.tj, self.ta, self.tv, self.a, jf, out)
-        self._bounds = out
-        self._steps = steps  # each phase's change of speed and position (peaks)
-        self._made_from = (self.tj, self.ta, self.tv, self.a, self.j)
+        _cache(self, _bounds=out, _steps=steps)  # steps: each phase's dv, ds (peaks)
         return out
-
-    def _current(self) -> bool:
-        """The phase table was made from the arrays the batch holds now (a caller may replace
-        one, e.g. to test a check on altered phase data)."""
-        tj, ta, tv, a, j = self._made_from
-        return tj is self.tj and ta is self.ta and tv is self.tv and a is self.a and j is self.j
 
     def evaluate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(q, qd, qdd)`` displacements from the start at times ``t`` (m,) [s]: arrays
@@ -274,7 +265,7 @@ class SCurveBatch:
 
     def peaks_flat(self) -> dict[str, np.ndarray]:
         """:meth:`peaks` with every array flat, ``(problems x n_joints,)``."""
-        if self._peaks is not None and self._current():  # the graph's rows
+        if self._peaks is not None:  # the graph's rows
             return dict(zip(PEAK_KEYS, self._peaks, strict=True))
         b = self.boundaries()
         cols = self.distance.size
@@ -458,7 +449,14 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
     batch = SCurveBatch(
         duration=T, t_min=t_min, distance=D, v=vp, a=ap, j=j, tj=tj, ta=ta, tv=tv, a_max=a
     )
-    batch._jerk_finite = k.finite
+    return _cache(batch, _jerk_finite=k.finite)
+
+
+def _cache(batch: SCurveBatch, **known) -> SCurveBatch:
+    """``batch`` with what is known of it set (the private fields: the phase table, its steps,
+    the peaks, finite jerks) -- computed from its own fields, so a frozen batch may hold it."""
+    for name, value in known.items():
+        object.__setattr__(batch, name, value)
     return batch
 
 
@@ -469,16 +467,9 @@ def _one_problem(D, v, a, j) -> SCurveBatch | None:
     or a jerk is infinite (the graph's last output: the numpy path names the error or builds
     the trapezoid)."""
     shape = D.shape
-    n = shape[-1]
     r = graph.evaluate(D, v, a, j)  # a fresh array: the batch's arrays are views of it
     if r is None or not r[-1]:  # a value the numpy path names (or the graph was reset)
         return None
-    t_min, vp, ap, tj, ta, tv = r[1 : 1 + 6 * n].reshape((6,) + shape)
-    batch = SCurveBatch(r[0:1].reshape(shape[:-1]), t_min, D, vp, ap, j, tj, ta, tv, a)
-    batch._jerk_finite = True
-    batch._bounds = r[1 + 6 * n : 1 + 48 * n].reshape((6, 7) + shape)
-    dv, ds = r[1 + 48 * n : 1 + 62 * n].reshape((2, 7) + shape)
-    batch._steps = dv, ds
-    batch._made_from = (tj, ta, tv, ap, j)
-    batch._peaks = r[1 + 62 * n : 1 + 72 * n].reshape(10, n)
-    return batch
+    T, (t_min, vp, ap, tj, ta, tv), table, steps, peaks = graph.unpack(r, shape)
+    batch = SCurveBatch(T, t_min, D, vp, ap, j, tj, ta, tv, a)
+    return _cache(batch, _jerk_finite=True, _bounds=table, _steps=tuple(steps), _peaks=peaks)

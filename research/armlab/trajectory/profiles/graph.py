@@ -85,6 +85,7 @@ __all__ = [
     "prepare",
     "reset",
     "status",
+    "unpack",
 ]
 
 #: compiler flags of the graph's library: -O2/-O3 measured no faster than -O1 (3.2/3.3 us
@@ -175,6 +176,23 @@ def _build(n: int):
     ok = [ca.fabs(D) < inf] + [ca.logic_and(x > 0, x < inf) for x in (v, a, j)]
     out.append(ca.mmin(ca.vertcat(*ok)))
     return ca.Function(f"armlab_scurve_{n}", [x], [ca.vertcat(*out)], ["x"], ["out"])
+
+
+def unpack(r: np.ndarray, shape: tuple[int, ...]) -> tuple:
+    """The graph's output ``r`` (:func:`evaluate`, laid out as :func:`build` makes it) for a
+    problem of ``shape`` (``(..., n)``, leading axes of size 1) as views: ``T``
+    (``shape[:-1]``), the six per-joint arrays ``t_min, v, a, tj, ta, tv`` (``(6,) + shape``),
+    the phase table (``(6, 7) + shape``), the steps ``dv, ds`` (``(2, 7) + shape``), the peak
+    rows (``(10, n)``, :data:`.batch.PEAK_KEYS`). The last value, the validity flag, is
+    ``r[-1]``."""
+    n = shape[-1]
+    return (
+        r[0:1].reshape(shape[:-1]),
+        r[1 : 1 + 6 * n].reshape((6,) + shape),
+        r[1 + 6 * n : 1 + 48 * n].reshape((6, 7) + shape),
+        r[1 + 48 * n : 1 + 62 * n].reshape((2, 7) + shape),
+        r[1 + 62 * n : 1 + 72 * n].reshape(10, n),
+    )
 
 
 @functools.lru_cache(maxsize=1)
