@@ -136,7 +136,7 @@ def prepare(n: int) -> str:
     else the VM, with the compile started in the background); its :func:`status`. The first
     problem of ``n`` joints of a process does this too (module docstring)."""
     if _mode != "off":
-        _activate(n, _generation, dict(os.environ), compile_here=False)
+        _activate(n)
     return status(n)
 
 
@@ -249,13 +249,13 @@ def load_compiled(n: int, so: Path):
     return ca.external(f"armlab_scurve_{n}", str(so))
 
 
-def _activate(n: int, generation: int, environ: dict, compile_here: bool) -> None:
+def _activate(n: int) -> None:
     """Put the function of ``n`` joints in use (module docstring): the cached library, else
-    the VM and (``auto``) the compile, here or in a new thread; the compiler and the cache
-    folder of ``environ``, the environment when the graph was asked for (a test may change
-    the process' meanwhile)."""
+    the VM and (``auto``) the compile in a new thread, with the compiler and the cache folder
+    of the environment now (a snapshot: a test may change the process' meanwhile)."""
     if n in _ACTIVE:
         return
+    generation, environ = _generation, dict(os.environ)
     f, compiled = None, False
     if _mode == "auto":
         try:
@@ -274,11 +274,7 @@ def _activate(n: int, generation: int, environ: dict, compile_here: bool) -> Non
             _COMPILING.add(n)
         _ACTIVE[n] = f
         _STATUS[n] = "compiled" if compiled else "vm, compiling" if compile_now else "vm"
-    if not compile_now:
-        return
-    if compile_here:
-        _compile(n, generation, environ)
-    else:
+    if compile_now:
         threading.Thread(target=_compile, args=(n, generation, environ), daemon=True).start()
 
 
@@ -303,7 +299,7 @@ def evaluate(D, v, a, j) -> np.ndarray | None:
     n = D.shape[-1]
     f = _ACTIVE.get(n)
     if f is None:
-        _activate(n, _generation, dict(os.environ), compile_here=False)
+        _activate(n)
         f = _ACTIVE.get(n)
         if f is None:  # a reset() meanwhile (tests): the numpy evaluation this once
             return None
