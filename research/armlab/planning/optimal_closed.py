@@ -59,7 +59,7 @@ import numpy as np
 from armlab.planning.timescale import CHECK_TOL
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import synchronised_scurves
-from armlab.trajectory.sampling import ROUNDING, LimitReport
+from armlab.trajectory.sampling import LimitReport, fixed_times
 
 if TYPE_CHECKING:
     from armlab.planning.optimal_problem import OptimalProblem
@@ -97,18 +97,9 @@ def _finite_vaj(ls) -> bool:
 
 def _knots(t0: np.ndarray, T: float) -> np.ndarray:
     """Every joint's switching instants (the phase starts ``t0``, (7, n_joints)) and the
-    ends, sorted; instants closer than the rounding of the times merge (as
-    :func:`~armlab.trajectory.sampling.sample_times`)."""
-    corners = t0[1:].reshape(-1)
-    tiny = ROUNDING * max(T, 1.0)
-    inner = corners[(corners > tiny) & (corners < T - tiny)]  # a copy: sorted in place
-    inner.sort()
-    keep = np.empty(inner.size + 2, bool)  # the later of two merged instants
-    keep[0] = keep[-2:] = True
-    np.greater(inner[1:] - inner[:-1], tiny, out=keep[1:-2])
-    out = np.empty(inner.size + 2)
-    out[0], out[1:-1], out[-1] = 0.0, inner, T
-    return out[keep]
+    ends, sorted and merged as :func:`~armlab.trajectory.sampling.sample_times` keeps knots
+    (:func:`~armlab.trajectory.sampling.fixed_times`)."""
+    return np.concatenate(((0.0,), fixed_times(t0[1:], T)))
 
 
 #: what the exact check of a closed-form plan verified (``stats["limit_check"]``)

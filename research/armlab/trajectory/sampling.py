@@ -21,6 +21,7 @@ __all__ = [
     "LimitSamples",
     "LIMIT_KINDS",
     "MERGE_FRACTION",
+    "fixed_times",
     "sample_times",
     "sample_weights",
 ]
@@ -71,17 +72,7 @@ def sample_times(duration: float, dt: float, knots=()) -> np.ndarray:
         return np.zeros(1)
     n = int(np.floor(duration / dt + 1e-9))
     grid = dt * np.arange(n + 1)
-    k = np.asarray(knots, dtype=float).reshape(-1)
-    # knots within rounding of each other or of an end (a phase shorter than the times' own
-    # noise) merge into the later one
-    tiny = ROUNDING * duration
-    fixed = np.concatenate((k[(k > tiny) & (k < duration - tiny)], (duration,)))
-    fixed.sort()
-    # equal or closer than tiny: the later one (an equal pair is one time)
-    keep = np.empty(fixed.size, bool)
-    keep[-1] = True
-    np.greater(fixed[1:] - fixed[:-1], tiny, out=keep[:-1])
-    fixed = fixed[keep]
+    fixed = fixed_times(knots, duration)
     # a regular sample within MERGE_FRACTION dt of a fixed time: the grid is dt apart, so
     # only the one nearest to each fixed time can be (at most n: the grid ends there)
     j = np.rint(fixed / dt).astype(np.intp)
@@ -94,6 +85,22 @@ def sample_times(duration: float, dt: float, knots=()) -> np.ndarray:
     out = np.concatenate((grid[~near], fixed))
     out.sort(kind="stable")  # two sorted runs: the stable sort merges them in one pass
     return out
+
+
+def fixed_times(knots, duration: float) -> np.ndarray:
+    """The ``knots`` inside ``(0, duration)`` and the end, sorted, as :func:`sample_times`
+    keeps them: knots within the rounding of the times (``ROUNDING * duration``) of each other
+    or of an end (a phase shorter than the times' own noise) merge into the later one (the
+    end); ``duration > 0``."""
+    k = np.asarray(knots, dtype=float).reshape(-1)
+    tiny = ROUNDING * duration
+    fixed = np.concatenate((k[(k > tiny) & (k < duration - tiny)], (duration,)))
+    fixed.sort()
+    # equal or closer than tiny: the later one (an equal pair is one time)
+    keep = np.empty(fixed.size, bool)
+    keep[-1] = True
+    np.greater(fixed[1:] - fixed[:-1], tiny, out=keep[:-1])
+    return fixed[keep]
 
 
 @dataclass
