@@ -157,12 +157,13 @@ def _build(n: int):
         _phase_table,
         _synchronise,
     )
-    from armlab.trajectory.profiles.ops import SX
+    from armlab.trajectory.profiles.ops import sx
     from armlab.trajectory.profiles.timing import _DoubleSLimits
 
     x = ca.SX.sym("x", n, 4)  # column-major: the rows of a C-ordered (4, n) array
     D, v, a, j = (x[:, c] for c in range(4))
     L = ca.fabs(D)
+    SX = sx()
     k = _DoubleSLimits(a, j, True, SX)
     T, t_min, vp, ap, tj, ta, tv = _synchronise(L, v, a, j, k, L > 0)
     table: list = [None] * 6

@@ -2,7 +2,7 @@
 
 The kernels of :mod:`.timing` and the synchronised engine of :mod:`.batch` are written once,
 against an ``ops`` object: :data:`NP` evaluates them on numpy arrays (batches, the public
-vectorised primitives, trapezoids), :data:`SX` builds them as CasADi SX expressions (the graph of
+vectorised primitives, trapezoids), :func:`sx` builds them as CasADi SX expressions (the graph of
 one problem, :mod:`.graph`). Arithmetic (``+ - * / **``) and comparisons are the operands' own:
 an SX column of ``n`` joints is element-wise like a numpy ``(n,)`` array, an SX ``(7, n)``
 matrix like a numpy ``(7, n)`` phase table. The operations with a name differ between the two:
@@ -20,6 +20,7 @@ matrix like a numpy ``(7, n)`` phase table. The operations with a name differ be
 
 from __future__ import annotations
 
+import functools
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -31,7 +32,7 @@ if TYPE_CHECKING:
 else:
     ca = lazy_import("casadi")
 
-__all__ = ["NP", "SX", "NumpyOps", "SXOps"]
+__all__ = ["NP", "NumpyOps", "SXOps", "sx"]
 
 
 class NumpyOps:
@@ -114,41 +115,12 @@ class SXOps:
 
     symbolic = True
 
-    @staticmethod
-    def sqrt(x):
-        return ca.sqrt(x)
-
-    @staticmethod
-    def asin(x):
-        return ca.asin(x)
-
-    @staticmethod
-    def cos(x):
-        return ca.cos(x)
-
-    @staticmethod
-    def sin(x):
-        return ca.sin(x)
-
-    @staticmethod
-    def fmin(x, y):
-        return ca.fmin(x, y)
-
-    @staticmethod
-    def fmax(x, y):
-        return ca.fmax(x, y)
-
-    @staticmethod
-    def where(cond, x, y):
-        return ca.if_else(cond, x, y)
-
-    @staticmethod
-    def select(cond, new, old):
-        return ca.if_else(cond, new, old)
-
-    @staticmethod
-    def and_(x, y):
-        return ca.logic_and(x, y)
+    def __init__(self) -> None:
+        # CasADi's own element-wise functions (casadi is imported here, by the first graph);
+        # select(cond, new, old) is if_else(cond, new, old): a graph holds both branches
+        self.sqrt, self.asin, self.cos, self.sin = ca.sqrt, ca.asin, ca.cos, ca.sin
+        self.fmin, self.fmax, self.and_ = ca.fmin, ca.fmax, ca.logic_and
+        self.where = self.select = ca.if_else
 
     @staticmethod
     def any(x) -> bool:
@@ -196,4 +168,9 @@ class SXOps:
 
 
 NP = NumpyOps()
-SX = SXOps()
+
+
+@functools.cache
+def sx() -> SXOps:
+    """The CasADi SX backend (made on first use: it imports casadi)."""
+    return SXOps()
