@@ -574,8 +574,7 @@ class Trajectory:
         if with_tau and smp.tau is None:
             raise InputError("check_limits: the samples given have no torques")
         report = LimitReport(list(robot.joint_names))
-        centre = lim.centre_rad
-        half = 0.5 * (lim.upper_rad - lim.lower_rad)  # inf for an unbounded joint: ratio 0
+        centre, half = lim.centre_half_rad()  # inf half range for an unbounded joint: ratio 0
 
         def put(kind: str, signal: np.ndarray | None, scale) -> None:
             if signal is None or scale is None:
