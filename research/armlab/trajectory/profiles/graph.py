@@ -51,31 +51,28 @@ source of the formulas' modules, the casadi version, the compiler, the flags, th
 parallel processes never load a half-written file.
 
 Each thread has its own bound buffers (a ``threading.local``): Dask's threads may call at once.
+The activation, the cache key, the compile, the status, the buffers and the fork handling are
+:mod:`armlab._compiled`'s (shared with the closed-form plan's graph,
+:mod:`armlab.planning.closed_graph`); this module is the S-curve graph's
+:class:`~armlab._compiled.Spec`.
 """
 
 from __future__ import annotations
 
-import functools
-import hashlib
-import os
-import sys
-import threading
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from armlab import _cache
+from armlab import _compiled
+from armlab._compiled import available, reset
 from armlab._lazy import lazy_import
 
-if TYPE_CHECKING:
-    import casadi as ca
-else:
-    ca = lazy_import("casadi")
+ca = lazy_import("casadi")
 
 __all__ = [
     "CFLAGS",
+    "GRAPH",
     "available",
     "build",
     "compile_library",
@@ -96,58 +93,6 @@ __all__ = [
 CFLAGS = ("-O1", "-fPIC", "-shared", "-fno-semantic-interposition", "-ffp-contract=off")
 #: the modules whose source the graph is generated from (its cache key hashes them)
 _SOURCES = ("ops.py", "timing.py", "batch.py", "graph.py")
-_MODES = ("auto", "vm", "off")
-_LOCK = threading.Lock()
-_ACTIVE: dict[int, Any] = {}  # n -> the Function in use (VM or compiled)
-_STATUS: dict[int, str] = {}
-_COMPILING: set[int] = set()
-_VM: dict[int, Any] = {}  # n -> the graph, built once per process
-_LOCAL = threading.local()  # per thread: n -> (function, trigger, input, output, buffer)
-_mode = "auto"
-_generation = 0  # bumped by reset(): a background thread of an earlier one changes nothing
-
-
-def reset() -> None:
-    """Forget the functions in use and read ``$ARMLAB_SCURVE_GRAPH`` again (tests)."""
-    global _mode, _generation
-    mode = os.environ.get("ARMLAB_SCURVE_GRAPH", "auto").strip().lower() or "auto"
-    with _LOCK:
-        _mode = mode if mode in _MODES else "auto"
-        _generation += 1
-        _ACTIVE.clear()
-        _STATUS.clear()
-        _COMPILING.clear()
-    _LOCAL.__dict__.clear()
-
-
-def available() -> bool:
-    """Whether one problem is evaluated by the graph (``$ARMLAB_SCURVE_GRAPH`` is not ``off``)."""
-    return _mode != "off"
-
-
-def status(n: int) -> str:
-    """How problems of ``n`` joints are evaluated: ``"compiled"``, ``"vm"`` (with the reason
-    where the compile failed, or ``"vm, compiling"``), or ``"unused"``."""
-    return _STATUS.get(n, "unused")
-
-
-def prepare(n: int) -> str:
-    """Make the graph of ``n`` joints ready now (the compiled library if the cache holds it,
-    else the VM, with the compile started in the background); its :func:`status`. The first
-    problem of ``n`` joints of a process does this too (module docstring)."""
-    if _mode != "off":
-        _activate(n)
-    return status(n)
-
-
-def build(n: int):
-    """The graph of ``n`` joints (module docstring) run by CasADi's VM, built once per process."""
-    f = _VM.get(n)
-    if f is None:  # built outside the lock (20-25 ms); two threads at once build twice
-        f = _build(n)
-        with _LOCK:
-            f = _VM.setdefault(n, f)
-    return f
 
 
 def _build(n: int):
@@ -176,7 +121,44 @@ def _build(n: int):
     inf = ca.inf
     ok = [ca.fabs(D) < inf] + [ca.logic_and(x > 0, x < inf) for x in (v, a, j)]
     out.append(ca.mmin(ca.vertcat(*ok)))
-    return ca.Function(f"armlab_scurve_{n}", [x], [ca.vertcat(*out)], ["x"], ["out"])
+    return ca.Function(_symbol(n), [x], [ca.vertcat(*out)], ["x"], ["out"])
+
+
+def _symbol(n: int) -> str:
+    return f"armlab_scurve_{n}"
+
+
+#: the S-curve graph family (:mod:`armlab._compiled`)
+GRAPH = _compiled.Graph(
+    _compiled.Spec(
+        name="scurve",
+        build=_build,
+        symbol=_symbol,
+        sources=tuple(Path(__file__).parent / name for name in _SOURCES),
+        cflags=CFLAGS,
+        inputs=lambda n: ((4, n),),
+        output=lambda n: 2 + 72 * n,
+        what="the S-curve graph",
+    )
+)
+
+
+def status(n: int) -> str:
+    """How problems of ``n`` joints are evaluated: ``"compiled"``, ``"vm"`` (with the reason
+    where the compile failed, or ``"vm, compiling"``), or ``"unused"``."""
+    return GRAPH.status(n)
+
+
+def prepare(n: int) -> str:
+    """Make the graph of ``n`` joints ready now (the compiled library if the cache holds it,
+    else the VM, with the compile started in the background); its :func:`status`. The first
+    problem of ``n`` joints of a process does this too (module docstring)."""
+    return GRAPH.prepare(n)
+
+
+def build(n: int):
+    """The graph of ``n`` joints (module docstring) run by CasADi's VM, built once per process."""
+    return GRAPH.build(n)
 
 
 def unpack(r: np.ndarray, shape: tuple[int, ...]) -> tuple:
@@ -196,143 +178,39 @@ def unpack(r: np.ndarray, shape: tuple[int, ...]) -> tuple:
     )
 
 
-@functools.lru_cache(maxsize=1)
-def _source_hash() -> str:
-    here = Path(__file__).parent
-    h = hashlib.sha256()
-    for name in _SOURCES:
-        h.update((here / name).read_bytes())
-    return h.hexdigest()
-
-
 def library_path(n: int, cc: str, root: Path | None = None) -> Path:
     """Where the compiled graph of ``n`` joints built by ``cc`` lives in the cache (``root``:
     :func:`armlab._cache.cache_dir`)."""
-    h = hashlib.sha256()
-    for part in (_source_hash(), ca.__version__, cc, " ".join(CFLAGS), sys.platform, str(n)):  # type: ignore[attr-defined]
-        h.update(part.encode())
-        h.update(b"\0")
-    root = _cache.cache_dir() if root is None else root
-    return root / "scurve" / f"scurve-graph-{n}-{h.hexdigest()[:20]}.so"
+    return GRAPH.library_path(n, cc, root)
 
 
 def compile_library(n: int, environ: Mapping[str, str] | None = None) -> Path:
     """The compiled graph of ``n`` joints, built now unless the cache holds it (about 1.2 s
     for 6 joints); the path of the library. ``environ``: the environment whose compiler and
-    cache folder are used (a snapshot taken by the caller of a background thread; default
-    the process').
+    cache folder are used (default the process').
 
     Raises
     ------
     armlab._cache.CompilerUnavailable
         No C compiler, or the compile failed.
     """
-    cc = _cache.compiler(environ)
-    so = library_path(n, cc, _cache.cache_dir(environ))
-    if so.exists():
-        return so
-    f = build(n)
-    name = f.name()
-
-    def sources(folder: Path) -> list[str]:
-        cg = ca.CodeGenerator(name + ".c", {"with_header": False})
-        cg.add(f)
-        src = folder / (name + ".c")
-        src.write_text(cg.dump())
-        return [*CFLAGS, str(src), "-lm"]
-
-    _cache.build_library(so, cc, sources, "the S-curve graph")
-    return so
+    return GRAPH.compile_library(n, environ)
 
 
 def load_compiled(n: int, so: Path):
     """The compiled graph of ``n`` joints from its library ``so``."""
-    return ca.external(f"armlab_scurve_{n}", str(so))
-
-
-def _activate(n: int) -> None:
-    """Put the function of ``n`` joints in use (module docstring): the cached library, else
-    the VM and (``auto``) the compile in a new thread, with the compiler and the cache folder
-    of the environment now (a snapshot: a test may change the process' meanwhile)."""
-    if n in _ACTIVE:
-        return
-    generation, environ = _generation, dict(os.environ)
-    f, compiled = None, False
-    if _mode == "auto":
-        try:
-            so = library_path(n, _cache.compiler(environ), _cache.cache_dir(environ))
-            if so.exists():
-                f, compiled = load_compiled(n, so), True
-        except Exception:  # noqa: BLE001 - no compiler, a damaged file: the VM below
-            pass
-    if f is None:
-        f = build(n)
-    with _LOCK:
-        if generation != _generation or n in _ACTIVE:
-            return
-        compile_now = _mode == "auto" and not compiled and n not in _COMPILING
-        if compile_now:
-            _COMPILING.add(n)
-        _ACTIVE[n] = f
-        _STATUS[n] = "compiled" if compiled else "vm, compiling" if compile_now else "vm"
-    if compile_now:
-        threading.Thread(target=_compile, args=(n, generation, environ), daemon=True).start()
-
-
-def _compile(n: int, generation: int, environ: dict) -> None:
-    """Compile the graph of ``n`` joints and put it in use; on failure say why in the status."""
-    try:
-        f = load_compiled(n, compile_library(n, environ))
-    except Exception as exc:  # noqa: BLE001 - the VM stays in use, the reason is kept
-        with _LOCK:
-            if generation == _generation:
-                _STATUS[n] = f"vm ({exc})"
-        return
-    with _LOCK:
-        if generation == _generation:
-            _ACTIVE[n], _STATUS[n] = f, "compiled"
+    return GRAPH.load_compiled(n, so)
 
 
 def evaluate(D, v, a, j) -> np.ndarray | None:
     """The graph's output (module docstring) for one problem, a fresh array of ``2 + 72 n``;
     ``D, v, a, j`` float arrays of ``n`` joints (leading axes of size 1 allowed); the graph
-    of ``n`` joints made ready first if it is not (:func:`prepare`)."""
-    n = D.shape[-1]
-    f = _ACTIVE.get(n)
-    if f is None:
-        _activate(n)
-        f = _ACTIVE.get(n)
-        if f is None:  # a reset() meanwhile (tests): the numpy evaluation this once
-            return None
-    slot = _LOCAL.__dict__.get(n)
-    if slot is None or slot[0] is not f:
-        slot = _LOCAL.__dict__[n] = _bind(f, n)
-    _, trigger, x, out, _ = slot
+    of ``n`` joints made ready first if it is not (:func:`prepare`). None where a
+    :func:`reset` came between (tests): the caller evaluates with numpy this once."""
+    slot = GRAPH.bound(D.shape[-1])
+    if slot is None:
+        return None
+    trigger, (x,), out = slot
     x[0], x[1], x[2], x[3] = D, v, a, j
     trigger()
     return out.copy()
-
-
-def _bind(f, n: int) -> tuple:
-    """A buffer of ``f`` with numpy arrays bound to its input and output (kept alive with
-    it)."""
-    buf, trigger = f.buffer()
-    x, out = np.zeros((4, n)), np.zeros(2 + 72 * n)
-    buf.set_arg(0, x.data)
-    buf.set_res(0, out.data)
-    return f, trigger, x, out, buf
-
-
-def _after_fork() -> None:
-    """In a forked child: a new lock (the parent's may have been held by a thread that does
-    not exist here), and the compiles under way forgotten (their threads are gone)."""
-    global _LOCK
-    _LOCK = threading.Lock()
-    for n in _COMPILING:
-        if _STATUS.get(n) == "vm, compiling":
-            _STATUS[n] = "vm"
-    _COMPILING.clear()
-
-
-os.register_at_fork(after_in_child=_after_fork)
-reset()
