@@ -50,7 +50,6 @@ solves the same problem by transcription.
 
 from __future__ import annotations
 
-import math
 import time as _time
 from typing import TYPE_CHECKING
 
@@ -59,6 +58,7 @@ import numpy as np
 from armlab.planning.timescale import CHECK_TOL
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles import synchronised_scurves
+from armlab.trajectory.profiles.ops import NP
 from armlab.trajectory.sampling import LimitReport, fixed_times
 
 if TYPE_CHECKING:
@@ -67,6 +67,7 @@ if TYPE_CHECKING:
 __all__ = [
     "closed_form_applies",
     "closed_form_optimal",
+    "exact_check",
     "exact_report",
     "EXACT_CHECK",
     "SAMPLE_CHECK",
@@ -132,43 +133,49 @@ def exact_report(batch, start, goal, limits, joint_names) -> tuple[LimitReport, 
     """
     pk = batch.peaks_flat()
     v, a, j = limits.velocity_rad_s, limits.acceleration_rad_s2, limits.jerk_rad_s3
-    # the arrival residuals and the reverse speeds, one value per joint: as Python floats
-    # (the same IEEE operations as numpy's, without a numpy call per step)
-    vs = v.tolist()
-    off = [
-        abs(p - abs(d)) / (1.0 + abs(d))
-        for p, d in zip(
-            pk["end_position"].tolist(), batch.distance.reshape(-1).tolist(), strict=True
-        )
-    ]
-    off += [abs(x) / y for x, y in zip(pk["end_velocity"].tolist(), vs, strict=True)]
-    if a is not None:
-        off += [
-            abs(x) / y for x, y in zip(pk["end_acceleration"].tolist(), a.tolist(), strict=True)
-        ]
-    # numpy's max keeps a NaN, Python's need not: their sum has it (every term >= 0)
-    total = sum(off)
-    residual = max(off) if total == total else math.nan
-    if residual > ARRIVAL_TOL or any(
-        r > ARRIVAL_TOL * y for r, y in zip(pk["reverse"].tolist(), vs, strict=True)
-    ):
-        return None
-    T = float(batch.duration.reshape(-1)[0])
-    report = LimitReport(list(joint_names))
-    # position: the larger ratio of the two ends
     centre, half = limits.centre_half_rad()
-    r0, r1 = np.abs(start - centre), np.abs(goal - centre)
-    r0 /= half
-    r1 /= half
-    report.ratios["position"] = np.maximum(r0, r1)
-    report.at_s["position"] = np.where(r1 > r0, T, 0.0)  # the start where both are equal
+    T = float(batch.duration.reshape(-1)[0])
     # a trapezoid (j = inf in the batch) has no jerk signal: no jerk ratio, as for its samples
     jerk = j if batch.jerk_finite else None
-    for kind, lim in (("velocity", v), ("acceleration", a), ("jerk", jerk)):
-        if lim is not None:
-            report.ratios[kind] = pk[kind] / lim
-            report.at_s[kind] = pk[f"{kind}_at_s"]
+    residual, reverse, ratios, at_s = exact_check(
+        NP, pk, batch.distance.reshape(-1), v, a, jerk, start, goal, centre, half, T
+    )
+    residual = float(residual)
+    if residual > ARRIVAL_TOL or reverse:
+        return None
+    report = LimitReport(list(joint_names))
+    report.ratios.update(ratios)
+    report.at_s.update(at_s)
     return report, residual
+
+
+def exact_check(ops, pk, D, v, a, j, start, goal, centre, half, T) -> tuple:
+    """What :func:`exact_report` reads from the peaks ``pk`` (:meth:`SCurveBatch.peaks_flat`)
+    of one synchronised double S, written once against a backend ``ops``
+    (:mod:`armlab.trajectory.profiles.ops`: numpy, and CasADi SX in the closed form's graph,
+    :mod:`armlab.planning.closed_graph`): ``(residual, reverse, ratios, at_s)``.
+
+    * ``residual``: the largest arrival residual, NaN if any is: ``| end_position - |D| | /
+      (1 + |D|)``, ``|end_velocity| / v``, ``|end_acceleration| / a`` (``a`` None: left out);
+    * ``reverse``: whether a joint's speed against the move exceeds ``ARRIVAL_TOL * v``;
+    * ``ratios``, ``at_s``: by kind, the position ratio ``max(r0, r1)`` of the two ends
+      (``r = |q - centre| / half``) at ``T`` where ``r1 > r0``, else 0; the velocity,
+      acceleration and jerk peaks over their limits and their times (a limit None: no kind).
+    """
+    L = abs(D)
+    off = [abs(pk["end_position"] - L) / (1.0 + L), abs(pk["end_velocity"]) / v]
+    if a is not None:
+        off.append(abs(pk["end_acceleration"]) / a)
+    residual = ops.nanmax(ops.concat(off))
+    reverse = ops.any_of(pk["reverse"] > ARRIVAL_TOL * v)
+    r0, r1 = abs(start - centre) / half, abs(goal - centre) / half
+    ratios = {"position": ops.fmax(r0, r1)}
+    at_s = {"position": ops.where(r1 > r0, T, 0.0)}  # the start where both are equal
+    for kind, lim in (("velocity", v), ("acceleration", a), ("jerk", j)):
+        if lim is not None:
+            ratios[kind] = pk[kind] / lim
+            at_s[kind] = pk[f"{kind}_at_s"]
+    return residual, reverse, ratios, at_s
 
 
 def closed_form_optimal(prob: OptimalProblem) -> Trajectory:

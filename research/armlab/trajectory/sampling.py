@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from armlab.errors import InputError
+from armlab.trajectory.profiles.ops import NP
 
 __all__ = [
     "LimitReport",
@@ -22,6 +23,7 @@ __all__ = [
     "LIMIT_KINDS",
     "MERGE_FRACTION",
     "fixed_times",
+    "merged_times",
     "sample_times",
     "sample_weights",
 ]
@@ -91,16 +93,21 @@ def fixed_times(knots, duration: float) -> np.ndarray:
     """The ``knots`` inside ``(0, duration)`` and the end, sorted, as :func:`sample_times`
     keeps them: knots within the rounding of the times (``ROUNDING * duration``) of each other
     or of an end (a phase shorter than the times' own noise) merge into the later one (the
-    end); ``duration > 0``."""
-    k = np.asarray(knots, dtype=float).reshape(-1)
+    end); ``duration > 0`` (:func:`merged_times` with numpy)."""
+    return merged_times(NP, np.asarray(knots, dtype=float).reshape(-1), duration)
+
+
+def merged_times(ops, k, duration):
+    """:func:`fixed_times` of the flat knots ``k``, written once against a backend ``ops``
+    (:mod:`armlab.trajectory.profiles.ops`): numpy (the kept times) or CasADi SX (the closed
+    form's graph, :mod:`armlab.planning.closed_graph`: a column of ``k.size + 1`` values, the
+    kept times sorted, then ``+inf``). The knots inside ``(tiny, duration - tiny)`` and the
+    end, sorted; each dropped where the next one is within ``tiny = ROUNDING * duration``
+    (equal or closer: the later one stays; an equal pair is one time)."""
     tiny = ROUNDING * duration
-    fixed = np.concatenate((k[(k > tiny) & (k < duration - tiny)], (duration,)))
-    fixed.sort()
-    # equal or closer than tiny: the later one (an equal pair is one time)
-    keep = np.empty(fixed.size, bool)
-    keep[-1] = True
-    np.greater(fixed[1:] - fixed[:-1], tiny, out=keep[:-1])
-    return fixed[keep]
+    inside = ops.and_(k > tiny, k < duration - tiny)
+    fixed = ops.sort(ops.append(ops.compress(k, inside), duration))
+    return ops.compress(fixed, ops.gaps_above(fixed, tiny), sort=True)
 
 
 @dataclass

@@ -232,14 +232,9 @@ class SCurveBatch:
         tab[1:3] *= sgn
         tab[4:6] *= sgn
         np.multiply(tab[4], 0.5, out=tab[6])
-        t0, s0, v0, d, a0, j0, a2 = np.take(
-            tab.reshape(7, 7 * cols), k * cols + np.arange(cols), axis=1
-        )
-        h = np.minimum(np.maximum(tt - t0, 0.0), d)
-        s = s0 + h * (v0 + h * (a2 + h * j0 / 6))
-        v = v0 + h * (a0 + h * j0 / 2)
+        res = _taylor(NP, tab.reshape(7, 7 * cols), k * cols + np.arange(cols), tt)
         out = (t.size,) + self.distance.shape
-        return tuple(x.reshape(out) for x in (s, v, a0 + j0 * h, j0))
+        return tuple(x.reshape(out) for x in res)
 
     def peaks(self) -> dict[str, np.ndarray]:
         """Exact extremes of every joint's motion from its phase data (:meth:`boundaries`),
@@ -348,6 +343,20 @@ def _peak_table(ops, t0, s0, v0, d, acc, jrk, dv, ds) -> dict:
         "end_velocity": v1[6, :],
         "end_acceleration": a1[6, :] * live[6, :],
     }
+
+
+def _taylor(ops, tab, index, tt) -> tuple:
+    """``(q, qd, qdd, qddd)`` from the start at the clamped times ``tt``: each sample's phase
+    row gathered from the signed table ``tab`` (its seven rows ``t0, s0, v0, d, a0, j0,
+    a0 / 2``, each phase-major ``phase x columns``) at ``index`` (``phase x columns +
+    column``), then the phase's Taylor polynomial at ``h = clip(tt - t0, 0, d)``
+    (:meth:`SCurveBatch.evaluate_jerk`; written once: numpy ``(m, cols)``, and the MX
+    samples of :mod:`armlab.planning.closed_graph`, ``(n, slots)``)."""
+    t0, s0, v0, d, a0, j0, a2 = ops.take(tab, index)
+    h = ops.fmin(ops.fmax(tt - t0, 0.0), d)
+    s = s0 + h * (v0 + h * (a2 + h * j0 / 6))
+    v = v0 + h * (a0 + h * j0 / 2)
+    return s, v, a0 + j0 * h, j0
 
 
 def _full(x: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:

@@ -15,7 +15,17 @@ matrix like a numpy ``(7, n)`` phase table. The operations with a name differ be
 * ``argmax_first(values, times)``: the largest of the rows (axis 0) and the time of the first
   row holding it (numpy's ``argmax`` on ties); SX scans the rows with a strict ``>``;
 * ``rows`` / ``concat`` / ``accumulate``: a phase table from its seven rows, rows stacked, and
-  the running sum from 0 (``out[0] = 0``, ``out[k+1] = out[k] + x[k]``).
+  the running sum from 0 (``out[0] = 0``, ``out[k+1] = out[k] + x[k]``);
+* sets of times (:func:`armlab.trajectory.sampling.merged_times`): numpy holds the kept values
+  (``compress`` is ``x[mask]``), a graph a fixed-size column whose dropped values are
+  ``+inf`` (``compress`` is ``if_else(mask, x, inf)``), so a sorted set is its values in order
+  and then ``+inf``; ``sort`` is ``ndarray.sort`` / Batcher's odd-even merge sorting network
+  (:func:`batcher_pairs`); ``append`` one value, ``gaps_above(x, tiny)`` (``x[k+1] - x[k] >
+  tiny``, the last True);
+* ``nanmax`` (the largest value, NaN if any is NaN), ``any_of`` (any element true);
+* ``take(rows, index)``: each row gathered at ``index`` (numpy ``np.take(..., axis=1)``; the MX
+  backend, :func:`mx`, indexes each row with an MX index: the samples of the closed-form
+  graph, :mod:`armlab.planning.closed_graph`).
 """
 
 from __future__ import annotations
@@ -32,7 +42,7 @@ if TYPE_CHECKING:
 else:
     ca = lazy_import("casadi")
 
-__all__ = ["NP", "NumpyOps", "SXOps", "sx"]
+__all__ = ["NP", "MXOps", "NumpyOps", "SXOps", "batcher_pairs", "mx", "sx"]
 
 
 class NumpyOps:
@@ -109,6 +119,38 @@ class NumpyOps:
         i = values.argmax(axis=0)
         return values[i, col], times[i, col]
 
+    @staticmethod
+    def sort(x: np.ndarray) -> np.ndarray:
+        x.sort()  # in place: x is a fresh array of the caller
+        return x
+
+    @staticmethod
+    def append(x: np.ndarray, value) -> np.ndarray:
+        return np.concatenate((x, (value,)))
+
+    @staticmethod
+    def compress(x: np.ndarray, mask: np.ndarray, sort: bool = False) -> np.ndarray:
+        return x[mask]  # in order: sorted stays sorted
+
+    @staticmethod
+    def gaps_above(x: np.ndarray, tiny) -> np.ndarray:
+        keep = np.empty(x.size, bool)
+        keep[-1] = True
+        np.greater(x[1:] - x[:-1], tiny, out=keep[:-1])
+        return keep
+
+    @staticmethod
+    def nanmax(x: np.ndarray):
+        return x.max()
+
+    @staticmethod
+    def any_of(x: np.ndarray) -> bool:
+        return bool(x.any())
+
+    @staticmethod
+    def take(rows: np.ndarray, index: np.ndarray) -> np.ndarray:
+        return np.take(rows, index, axis=1)
+
 
 class SXOps:
     """The CasADi SX backend (joint columns ``(n, 1)``; phase tables ``(7, n)``)."""
@@ -166,6 +208,79 @@ class SXOps:
             best, at = ca.fmax(best, values[r, :]), ca.if_else(up, times[r, :], at)
         return best, at
 
+    @staticmethod
+    def sort(x) -> Any:
+        """Batcher's odd-even merge sort of the column ``x`` (``fmin``/``fmax`` comparators:
+        one VM instruction each; :mod:`armlab.planning.closed_graph` compiles them as
+        ternaries)."""
+        xs = [x[i] for i in range(x.shape[0])]
+        for i, k in batcher_pairs(len(xs)):
+            xs[i], xs[k] = ca.fmin(xs[i], xs[k]), ca.fmax(xs[i], xs[k])
+        return ca.vertcat(*xs)
+
+    @staticmethod
+    def append(x, value) -> Any:
+        return ca.vertcat(x, value)
+
+    def compress(self, x, mask, sort: bool = False) -> Any:
+        out = ca.if_else(mask, x, ca.inf)
+        return self.sort(out) if sort else out
+
+    @staticmethod
+    def gaps_above(x, tiny) -> Any:
+        return ca.vertcat(x[1:] - x[:-1] > tiny, 1)
+
+    @staticmethod
+    def nanmax(x) -> Any:
+        # fmax drops a NaN: the sum of the values (NaN if any is) tells
+        total, best = x[0], x[0]
+        for i in range(1, x.shape[0]):
+            total, best = total + x[i], ca.fmax(best, x[i])
+        return ca.if_else(total == total, best, ca.nan)
+
+    @staticmethod
+    def any_of(x) -> Any:
+        out = x[0]
+        for i in range(1, x.numel()):
+            out = ca.logic_or(out, x[i])
+        return out
+
+
+class MXOps:
+    """The CasADi MX backend of the samples of a graph (vector operations on matrices; a
+    gather by an MX index)."""
+
+    symbolic = True
+
+    def __init__(self) -> None:
+        self.fmin, self.fmax, self.where = ca.fmin, ca.fmax, ca.if_else
+
+    @staticmethod
+    def take(rows, index) -> tuple:
+        return tuple(r[index] for r in rows)
+
+
+def batcher_pairs(N: int) -> list[tuple[int, int]]:
+    """The comparators ``(i, k)``, ``i < k``, of Batcher's odd-even merge sort of ``N`` values
+    (Knuth, TAOCP vol. 3, §5.3.4): the network of the next power of two with the comparators
+    that touch the values past ``N`` left out (those values would be ``+inf``: such a
+    comparator changes nothing)."""
+    P = 1
+    while P < N:
+        P *= 2
+    out = []
+    p = 1
+    while p < P:
+        k = p
+        while k >= 1:
+            for j in range(k % p, P - k, 2 * k):
+                for i in range(min(k, P - j - k)):
+                    if (i + j) // (2 * p) == (i + j + k) // (2 * p) and i + j + k < N:
+                        out.append((i + j, i + j + k))
+            k //= 2
+        p *= 2
+    return out
+
 
 NP = NumpyOps()
 
@@ -174,3 +289,9 @@ NP = NumpyOps()
 def sx() -> SXOps:
     """The CasADi SX backend (made on first use: it imports casadi)."""
     return SXOps()
+
+
+@functools.cache
+def mx() -> MXOps:
+    """The CasADi MX backend of the samples (made on first use: it imports casadi)."""
+    return MXOps()
