@@ -445,7 +445,13 @@ def synchronised_scurves(distances, v_max, a_max, j_max=math.inf) -> SCurveBatch
         batch = _one_problem(D, v, a, j)
         if batch is not None:
             return batch
-    shape = _checked_shape(D, v, a, j)
+    return _numpy_batch(D, v, a, j, _checked_shape(D, v, a, j))
+
+
+def _numpy_batch(D, v, a, j, shape: tuple[int, ...]) -> SCurveBatch:
+    """:func:`synchronised_scurves` evaluated by numpy (valid arguments broadcasting to
+    ``shape``): batches, trapezoids, ``$ARMLAB_SCURVE_GRAPH=off``, and the numpy evaluation of
+    the closed form's layout (:mod:`armlab.planning.closed_graph`)."""
     # every argument at the full shape once: same-shape numpy operations, no broadcasting
     # (it costs more than the arithmetic on a single small problem)
     D, v, a, j = (_full(x, shape) for x in (D, v, a, j))

@@ -31,6 +31,7 @@ matrix like a numpy ``(7, n)`` phase table. The operations with a name differ be
 from __future__ import annotations
 
 import functools
+import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -236,7 +237,7 @@ class SXOps:
         total, best = x[0], x[0]
         for i in range(1, x.shape[0]):
             total, best = total + x[i], ca.fmax(best, x[i])
-        return ca.if_else(total == total, best, ca.nan)
+        return ca.if_else(total == total, best, math.nan)
 
     @staticmethod
     def any_of(x) -> Any:
