@@ -52,6 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from armlab import _compiled
+from armlab._compiled import reset
 from armlab._lazy import lazy_import
 from armlab.planning.optimal_closed import ARRIVAL_TOL, exact_check
 from armlab.planning.timescale import CHECK_TOL
@@ -70,6 +71,7 @@ __all__ = [
     "evaluate_numpy",
     "layout",
     "prepare",
+    "reset",
     "status",
 ]
 
@@ -100,8 +102,9 @@ def layout(n: int) -> dict:
     S = 6 * n + 2
     off: dict = {}
     o = 0
+    names = ("head", "t", "q", "qd", "qdd", "qddd", "ratio", "at", "bind")
     sizes = (9, S, S * n, S * n, S * n, S * n, 4 * n, 4 * n, 3 * n)
-    for name, size in zip(("head", "t", "q", "qd", "qdd", "qddd", "ratio", "at", "bind"), sizes):
+    for name, size in zip(names, sizes, strict=True):
         off[name] = (o, o + size)
         o += size
     off["size"] = o
