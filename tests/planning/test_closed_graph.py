@@ -120,7 +120,7 @@ def test_hand_checked_problem(mode):
     starts at v = 1 with a = 0 from q = v Ta / 2 = 0.35 rad; ratios 1 for v, a, j (binding:
     3), position |1 - 0| / 2 = 0.5 at T (range [-2, 2])."""
     mode("vm")
-    W = np.array([0.0, 1.0])
+    W = np.array([[0.0], [1.0]])
     P = np.array([1.0, 2.0, 10.0, -2.0, 2.0, 0.0, 2.0])
     for out in (cg.evaluate(W, P), cg.evaluate_numpy(W, P)):
         assert out[0] == 8 and out[2:6].tolist() == [1.0, 1.0, 1.0, 3.0]
@@ -300,3 +300,17 @@ def test_compiled_gives_the_vms_values_and_the_numpy_layout(compiled_cache, mode
         np.testing.assert_array_equal(out, vm[i], err_msg=f"problem {i}")
         assert_layout_close(out, cg.evaluate_numpy(W, P), 6, f"problem {i}")
     assert [p.name for p in compiled_cache.parent.iterdir()] == [compiled_cache.name]
+
+
+def test_the_cache_key_holds_the_cpu(monkeypatch):
+    """The library is tuned for the CPU (-march=native): another CPU, another file; so is
+    the joint count and the compiler."""
+    from armlab import _compiled
+
+    path = cg.GRAPH.library_path(6, "gcc")
+    assert "-march=native" in cg.CFLAGS
+    assert path.parent.name == "closed" and cg.GRAPH.library_path(6, "gcc") == path
+    monkeypatch.setattr(_compiled, "cpu_key", lambda: "another CPU")
+    assert cg.GRAPH.library_path(6, "gcc") != path
+    monkeypatch.undo()
+    assert cg.GRAPH.library_path(7, "gcc") != path != cg.GRAPH.library_path(6, "cc")
