@@ -1,7 +1,8 @@
 """The one home of armlab's on-disk cache folder and of the C compiler its compiled artefacts
 are built with (fatrop's stage libraries, :mod:`armlab.planning.fatrop_stages`; the S-curve
-graph, :mod:`armlab.trajectory.profiles.graph`; the collision-pair analyses,
-:mod:`armlab.collision.pairs`)."""
+graph, :mod:`armlab.trajectory.profiles.graph`, and the closed-form plan's,
+:mod:`armlab.planning.closed_graph`, both through :mod:`armlab._compiled`; the collision-pair
+analyses, :mod:`armlab.collision.pairs`)."""
 
 from __future__ import annotations
 
