@@ -5,6 +5,7 @@ without a compiler and not at all (``$ARMLAB_SCURVE_GRAPH=off``)."""
 
 from __future__ import annotations
 
+import multiprocessing
 import threading
 import time
 
@@ -252,6 +253,19 @@ def test_threads_get_their_own_buffers(mode, teachbot6):
     assert not errors, errors[0]
 
 
+def _child_head(args):
+    return cg.evaluate(*args)[:9].tolist()
+
+
+def test_a_forked_worker_evaluates_with_the_graph(mode, teachbot6):
+    """A forked process evaluates with the graph it inherited: the parent's values."""
+    mode("vm")
+    args = (problems(teachbot6, 1, seed=10)[0], params(teachbot6))
+    want = cg.evaluate(*args)[:9].tolist()
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        assert pool.map(_child_head, [args] * 2) == [want] * 2
+
+
 def test_off_fills_the_layout_with_numpy(mode, teachbot6):
     mode("off")
     P = params(teachbot6)
@@ -299,6 +313,9 @@ def test_compiled_gives_the_vms_values_and_the_numpy_layout(compiled_cache, mode
         out = cg.evaluate(W, P)
         np.testing.assert_array_equal(out, vm[i], err_msg=f"problem {i}")
         assert_layout_close(out, cg.evaluate_numpy(W, P), 6, f"problem {i}")
+    bad = ws[0].copy()
+    bad[1, 2] = np.nan  # the library flags it too (and gathers within its table)
+    assert cg.evaluate(bad, P)[2] == 0
     assert [p.name for p in compiled_cache.parent.iterdir()] == [compiled_cache.name]
 
 
