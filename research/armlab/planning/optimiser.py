@@ -203,6 +203,7 @@ import numpy as np
 
 from armlab.errors import ArmlabError, InfeasibleError, InputError
 from armlab.planning.optimal_closed import closed_form_applies, closed_form_optimal
+from armlab.planning.optimal_closed import direct as closed_direct
 from armlab.planning.optimal_problem import (
     OBJECTIVES,
     OptimalProblem,
@@ -543,6 +544,38 @@ def optimal(
         IPOPT did not converge, no limit was violated at its last iterate, and the finer
         grids (:data:`FINER_GRIDS`) did not converge either.
     """
+    if (
+        (tau_max is False or tau_max is None)
+        and v_max is None
+        and a_max is None
+        and j_max is None
+        and duration is None
+        and payload_kg is None
+        and n_intervals is None
+        and check_dt is None
+        and drive_limits is False
+        and qd_start is None
+        and qdd_start is None
+        and qd_goal is None
+        and clearance is None
+        and type(objective) is str
+        and objective == "time"
+        and type(via_tolerance) is float
+        and via_tolerance == 0.0
+        and type(smooth_weight) is float
+        and smooth_weight == 0.5
+        and type(max_backoff) is int
+        and max_backoff == 4
+        and type(max_iter) is int
+        and max_iter == 1000
+        and type(hessian) is str
+        and hessian == HESSIAN
+    ):
+        # every keyword at its default: two waypoints at rest under the robot's v/a/j limits
+        # are the closed form's (optimal_closed.direct; None where the path below must run)
+        traj = closed_direct(robot, waypoints, tau_max is False)
+        if traj is not None:
+            return traj
     kw = dict(
         v_max=v_max,
         a_max=a_max,
