@@ -117,6 +117,8 @@ SAMPLE_CHECK = "samples (Trajectory.check_limits)"
 #: the end state of the phase data against the goal at rest, relative to the move (position)
 #: and to the limits (speed, acceleration): rounding only
 ARRIVAL_TOL = 1e-10
+#: a limit is binding (``stats["binding"]``) where its ratio is at least this
+BINDING = 1 - 2e-3
 
 
 def exact_report(batch, start, goal, limits, joint_names) -> tuple[LimitReport, float] | None:
@@ -247,7 +249,7 @@ def direct(robot, waypoints, tau_off: bool) -> Trajectory | None:
         return None
     traj = _trajectory(out, head, plan, W, t_start, ls)
     traj.report = _report(out, plan)
-    return _finish(traj, head, plan, ls, "time", None, EXACT_CHECK)
+    return _finish(traj, head, plan, ls, "time", None, EXACT_CHECK, out)
 
 
 def closed_form_optimal(prob: OptimalProblem) -> Trajectory:
@@ -266,11 +268,12 @@ def closed_form_optimal(prob: OptimalProblem) -> Trajectory:
     head = out[:7].tolist()
     traj = _trajectory(out, head, plan, w.copy(), t_start, ls)
     if prob.check_dt is None and head[3]:  # exact_ok: the phase data show the check
-        traj.report, check = _report(out, plan), EXACT_CHECK
+        traj.report = _report(out, plan)
+        _finish(traj, head, plan, ls, prob.objective, None, EXACT_CHECK, out)
     else:  # a grid asked for, or a speed against the move / an end off the goal: samples
         traj.report = traj.check_limits(prob.robot, dt=prob.check_dt, limits=ls, torque=False)
-        check, head[6] = SAMPLE_CHECK, None
-    _finish(traj, head, plan, ls, prob.objective, prob.check_dt, check)
+        head[6] = None  # no arrival residual
+        _finish(traj, head, plan, ls, prob.objective, prob.check_dt, SAMPLE_CHECK)
     prob.stats = traj.stats
     return traj
 
@@ -281,24 +284,24 @@ def _trajectory(out, head, plan: _Plan, W, t_start: float, ls) -> Trajectory:
     sorted, merged to more than the times' rounding apart, from 0 to ``T``, and its samples
     finite where ``exact_ok`` (:meth:`Trajectory._from_checked`)."""
     lay, (_, n) = plan.layout, plan.shape
-    m, T = int(head[0]), head[1]
+    m = int(head[0])
     o, S = lay["t"][0], lay["S"]
     t = out[o : o + m]
     X = out[lay["q"][0] : lay["qddd"][1]].reshape(4, S, n)
-    traj = Trajectory._from_checked(t, X[0, :m], X[1, :m], X[2, :m], X[3, :m], plan.names, "optimal")
-    traj.stats = {"solve_time_s": _time.perf_counter() - t_start}
-    traj.meta.update(
-        {
-            "knot_times_s": t,
-            "waypoints": W,
-            "waypoint_times_s": np.array([0.0, T]),
-            "limits": ls.to_dict(),
-            "backed_off_torque_Nm": None,
-            "qd_start": None,
-            "qdd_start": None,
-            "qd_goal": None,
-        }
+    traj = Trajectory._from_checked(
+        t, X[0, :m], X[1, :m], X[2, :m], X[3, :m], plan.names, "optimal"
     )
+    traj.stats = {"solve_time_s": _time.perf_counter() - t_start}
+    traj.meta = {
+        "knot_times_s": t,
+        "waypoints": W,
+        "waypoint_times_s": out[7:9],  # [0, T]
+        "limits": ls.to_dict(),
+        "backed_off_torque_Nm": None,
+        "qd_start": None,
+        "qdd_start": None,
+        "qd_goal": None,
+    }
     return traj
 
 
@@ -308,25 +311,30 @@ def _report(out, plan: _Plan) -> LimitReport:
     n, lay = plan.shape[1], plan.layout
     r = out[lay["ratio"][0] : lay["ratio"][1]].reshape(4, n)
     at = out[lay["at"][0] : lay["at"][1]].reshape(4, n)
-    kinds = ("position", "velocity", "acceleration", "jerk")
-    report = LimitReport(list(plan.names))
-    report.ratios = dict(zip(kinds, r, strict=True))
-    report.at_s = dict(zip(kinds, at, strict=True))
-    return report
+    ratios = {"position": r[0], "velocity": r[1], "acceleration": r[2], "jerk": r[3]}
+    at_s = {"position": at[0], "velocity": at[1], "acceleration": at[2], "jerk": at[3]}
+    return LimitReport(list(plan.names), ratios, at_s)
 
 
-def _finish(traj, head, plan: _Plan, ls, objective, check_dt, check) -> Trajectory:
-    """``traj.stats``: the keys of a transcribed plan that apply (module docstring)."""
-    T = head[1]
-    ok = traj.report.ok(CHECK_TOL)
-    ratios = traj.report.ratios
-    binding = [
-        (k, name, x)
-        for k, r in ratios.items()
-        if k != "position"
-        for name, x in zip(traj.joint_names, r.tolist(), strict=True)
-        if x >= 1 - 2e-3
-    ]
+def _finish(traj, head, plan: _Plan, ls, objective, check_dt, check, out=None) -> Trajectory:
+    """``traj.stats``: the keys of a transcribed plan that apply (module docstring); ``out``
+    the graph's output where its exact check is the report (its verdict and binding flags),
+    else None (the report's)."""
+    if out is None:
+        ok = traj.report.ok(CHECK_TOL)
+        ratios = traj.report.ratios
+        binding = [
+            (k, name, x)
+            for k, r in ratios.items()
+            if k != "position"
+            for name, x in zip(traj.joint_names, r.tolist(), strict=True)
+            if x >= BINDING
+        ]
+    else:  # the same test on the same ratios, in the graph (ok: every ratio <= 1 + CHECK_TOL)
+        ok = bool(head[4])
+        o, n = plan.layout["ratio"][0], plan.shape[1]
+        rows = out[o + n : o + 4 * n].tolist()  # velocity, acceleration, jerk
+        binding = [(*lab, x) for lab, x in zip(plan.labels, rows, strict=True) if x >= BINDING]
     traj.stats = {
         "method": "closed_form",
         "solver": "closed form (synchronised_scurves)",
@@ -335,13 +343,13 @@ def _finish(traj, head, plan: _Plan, ls, objective, check_dt, check) -> Trajecto
         "iterations": 0,
         "solve_time_s": traj.stats["solve_time_s"],
         "build_time_s": 0.0,
-        "n_intervals": int(traj.t.size - 1),
+        "n_intervals": int(head[0]) - 1,
         "success": ok,
         "return_status": "closed form",
         "backoff_rounds": 0,
         "objective": objective,
         "mode": "jerk",
-        "duration_s": T,
+        "duration_s": head[1],
         "tolerance_stretch": 1.0,
         "tolerance_stretch_skipped": None,
         "binding": binding,
