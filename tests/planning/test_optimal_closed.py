@@ -12,8 +12,8 @@ import threading
 import numpy as np
 import pytest
 
-from armlab.planning import optimal, ptp_sync
 from armlab.errors import InputError
+from armlab.planning import optimal, ptp_sync
 from armlab.planning.optimal_closed import closed_form_optimal, exact_report
 from armlab.planning.optimiser import build_optimal
 from armlab.trajectory.profiles import synchronised_scurves

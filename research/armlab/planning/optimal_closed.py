@@ -60,7 +60,6 @@ from armlab.planning import closed_graph
 from armlab.planning.timescale import CHECK_TOL
 from armlab.robot.limits import Limits, resolve_limits
 from armlab.trajectory.core import Trajectory
-from armlab.trajectory.profiles import synchronised_scurves
 from armlab.trajectory.sampling import LimitReport, fixed_times
 from armlab.trajectory.waypoints import RANGE_TOL_RAD
 
