@@ -198,7 +198,7 @@ def _plan(ls: Limits) -> _Plan | None:
     lo = np.asarray(ls.lower_rad, float) - RANGE_TOL_RAD
     hi = np.asarray(ls.upper_rad, float) + RANGE_TOL_RAD
     kin = (ls.velocity_rad_s, ls.acceleration_rad_s2, ls.jerk_rad_s3)
-    P = np.concatenate([*kin, lo, hi, centre, half])  # type: ignore[list-item]
+    P = np.concatenate([*kin, lo, hi, centre, half])
     P.flags.writeable = False
     names = tuple(ls.joint_names)
     labels = tuple((k, name) for k in ("velocity", "acceleration", "jerk") for name in names)
