@@ -16,6 +16,7 @@ from armlab.errors import InputError
 from armlab.planning import optimal, ptp_sync
 from armlab.planning.optimal_closed import closed_form_optimal, exact_report
 from armlab.planning.optimiser import build_optimal
+from armlab.planning.timescale import CHECK_TOL
 from armlab.trajectory.profiles import synchronised_scurves
 
 #: the closed form against IPOPT's optimum on the same problem, in [s]: IPOPT meets its
@@ -195,6 +196,7 @@ def test_the_front_gate_gives_the_closed_form_of_the_built_problem(teachbot6):
         fast = optimal(teachbot6, w, tau_max=False)
         built = closed_form_optimal(build_optimal(teachbot6, w, tau_max=False))
         assert fast.stats["method"] == "closed_form"
+        assert fast.stats["ok"] == fast.report.ok(CHECK_TOL)  # the graph's verdict, the report's
         _same_result(fast, built)
     # tau_max=None: teachbot6's torque limits are not the closed form's problem
     assert optimal(teachbot6, _one_move(teachbot6)).stats["method"] == "transcription"
