@@ -4,15 +4,19 @@ held, and stats that say which method planned."""
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
+import threading
 
 import numpy as np
 import pytest
 
+from armlab.errors import InputError
 from armlab.planning import optimal, ptp_sync
-from armlab.planning.optimal_closed import exact_report
+from armlab.planning.optimal_closed import closed_form_optimal, exact_report
 from armlab.planning.optimiser import build_optimal
+from armlab.planning.timescale import CHECK_TOL
 from armlab.trajectory.profiles import synchronised_scurves
 
 #: the closed form against IPOPT's optimum on the same problem, in [s]: IPOPT meets its
@@ -153,3 +157,124 @@ def test_exact_report_refuses_phase_data_that_do_not_arrive(teachbot6):
     assert exact_report(good, w[0], w[1], lim, teachbot6.joint_names) is not None
     bad = dataclasses.replace(synchronised_scurves(*args), tv=good.tv * 1.01)
     assert exact_report(bad, w[0], w[1], lim, teachbot6.joint_names) is None
+
+
+# ------------------------------------------------ the front gate (optimal_closed.direct)
+def _same_result(a, b, tol=1e-15):
+    """Two plans equal: arrays within ``tol`` of each one's scale, every stats value
+    (but the time taken) and meta value, the report."""
+    for x, y in ((a.t, b.t), (a.q, b.q), (a.qd, b.qd), (a.qdd, b.qdd), (a.qddd, b.qddd)):
+        assert x.shape == y.shape
+        np.testing.assert_allclose(x, y, rtol=0, atol=tol * max(1.0, np.abs(y).max()))
+    sa = {k: v for k, v in a.stats.items() if k != "solve_time_s"}
+    sb = {k: v for k, v in b.stats.items() if k != "solve_time_s"}
+    assert list(a.stats) == list(b.stats) and sa.keys() == sb.keys()
+    for k in sa:
+        if isinstance(sa[k], float):
+            assert sa[k] == pytest.approx(sb[k], rel=tol, abs=tol), k
+        elif k == "binding":
+            assert [x[:2] for x in sa[k]] == [x[:2] for x in sb[k]]
+        else:
+            assert sa[k] == sb[k], k
+    assert list(a.meta) == list(b.meta)
+    for k in a.meta:
+        if isinstance(a.meta[k], np.ndarray):
+            np.testing.assert_allclose(a.meta[k], b.meta[k], rtol=0, atol=tol * 100)
+        else:
+            assert a.meta[k] == b.meta[k], k
+    assert a.joint_names == b.joint_names and a.method == b.method
+    assert list(a.report.ratios) == list(b.report.ratios)
+    for k in a.report.ratios:
+        np.testing.assert_allclose(a.report.ratios[k], b.report.ratios[k], rtol=0, atol=tol)
+        np.testing.assert_allclose(a.report.at_s[k], b.report.at_s[k], rtol=0, atol=tol * 100)
+
+
+def test_the_front_gate_gives_the_closed_form_of_the_built_problem(teachbot6):
+    """optimal() with every keyword at its default takes the gate (no transcription problem
+    built); its result is closed_form_optimal's of the same request, key for key."""
+    for w in _cases(teachbot6, 20, 34):
+        fast = optimal(teachbot6, w, tau_max=False)
+        built = closed_form_optimal(build_optimal(teachbot6, w, tau_max=False))
+        assert fast.stats["method"] == "closed_form"
+        assert fast.stats["ok"] == fast.report.ok(CHECK_TOL)  # the graph's verdict, the report's
+        _same_result(fast, built)
+    # tau_max=None: teachbot6's torque limits are not the closed form's problem
+    assert optimal(teachbot6, _one_move(teachbot6)).stats["method"] == "transcription"
+    # the caller's array is copied, not kept
+    w = _cases(teachbot6, 1, 35)[0]
+    fast = optimal(teachbot6, w, tau_max=False)
+    w += 0.1
+    assert not np.allclose(fast.meta["waypoints"], w)
+    np.testing.assert_allclose(fast.q[0], w[0] - 0.1, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        "nan",
+        "range",
+        "coincide",
+        "shape",
+        "text",
+    ],
+)
+def test_the_front_gate_names_bad_waypoints_as_the_ordinary_path(teachbot6, bad):
+    """Waypoints the gate cannot plan go the ordinary way: the same one-line error."""
+    w = _cases(teachbot6, 1, 36)[0]
+    if bad == "nan":
+        w[1, 2] = math.nan
+    elif bad == "range":
+        w[0, 4] = teachbot6.limits.upper_rad[4] + 1e-6
+    elif bad == "coincide":
+        w[1] = w[0] + 1e-13
+    elif bad == "shape":
+        w = w[:, :5]
+    else:
+        w = [["a"] * 6, ["b"] * 6]
+    with pytest.raises(InputError) as gate:
+        optimal(teachbot6, w, tau_max=False)
+    with pytest.raises(InputError) as built:
+        build_optimal(teachbot6, w, tau_max=False)
+    assert str(gate.value) == str(built.value)
+
+
+def test_the_front_gate_follows_the_robots_limits(teachbot6):
+    """New limits on the robot (a new Limits) are planned with, never the ones before; an
+    edit of a result's meta does not reach the next result."""
+    robot = copy.deepcopy(teachbot6)
+    w = _one_move(robot)
+    first = optimal(robot, w, tau_max=False)
+    first.meta["limits"]["velocity_rad_s"]["joint1"] = 123.0
+    robot.limits = robot.limits.with_values(
+        "test",
+        velocity_rad_s=np.full(6, 0.5),
+        acceleration_rad_s2=np.full(6, 2.0),
+        jerk_rad_s3=np.full(6, 10.0),
+    )
+    second = optimal(robot, w, tau_max=False)
+    assert second.stats["method"] == "closed_form"
+    assert second.duration == pytest.approx(ONE_MOVE_S, abs=1e-12)
+    assert second.duration != pytest.approx(first.duration, abs=1e-3)
+    assert second.meta["limits"]["velocity_rad_s"]["joint1"] == 0.5
+    again = optimal(robot, w, tau_max=False)
+    assert again.meta["limits"]["velocity_rad_s"]["joint1"] == 0.5
+
+
+def test_the_front_gate_from_threads(teachbot6):
+    """Two threads planning at once get the plans of a serial run."""
+    cases = _cases(teachbot6, 40, 37)
+    serial = [optimal(teachbot6, w, tau_max=False) for w in cases]
+    out: dict[int, list] = {0: [], 1: []}
+
+    def run(k):
+        for _ in range(5):
+            out[k] = [optimal(teachbot6, w, tau_max=False) for w in cases[k::2]]
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in (0, 1)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+    for k in (0, 1):
+        for got, ref in zip(out[k], serial[k::2], strict=True):
+            _same_result(got, ref, tol=0.0)

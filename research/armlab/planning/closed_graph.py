@@ -54,11 +54,14 @@ import numpy as np
 from armlab import _compiled
 from armlab._compiled import reset
 from armlab._lazy import lazy_import
-from armlab.planning.optimal_closed import ARRIVAL_TOL, exact_check
-from armlab.planning.timescale import CHECK_TOL
+from armlab.planning import (
+    optimal_closed as _closed,  # (imports this module: attributes read at call time)
+)
+from armlab.planning.timescale import BINDING, CHECK_TOL
 from armlab.trajectory.profiles import batch as _batch
 from armlab.trajectory.profiles.ops import NP
 from armlab.trajectory.sampling import fixed_times, merged_times
+from armlab.trajectory.waypoints import COINCIDE_RAD
 
 ca = lazy_import("casadi")
 
@@ -88,13 +91,9 @@ CFLAGS = (
     "-fno-semantic-interposition",
     "-ffp-contract=off",
 )
-#: a ratio this close to 1 binds (``stats["binding"]`` of closed_form_optimal)
-BIND = 1 - 2e-3
 #: the kinds of the ratio / at rows, and of the bind rows
 KINDS = ("position", "velocity", "acceleration", "jerk")
 BIND_KINDS = KINDS[1:]
-#: coinciding waypoints: every joint within this [rad] (optimal()'s _check_waypoints)
-COINCIDE = 1e-12
 _HERE = Path(__file__).parent
 _SOURCES = (
     _HERE / "closed_graph.py",
@@ -139,7 +138,7 @@ def _core(n: int):
     inside = [ca.logic_and(ca.logic_and(ca.fabs(x) < ca.inf, x >= lo), x <= hi) for x in (w0, w1)]
     limits = [ca.logic_and(x > 0, x < ca.inf) for x in (v, a, j)]
     valid = ca.logic_and(
-        ca.mmin(ca.vertcat(*inside, *limits)), ca.mmax(ca.fabs(w1 - w0) >= COINCIDE)
+        ca.mmin(ca.vertcat(*inside, *limits)), ca.mmax(ca.fabs(w1 - w0) >= COINCIDE_RAD)
     )
     # the engine (synchronised_scurves), its phase table and peaks (columns of n joints)
     D = w1 - w0
@@ -150,12 +149,14 @@ def _core(n: int):
     steps = _batch._phase_table(SX, tj, ta, tv, ap, j, table)
     pk = {key: x.T for key, x in _batch._peak_table(SX, *table, *steps).items()}
     # the exact check (exact_report) and the verdict of closed_form_optimal
-    residual, reverse, ratios, at_s = exact_check(SX, pk, D, v, a, j, w0, w1, centre, half, T)
-    exact_ok = ca.logic_and(ca.logic_not(residual > ARRIVAL_TOL), ca.logic_not(reverse))
+    residual, reverse, ratios, at_s = _closed.exact_check(
+        SX, pk, D, v, a, j, w0, w1, centre, half, T
+    )
+    exact_ok = ca.logic_and(ca.logic_not(residual > _closed.ARRIVAL_TOL), ca.logic_not(reverse))
     ratio = ca.vertcat(*(ratios[kind] for kind in KINDS))
     at = ca.vertcat(*(at_s[kind] for kind in KINDS))
     ok = ca.mmin(ratio <= 1.0 + CHECK_TOL)
-    bind = ca.vertcat(*(ratios[kind] >= BIND for kind in BIND_KINDS))
+    bind = ca.vertcat(*(ratios[kind] >= BINDING for kind in BIND_KINDS))
     # the knots (closed_form_optimal's _knots): 0, the merged switching instants, then +inf
     merged = merged_times(SX, ca.vec(table[0][1:, :].T), T)
     m = 1 + ca.sum1(merged < ca.inf)
@@ -294,7 +295,7 @@ def evaluate_numpy(W, P) -> np.ndarray:
         valid = bool(
             np.isfinite(W).all()
             and ((W >= lo) & (W <= hi)).all()
-            and (np.abs(W[1] - W[0]) >= COINCIDE).any()
+            and (np.abs(W[1] - W[0]) >= COINCIDE_RAD).any()
             and all(((x > 0) & (x < np.inf)).all() for x in (v, a, j))
         )
     out[2] = valid
@@ -307,14 +308,14 @@ def evaluate_numpy(W, P) -> np.ndarray:
     q, qd, qdd, J = (x[:, 0] for x in b.evaluate_jerk(t))
     q += W[0]
     q[-1], qd[-1], qdd[-1], J[-1] = W[1], 0.0, 0.0, 0.0
-    residual, reverse, ratios, at_s = exact_check(
+    residual, reverse, ratios, at_s = _closed.exact_check(
         NP, b.peaks_flat(), D.reshape(-1), v, a, j, W[0], W[1], centre, half, T
     )
     residual = float(residual)
     ratio = np.concatenate([ratios[kind] for kind in KINDS])
-    bind = np.concatenate([ratios[kind] >= BIND for kind in BIND_KINDS])
+    bind = np.concatenate([ratios[kind] >= BINDING for kind in BIND_KINDS])
     m = t.size
-    exact_ok = not (residual > ARRIVAL_TOL or reverse)
+    exact_ok = not (residual > _closed.ARRIVAL_TOL or reverse)
     ok = bool((ratio <= 1.0 + CHECK_TOL).all())
     out[:9] = (m, T, valid, exact_ok, ok, bind.sum(), residual, 0.0, T)
     for name, x in (("t", t), ("q", q), ("qd", qd), ("qdd", qdd), ("qddd", J)):

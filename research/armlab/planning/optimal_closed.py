@@ -51,15 +51,17 @@ solves the same problem by transcription.
 from __future__ import annotations
 
 import time as _time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from armlab.planning.timescale import CHECK_TOL
+from armlab.planning import closed_graph, timescale
+from armlab.planning.timescale import BINDING, CHECK_TOL
+from armlab.robot.limits import Limits, resolve_limits
 from armlab.trajectory.core import Trajectory
-from armlab.trajectory.profiles import synchronised_scurves
 from armlab.trajectory.profiles.ops import NP
 from armlab.trajectory.sampling import LimitReport, fixed_times
+from armlab.trajectory.waypoints import RANGE_TOL_RAD
 
 if TYPE_CHECKING:
     from armlab.planning.optimal_problem import OptimalProblem
@@ -178,82 +180,180 @@ def exact_check(ops, pk, D, v, a, j, start, goal, centre, half, T) -> tuple:
     return residual, reverse, ratios, at_s
 
 
+class _Plan(NamedTuple):
+    """What every closed-form plan of one resolved :class:`~armlab.robot.Limits` shares (made
+    once per Limits, :meth:`~armlab.robot.Limits.derived`): the graph's parameters ``P``
+    (:mod:`~armlab.planning.closed_graph`: ``v, a, j``, the range with
+    :data:`~armlab.trajectory.waypoints.RANGE_TOL_RAD`, its centre and half), read-only; the
+    joint names; the ``(kind, joint)`` of each binding flag."""
+
+    P: np.ndarray
+    shape: tuple[int, int]
+    names: tuple[str, ...]
+    labels: tuple[tuple[str, str], ...]
+    layout: dict
+
+
+def _plan(ls: Limits) -> _Plan | None:
+    """The :class:`_Plan` of ``ls``; None where the closed form does not apply to its limits
+    (a torque limit, a velocity, acceleration or jerk limit missing or infinite)."""
+    if ls.torque_Nm is not None or not ls.derived("finite v/a/j", _finite_vaj):
+        return None
+    centre, half = ls.centre_half_rad()
+    lo = np.asarray(ls.lower_rad, float) - RANGE_TOL_RAD
+    hi = np.asarray(ls.upper_rad, float) + RANGE_TOL_RAD
+    kin = (ls.velocity_rad_s, ls.acceleration_rad_s2, ls.jerk_rad_s3)
+    P = np.concatenate([*kin, lo, hi, centre, half])
+    P.flags.writeable = False
+    names = tuple(ls.joint_names)
+    labels = tuple((k, name) for k in ("velocity", "acceleration", "jerk") for name in names)
+    return _Plan(P, (2, len(names)), names, labels, closed_graph.layout(len(names)))
+
+
+def _request_plan(key: bool):
+    """For :func:`direct`: the resolved limits of a request with ``tau_max`` False (``key``)
+    or None, and their :class:`_Plan` (None where the closed form does not apply)."""
+
+    def make(base: Limits) -> tuple[Limits, _Plan | None]:
+        ls = resolve_limits(base, tau_max=False if key else None)
+        return ls, ls.derived(_PLAN, _plan)
+
+    return make
+
+
+_PLAN = "closed-form plan"
+_REQUEST = {True: _request_plan(True), False: _request_plan(False)}
+
+
+def direct(robot, waypoints, tau_off: bool) -> Trajectory | None:
+    """:func:`~armlab.planning.optimal`'s front gate (issue 26): the closed-form plan of
+    ``optimal(robot, waypoints, tau_max=False)`` (``tau_off``; else ``tau_max=None``) with
+    every other keyword at its default, without building the transcription's problem; None
+    where the ordinary path must run -- the closed form does not apply to the robot's limits,
+    the waypoints are not two valid rows (the ordinary path names the error: the graph's
+    ``valid`` flag is only ever 1 where that validation accepts them), or the exact check
+    cannot show the plan within its limits (the ordinary path then checks the samples or
+    transcribes). The result is :func:`closed_form_optimal`'s of the same request (tested)."""
+    base = getattr(robot, "limits", None)
+    if not isinstance(base, Limits):
+        return None
+    ls, plan = base.derived(("closed-form request", tau_off), _REQUEST[tau_off])
+    if plan is None:
+        return None
+    try:
+        W = np.array(waypoints, dtype=float)  # a copy of the caller's: meta["waypoints"]
+    except (TypeError, ValueError):
+        return None
+    if W.shape != plan.shape:
+        return None
+    t_start = _time.perf_counter()
+    out = closed_graph.evaluate(W, plan.P)
+    head = out[:7].tolist()
+    if not (head[2] and head[3] and head[4]):  # valid, exact_ok, ok
+        return None
+    traj = _trajectory(out, head, plan, W, t_start, ls)
+    traj.report = _report(out, plan)
+    return _finish(traj, head, plan, ls, "time", None, EXACT_CHECK, out)
+
+
 def closed_form_optimal(prob: OptimalProblem) -> Trajectory:
     """The time-synchronised double S of ``prob`` (:func:`closed_form_applies` must hold) as
     the :func:`~armlab.planning.optimal` result: exact piecewise cubic, ``report`` (its exact
     limit check, :func:`exact_report`; the sample check of
     :meth:`~armlab.trajectory.Trajectory.check_limits` where the caller gives ``check_dt``),
     ``stats`` (``method = "closed_form"``, ``limit_check``, the keys of a transcribed plan
-    that apply) and ``meta``."""
-    t0 = _time.perf_counter()
+    that apply) and ``meta``. Evaluated by one graph (:mod:`~armlab.planning.closed_graph`):
+    the engine, the knots, the samples at them and the exact check."""
+    t_start = _time.perf_counter()
     ls = prob.limits
+    plan = ls.derived(_PLAN, _plan)
     w = prob.waypoints
-    batch = synchronised_scurves(
-        w[1:] - w[:-1], ls.velocity_rad_s, ls.acceleration_rad_s2, ls.jerk_rad_s3
-    )
-    T = float(batch.duration[0])
-    t = _knots(batch.boundaries()[0, :, 0], T)
-    # the phase data at every switching instant: each piece between knots is one phase of
-    # every joint (constant jerk, the one of the phase that starts at its left knot)
-    q, qd, qdd, J = (x[:, 0] for x in batch.evaluate_jerk(t))
-    q += w[0]  # (the evaluation's own arrays)
-    q[-1], qd[-1], qdd[-1], J[-1] = w[-1], 0.0, 0.0, 0.0  # the goal at rest exactly
-    # arrays made here: float64 (m, n_joints), finite (the phase data of finite moves under
-    # finite limits > 0), t strictly increasing from 0 to T (_knots)
-    traj = Trajectory._from_checked(t, q, qd, qdd, J, prob.robot.joint_names, "optimal")
-    solve_time = _time.perf_counter() - t0
-    exact = None  # a grid asked for (check_dt): the samples
-    if prob.check_dt is None:
-        exact = exact_report(batch, w[0], w[-1], ls, traj.joint_names)
-    if exact is None:
+    out = closed_graph.evaluate(w, plan.P)
+    head = out[:7].tolist()
+    traj = _trajectory(out, head, plan, w.copy(), t_start, ls)
+    if prob.check_dt is None and head[3]:  # exact_ok: the phase data show the check
+        traj.report = _report(out, plan)
+        _finish(traj, head, plan, ls, prob.objective, None, EXACT_CHECK, out)
+    else:  # a grid asked for, or a speed against the move / an end off the goal: samples
         traj.report = traj.check_limits(prob.robot, dt=prob.check_dt, limits=ls, torque=False)
-        check, residual = SAMPLE_CHECK, None
-    else:
-        (traj.report, residual), check = exact, EXACT_CHECK
-    ok = traj.report.ok(CHECK_TOL)
-    ratios = traj.report.ratios
-    binding = [
-        (k, name, x)
-        for k, r in ratios.items()
-        if k != "position"
-        for name, x in zip(traj.joint_names, r.tolist(), strict=True)
-        if x >= 1 - 2e-3
-    ]
+        head[6] = None  # no arrival residual
+        _finish(traj, head, plan, ls, prob.objective, prob.check_dt, SAMPLE_CHECK)
+    prob.stats = traj.stats
+    return traj
+
+
+def _trajectory(out, head, plan: _Plan, W, t_start: float, ls) -> Trajectory:
+    """The :class:`Trajectory` of the graph's output ``out`` (views of it: a fresh array per
+    call) and its ``meta``; ``stats["solve_time_s"]`` from ``t_start``. The graph's knots are
+    sorted, merged to more than the times' rounding apart, from 0 to ``T``, and its samples
+    finite where ``exact_ok`` (:meth:`Trajectory._from_checked`)."""
+    lay, (_, n) = plan.layout, plan.shape
+    m = int(head[0])
+    o, S = lay["t"][0], lay["S"]
+    t = out[o : o + m]
+    X = out[lay["q"][0] : lay["qddd"][1]].reshape(4, S, n)
+    traj = Trajectory._from_checked(
+        t, X[0, :m], X[1, :m], X[2, :m], X[3, :m], plan.names, "optimal"
+    )
+    traj.stats = {"solve_time_s": _time.perf_counter() - t_start}
+    traj.meta = {
+        "knot_times_s": t,
+        "waypoints": W,
+        "waypoint_times_s": out[7:9],  # [0, T]
+        "limits": ls.to_dict(),
+        "backed_off_torque_Nm": None,
+        "qd_start": None,
+        "qdd_start": None,
+        "qd_goal": None,
+    }
+    return traj
+
+
+def _report(out, plan: _Plan) -> LimitReport:
+    """The exact check's :class:`~armlab.trajectory.sampling.LimitReport` in the graph's
+    output (:func:`exact_report`'s ratios and times)."""
+    n, lay = plan.shape[1], plan.layout
+    r = out[lay["ratio"][0] : lay["ratio"][1]].reshape(4, n)
+    at = out[lay["at"][0] : lay["at"][1]].reshape(4, n)
+    ratios = {"position": r[0], "velocity": r[1], "acceleration": r[2], "jerk": r[3]}
+    at_s = {"position": at[0], "velocity": at[1], "acceleration": at[2], "jerk": at[3]}
+    return LimitReport(list(plan.names), ratios, at_s)
+
+
+def _finish(traj, head, plan: _Plan, ls, objective, check_dt, check, out=None) -> Trajectory:
+    """``traj.stats``: the keys of a transcribed plan that apply (module docstring); ``out``
+    the graph's output where its exact check is the report (its verdict and binding flags),
+    else None (the report's)."""
+    if out is None:
+        ok = traj.report.ok(CHECK_TOL)
+        binding = timescale.binding(traj.report.ratios, traj.joint_names)
+    else:  # the same test on the same ratios, in the graph (ok: every ratio <= 1 + CHECK_TOL)
+        ok = bool(head[4])
+        o, n = plan.layout["ratio"][0], plan.shape[1]
+        rows = out[o + n : o + 4 * n].tolist()  # velocity, acceleration, jerk
+        binding = [(*lab, x) for lab, x in zip(plan.labels, rows, strict=True) if x >= BINDING]
     traj.stats = {
         "method": "closed_form",
         "solver": "closed form (synchronised_scurves)",
         "hessian": None,
         "hessian_fallback": False,
         "iterations": 0,
-        "solve_time_s": solve_time,
+        "solve_time_s": traj.stats["solve_time_s"],
         "build_time_s": 0.0,
-        "n_intervals": int(t.size - 1),
+        "n_intervals": int(head[0]) - 1,
         "success": ok,
         "return_status": "closed form",
         "backoff_rounds": 0,
-        "objective": prob.objective,
-        "mode": prob.mode,
-        "duration_s": T,
+        "objective": objective,
+        "mode": "jerk",
+        "duration_s": head[1],
         "tolerance_stretch": 1.0,
         "tolerance_stretch_skipped": None,
         "binding": binding,
-        "report_dt_s": prob.check_dt,
+        "report_dt_s": check_dt,
         "ok": ok,
         "drive_limits": False,
         "limit_check": check,
-        "arrival_residual": residual,
+        "arrival_residual": head[6],
     }
-    traj.meta.update(
-        {
-            "knot_times_s": t,
-            "waypoints": w.copy(),
-            "waypoint_times_s": np.array([0.0, T]),
-            "limits": ls.to_dict(),
-            "backed_off_torque_Nm": None,
-            "qd_start": None,
-            "qdd_start": None,
-            "qd_goal": None,
-        }
-    )
-    prob.stats = traj.stats
     return traj

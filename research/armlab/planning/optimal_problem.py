@@ -30,6 +30,9 @@ from armlab.planning.timescale import (
     refuse_violation,
     tighten_drive,
 )
+from armlab.planning.timescale import (
+    binding as timescale_binding,
+)
 from armlab.planning.tolerance import absorb_tolerance
 from armlab.planning.transcription import HESSIAN, Structure, structure
 from armlab.planning.warmstart import (
@@ -440,12 +443,7 @@ class OptimalProblem:
         traj.report = traj.check_limits(
             self.robot, dt=dt, limits=jl, torque=torque_on, samples=samples
         )
-        binding = [
-            (k, traj.joint_names[i], float(r[i]))
-            for k, r in {**traj.report.ratios, **drive_ratios}.items()
-            for i in range(len(r))
-            if r[i] >= 1 - 2e-3 and k != "position"
-        ]
+        binding = timescale_binding({**traj.report.ratios, **drive_ratios}, traj.joint_names)
         drive_ok = all(float(np.max(r)) <= 1 + 1e-9 for r in drive_ratios.values())
         q, v, a, u, h = self._unpack(st, x)
         stats = {

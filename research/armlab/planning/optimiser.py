@@ -203,6 +203,7 @@ import numpy as np
 
 from armlab.errors import ArmlabError, InfeasibleError, InputError
 from armlab.planning.optimal_closed import closed_form_applies, closed_form_optimal
+from armlab.planning.optimal_closed import direct as closed_direct
 from armlab.planning.optimal_problem import (
     OBJECTIVES,
     OptimalProblem,
@@ -218,6 +219,7 @@ from armlab.robot import drivetrain, rigid_body
 from armlab.robot.limits import Limits, resolve_limits
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.waypoints import (
+    COINCIDE_RAD,
     check_stoppable,
     validate_joint_state,
     validate_waypoints,
@@ -236,11 +238,11 @@ FINER_GRIDS = (2, 3)
 
 def _check_waypoints(robot, waypoints) -> np.ndarray:
     w = validate_waypoints(robot, waypoints, where="optimal waypoints")
-    # consecutive waypoints within 1e-12 rad in every joint (as Python floats: a few rows,
+    # consecutive waypoints within COINCIDE_RAD in every joint (as Python floats: a few rows,
     # and a pair is told apart by its first differing joint)
     rows = w.tolist()
     for k in range(len(rows) - 1):
-        if all(abs(b - a) < 1e-12 for a, b in zip(rows[k], rows[k + 1], strict=True)):
+        if all(abs(b - a) < COINCIDE_RAD for a, b in zip(rows[k], rows[k + 1], strict=True)):
             raise InputError(f"waypoints {k} and {k + 1} coincide; remove the duplicate")
     return w
 
@@ -543,6 +545,38 @@ def optimal(
         IPOPT did not converge, no limit was violated at its last iterate, and the finer
         grids (:data:`FINER_GRIDS`) did not converge either.
     """
+    if (
+        (tau_max is False or tau_max is None)
+        and v_max is None
+        and a_max is None
+        and j_max is None
+        and duration is None
+        and payload_kg is None
+        and n_intervals is None
+        and check_dt is None
+        and drive_limits is False
+        and qd_start is None
+        and qdd_start is None
+        and qd_goal is None
+        and clearance is None
+        and type(objective) is str
+        and objective == "time"
+        and type(via_tolerance) is float
+        and via_tolerance == 0.0
+        and type(smooth_weight) is float
+        and smooth_weight == 0.5
+        and type(max_backoff) is int
+        and max_backoff == 4
+        and type(max_iter) is int
+        and max_iter == 1000
+        and type(hessian) is str
+        and hessian == HESSIAN
+    ):
+        # every keyword at its default: two waypoints at rest under the robot's v/a/j limits
+        # are the closed form's (optimal_closed.direct; None where the path below must run)
+        traj = closed_direct(robot, waypoints, tau_max is False)
+        if traj is not None:
+            return traj
     kw = dict(
         v_max=v_max,
         a_max=a_max,

@@ -59,6 +59,23 @@ __all__ = [
 
 #: a fine-grid peak ratio above ``1 + CHECK_TOL`` breaks a limit (the optimisers' check)
 CHECK_TOL = 1e-6
+#: a limit whose peak ratio is at least this binds the plan (``stats["binding"]``)
+BINDING = 1 - 2e-3
+
+
+def binding(ratios, joint_names) -> list[tuple[str, str, float]]:
+    """``stats["binding"]``: ``(kind, joint, ratio)`` of every ratio of ``ratios`` (kind ->
+    per-joint array, a :class:`~armlab.trajectory.sampling.LimitReport`'s and drive ratios) at
+    least :data:`BINDING`, position left out (a range is no limit a plan runs against)."""
+    return [
+        (k, name, x)
+        for k, r in ratios.items()
+        if k != "position"
+        for name, x in zip(joint_names, r.tolist(), strict=True)
+        if x >= BINDING
+    ]
+
+
 #: a broken limit is backed off by its peak ratio and this fraction more
 BACKOFF_MARGIN = 1e-3
 #: a held torque (gravity alone, or a fixed boundary state) is over its limit above

@@ -24,6 +24,9 @@ from armlab.planning.timescale import (
     refuse_violation,
     tighten_drive,
 )
+from armlab.planning.timescale import (
+    binding as timescale_binding,
+)
 from armlab.planning.tolerance import absorb_tolerance
 from armlab.planning.topp_path import VELOCITY_POINTS, GeometricPath, path_dynamics
 from armlab.robot import drivetrain
@@ -432,12 +435,7 @@ class ToppProblem:
                 self.robot, dt=dt, limits=jl, torque=torque_on, samples=samples
             )
         spent["check"] += _time.perf_counter() - t0
-        binding = [
-            (k, traj.joint_names[i], float(r[i]))
-            for k, r in {**traj.report.ratios, **drive_ratios}.items()
-            for i in range(len(r))
-            if r[i] >= 1 - 2e-3 and k != "position"
-        ]
+        binding = timescale_binding({**traj.report.ratios, **drive_ratios}, traj.joint_names)
         drive_ok = all(float(np.max(r)) <= 1 + 1e-9 for r in drive_ratios.values())
         report_ok = traj.report.ok(CHECK_TOL) and drive_ok
         solver = "reachability analysis (Pham & Pham 2018)"

@@ -24,9 +24,18 @@ from armlab.errors import InputError
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
 
-__all__ = ["validate_waypoints", "validate_joint_state", "check_stoppable", "RANGE_TOL_RAD"]
+__all__ = [
+    "validate_waypoints",
+    "validate_joint_state",
+    "check_stoppable",
+    "RANGE_TOL_RAD",
+    "COINCIDE_RAD",
+]
 
 RANGE_TOL_RAD = 1e-9
+#: consecutive waypoints closer than this in every joint [rad] coincide (a planner through
+#: waypoints refuses them: a segment of no length)
+COINCIDE_RAD = 1e-12
 """Slack in [rad] on the joint ranges (rounding of values read from a file)."""
 
 _UNITS = {"rad": 1.0, "deg": 180.0 / math.pi}
