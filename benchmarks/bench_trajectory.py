@@ -340,22 +340,26 @@ def bench_full(robot, extra, rng, n):
     )
 
 
-def graph_ready(n: int) -> str:
-    """The one-problem S-curve graph of ``n`` joints compiled now (once per machine: the cache)
-    and in use, so that every timed call finds what a process' repeat calls find; its status
+def graph_ready(n: int, which: str = "scurve") -> str:
+    """A graph of ``n`` joints -- ``"scurve"``, the one-problem S-curve engine
+    (:mod:`armlab.trajectory.profiles.graph`), or ``"closed"``, the 2-waypoint closed-form plan
+    (:mod:`armlab.planning.closed_graph`) -- compiled now (once per machine: the cache) and in
+    use, so that every timed call finds what a process' repeat calls find; its status
     (``"vm (...)"`` where there is no compiler)."""
     from armlab._cache import CompilerUnavailable
+    from armlab.planning import closed_graph
     from armlab.trajectory.profiles import graph
 
+    g = closed_graph if which == "closed" else graph
     try:
-        graph.compile_library(n)
+        g.compile_library(n)
     except CompilerUnavailable:
         pass
-    status = graph.prepare(n)
+    status = g.prepare(n)
     end = time.monotonic() + 120.0
     while status == "vm, compiling" and time.monotonic() < end:  # a compile started earlier
         time.sleep(0.05)
-        status = graph.status(n)
+        status = g.status(n)
     return status
 
 
@@ -731,7 +735,10 @@ def _calls_ptp(robot, n: int, res: dict) -> None:
     rng = np.random.default_rng(SEED + 72)
     ws = [mid + half * (2 * rng.random((2, robot.n_joints)) - 1) for _ in range(n)]
     nj = robot.n_joints
-    print(f"one-problem S-curve graph: {graph_ready(nj)}")
+    print(
+        f"one-problem S-curve graph: {graph_ready(nj)}; closed-form plan graph: "
+        f"{graph_ready(nj, 'closed')}"
+    )
     optimal(robot, ws[0], tau_max=False)  # warm: imports, first calls
     ptp_sync(robot, ws[0][0], ws[0][1], "scurve", tau_max=False)
     t_opt, t_ptp, t_rk, stats = [], [], [], []

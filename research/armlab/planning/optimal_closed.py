@@ -192,6 +192,10 @@ class _Plan(NamedTuple):
     names: tuple[str, ...]
     labels: tuple[tuple[str, str], ...]
     layout: dict
+    t: int  # where the knots start in the output
+    samples: slice  # q, qd, qdd, qddd: (4, S, n)
+    checks: slice  # the ratio and at rows: (8, n)
+    bind: slice  # the velocity, acceleration and jerk ratios: (3 n,)
 
 
 def _plan(ls: Limits) -> _Plan | None:
@@ -207,7 +211,20 @@ def _plan(ls: Limits) -> _Plan | None:
     P.flags.writeable = False
     names = tuple(ls.joint_names)
     labels = tuple((k, name) for k in ("velocity", "acceleration", "jerk") for name in names)
-    return _Plan(P, (2, len(names)), names, labels, closed_graph.layout(len(names)))
+    n, lay = len(names), closed_graph.layout(len(names))
+    o = lay["ratio"][0]
+    assert lay["at"] == (o + 4 * n, o + 8 * n)  # the check rows are one block
+    return _Plan(
+        P,
+        (2, n),
+        names,
+        labels,
+        lay,
+        lay["t"][0],
+        slice(lay["q"][0], lay["qddd"][1]),
+        slice(o, o + 8 * n),
+        slice(o + n, o + 4 * n),
+    )
 
 
 def _request_plan(key: bool):
@@ -287,14 +304,10 @@ def _trajectory(out, head, plan: _Plan, W, t_start: float, ls) -> Trajectory:
     call) and its ``meta``; ``stats["solve_time_s"]`` from ``t_start``. The graph's knots are
     sorted, merged to more than the times' rounding apart, from 0 to ``T``, and its samples
     finite where ``exact_ok`` (:meth:`Trajectory._from_checked`)."""
-    lay, (_, n) = plan.layout, plan.shape
-    m = int(head[0])
-    o, S = lay["t"][0], lay["S"]
+    m, o = int(head[0]), plan.t
     t = out[o : o + m]
-    X = out[lay["q"][0] : lay["qddd"][1]].reshape(4, S, n)
-    traj = Trajectory._from_checked(
-        t, X[0, :m], X[1, :m], X[2, :m], X[3, :m], plan.names, "optimal"
-    )
+    X = out[plan.samples].reshape(4, -1, plan.shape[1])[:, :m]
+    traj = Trajectory._from_checked(t, X[0], X[1], X[2], X[3], plan.names, "optimal")
     traj.stats = {"solve_time_s": _time.perf_counter() - t_start}
     traj.meta = {
         "knot_times_s": t,
@@ -312,11 +325,9 @@ def _trajectory(out, head, plan: _Plan, W, t_start: float, ls) -> Trajectory:
 def _report(out, plan: _Plan) -> LimitReport:
     """The exact check's :class:`~armlab.trajectory.sampling.LimitReport` in the graph's
     output (:func:`exact_report`'s ratios and times)."""
-    n, lay = plan.shape[1], plan.layout
-    r = out[lay["ratio"][0] : lay["ratio"][1]].reshape(4, n)
-    at = out[lay["at"][0] : lay["at"][1]].reshape(4, n)
+    r = out[plan.checks].reshape(8, plan.shape[1])  # the ratio rows, then the at rows
     ratios = {"position": r[0], "velocity": r[1], "acceleration": r[2], "jerk": r[3]}
-    at_s = {"position": at[0], "velocity": at[1], "acceleration": at[2], "jerk": at[3]}
+    at_s = {"position": r[4], "velocity": r[5], "acceleration": r[6], "jerk": r[7]}
     return LimitReport(list(plan.names), ratios, at_s)
 
 
@@ -329,31 +340,45 @@ def _finish(traj, head, plan: _Plan, ls, objective, check_dt, check, out=None) -
         binding = timescale.binding(traj.report.ratios, traj.joint_names)
     else:  # the same test on the same ratios, in the graph (ok: every ratio <= 1 + CHECK_TOL)
         ok = bool(head[4])
-        o, n = plan.layout["ratio"][0], plan.shape[1]
-        rows = out[o + n : o + 4 * n].tolist()  # velocity, acceleration, jerk
+        rows = out[plan.bind].tolist()  # the velocity, acceleration, jerk ratios
         binding = [(*lab, x) for lab, x in zip(plan.labels, rows, strict=True) if x >= BINDING]
-    traj.stats = {
-        "method": "closed_form",
-        "solver": "closed form (synchronised_scurves)",
-        "hessian": None,
-        "hessian_fallback": False,
-        "iterations": 0,
-        "solve_time_s": traj.stats["solve_time_s"],
-        "build_time_s": 0.0,
-        "n_intervals": int(head[0]) - 1,
-        "success": ok,
-        "return_status": "closed form",
-        "backoff_rounds": 0,
-        "objective": objective,
-        "mode": "jerk",
-        "duration_s": head[1],
-        "tolerance_stretch": 1.0,
-        "tolerance_stretch_skipped": None,
-        "binding": binding,
-        "report_dt_s": check_dt,
-        "ok": ok,
-        "drive_limits": False,
-        "limit_check": check,
-        "arrival_residual": head[6],
-    }
+    stats = _STATS.copy()  # the constant keys, in order
+    stats["solve_time_s"] = traj.stats["solve_time_s"]
+    stats["n_intervals"] = int(head[0]) - 1
+    stats["success"] = stats["ok"] = ok
+    stats["objective"] = objective
+    stats["duration_s"] = head[1]
+    stats["binding"] = binding
+    stats["report_dt_s"] = check_dt
+    stats["limit_check"] = check
+    stats["arrival_residual"] = head[6]
+    traj.stats = stats
     return traj
+
+
+#: ``stats`` of a closed-form plan: the keys of a transcribed plan that apply, in their order
+#: (None: set per plan, :func:`_finish`)
+_STATS = {
+    "method": "closed_form",
+    "solver": "closed form (synchronised_scurves)",
+    "hessian": None,
+    "hessian_fallback": False,
+    "iterations": 0,
+    "solve_time_s": None,
+    "build_time_s": 0.0,
+    "n_intervals": None,
+    "success": None,
+    "return_status": "closed form",
+    "backoff_rounds": 0,
+    "objective": None,
+    "mode": "jerk",
+    "duration_s": None,
+    "tolerance_stretch": 1.0,
+    "tolerance_stretch_skipped": None,
+    "binding": None,
+    "report_dt_s": None,
+    "ok": None,
+    "drive_limits": False,
+    "limit_check": None,
+    "arrival_residual": None,
+}
