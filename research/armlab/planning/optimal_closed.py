@@ -358,7 +358,7 @@ def _finish(traj, head, plan: _Plan, ls, objective, check_dt, check, out=None) -
 
 #: ``stats`` of a closed-form plan: the keys of a transcribed plan that apply, in their order
 #: (None: set per plan, :func:`_finish`)
-_STATS = {
+_STATS: dict[str, object] = {
     "method": "closed_form",
     "solver": "closed form (synchronised_scurves)",
     "hessian": None,
