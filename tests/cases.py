@@ -72,3 +72,37 @@ def one_line(capsys) -> str:
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1, err
     return err[0]
+
+
+# ---------------------------------------------------------- the compiled CasADi graphs
+def graph_mode(monkeypatch):
+    """For a ``mode`` fixture: ``set_mode(value, **env)`` sets ``$ARMLAB_SCURVE_GRAPH`` (and
+    other variables) and resets the graphs' process state (:mod:`armlab._compiled`); undone,
+    and reset again, after the test."""
+    from armlab import _compiled
+
+    def set_mode(value, **env):
+        monkeypatch.setenv("ARMLAB_SCURVE_GRAPH", value)
+        for k, x in env.items():
+            monkeypatch.setenv(k, x)
+        _compiled.reset()
+
+    yield set_mode
+    monkeypatch.undo()
+    _compiled.reset()
+
+
+def compiled_into_tmp(tmp_path_factory, compile_library, n: int):
+    """For a module fixture: a graph of ``n`` joints compiled once (``compile_library(n)``)
+    into a temporary cache folder, its library's path; the test skipped without a compiler."""
+    import pytest
+
+    from armlab._cache import CompilerUnavailable
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("ARMLAB_CACHE_DIR", str(tmp_path_factory.mktemp("armlab-cache")))
+        try:
+            so = compile_library(n)
+        except CompilerUnavailable as exc:
+            pytest.skip(f"no compiled graph here: {exc}")
+        yield so

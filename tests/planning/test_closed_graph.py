@@ -12,10 +12,10 @@ import time
 import numpy as np
 import pytest
 
-from armlab._cache import CompilerUnavailable
 from armlab.planning import closed_graph as cg
 from armlab.planning import optimal
 from armlab.trajectory.waypoints import RANGE_TOL_RAD
+from cases import compiled_into_tmp, graph_mode
 
 #: |graph - numpy| <= TOL x the scale of the quantity (its largest magnitude in the problem)
 TOL = 1e-13
@@ -95,17 +95,8 @@ def assert_layout_close(got, ref, n, what=""):
 
 @pytest.fixture
 def mode(monkeypatch):
-    """Set ``$ARMLAB_SCURVE_GRAPH`` (and the graphs' process state) for one test."""
-
-    def set_mode(value, **env):
-        monkeypatch.setenv("ARMLAB_SCURVE_GRAPH", value)
-        for k, x in env.items():
-            monkeypatch.setenv(k, x)
-        cg.reset()
-
-    yield set_mode
-    monkeypatch.undo()
-    cg.reset()
+    """Set ``$ARMLAB_SCURVE_GRAPH`` for one test (:func:`cases.graph_mode`)."""
+    yield from graph_mode(monkeypatch)
 
 
 def test_layout_sizes():
@@ -288,15 +279,9 @@ def test_without_a_compiler_the_vm_is_used(mode, tmp_path, teachbot6):
 
 @pytest.fixture(scope="module")
 def compiled_cache(tmp_path_factory):
-    """The graph of 6 joints compiled once into a temporary cache (skipped without a
-    compiler)."""
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("ARMLAB_CACHE_DIR", str(tmp_path_factory.mktemp("armlab-cache")))
-        try:
-            so = cg.compile_library(6)
-        except CompilerUnavailable as exc:
-            pytest.skip(f"no compiled graph here: {exc}")
-        yield so
+    """The graph of 6 joints compiled once into a temporary cache
+    (:func:`cases.compiled_into_tmp`)."""
+    yield from compiled_into_tmp(tmp_path_factory, cg.compile_library, 6)
 
 
 def test_compiled_gives_the_vms_values_and_the_numpy_layout(compiled_cache, mode, teachbot6):

@@ -11,9 +11,9 @@ import time
 import numpy as np
 import pytest
 
-from armlab._cache import CompilerUnavailable
 from armlab.errors import InputError
 from armlab.trajectory.profiles import graph, synchronised_scurves
+from cases import compiled_into_tmp, graph_mode
 
 JOINT = ("t_min", "v", "a", "tj", "ta", "tv")
 TABLE = ("t0", "s0", "v0", "d", "acc", "jrk")
@@ -91,17 +91,8 @@ def singles(D, v, a, j):
 
 @pytest.fixture
 def mode(monkeypatch):
-    """Set ``$ARMLAB_SCURVE_GRAPH`` (and the process' graph state) for one test."""
-
-    def set_mode(value, **env):
-        monkeypatch.setenv("ARMLAB_SCURVE_GRAPH", value)
-        for k, x in env.items():
-            monkeypatch.setenv(k, x)
-        graph.reset()
-
-    yield set_mode
-    monkeypatch.undo()
-    graph.reset()
+    """Set ``$ARMLAB_SCURVE_GRAPH`` for one test (:func:`cases.graph_mode`)."""
+    yield from graph_mode(monkeypatch)
 
 
 def compare_singles(D, v, a, j):
@@ -217,15 +208,9 @@ def test_without_a_compiler_the_vm_is_used(mode, tmp_path):
 
 @pytest.fixture(scope="module")
 def compiled_cache(tmp_path_factory):
-    """The graph of 4 joints compiled once into a temporary cache (skipped without a
-    compiler)."""
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("ARMLAB_CACHE_DIR", str(tmp_path_factory.mktemp("armlab-cache")))
-        try:
-            so = graph.compile_library(4)
-        except CompilerUnavailable as exc:
-            pytest.skip(f"no compiled graph here: {exc}")
-        yield so
+    """The graph of 4 joints compiled once into a temporary cache
+    (:func:`cases.compiled_into_tmp`)."""
+    yield from compiled_into_tmp(tmp_path_factory, graph.compile_library, 4)
 
 
 def test_compiled_matches_the_numpy_evaluation(compiled_cache, mode, monkeypatch):
