@@ -46,7 +46,7 @@ if TYPE_CHECKING:
 else:
     ca = lazy_import("casadi")
 
-__all__ = ["Graph", "Spec", "available", "cpu_key", "mode", "reset"]
+__all__ = ["Graph", "Spec", "available", "cpu_key", "reset"]
 
 _MODES = ("auto", "vm", "off")
 _LOCK = threading.Lock()
@@ -105,11 +105,6 @@ def reset() -> None:
             g._clear()
     for g in list(_GRAPHS):
         g._local.__dict__.clear()
-
-
-def mode() -> str:
-    """``"auto"``, ``"vm"`` or ``"off"`` (``$ARMLAB_SCURVE_GRAPH``, module docstring)."""
-    return _mode
 
 
 def available() -> bool:

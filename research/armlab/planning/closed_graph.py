@@ -60,7 +60,7 @@ from armlab.planning import (
 from armlab.planning.timescale import BINDING, CHECK_TOL
 from armlab.trajectory.profiles import batch as _batch
 from armlab.trajectory.profiles.ops import NP
-from armlab.trajectory.sampling import fixed_times, merged_times
+from armlab.trajectory.sampling import merged_times
 from armlab.trajectory.waypoints import COINCIDE_RAD
 
 ca = lazy_import("casadi")
@@ -95,11 +95,18 @@ CFLAGS = (
 KINDS = ("position", "velocity", "acceleration", "jerk")
 BIND_KINDS = KINDS[1:]
 _HERE = Path(__file__).parent
+#: the files the graph is generated from, and those of the constants it holds (CHECK_TOL,
+#: BINDING, COINCIDE_RAD): its cache key hashes them
 _SOURCES = (
     _HERE / "closed_graph.py",
     _HERE / "optimal_closed.py",
+    _HERE / "timescale.py",
     _HERE.parent / "trajectory" / "sampling.py",
-    *(_HERE.parent / "trajectory" / "profiles" / f for f in ("ops.py", "timing.py", "batch.py")),
+    _HERE.parent / "trajectory" / "waypoints.py",
+    *(
+        _HERE.parent / "trajectory" / "profiles" / f
+        for f in ("ops.py", "timing.py", "batch.py", "graph.py")
+    ),
 )
 
 
@@ -124,35 +131,37 @@ def _symbol(n: int) -> str:
     return f"armlab_closed_{n}"
 
 
+def _valid(ops, w0, w1, v, a, j, lo, hi):
+    """1 where ``optimal()`` accepts the waypoints ``w0``, ``w1`` (every value finite and
+    inside ``[lo, hi]``, some joint moving by at least :data:`COINCIDE_RAD`) and every
+    ``v, a, j`` is finite and > 0 (comparisons with NaN are false); written once against
+    ``ops``: the graph's flag and :func:`evaluate_numpy`'s."""
+    inside = [ops.and_(ops.and_(abs(x) < np.inf, x >= lo), x <= hi) for x in (w0, w1)]
+    limits = [ops.and_(x > 0, x < np.inf) for x in (v, a, j)]
+    return ops.and_(
+        ops.all_of(ops.concat(inside + limits)), ops.any_of(abs(w1 - w0) >= COINCIDE_RAD)
+    )
+
+
 def _core(n: int):
     """The SX core of ``n`` joints: ``(W, P) -> head (7), t slots (S), signed phase table (7
     rows of 7 n, phase-major), ratio (4 n), at (4 n), bind (3 n)``."""
+    from armlab.trajectory.profiles.graph import engine
     from armlab.trajectory.profiles.ops import sx
-    from armlab.trajectory.profiles.timing import _DoubleSLimits
 
     SX = sx()
     W, P = ca.SX.sym("W", 2 * n), ca.SX.sym("P", 7 * n)
     w0, w1 = W[:n], W[n:]
     v, a, j, lo, hi, centre, half = (P[k * n : (k + 1) * n] for k in range(7))
-    # valid: as optimal() accepts the waypoints (comparisons with NaN are false)
-    inside = [ca.logic_and(ca.logic_and(ca.fabs(x) < ca.inf, x >= lo), x <= hi) for x in (w0, w1)]
-    limits = [ca.logic_and(x > 0, x < ca.inf) for x in (v, a, j)]
-    valid = ca.logic_and(
-        ca.mmin(ca.vertcat(*inside, *limits)), ca.mmax(ca.fabs(w1 - w0) >= COINCIDE_RAD)
-    )
+    valid = _valid(SX, w0, w1, v, a, j, lo, hi)
     # the engine (synchronised_scurves), its phase table and peaks (columns of n joints)
     D = w1 - w0
-    L = ca.fabs(D)
-    k = _DoubleSLimits(a, j, True, SX)
-    T, _, _, ap, tj, ta, tv = _batch._synchronise(L, v, a, j, k, L > 0)
-    table: list = [None] * 6
-    steps = _batch._phase_table(SX, tj, ta, tv, ap, j, table)
-    pk = {key: x.T for key, x in _batch._peak_table(SX, *table, *steps).items()}
+    (T, *_), table, _, peaks = engine(D, v, a, j)
+    pk = {key: x.T for key, x in peaks.items()}
     # the exact check (exact_report) and the verdict of closed_form_optimal
-    residual, reverse, ratios, at_s = _closed.exact_check(
+    exact_ok, residual, ratios, at_s = _closed.exact_check(
         SX, pk, D, v, a, j, w0, w1, centre, half, T
     )
-    exact_ok = ca.logic_and(ca.logic_not(residual > _closed.ARRIVAL_TOL), ca.logic_not(reverse))
     ratio = ca.vertcat(*(ratios[kind] for kind in KINDS))
     at = ca.vertcat(*(at_s[kind] for kind in KINDS))
     ok = ca.mmin(ratio <= 1.0 + CHECK_TOL)
@@ -292,32 +301,26 @@ def evaluate_numpy(W, P) -> np.ndarray:
     lay = layout(n)
     out = np.zeros(lay["size"])
     with np.errstate(invalid="ignore"):
-        valid = bool(
-            np.isfinite(W).all()
-            and ((W >= lo) & (W <= hi)).all()
-            and (np.abs(W[1] - W[0]) >= COINCIDE_RAD).any()
-            and all(((x > 0) & (x < np.inf)).all() for x in (v, a, j))
-        )
+        valid = bool(_valid(NP, W[0], W[1], v, a, j, lo, hi))
     out[2] = valid
     if not valid:
         return out
     D = W[1:] - W[:-1]
     b = _batch._numpy_batch(D, v, a, j, D.shape)
     T = float(b.duration[0])
-    t = np.concatenate(((0.0,), fixed_times(b.boundaries()[0, :, 0][1:], T)))  # _knots
+    t = _closed._knots(b.boundaries()[0, :, 0], T)
     q, qd, qdd, J = (x[:, 0] for x in b.evaluate_jerk(t))
     q += W[0]
     q[-1], qd[-1], qdd[-1], J[-1] = W[1], 0.0, 0.0, 0.0
-    residual, reverse, ratios, at_s = _closed.exact_check(
+    arrived, residual, ratios, at_s = _closed.exact_check(
         NP, b.peaks_flat(), D.reshape(-1), v, a, j, W[0], W[1], centre, half, T
     )
     residual = float(residual)
     ratio = np.concatenate([ratios[kind] for kind in KINDS])
     bind = np.concatenate([ratios[kind] >= BINDING for kind in BIND_KINDS])
     m = t.size
-    exact_ok = not (residual > _closed.ARRIVAL_TOL or reverse)
     ok = bool((ratio <= 1.0 + CHECK_TOL).all())
-    out[:9] = (m, T, valid, exact_ok, ok, bind.sum(), residual, 0.0, T)
+    out[:9] = (m, T, valid, bool(arrived), ok, bind.sum(), residual, 0.0, T)
     for name, x in (("t", t), ("q", q), ("qd", qd), ("qdd", qdd), ("qddd", J)):
         o = lay[name][0]
         out[o : o + x.size] = x.reshape(-1)

@@ -61,7 +61,7 @@ from armlab.robot.limits import Limits, resolve_limits
 from armlab.trajectory.core import Trajectory
 from armlab.trajectory.profiles.ops import NP
 from armlab.trajectory.sampling import LimitReport, fixed_times
-from armlab.trajectory.waypoints import RANGE_TOL_RAD
+from armlab.trajectory.waypoints import range_with_tolerance
 
 if TYPE_CHECKING:
     from armlab.planning.optimal_problem import OptimalProblem
@@ -139,12 +139,12 @@ def exact_report(batch, start, goal, limits, joint_names) -> tuple[LimitReport, 
     T = float(batch.duration.reshape(-1)[0])
     # a trapezoid (j = inf in the batch) has no jerk signal: no jerk ratio, as for its samples
     jerk = j if batch.jerk_finite else None
-    residual, reverse, ratios, at_s = exact_check(
+    arrived, residual, ratios, at_s = exact_check(
         NP, pk, batch.distance.reshape(-1), v, a, jerk, start, goal, centre, half, T
     )
-    residual = float(residual)
-    if residual > ARRIVAL_TOL or reverse:
+    if not arrived:
         return None
+    residual = float(residual)
     report = LimitReport(list(joint_names))
     report.ratios.update(ratios)
     report.at_s.update(at_s)
@@ -155,11 +155,13 @@ def exact_check(ops, pk, D, v, a, j, start, goal, centre, half, T) -> tuple:
     """What :func:`exact_report` reads from the peaks ``pk`` (:meth:`SCurveBatch.peaks_flat`)
     of one synchronised double S, written once against a backend ``ops``
     (:mod:`armlab.trajectory.profiles.ops`: numpy, and CasADi SX in the closed form's graph,
-    :mod:`armlab.planning.closed_graph`): ``(residual, reverse, ratios, at_s)``.
+    :mod:`armlab.planning.closed_graph`): ``(arrived, residual, ratios, at_s)``.
 
+    * ``arrived``: the phase data show the check -- the residual not above
+      :data:`ARRIVAL_TOL` and no joint's speed against the move above ``ARRIVAL_TOL * v``
+      (else :func:`exact_report` returns None and the samples are checked);
     * ``residual``: the largest arrival residual, NaN if any is: ``| end_position - |D| | /
       (1 + |D|)``, ``|end_velocity| / v``, ``|end_acceleration| / a`` (``a`` None: left out);
-    * ``reverse``: whether a joint's speed against the move exceeds ``ARRIVAL_TOL * v``;
     * ``ratios``, ``at_s``: by kind, the position ratio ``max(r0, r1)`` of the two ends
       (``r = |q - centre| / half``) at ``T`` where ``r1 > r0``, else 0; the velocity,
       acceleration and jerk peaks over their limits and their times (a limit None: no kind).
@@ -170,6 +172,7 @@ def exact_check(ops, pk, D, v, a, j, start, goal, centre, half, T) -> tuple:
         off.append(abs(pk["end_acceleration"]) / a)
     residual = ops.nanmax(ops.concat(off))
     reverse = ops.any_of(pk["reverse"] > ARRIVAL_TOL * v)
+    arrived = ops.and_(ops.not_(residual > ARRIVAL_TOL), ops.not_(reverse))
     r0, r1 = abs(start - centre) / half, abs(goal - centre) / half
     ratios = {"position": ops.fmax(r0, r1)}
     at_s = {"position": ops.where(r1 > r0, T, 0.0)}  # the start where both are equal
@@ -177,7 +180,7 @@ def exact_check(ops, pk, D, v, a, j, start, goal, centre, half, T) -> tuple:
         if lim is not None:
             ratios[kind] = pk[kind] / lim
             at_s[kind] = pk[f"{kind}_at_s"]
-    return residual, reverse, ratios, at_s
+    return arrived, residual, ratios, at_s
 
 
 class _Plan(NamedTuple):
@@ -191,7 +194,6 @@ class _Plan(NamedTuple):
     shape: tuple[int, int]
     names: tuple[str, ...]
     labels: tuple[tuple[str, str], ...]
-    layout: dict
     t: int  # where the knots start in the output
     samples: slice  # q, qd, qdd, qddd: (4, S, n)
     checks: slice  # the ratio and at rows: (8, n)
@@ -204,8 +206,7 @@ def _plan(ls: Limits) -> _Plan | None:
     if ls.torque_Nm is not None or not ls.derived("finite v/a/j", _finite_vaj):
         return None
     centre, half = ls.centre_half_rad()
-    lo = np.asarray(ls.lower_rad, float) - RANGE_TOL_RAD
-    hi = np.asarray(ls.upper_rad, float) + RANGE_TOL_RAD
+    lo, hi, _ = range_with_tolerance(ls)
     kin = (ls.velocity_rad_s, ls.acceleration_rad_s2, ls.jerk_rad_s3)
     P = np.concatenate([*kin, lo, hi, centre, half])
     P.flags.writeable = False
@@ -219,7 +220,6 @@ def _plan(ls: Limits) -> _Plan | None:
         (2, n),
         names,
         labels,
-        lay,
         lay["t"][0],
         slice(lay["q"][0], lay["qddd"][1]),
         slice(o, o + 8 * n),

@@ -81,7 +81,12 @@ from armlab.trajectory.profiles import (
     trapezoid_profile,
 )
 from armlab.trajectory.sampling import sample_times
-from armlab.trajectory.waypoints import check_stoppable, validate_joint_state, validate_waypoints
+from armlab.trajectory.waypoints import (
+    COINCIDE_RAD,
+    check_stoppable,
+    validate_joint_state,
+    validate_waypoints,
+)
 
 if TYPE_CHECKING:
     from armlab.robot.model import Robot
@@ -240,7 +245,7 @@ def ptp_sync(
     v, a, j = lim.velocity_rad_s, lim.acceleration_rad_s2, lim.jerk_rad_s3
     delta = q1 - q0
     D = np.abs(delta)
-    D[D < 1e-12] = 0.0
+    D[D < COINCIDE_RAD] = 0.0  # a joint that does not move
     method = f"ptp_{profile}"
     if req.from_state:
         assert v is not None and a is not None

@@ -30,6 +30,7 @@ __all__ = [
     "check_stoppable",
     "RANGE_TOL_RAD",
     "COINCIDE_RAD",
+    "range_with_tolerance",
 ]
 
 RANGE_TOL_RAD = 1e-9
@@ -98,7 +99,7 @@ def validate_waypoints(
     # one test that every value is a number within its range (NaN fails a comparison; an
     # infinite value passes only an unbounded joint's range, so with one, finiteness too);
     # where it fails, the checks below name the first problem
-    lo_tol, hi_tol, bounded = robot.limits.derived("waypoint range", _range_with_tolerance)
+    lo_tol, hi_tol, bounded = range_with_tolerance(robot.limits)
     if ((W2 >= lo_tol) & (W2 <= hi_tol)).all() and (bounded or np.isfinite(W2).all()):
         return W
     names = robot.joint_names
@@ -123,9 +124,14 @@ def validate_waypoints(
     return W
 
 
-def _range_with_tolerance(limits) -> tuple[np.ndarray, np.ndarray, bool]:
+def range_with_tolerance(limits) -> tuple[np.ndarray, np.ndarray, bool]:
     """``(lower - RANGE_TOL_RAD, upper + RANGE_TOL_RAD, every joint bounded)`` of a
-    :class:`~armlab.robot.Limits` (kept with it: :meth:`~armlab.robot.Limits.derived`)."""
+    :class:`~armlab.robot.Limits`, read-only: what a waypoint must lie within (made once and
+    kept with the Limits, :meth:`~armlab.robot.Limits.derived`)."""
+    return limits.derived("waypoint range", _range_with_tolerance)
+
+
+def _range_with_tolerance(limits) -> tuple[np.ndarray, np.ndarray, bool]:
     lo = np.asarray(limits.lower_rad, float) - RANGE_TOL_RAD
     hi = np.asarray(limits.upper_rad, float) + RANGE_TOL_RAD
     lo.flags.writeable = hi.flags.writeable = False

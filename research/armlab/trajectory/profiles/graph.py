@@ -76,6 +76,7 @@ __all__ = [
     "available",
     "build",
     "compile_library",
+    "engine",
     "evaluate",
     "library_path",
     "load_compiled",
@@ -95,26 +96,33 @@ CFLAGS = ("-O1", "-fPIC", "-shared", "-fno-semantic-interposition", "-ffp-contra
 _SOURCES = ("ops.py", "timing.py", "batch.py", "graph.py")
 
 
-def _build(n: int):
-    from armlab.trajectory.profiles.batch import (
-        PEAK_KEYS,
-        _peak_table,
-        _phase_table,
-        _synchronise,
-    )
+def engine(D, v, a, j) -> tuple:
+    """The engine of one problem on SX columns of ``n`` joints (every jerk finite): the
+    results of :func:`synchronised_scurves` ``(T, t_min, v, a, tj, ta, tv)``, the phase table
+    (six ``(7, n)`` rows, :meth:`.SCurveBatch.boundaries`), its steps ``(dv, ds)`` and the
+    peaks (:meth:`.SCurveBatch.peaks_flat`, ``(1, n)`` each): the engine's own functions of
+    :mod:`.batch` given symbols. This graph and the closed-form plan's
+    (:mod:`armlab.planning.closed_graph`) are built on it."""
+    from armlab.trajectory.profiles.batch import _peak_table, _phase_table, _synchronise
     from armlab.trajectory.profiles.ops import sx
     from armlab.trajectory.profiles.timing import _DoubleSLimits
 
-    x = ca.SX.sym("x", n, 4)  # column-major: the rows of a C-ordered (4, n) array
-    D, v, a, j = (x[:, c] for c in range(4))
     L = ca.fabs(D)
     SX = sx()
-    k = _DoubleSLimits(a, j, True, SX)
-    T, t_min, vp, ap, tj, ta, tv = _synchronise(L, v, a, j, k, L > 0)
+    results = _synchronise(L, v, a, j, _DoubleSLimits(a, j, True, SX), L > 0)
+    _, _, _, ap, tj, ta, tv = results
     table: list = [None] * 6
     steps = _phase_table(SX, tj, ta, tv, ap, j, table)
-    peaks = _peak_table(SX, *table, *steps)
-    out = [T, t_min, vp, ap, tj, ta, tv]
+    return results, table, steps, _peak_table(SX, *table, *steps)
+
+
+def _build(n: int):
+    from armlab.trajectory.profiles.batch import PEAK_KEYS
+
+    x = ca.SX.sym("x", n, 4)  # column-major: the rows of a C-ordered (4, n) array
+    D, v, a, j = (x[:, c] for c in range(4))
+    results, table, steps, peaks = engine(D, v, a, j)
+    out = list(results)
     out += [ca.vec(m.T) for m in (*table, *steps)]  # (7, n) in C order
     out += [peaks[key].T for key in PEAK_KEYS]
     # 1 where every value is valid and every jerk finite (comparisons with NaN are false)

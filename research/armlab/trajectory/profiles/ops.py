@@ -68,6 +68,14 @@ class NumpyOps:
         return x & y
 
     @staticmethod
+    def not_(x) -> bool:
+        return not x
+
+    @staticmethod
+    def all_of(x: np.ndarray) -> bool:
+        return bool(x.all())
+
+    @staticmethod
     def any(x) -> bool:
         return bool(x.any())
 
@@ -163,6 +171,7 @@ class SXOps:
         # select(cond, new, old) is if_else(cond, new, old): a graph holds both branches
         self.sqrt, self.asin, self.cos, self.sin = ca.sqrt, ca.asin, ca.cos, ca.sin
         self.fmin, self.fmax, self.and_ = ca.fmin, ca.fmax, ca.logic_and
+        self.not_, self.all_of = ca.logic_not, ca.mmin
         self.where = self.select = ca.if_else
 
     @staticmethod
