@@ -106,3 +106,24 @@ def compiled_into_tmp(tmp_path_factory, compile_library, n: int):
         except CompilerUnavailable as exc:
             pytest.skip(f"no compiled graph here: {exc}")
         yield so
+
+
+def in_threads(work, n_threads: int) -> None:
+    """``work(k)`` in ``n_threads`` threads at once (``k`` the thread's number); an
+    AssertionError of any thread raised here, in the test's thread."""
+    import threading
+
+    errors: list[AssertionError] = []
+
+    def run(k: int) -> None:
+        try:
+            work(k)
+        except AssertionError as exc:
+            errors.append(exc)
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in range(n_threads)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors, errors[0]

@@ -6,7 +6,6 @@ without a compiler and not at all (``$ARMLAB_SCURVE_GRAPH=off``)."""
 from __future__ import annotations
 
 import multiprocessing
-import threading
 import time
 
 import numpy as np
@@ -15,7 +14,7 @@ import pytest
 from armlab.planning import closed_graph as cg
 from armlab.planning import optimal
 from armlab.trajectory.waypoints import RANGE_TOL_RAD
-from cases import compiled_into_tmp, graph_mode
+from cases import compiled_into_tmp, graph_mode, in_threads
 
 #: |graph - numpy| <= TOL x the scale of the quantity (its largest magnitude in the problem)
 TOL = 1e-13
@@ -226,22 +225,13 @@ def test_threads_get_their_own_buffers(mode, teachbot6):
     P = params(teachbot6)
     ws = problems(teachbot6, 30, seed=7)
     want = [cg.evaluate(W, P) for W in ws]
-    errors: list = []
 
-    def work():
-        try:
-            for _ in range(10):
-                for W, x in zip(ws, want, strict=True):
-                    np.testing.assert_array_equal(cg.evaluate(W, P), x)
-        except AssertionError as exc:
-            errors.append(exc)
+    def work(k):
+        for _ in range(10):
+            for W, x in zip(ws, want, strict=True):
+                np.testing.assert_array_equal(cg.evaluate(W, P), x)
 
-    threads = [threading.Thread(target=work) for _ in range(2)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    assert not errors, errors[0]
+    in_threads(work, 2)
 
 
 def _child_head(args):

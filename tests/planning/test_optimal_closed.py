@@ -7,7 +7,6 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
-import threading
 
 import numpy as np
 import pytest
@@ -18,6 +17,7 @@ from armlab.planning.optimal_closed import closed_form_optimal, exact_report
 from armlab.planning.optimiser import build_optimal
 from armlab.planning.timescale import CHECK_TOL
 from armlab.trajectory.profiles import synchronised_scurves
+from cases import in_threads
 
 #: the closed form against IPOPT's optimum on the same problem, in [s]: IPOPT meets its
 #: constraints to 1e-9 and its objective carries a 1e-7 smoothness term (measured 4e-8)
@@ -270,11 +270,7 @@ def test_the_front_gate_from_threads(teachbot6):
         for _ in range(5):
             out[k] = [optimal(teachbot6, w, tau_max=False) for w in cases[k::2]]
 
-    threads = [threading.Thread(target=run, args=(k,)) for k in (0, 1)]
-    for th in threads:
-        th.start()
-    for th in threads:
-        th.join()
+    in_threads(run, 2)
     for k in (0, 1):
         for got, ref in zip(out[k], serial[k::2], strict=True):
             _same_result(got, ref, tol=0.0)

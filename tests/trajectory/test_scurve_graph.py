@@ -5,7 +5,6 @@ threads, and where no compiler exists."""
 from __future__ import annotations
 
 import multiprocessing
-import threading
 import time
 
 import numpy as np
@@ -13,7 +12,7 @@ import pytest
 
 from armlab.errors import InputError
 from armlab.trajectory.profiles import graph, synchronised_scurves
-from cases import compiled_into_tmp, graph_mode
+from cases import compiled_into_tmp, graph_mode, in_threads
 
 JOINT = ("t_min", "v", "a", "tj", "ta", "tv")
 TABLE = ("t0", "s0", "v0", "d", "acc", "jrk")
@@ -162,21 +161,12 @@ def run_in_threads(n):
     results (a shared buffer would hand one thread another's problem)."""
     D, v, a, j = problems(40, n, seed=7)
     want = quantities(synchronised_scurves(D, v, a, j))
-    errors: list = []
 
     def work(k):
-        try:
-            for _ in range(20):
-                assert_close(singles(D, v, a, j), want)
-        except AssertionError as exc:  # re-raised in the main thread
-            errors.append(exc)
+        for _ in range(20):
+            assert_close(singles(D, v, a, j), want)
 
-    threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    assert not errors, errors[0]
+    in_threads(work, 4)
 
 
 def test_threads_get_their_own_buffers(mode):
